@@ -1,0 +1,2 @@
+//! One module per subcommand; each exposes `Args` (clap) and `run`.
+pub mod prepare;

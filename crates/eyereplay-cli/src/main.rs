@@ -1,0 +1,77 @@
+//! `eyereplay`: real human eye movements in, labeled synthetic eye-movement
+//! video out. Each subcommand lives in its own module under `cmd/` and is a
+//! thin layer over a pipeline crate.
+
+use clap::{Parser, Subcommand};
+
+mod cmd;
+
+#[derive(Parser)]
+#[command(
+    name = "eyereplay",
+    version,
+    about = "Turn real human eye movements into labeled synthetic eye-movement video",
+    long_about = "eyereplay extracts iris trajectories from real video and eye-tracker \
+recordings, calibrates, resamples, normalizes and slices them into sessions (the \
+pipeline of 'A Synthetic Eye Movement Dataset for Script Reading Detection'), renders \
+each session on a 3D eye simulator, and measures how faithful the result is.",
+    after_help = "Examples:\n  \
+eyereplay prepare --config dataset.toml --out data/    # stages 2-5: trajectories\n  \
+eyereplay prepare --config dataset.toml --out data/ --dry-run\n\n\
+Run 'eyereplay <command> --help' for each command's options and examples."
+)]
+struct Cli {
+    /// More log output (-v info, -vv debug); RUST_LOG overrides.
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    verbose: u8,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Prepare(cmd::prepare::Args),
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    init_tracing(cli.verbose);
+    let result = match cli.command {
+        Command::Prepare(a) => cmd::prepare::run(a),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            // One line: the chain of causes joined, so scripts can grep it.
+            eprintln!("error: {}", format_chain(&e));
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn format_chain(e: &anyhow::Error) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    for cause in e.chain() {
+        let s = cause.to_string();
+        if !parts.iter().any(|p| p.contains(&s)) {
+            parts.push(s);
+        }
+    }
+    parts.join(": ")
+}
+
+fn init_tracing(verbose: u8) {
+    let default = match verbose {
+        0 => "warn",
+        1 => "info",
+        _ => "debug",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .without_time()
+        .init();
+}

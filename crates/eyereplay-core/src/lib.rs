@@ -1,0 +1,25 @@
+//! Domain types shared by every eyereplay stage.
+//!
+//! Positions carry their unit in their type: [`NormPos`] is an iris position
+//! normalized within the eye aperture (the paper's `(n_x, n_y)`), [`ScreenPos`]
+//! is a gaze point on an eye tracker's screen in pixels, and [`CanvasPos`] is a
+//! cursor position on the simulator canvas in pixels. A [`Trajectory`] is
+//! generic over the position type, so a normalized trajectory can never be fed
+//! where canvas pixels are expected.
+
+mod class;
+mod error;
+mod fsio;
+mod position;
+mod session_csv;
+mod trajectory;
+
+pub use class::GazeClass;
+pub use error::CoreError;
+pub use fsio::{atomic_write, atomic_write_with, sha256_file, sha256_hex};
+pub use position::{Canvas, CanvasPos, NormPos, PlanePos, ScreenPos, ScreenSize};
+pub use session_csv::{read_session_csv, write_session_csv, SessionRow};
+pub use trajectory::{mean_of, path_length, Sample, Trajectory};
+
+/// Version of the eyereplay toolkit, recorded in every metadata file.
+pub const TOOL_VERSION: &str = env!("CARGO_PKG_VERSION");
