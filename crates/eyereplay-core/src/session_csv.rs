@@ -3,7 +3,6 @@
 
 use crate::{atomic_write_with, CanvasPos, CoreError};
 use serde::{Deserialize, Serialize};
-use std::io::Write;
 use std::path::Path;
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -1,23 +1,169 @@
-use std::path::PathBuf;
+//! `eyereplay prepare`: paper stages 2-5, config in, trajectory dataset out.
+
+use anyhow::{Context, Result};
+use eyereplay_prepare::{load_sources, prepare, write_dataset, DatasetConfig, Prepared, ToolInfo};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 /// Stages 2-5: calibrate, filter blinks, resample, normalize, slice into sessions.
+///
+/// Reads every source named in the config, then writes OUT/<class>/<class>_NNNN.csv
+/// (frame,x,y in canvas px), OUT/pool/<class>.csv, OUT/labels.csv and
+/// OUT/metadata.json. All inputs are read and checked before anything is written.
 #[derive(clap::Args)]
+#[command(after_help = "Examples:\n  \
+eyereplay prepare --config examples/dataset.toml --out out/dataset\n  \
+eyereplay prepare --config examples/dataset.toml --out out/dataset --dry-run\n\n\
+A minimal config (paper defaults: 72 sessions x 7500 frames per class, 25 fps, 1280x720):\n\n  \
+[classes.reading]\n  \
+sources = [{ format = \"eyelink\", path = \"reader1.asc\" }]\n  \
+[classes.conversation]\n  \
+sources = [{ format = \"extract\", path = \"interview_iris.csv\" }]\n\n\
+Source formats: extract (eyereplay extract CSV), video, csv (samples table), eyelink (.asc),\n\
+bids (*_physio.tsv.gz + .json), fixations (one row per fixation). See docs/CONFIG.md.")]
 pub struct Args {
     /// Dataset config (TOML).
-    #[arg(long)]
+    #[arg(long, value_name = "TOML")]
     pub config: PathBuf,
-    /// Output dataset folder.
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Print the plan without writing anything.
+    /// Output dataset folder (created if missing).
+    #[arg(long, value_name = "DIR", required_unless_present = "dry_run")]
+    pub out: Option<PathBuf>,
+    /// Read the sources and print what would be made, without writing anything.
     #[arg(long)]
     pub dry_run: bool,
 }
 
-pub fn run(args: Args) -> anyhow::Result<()> {
-    anyhow::bail!(
-        "{}: prepare is being built (config {})",
-        args.out.display(),
-        args.config.display()
-    )
+pub fn run(args: Args) -> Result<()> {
+    let started = Instant::now();
+    let cfg = DatasetConfig::load(&args.config)?;
+    let inputs = load_sources(&cfg, |video| crate::cmd::video_source_csv(video))?;
+    let prepared = prepare(&cfg, &inputs)?;
+    print_summary(&cfg, &prepared);
+    for w in &prepared.warnings {
+        eprintln!("warning: {w}");
+    }
+    let plan = prepared.plan(&cfg);
+    if args.dry_run {
+        println!(
+            "dry run: would write {} sessions of {} frames ({:.2} h of video at {} fps); nothing written",
+            plan.classes.values().map(|c| c.sessions).sum::<usize>(),
+            cfg.session_frames,
+            plan.video_hours,
+            cfg.fps
+        );
+        return Ok(());
+    }
+    let out = args.out.expect("clap requires --out without --dry-run");
+    remove_stale_sessions(&out, &prepared).with_context(|| out.display().to_string())?;
+    let (_, summary) = write_dataset(&out, &cfg, &prepared, tool_info())?;
+    println!(
+        "wrote {} files ({:.1} MB, {:.2} h of sessions) to {} in {:.2} s",
+        summary.files,
+        summary.bytes as f64 / 1e6,
+        plan.video_hours,
+        out.display(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+pub fn tool_info() -> ToolInfo {
+    ToolInfo {
+        name: "eyereplay".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        git_revision: option_env!("EYEREPLAY_GIT_REVISION").map(str::to_string),
+    }
+}
+
+fn print_summary(cfg: &DatasetConfig, p: &Prepared) {
+    if let Some(c) = &p.calibration {
+        println!(
+            "calibration: s = ({:.1}, {:.1}) px per unit n, mu = ({:.1}, {:.1}) px{}",
+            c.s_x,
+            c.s_y,
+            c.mu_x,
+            c.mu_y,
+            match p.calibration_ranges {
+                Some(r) => format!(
+                    " (n_x {:.4}..{:.4}, n_y {:.4}..{:.4} -> 80 % of {}x{})",
+                    r[0][0], r[0][1], r[1][0], r[1][1], cfg.canvas.width_px, cfg.canvas.height_px
+                ),
+                None => " (manual)".into(),
+            }
+        );
+    }
+    println!(
+        "{:<44} {:>12} {:>8} {:>9} {:>8} {:>10} {:>8}",
+        "source", "class", "rate_hz", "samples", "filled", "alpha", "frames"
+    );
+    for s in &p.sources {
+        let alpha = if s.speed_correction.applied {
+            format!("{:.3}", s.speed_correction.alpha)
+        } else {
+            "n/a".to_string()
+        };
+        println!(
+            "{:<44} {:>12} {:>8.2} {:>9} {:>8} {:>10} {:>8}",
+            truncate(&s.id, 44),
+            s.class.name(),
+            s.rate_hz,
+            s.samples,
+            s.filled.total,
+            alpha,
+            s.frames
+        );
+    }
+    for c in &p.classes {
+        println!(
+            "class {:<12} {:>4} sessions x {} frames from a pool of {} frames (stride {}, reuse ratio {:.2}, speed scale {})",
+            c.class.name(),
+            c.sessions.len(),
+            cfg.session_frames,
+            c.pool.len(),
+            c.stride,
+            c.reuse_ratio,
+            c.speed_scale
+        );
+    }
+}
+
+fn truncate(s: &str, n: usize) -> String {
+    if s.chars().count() <= n {
+        s.to_string()
+    } else {
+        let tail: String = s
+            .chars()
+            .rev()
+            .take(n - 1)
+            .collect::<Vec<_>>()
+            .into_iter()
+            .rev()
+            .collect();
+        format!("…{tail}")
+    }
+}
+
+/// Session CSVs left by an earlier run with more sessions would be mistaken
+/// for part of this dataset; remove those beyond the new count.
+fn remove_stale_sessions(out: &Path, p: &Prepared) -> std::io::Result<()> {
+    for c in &p.classes {
+        let dir = out.join(c.class.name());
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        let prefix = format!("{}_", c.class.name());
+        for e in entries.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let Some(num) = name
+                .strip_prefix(&prefix)
+                .and_then(|r| r.strip_suffix(".csv"))
+            else {
+                continue;
+            };
+            if num.len() == 4 && num.parse::<usize>().is_ok_and(|i| i >= c.sessions.len()) {
+                std::fs::remove_file(e.path())?;
+            }
+        }
+    }
+    Ok(())
 }

@@ -1,0 +1,21 @@
+//! Records the git revision in the binary for `metadata.json` provenance.
+fn main() {
+    let rev = std::process::Command::new("git")
+        .args(["rev-parse", "--short=12", "HEAD"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .and_then(|o| String::from_utf8(o.stdout).ok())
+        .map(|s| s.trim().to_string());
+    if let Some(rev) = rev {
+        let dirty = std::process::Command::new("git")
+            .args(["status", "--porcelain", "--untracked-files=no"])
+            .output()
+            .ok()
+            .is_some_and(|o| !o.stdout.is_empty());
+        let rev = if dirty { format!("{rev}-dirty") } else { rev };
+        println!("cargo:rustc-env=EYEREPLAY_GIT_REVISION={rev}");
+    }
+    println!("cargo:rerun-if-changed=../../.git/HEAD");
+    println!("cargo:rerun-if-changed=../../.git/index");
+}

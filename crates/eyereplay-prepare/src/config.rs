@@ -1,0 +1,425 @@
+//! The dataset config (TOML). Defaults are the paper's: N = 72 sessions per
+//! class, F = 7500 frames (300 s at 25 fps), a 1280x720 canvas, speed scales
+//! 1.05 (reading) / 1.0 (conversation). Unknown keys are rejected with the
+//! nearest valid key suggested.
+
+use crate::PrepareError;
+use eyereplay_core::{Canvas, GazeClass};
+use eyereplay_signal::EdgeGaussParams;
+use eyereplay_sources::{ReadOptions, SourceSpec};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DatasetConfig {
+    /// Frame rate of sessions and videos.
+    #[serde(default = "d_fps")]
+    pub fps: f64,
+    /// Frames per session (the paper's F).
+    #[serde(default = "d_frames")]
+    pub session_frames: usize,
+    #[serde(default)]
+    pub canvas: Canvas,
+    /// Seed for every random choice downstream (renderer identities).
+    #[serde(default)]
+    pub seed: u64,
+    #[serde(default)]
+    pub calibration: CalibrationConfig,
+    #[serde(default)]
+    pub blink_filter: BlinkFilterConfig,
+    #[serde(default)]
+    pub smoothing: SmoothingConfig,
+    #[serde(default)]
+    pub resample: ResampleConfig,
+    #[serde(default)]
+    pub read: ReadOptions,
+    /// Classes by name (`reading`, `conversation`).
+    pub classes: BTreeMap<GazeClass, ClassConfig>,
+    /// Folder that relative source paths are relative to (the config's).
+    #[serde(skip)]
+    pub base_dir: PathBuf,
+}
+
+fn d_fps() -> f64 {
+    25.0
+}
+fn d_frames() -> usize {
+    7500
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClassConfig {
+    /// Sessions to cut (the paper's N).
+    #[serde(default = "d_sessions")]
+    pub sessions: usize,
+    /// Scale about the class centroid before slicing; default 1.05 for
+    /// reading, 1.0 for conversation.
+    #[serde(default)]
+    pub speed_scale: Option<f64>,
+    pub sources: Vec<SourceSpec>,
+}
+
+fn d_sessions() -> usize {
+    72
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum CalibrationMode {
+    /// 5th-95th percentile range of each axis to 80 % of the canvas extent,
+    /// centred (paper appendix).
+    #[default]
+    Auto,
+    /// `s_x, s_y, mu_x, mu_y` as given.
+    Manual,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum CalibrationScope {
+    /// One calibration over every source of every class: keeps the classes'
+    /// amplitudes relative to each other (reading is smaller than conversation).
+    #[default]
+    Pooled,
+    /// One calibration per source, as if each filled the canvas alone.
+    PerSource,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CalibrationConfig {
+    pub mode: CalibrationMode,
+    pub scope: CalibrationScope,
+    pub low_percentile: f64,
+    pub high_percentile: f64,
+    /// Fraction of the canvas extent the percentile range fills.
+    pub fill_fraction: f64,
+    pub s_x: Option<f64>,
+    pub s_y: Option<f64>,
+    pub mu_x: Option<f64>,
+    pub mu_y: Option<f64>,
+}
+
+impl Default for CalibrationConfig {
+    fn default() -> Self {
+        CalibrationConfig {
+            mode: CalibrationMode::Auto,
+            scope: CalibrationScope::Pooled,
+            low_percentile: 5.0,
+            high_percentile: 95.0,
+            fill_fraction: 0.8,
+            s_x: None,
+            s_y: None,
+            mu_x: None,
+            mu_y: None,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BlinkFilterConfig {
+    /// Values outside [Q1 - k IQR, Q3 + k IQR] are blink artifacts.
+    pub iqr_k: f64,
+}
+
+impl Default for BlinkFilterConfig {
+    fn default() -> Self {
+        BlinkFilterConfig { iqr_k: 3.0 }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SmoothingMethod {
+    #[default]
+    EdgeGauss,
+    None,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SmoothingTarget {
+    /// Only landmark-based video sources (jittery); eye trackers are clean.
+    #[default]
+    Video,
+    All,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SmoothingConfig {
+    pub method: SmoothingMethod,
+    pub apply_to: SmoothingTarget,
+    pub sigma_s: f64,
+    pub window_s: f64,
+    pub z: f64,
+    /// Smallest step kept sharp, in canvas px.
+    pub min_step_px: f64,
+}
+
+impl Default for SmoothingConfig {
+    fn default() -> Self {
+        let p = EdgeGaussParams::default();
+        SmoothingConfig {
+            method: SmoothingMethod::EdgeGauss,
+            apply_to: SmoothingTarget::Video,
+            sigma_s: p.sigma_s,
+            window_s: p.window_s,
+            z: p.z,
+            min_step_px: p.min_step,
+        }
+    }
+}
+
+impl SmoothingConfig {
+    pub fn params(&self) -> EdgeGaussParams {
+        EdgeGaussParams {
+            sigma_s: self.sigma_s,
+            window_s: self.window_s,
+            z: self.z,
+            min_step: self.min_step_px,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SpeedCorrection {
+    /// Applied to sources sampled at most `linear_max_ratio` times the
+    /// target rate (webcam video, the case the paper designed it for).
+    #[default]
+    Auto,
+    Always,
+    Never,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ResampleConfig {
+    pub speed_correction: SpeedCorrection,
+    /// Sources faster than this multiple of the target rate are low-pass
+    /// filtered and decimated instead of linearly interpolated.
+    pub linear_max_ratio: f64,
+}
+
+impl Default for ResampleConfig {
+    fn default() -> Self {
+        ResampleConfig {
+            speed_correction: SpeedCorrection::Auto,
+            linear_max_ratio: 2.0,
+        }
+    }
+}
+
+impl DatasetConfig {
+    /// Reads and validates a config; relative source paths are resolved
+    /// against the config file's folder.
+    pub fn load(path: &Path) -> Result<Self, PrepareError> {
+        let text = std::fs::read_to_string(path).map_err(|e| PrepareError::Config {
+            path: path.into(),
+            message: e.to_string(),
+        })?;
+        let mut cfg = Self::parse(&text).map_err(|message| PrepareError::Config {
+            path: path.into(),
+            message,
+        })?;
+        cfg.base_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        cfg.validate().map_err(|message| PrepareError::Config {
+            path: path.into(),
+            message,
+        })?;
+        Ok(cfg)
+    }
+
+    /// Parses TOML text; errors are one line with position and, for an
+    /// unknown key, the nearest valid one.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        toml::from_str::<DatasetConfig>(text).map_err(|e| describe_toml_error(text, &e))
+    }
+
+    /// A source path as written in the config, resolved against the
+    /// config's folder. Paths stay as written in the config itself (and so in
+    /// `metadata.json`), which keeps metadata identical across checkouts.
+    pub fn resolve(&self, p: &Path) -> PathBuf {
+        if p.is_relative() {
+            self.base_dir.join(p)
+        } else {
+            p.to_path_buf()
+        }
+    }
+
+    /// The spec with its path resolved, ready to read.
+    pub fn resolved_spec(&self, spec: &SourceSpec) -> SourceSpec {
+        let mut s = spec.clone();
+        *s.path_mut() = self.resolve(spec.path());
+        s
+    }
+
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.fps > 0.0 && self.fps.is_finite()) {
+            return Err(format!("fps must be a positive number, got {}", self.fps));
+        }
+        if self.session_frames == 0 {
+            return Err("session_frames must be at least 1 (the paper uses 7500)".into());
+        }
+        if self.canvas.width_px == 0 || self.canvas.height_px == 0 {
+            return Err("canvas width_px and height_px must be positive".into());
+        }
+        if self.classes.is_empty() {
+            return Err(
+                "no classes: add [classes.reading] and/or [classes.conversation] with sources"
+                    .into(),
+            );
+        }
+        let c = &self.calibration;
+        if !(0.0..100.0).contains(&c.low_percentile)
+            || !(c.low_percentile < c.high_percentile && c.high_percentile <= 100.0)
+        {
+            return Err("calibration percentiles must satisfy 0 <= low < high <= 100".into());
+        }
+        if !(c.fill_fraction > 0.0 && c.fill_fraction <= 1.0) {
+            return Err("calibration.fill_fraction must be in (0, 1]".into());
+        }
+        if c.mode == CalibrationMode::Manual {
+            for (k, v) in [
+                ("s_x", c.s_x),
+                ("s_y", c.s_y),
+                ("mu_x", c.mu_x),
+                ("mu_y", c.mu_y),
+            ] {
+                if v.is_none() {
+                    return Err(format!(
+                        "calibration.mode = \"manual\" needs calibration.{k}"
+                    ));
+                }
+            }
+        }
+        if self.blink_filter.iqr_k <= 0.0 {
+            return Err("blink_filter.iqr_k must be positive".into());
+        }
+        for (class, cc) in &self.classes {
+            if cc.sessions == 0 {
+                return Err(format!("classes.{class}.sessions must be at least 1"));
+            }
+            if cc.sources.is_empty() {
+                return Err(format!("classes.{class} has no sources"));
+            }
+            if let Some(s) = cc.speed_scale {
+                if !(s > 0.0 && s.is_finite()) {
+                    return Err(format!("classes.{class}.speed_scale must be positive"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    pub fn speed_scale(&self, class: GazeClass) -> f64 {
+        self.classes
+            .get(&class)
+            .and_then(|c| c.speed_scale)
+            .unwrap_or(class.default_speed_scale())
+    }
+
+    /// Every source path, for validation before any work starts.
+    pub fn source_paths(&self) -> Vec<PathBuf> {
+        self.classes
+            .values()
+            .flat_map(|c| c.sources.iter().map(|s| self.resolve(s.path())))
+            .collect()
+    }
+}
+
+/// Turns a toml/serde error into one line: `line L, column C: message`,
+/// plus `(did you mean 'x'?)` for unknown keys and variants.
+fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
+    let msg = e.message().replace('\n', " ");
+    let pos = e.span().map(|span| {
+        let before = &text[..span.start.min(text.len())];
+        let line = before.matches('\n').count() + 1;
+        let col = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+        format!("line {line}, column {col}: ")
+    });
+    let mut out = format!("{}{}", pos.unwrap_or_default(), msg.trim());
+    if let Some(s) = suggestion(&msg) {
+        out.push_str(&format!(" (did you mean '{s}'?)"));
+    }
+    out
+}
+
+/// For serde's "unknown field `x`, expected one of `a`, `b`" (and "unknown
+/// variant"), the expected name closest to `x`.
+fn suggestion(msg: &str) -> Option<String> {
+    let rest = msg
+        .split_once("unknown field `")
+        .or_else(|| msg.split_once("unknown variant `"))?
+        .1;
+    let (bad, expected) = rest.split_once('`')?;
+    let names: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
+    names
+        .iter()
+        .map(|n| (strsim::damerau_levenshtein(bad, n), *n))
+        .filter(|(d, n)| *d <= (n.len().max(bad.len()) / 2).max(2))
+        .min()
+        .map(|(_, n)| n.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_defaults() {
+        let c = DatasetConfig::parse(
+            "[classes.reading]\nsources = [{ format = \"extract\", path = \"a.csv\" }]\n",
+        )
+        .unwrap();
+        assert_eq!(c.fps, 25.0);
+        assert_eq!(c.session_frames, 7500);
+        assert_eq!(
+            c.canvas,
+            Canvas {
+                width_px: 1280,
+                height_px: 720
+            }
+        );
+        assert_eq!(c.classes[&GazeClass::Reading].sessions, 72);
+        assert_eq!(c.speed_scale(GazeClass::Reading), 1.05);
+        assert_eq!(c.speed_scale(GazeClass::Conversation), 1.0);
+        assert_eq!(c.calibration.fill_fraction, 0.8);
+        assert_eq!(c.blink_filter.iqr_k, 3.0);
+    }
+
+    #[test]
+    fn unknown_key_suggests_nearest() {
+        let e = DatasetConfig::parse("[classes.reading]\nsesions = 3\nsources = []\n").unwrap_err();
+        assert!(
+            e.contains("line 2") && e.contains("did you mean 'sessions'"),
+            "{e}"
+        );
+        let e = DatasetConfig::parse("sesion_frames = 3\n[classes.reading]\nsources = []\n")
+            .unwrap_err();
+        assert!(e.contains("did you mean 'session_frames'"), "{e}");
+        let e = DatasetConfig::parse(
+            "[classes.reading]\nsources = [{ format = \"eyelnk\", path = \"a\" }]\n",
+        )
+        .unwrap_err();
+        assert!(e.contains("did you mean 'eyelink'"), "{e}");
+        assert!(!e.contains('\n'));
+    }
+
+    #[test]
+    fn zero_sessions_and_frames_rejected() {
+        let mut c = DatasetConfig::parse(
+            "session_frames = 0\n[classes.reading]\nsources = [{ format = \"extract\", path = \"a.csv\" }]\n",
+        )
+        .unwrap();
+        assert!(c.validate().unwrap_err().contains("session_frames"));
+        c.session_frames = 10;
+        c.classes.get_mut(&GazeClass::Reading).unwrap().sessions = 0;
+        assert!(c.validate().unwrap_err().contains("sessions"));
+    }
+}

@@ -1,0 +1,352 @@
+//! Paper stages 2-5 and the trajectory dataset.
+//!
+//! ```text
+//! Recording (NormPos, native rate)
+//!   -> blink filter (3 IQR, forward fill)          stage 2
+//!   -> calibration c = s (n - 0.5) + mu             stage 2
+//!   -> EdgeGauss smoothing (video sources)          stage 2b (ours)
+//!   -> resample to fps + speed correction           stage 3
+//!   -> shift mean to the global mean                stage 4
+//!   -> concatenate per class, speed scale, slice    stage 5
+//! ```
+//!
+//! Per-recording work runs in parallel; every reduction happens in a fixed
+//! order afterwards, so outputs are byte-identical from run to run.
+
+mod calibrate;
+mod config;
+mod dataset;
+mod error;
+mod load;
+mod resample;
+mod slice;
+
+pub use calibrate::{blink_filter, Calibration, FillCounts};
+pub use config::{
+    BlinkFilterConfig, CalibrationConfig, CalibrationMode, CalibrationScope, ClassConfig,
+    DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod, SmoothingTarget,
+    SpeedCorrection,
+};
+pub use dataset::{write_dataset, DatasetMetadata, SessionEntry, ToolInfo, WriteSummary};
+pub use error::PrepareError;
+pub use load::{check_source_files, load_sources};
+pub use resample::{
+    resample_recording, scale_about_centroid, ResampleMethod, SpeedCorrectionReport,
+};
+pub use slice::{normalize_to, reuse_ratio, slice_index, slice_session, stride};
+
+use eyereplay_core::{CanvasPos, GazeClass, NormPos, Trajectory};
+use eyereplay_signal::{edge_gauss, EdgeGaussReport};
+use eyereplay_sources::{Recording, RecordingKind};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// A recording to prepare, with where it came from.
+#[derive(Clone, Debug)]
+pub struct SourceInput {
+    pub class: GazeClass,
+    pub recording: Recording,
+    /// The configured file and its format, for provenance.
+    pub file: String,
+    pub format: String,
+    pub sha256: String,
+}
+
+/// What happened to one source, for `metadata.json` and the run summary.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SourceReport {
+    pub index: usize,
+    pub id: String,
+    pub class: GazeClass,
+    pub file: String,
+    pub format: String,
+    pub sha256: String,
+    pub kind: RecordingKind,
+    pub rate_hz: f64,
+    pub samples: usize,
+    pub segments: usize,
+    pub duration_s: f64,
+    pub frames: usize,
+    pub px_per_deg: Option<f64>,
+    pub filled: FillCounts,
+    pub calibration: Calibration,
+    pub smoothing: Option<EdgeGaussReport>,
+    pub speed_correction: SpeedCorrectionReport,
+    pub normalization_shift_px: [f64; 2],
+}
+
+/// One class after stage 5.
+#[derive(Clone, Debug)]
+pub struct ClassOutput {
+    pub class: GazeClass,
+    /// The concatenated, normalized pool before the speed scale.
+    pub pool: Vec<CanvasPos>,
+    /// Source index of each pool frame.
+    pub pool_source: Vec<u32>,
+    pub speed_scale: f64,
+    pub stride: usize,
+    pub reuse_ratio: f64,
+    pub sessions: Vec<Vec<CanvasPos>>,
+    /// Source indices present in each session, in order of appearance.
+    pub session_sources: Vec<Vec<u32>>,
+}
+
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    /// The calibration shared by all sources (pooled scope), else `None`.
+    pub calibration: Option<Calibration>,
+    /// Percentile ranges behind an auto calibration, `[[lo_x, hi_x], [lo_y, hi_y]]`.
+    pub calibration_ranges: Option<[[f64; 2]; 2]>,
+    pub global_mean: CanvasPos,
+    pub sources: Vec<SourceReport>,
+    pub classes: Vec<ClassOutput>,
+    pub warnings: Vec<String>,
+}
+
+/// Runs stages 2-5 on loaded recordings.
+pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, PrepareError> {
+    for class in cfg.classes.keys() {
+        if !inputs.iter().any(|s| s.class == *class) {
+            return Err(PrepareError::Class {
+                class: class.to_string(),
+                message: "no source could be read".into(),
+            });
+        }
+    }
+    // Stage 2a: blink filter per recording.
+    let filtered: Vec<(Vec<Trajectory<NormPos>>, FillCounts)> = inputs
+        .par_iter()
+        .map(|s| blink_filter(&s.recording.segments, &cfg.blink_filter))
+        .collect();
+
+    // Stage 2b: calibration, pooled over all sources by default. Each source
+    // contributes about one sample per target frame, so a 500 Hz tracker does
+    // not outweigh a 25 fps video twenty times over.
+    let calib_for = |idx: usize| -> Result<(Calibration, Option<[[f64; 2]; 2]>), PrepareError> {
+        if let Some(c) = Calibration::manual(&cfg.calibration) {
+            return Ok((c, None));
+        }
+        let pick: Vec<usize> = match cfg.calibration.scope {
+            CalibrationScope::Pooled => (0..inputs.len()).collect(),
+            CalibrationScope::PerSource => vec![idx],
+        };
+        let mut pts = Vec::new();
+        for i in pick {
+            let step = ((inputs[i].recording.rate_hz / cfg.fps).round() as usize).max(1);
+            pts.extend(
+                filtered[i]
+                    .0
+                    .iter()
+                    .flat_map(|s| s.positions().step_by(step)),
+            );
+        }
+        Calibration::auto(&pts, &cfg.calibration, cfg.canvas)
+            .map(|(c, r)| (c, Some(r)))
+            .ok_or_else(|| PrepareError::Source {
+                id: inputs[idx].recording.id.clone(),
+                message: "gaze does not move on one axis (5th and 95th percentiles equal): cannot auto-scale; set calibration.mode = \"manual\"".into(),
+            })
+    };
+    let pooled = match (cfg.calibration.mode, cfg.calibration.scope) {
+        (CalibrationMode::Manual, _) | (_, CalibrationScope::Pooled) => Some(calib_for(0)?),
+        _ => None,
+    };
+
+    // Stages 2c-3 per recording, in parallel.
+    let per_source: Vec<Result<(Vec<CanvasPos>, SourceReport), PrepareError>> = inputs
+        .par_iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let calib = match &pooled {
+                Some((c, _)) => *c,
+                None => calib_for(i)?.0,
+            };
+            let (segs, filled) = &filtered[i];
+            let mut canvas: Vec<Trajectory<CanvasPos>> =
+                segs.iter().map(|t| t.map(|n| calib.apply(n))).collect();
+            let smooth = cfg.smoothing.method == SmoothingMethod::EdgeGauss
+                && (cfg.smoothing.apply_to == SmoothingTarget::All
+                    || s.recording.kind == RecordingKind::Video);
+            let mut smoothing = None;
+            if smooth {
+                let mut total = EdgeGaussReport::default();
+                for t in &mut canvas {
+                    let times: Vec<f64> = t.samples().iter().map(|x| x.t_s).collect();
+                    let vals: Vec<[f64; 2]> = t.positions().map(|p| [p.x_px, p.y_px]).collect();
+                    let (sm, rep) = edge_gauss(&times, &vals, &cfg.smoothing.params());
+                    total.edges += rep.edges;
+                    total.noise_sigma = total.noise_sigma.max(rep.noise_sigma);
+                    total.threshold = total.threshold.max(rep.threshold);
+                    let samples: Vec<_> = t
+                        .samples()
+                        .iter()
+                        .zip(&sm)
+                        .map(|(x, p)| eyereplay_core::Sample {
+                            pos: CanvasPos {
+                                x_px: p[0],
+                                y_px: p[1],
+                            },
+                            ..*x
+                        })
+                        .collect();
+                    *t = Trajectory::new(samples)?;
+                }
+                smoothing = Some(total);
+            }
+            let (frames, speed) =
+                resample_recording(&canvas, s.recording.rate_hz, cfg.fps, &cfg.resample);
+            if frames.len() < 2 {
+                return Err(PrepareError::Source {
+                    id: s.recording.id.clone(),
+                    message: format!(
+                        "only {} frame(s) at {} fps: recording too short",
+                        frames.len(),
+                        cfg.fps
+                    ),
+                });
+            }
+            let rep = SourceReport {
+                index: i,
+                id: s.recording.id.clone(),
+                class: s.class,
+                file: s.file.clone(),
+                format: s.format.clone(),
+                sha256: s.sha256.clone(),
+                kind: s.recording.kind,
+                rate_hz: s.recording.rate_hz,
+                samples: s.recording.sample_count(),
+                segments: s.recording.segments.len(),
+                duration_s: s.recording.segments.iter().map(|t| t.duration_s()).sum(),
+                frames: frames.len(),
+                px_per_deg: s.recording.px_per_deg,
+                filled: *filled,
+                calibration: calib,
+                smoothing,
+                speed_correction: speed,
+                normalization_shift_px: [0.0, 0.0],
+            };
+            Ok((frames, rep))
+        })
+        .collect();
+    let mut frames = Vec::with_capacity(per_source.len());
+    let mut reports = Vec::with_capacity(per_source.len());
+    for r in per_source {
+        let (f, rep) = r?;
+        frames.push(f);
+        reports.push(rep);
+    }
+
+    // Stage 4: the global mean over every frame of every source.
+    let global_mean =
+        eyereplay_core::mean_of(frames.iter().flatten().copied()).unwrap_or(cfg.canvas.center());
+    for (f, rep) in frames.iter_mut().zip(reports.iter_mut()) {
+        rep.normalization_shift_px = normalize_to(f, global_mean);
+    }
+
+    // Stage 5 per class.
+    let mut warnings = Vec::new();
+    let mut classes = Vec::new();
+    for (class, cc) in &cfg.classes {
+        let mut pool = Vec::new();
+        let mut pool_source = Vec::new();
+        for (i, f) in frames.iter().enumerate() {
+            if inputs[i].class == *class {
+                pool.extend_from_slice(f);
+                pool_source.extend(std::iter::repeat_n(i as u32, f.len()));
+            }
+        }
+        let t = pool.len();
+        let n = cc.sessions;
+        if t < n {
+            return Err(PrepareError::Class {
+                class: class.to_string(),
+                message: format!(
+                    "{t} frames at {} fps cannot give {n} sessions (stride floor(T/N) would be 0); add sources or lower sessions",
+                    cfg.fps
+                ),
+            });
+        }
+        let reuse = reuse_ratio(t, n, cfg.session_frames);
+        if reuse > 1.0 {
+            warnings.push(format!(
+                "class '{class}': reuse ratio N*F/T = {n}*{}/{t} = {reuse:.2}: each source frame appears {reuse:.1} times on average; the paper's larger KS gap for reading came from a reuse ratio near 11",
+                cfg.session_frames
+            ));
+        }
+        let scale = cfg.speed_scale(*class);
+        let mut scaled = pool.clone();
+        scale_about_centroid(&mut scaled, scale);
+        let mut sessions = Vec::with_capacity(n);
+        let mut session_sources = Vec::with_capacity(n);
+        for i in 0..n {
+            sessions.push(slice_session(&scaled, i, n, cfg.session_frames));
+            let src = slice_session(&pool_source, i, n, cfg.session_frames);
+            let mut seen: Vec<u32> = Vec::new();
+            for s in src {
+                if seen.last() != Some(&s) && !seen.contains(&s) {
+                    seen.push(s);
+                }
+            }
+            session_sources.push(seen);
+        }
+        classes.push(ClassOutput {
+            class: *class,
+            pool,
+            pool_source,
+            speed_scale: scale,
+            stride: stride(t, n),
+            reuse_ratio: reuse,
+            sessions,
+            session_sources,
+        });
+    }
+    let (calibration, calibration_ranges) = match pooled {
+        Some((c, r)) => (Some(c), r),
+        None => (None, None),
+    };
+    Ok(Prepared {
+        calibration,
+        calibration_ranges,
+        global_mean,
+        sources: reports,
+        classes,
+        warnings,
+    })
+}
+
+/// Counts for `--dry-run` and the summary line.
+#[derive(Clone, Debug, Serialize)]
+pub struct Plan {
+    pub classes: BTreeMap<GazeClass, PlanClass>,
+    pub video_hours: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct PlanClass {
+    pub sessions: usize,
+    pub pool_frames: usize,
+    pub reuse_ratio: f64,
+}
+
+impl Prepared {
+    pub fn plan(&self, cfg: &DatasetConfig) -> Plan {
+        let mut classes = BTreeMap::new();
+        let mut total = 0usize;
+        for c in &self.classes {
+            classes.insert(
+                c.class,
+                PlanClass {
+                    sessions: c.sessions.len(),
+                    pool_frames: c.pool.len(),
+                    reuse_ratio: c.reuse_ratio,
+                },
+            );
+            total += c.sessions.len();
+        }
+        Plan {
+            classes,
+            video_hours: total as f64 * cfg.session_frames as f64 / cfg.fps / 3600.0,
+        }
+    }
+}

@@ -1,0 +1,45 @@
+use std::path::PathBuf;
+
+/// Errors of the source readers. Every variant names the file, and where it
+/// can the line, so a bad input is a one-line fix for the user.
+#[derive(Debug, thiserror::Error)]
+pub enum SourceError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: line {line}: {message}")]
+    Line {
+        path: PathBuf,
+        line: u64,
+        message: String,
+    },
+    #[error("{path}: {message}")]
+    File { path: PathBuf, message: String },
+    #[error(transparent)]
+    Core(#[from] eyereplay_core::CoreError),
+}
+
+impl SourceError {
+    pub fn file(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        SourceError::File {
+            path: path.into(),
+            message: message.into(),
+        }
+    }
+    pub fn line(path: impl Into<PathBuf>, line: u64, message: impl Into<String>) -> Self {
+        SourceError::Line {
+            path: path.into(),
+            line,
+            message: message.into(),
+        }
+    }
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        SourceError::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}

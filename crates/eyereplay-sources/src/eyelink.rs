@@ -1,0 +1,206 @@
+//! EyeLink ASCII (`edf2asc`) sample lines.
+//!
+//! Understood: `SAMPLES` lines (which eyes; VEL / RES / INPUT extra columns
+//! are skipped by position), sample lines `time x y pupil [x y pupil] ...`
+//! with `.` for missing values, `SBLINK`/`EBLINK` events (samples inside a
+//! blink are flagged), and `MSG ... DISPLAY_COORDS l t r b` for the screen
+//! size. Timestamps are tracker milliseconds.
+
+use crate::screen::screen_to_iris;
+use crate::series::{recording, SeriesBuilder};
+use crate::{
+    file_name, EyeChoice, ReadOptions, Recording, RecordingKind, ScreenOptions, SourceError,
+};
+use eyereplay_core::{NormPos, Sample, ScreenPos};
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+
+struct RawSample {
+    line: u64,
+    t_ms: f64,
+    left: Option<[f64; 2]>,
+    right: Option<[f64; 2]>,
+}
+
+pub(crate) fn read(
+    path: &Path,
+    eye: EyeChoice,
+    screen: &ScreenOptions,
+    opts: &ReadOptions,
+) -> Result<Recording, SourceError> {
+    let file = std::fs::File::open(path).map_err(|e| SourceError::io(path, e))?;
+    let reader = BufReader::new(file);
+    let mut display: Option<[f64; 2]> = None;
+    // Eyes of the current recording block: (left, right).
+    let mut eyes: Option<(bool, bool)> = None;
+    let mut saw_left = false;
+    let mut saw_right = false;
+    let mut raw: Vec<RawSample> = Vec::new();
+    // Blink intervals per eye: (start_ms, end_ms).
+    let mut blinks: Vec<(bool, f64, f64)> = Vec::new();
+
+    for (i, line) in reader.split(b'\n').enumerate() {
+        let line_no = i as u64 + 1;
+        let bytes = line.map_err(|e| SourceError::io(path, e))?;
+        let text = String::from_utf8_lossy(&bytes);
+        let mut tok = text.split_ascii_whitespace();
+        let Some(first) = tok.next() else { continue };
+        match first {
+            "MSG" => {
+                let rest: Vec<&str> = tok.collect();
+                if let Some(k) = rest.iter().position(|t| *t == "DISPLAY_COORDS") {
+                    let nums: Vec<f64> = rest[k + 1..]
+                        .iter()
+                        .filter_map(|t| t.parse().ok())
+                        .collect();
+                    if nums.len() == 4 {
+                        display = Some([nums[2] - nums[0] + 1.0, nums[3] - nums[1] + 1.0]);
+                    }
+                }
+            }
+            "SAMPLES" => {
+                let rest: Vec<&str> = tok.collect();
+                let l = rest.contains(&"LEFT");
+                let r = rest.contains(&"RIGHT");
+                // VEL / RES / INPUT columns follow the gaze triplets, which
+                // are read by position, so they need no handling.
+                saw_left |= l;
+                saw_right |= r;
+                eyes = Some((l, r));
+            }
+            "EBLINK" => {
+                let rest: Vec<&str> = tok.collect();
+                if rest.len() >= 3 {
+                    let is_left = rest[0] == "L";
+                    if let (Ok(a), Ok(b)) = (rest[1].parse::<f64>(), rest[2].parse::<f64>()) {
+                        blinks.push((is_left, a, b));
+                    }
+                }
+            }
+            // Sample lines start with the timestamp in column 0; indented
+            // numbers are continuation lines of calibration messages.
+            _ if bytes.first().is_some_and(u8::is_ascii_digit) => {
+                let Some((l, r)) = eyes else {
+                    // Before any SAMPLES header: not a recording block.
+                    continue;
+                };
+                let t_ms: f64 = first.parse().map_err(|_| {
+                    SourceError::line(
+                        path,
+                        line_no,
+                        format!("timestamp '{first}' is not a number"),
+                    )
+                })?;
+                let fields: Vec<&str> = tok.collect();
+                let triplet = |k: usize| -> Result<Option<[f64; 2]>, SourceError> {
+                    let (Some(x), Some(y)) = (fields.get(3 * k), fields.get(3 * k + 1)) else {
+                        return Err(SourceError::line(
+                            path,
+                            line_no,
+                            "sample line has too few columns",
+                        ));
+                    };
+                    if *x == "." || *y == "." {
+                        return Ok(None);
+                    }
+                    let px = x.parse::<f64>();
+                    let py = y.parse::<f64>();
+                    match (px, py) {
+                        (Ok(a), Ok(b)) => Ok(Some([a, b])),
+                        _ => Err(SourceError::line(
+                            path,
+                            line_no,
+                            format!("gaze '{x} {y}' is not a pair of numbers"),
+                        )),
+                    }
+                };
+                let (left, right) = match (l, r) {
+                    (true, true) => (triplet(0)?, triplet(1)?),
+                    (true, false) => (triplet(0)?, None),
+                    (false, true) => (None, triplet(0)?),
+                    (false, false) => (None, None),
+                };
+                raw.push(RawSample {
+                    line: line_no,
+                    t_ms,
+                    left,
+                    right,
+                });
+            }
+            _ => {}
+        }
+    }
+    if raw.is_empty() {
+        return Err(SourceError::file(
+            path,
+            "no sample lines: not an EyeLink ASC file with samples",
+        ));
+    }
+    let want_left = match eye {
+        EyeChoice::Left => true,
+        EyeChoice::Right => false,
+        EyeChoice::Mean => saw_left,
+    };
+    let want_right = match eye {
+        EyeChoice::Left => false,
+        EyeChoice::Right => true,
+        EyeChoice::Mean => saw_right,
+    };
+    if (eye == EyeChoice::Left && !saw_left) || (eye == EyeChoice::Right && !saw_right) {
+        return Err(SourceError::file(
+            path,
+            format!("eye = {eye:?} requested but the file records no such eye"),
+        ));
+    }
+    let screen_px = screen.screen_px.or(display).ok_or_else(|| {
+        SourceError::file(
+            path,
+            "no DISPLAY_COORDS message; give screen_px = [width, height]",
+        )
+    })?;
+    let ppd = screen.geometry.px_per_deg(screen_px[0]);
+
+    blinks.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let in_blink = |t: f64| {
+        blinks.iter().any(|&(is_left, a, b)| {
+            ((is_left && want_left) || (!is_left && want_right)) && t >= a && t <= b
+        })
+    };
+
+    let mut series = SeriesBuilder::<NormPos>::new(path);
+    for s in raw {
+        let l = if want_left { s.left } else { None };
+        let r = if want_right { s.right } else { None };
+        let g = match (l, r) {
+            (Some(a), Some(b)) => Some([(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0]),
+            (a, b) => a.or(b),
+        };
+        let p = g.unwrap_or([f64::NAN, f64::NAN]);
+        series.push(
+            s.line,
+            Sample {
+                t_s: s.t_ms * 1e-3,
+                pos: screen_to_iris(
+                    ScreenPos {
+                        x_px: p[0],
+                        y_px: p[1],
+                    },
+                    screen_px,
+                    ppd,
+                    &opts.eye_gains,
+                ),
+                valid: g.is_some(),
+                aperture: None,
+                blink: in_blink(s.t_ms),
+            },
+        )?;
+    }
+    let segments = series.finish(opts.max_gap_s)?;
+    recording(
+        path,
+        file_name(path),
+        RecordingKind::EyeTracker,
+        segments,
+        Some(ppd),
+    )
+}

@@ -1,0 +1,138 @@
+//! Generic eye-tracker samples in a CSV or TSV table, and the table helpers
+//! the other delimited-text readers share.
+
+use crate::screen::screen_to_iris;
+use crate::series::{parse_f64, recording, SeriesBuilder};
+use crate::{
+    file_name, ReadOptions, Recording, RecordingKind, SourceError, TimeUnit, ViewingGeometry,
+};
+use eyereplay_core::{NormPos, Sample, ScreenPos};
+use std::path::Path;
+
+pub(crate) struct Columns<'a> {
+    pub time: Option<&'a str>,
+    pub x: Option<&'a str>,
+    pub y: Option<&'a str>,
+}
+
+const TIME_NAMES: &[&str] = &["time", "timestamp", "t", "time_ms"];
+const X_NAMES: &[&str] = &["x", "x_px", "pixel_x", "x_pix", "gaze_x"];
+const Y_NAMES: &[&str] = &["y", "y_px", "pixel_y", "y_pix", "gaze_y"];
+
+pub(crate) fn read(
+    path: &Path,
+    cols: Columns<'_>,
+    time_unit: TimeUnit,
+    screen_px: [f64; 2],
+    geometry: &ViewingGeometry,
+    opts: &ReadOptions,
+) -> Result<Recording, SourceError> {
+    let delim = if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("tsv"))
+    {
+        b'\t'
+    } else {
+        b','
+    };
+    let (headers, mut rdr) = open_table(path, delim)?;
+    let find = |given: Option<&str>, defaults: &[&str], what: &str| -> Result<usize, SourceError> {
+        let names: Vec<&str> = match given {
+            Some(g) => vec![g],
+            None => defaults.to_vec(),
+        };
+        column_index(&headers, &names).ok_or_else(|| {
+            SourceError::file(
+                path,
+                format!(
+                    "no {what} column (looked for {}; header: {}); name it with {what}_column",
+                    names.join(" or "),
+                    headers.join(",")
+                ),
+            )
+        })
+    };
+    let ti = find(cols.time, TIME_NAMES, "time")?;
+    let xi = find(cols.x, X_NAMES, "x")?;
+    let yi = find(cols.y, Y_NAMES, "y")?;
+    let ppd = geometry.px_per_deg(screen_px[0]);
+
+    let mut series = SeriesBuilder::<NormPos>::new(path);
+    let mut rec = csv::StringRecord::new();
+    loop {
+        match rdr.read_record(&mut rec) {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(e) => return Err(SourceError::file(path, e.to_string())),
+        }
+        let line = record_line(&rec);
+        let t = parse_f64(path, line, &headers[ti], rec.get(ti).unwrap_or(""))?;
+        // Empty or NaN coordinates are tracking loss, not a format error.
+        let coord = |i: usize| -> Result<Option<f64>, SourceError> {
+            let c = rec.get(i).unwrap_or("").trim();
+            if c.is_empty() || c.eq_ignore_ascii_case("nan") || c == "." {
+                Ok(None)
+            } else {
+                parse_f64(path, line, &headers[i], c).map(Some)
+            }
+        };
+        let (x, y) = (coord(xi)?, coord(yi)?);
+        let valid = x.is_some() && y.is_some();
+        let p = ScreenPos {
+            x_px: x.unwrap_or(f64::NAN),
+            y_px: y.unwrap_or(f64::NAN),
+        };
+        series.push(
+            line,
+            Sample {
+                t_s: time_unit.to_seconds(t),
+                pos: screen_to_iris(p, screen_px, ppd, &opts.eye_gains),
+                valid,
+                aperture: None,
+                blink: false,
+            },
+        )?;
+    }
+    let segments = series.finish(opts.max_gap_s)?;
+    recording(
+        path,
+        file_name(path),
+        RecordingKind::EyeTracker,
+        segments,
+        Some(ppd),
+    )
+}
+
+/// Opens a delimited table with a header row; an empty file or a file
+/// without a header is an error naming the file.
+pub(crate) fn open_table(
+    path: &Path,
+    delim: u8,
+) -> Result<(Vec<String>, csv::Reader<std::fs::File>), SourceError> {
+    let file = std::fs::File::open(path).map_err(|e| SourceError::io(path, e))?;
+    let mut rdr = csv::ReaderBuilder::new()
+        .delimiter(delim)
+        .flexible(true)
+        .from_reader(file);
+    let headers: Vec<String> = rdr
+        .headers()
+        .map_err(|e| SourceError::file(path, e.to_string()))?
+        .iter()
+        .map(|h| h.trim().to_string())
+        .collect();
+    if headers.iter().all(|h| h.is_empty()) {
+        return Err(SourceError::file(path, "empty file (no header row)"));
+    }
+    Ok((headers, rdr))
+}
+
+/// Index of the first of `names` present in `headers` (case-insensitive).
+pub(crate) fn column_index(headers: &[String], names: &[&str]) -> Option<usize> {
+    names
+        .iter()
+        .find_map(|n| headers.iter().position(|h| h.eq_ignore_ascii_case(n)))
+}
+
+pub(crate) fn record_line(rec: &csv::StringRecord) -> u64 {
+    rec.position().map(|p| p.line()).unwrap_or(0)
+}

@@ -1,0 +1,145 @@
+//! Collects samples while a reader parses a file: checks time order with the
+//! offending line, then splits into gap-free segments.
+
+use crate::{Recording, RecordingKind, SourceError};
+use eyereplay_core::{NormPos, PlanePos, Sample, Trajectory};
+use std::path::{Path, PathBuf};
+
+pub(crate) struct SeriesBuilder<P> {
+    path: PathBuf,
+    samples: Vec<Sample<P>>,
+}
+
+impl<P: PlanePos> SeriesBuilder<P> {
+    pub fn new(path: &Path) -> Self {
+        SeriesBuilder {
+            path: path.to_path_buf(),
+            samples: Vec::new(),
+        }
+    }
+
+    pub fn push(&mut self, line: u64, sample: Sample<P>) -> Result<(), SourceError> {
+        if !sample.t_s.is_finite() {
+            return Err(SourceError::line(
+                &self.path,
+                line,
+                "timestamp is not a finite number",
+            ));
+        }
+        if let Some(prev) = self.samples.last() {
+            if sample.t_s <= prev.t_s {
+                return Err(SourceError::line(
+                    &self.path,
+                    line,
+                    format!(
+                        "timestamps must increase: {} s follows {} s",
+                        fmt_t(sample.t_s),
+                        fmt_t(prev.t_s)
+                    ),
+                ));
+            }
+        }
+        self.samples.push(sample);
+        Ok(())
+    }
+
+    /// Checks there is usable gaze, then splits at gaps longer than
+    /// `max_gap_s`.
+    pub fn finish(self, max_gap_s: f64) -> Result<Vec<Trajectory<P>>, SourceError> {
+        if self.samples.is_empty() {
+            return Err(SourceError::file(&self.path, "no samples (empty file?)"));
+        }
+        if !self.samples.iter().any(|s| s.is_gaze()) {
+            return Err(SourceError::file(
+                &self.path,
+                format!(
+                    "every one of {} samples is invalid or in a blink: no usable gaze",
+                    self.samples.len()
+                ),
+            ));
+        }
+        let mut segments = Vec::new();
+        let mut current: Vec<Sample<P>> = Vec::new();
+        for s in self.samples {
+            if let Some(prev) = current.last() {
+                if s.t_s - prev.t_s > max_gap_s {
+                    push_segment(&mut segments, std::mem::take(&mut current))?;
+                }
+            }
+            current.push(s);
+        }
+        push_segment(&mut segments, current)?;
+        Ok(segments)
+    }
+}
+
+/// Keeps a segment only if it carries gaze: a block that is all blink or
+/// tracking loss has nothing to resample.
+fn push_segment<P: PlanePos>(
+    out: &mut Vec<Trajectory<P>>,
+    samples: Vec<Sample<P>>,
+) -> Result<(), SourceError> {
+    if samples.iter().filter(|s| s.is_gaze()).count() >= 2 {
+        out.push(Trajectory::new(samples)?);
+    }
+    Ok(())
+}
+
+fn fmt_t(t: f64) -> String {
+    format!("{t:.6}")
+        .trim_end_matches('0')
+        .trim_end_matches('.')
+        .to_string()
+}
+
+/// Assembles a [`Recording`] from segments, with the median rate measured.
+pub(crate) fn recording(
+    path: &Path,
+    id: String,
+    kind: RecordingKind,
+    segments: Vec<Trajectory<NormPos>>,
+    px_per_deg: Option<f64>,
+) -> Result<Recording, SourceError> {
+    if segments.is_empty() {
+        return Err(SourceError::file(
+            path,
+            "no segment with at least 2 gaze samples",
+        ));
+    }
+    let mut dts: Vec<f64> = segments
+        .iter()
+        .flat_map(|s| {
+            s.samples()
+                .windows(2)
+                .map(|w| w[1].t_s - w[0].t_s)
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let mid = dts.len() / 2;
+    let dt = *dts.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+    Ok(Recording {
+        id,
+        path: path.to_path_buf(),
+        kind,
+        rate_hz: 1.0 / dt,
+        segments,
+        px_per_deg,
+    })
+}
+
+/// Parses a numeric cell, naming file, line and column on failure.
+pub(crate) fn parse_f64(
+    path: &Path,
+    line: u64,
+    column: &str,
+    cell: &str,
+) -> Result<f64, SourceError> {
+    let c = cell.trim();
+    c.parse::<f64>().map_err(|_| {
+        SourceError::line(
+            path,
+            line,
+            format!("column '{column}': '{c}' is not a number"),
+        )
+    })
+}

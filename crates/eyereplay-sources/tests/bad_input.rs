@@ -1,0 +1,109 @@
+//! Each bad input gets one line naming the file (and line) and the problem.
+
+use eyereplay_sources::{read_source, ReadOptions, SourceSpec, TimeUnit, ViewingGeometry};
+use std::path::Path;
+
+fn extract_err(body: &str) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("iris.csv");
+    std::fs::write(&p, body).unwrap();
+    let e = read_source(&SourceSpec::Extract { path: p }, &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("iris.csv"), "{e}");
+    assert!(!e.contains('\n'), "{e}");
+    e
+}
+
+#[test]
+fn empty_file() {
+    assert!(extract_err("").contains("empty file"));
+}
+
+#[test]
+fn missing_column() {
+    let e = extract_err("frame,time_s,valid,nx\n0,0,1,0.5\n");
+    assert!(e.contains("missing column 'ny'"), "{e}");
+}
+
+#[test]
+fn non_numeric_cell_names_line_and_column() {
+    let e = extract_err("frame,time_s,valid,nx,ny\n0,0.00,1,0.5,0.5\n1,0.04,1,abc,0.5\n");
+    assert!(
+        e.contains("line 3") && e.contains("'nx'") && e.contains("'abc'"),
+        "{e}"
+    );
+}
+
+#[test]
+fn non_increasing_timestamps() {
+    let e = extract_err("frame,time_s,valid,nx,ny\n0,0.04,1,0.5,0.5\n1,0.04,1,0.5,0.5\n");
+    assert!(e.contains("line 3") && e.contains("must increase"), "{e}");
+}
+
+#[test]
+fn every_sample_invalid() {
+    let e = extract_err("frame,time_s,valid,nx,ny\n0,0.00,0,,\n1,0.04,0,,\n");
+    assert!(e.contains("no usable gaze"), "{e}");
+}
+
+#[test]
+fn extract_csv_reads_blinks_apertures_and_invalid_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("iris.csv");
+    std::fs::write(
+        &p,
+        "frame,time_s,valid,nx,ny,aperture_left,aperture_right,blink\n\
+         0,0.000,1,0.50,0.40,0.30,0.32,0\n\
+         1,0.041,1,0.52,0.41,0.05,0.07,1\n\
+         2,0.083,0,,,,,0\n\
+         3,0.125,1,0.55,0.45,0.31,0.29,0\n",
+    )
+    .unwrap();
+    let r = read_source(&SourceSpec::Extract { path: p }, &ReadOptions::default())
+        .unwrap()
+        .remove(0);
+    let s = r.segments[0].samples();
+    assert_eq!(s.len(), 4);
+    assert!(s[1].blink && !s[1].is_gaze());
+    assert!(!s[2].valid);
+    assert_eq!(s[0].aperture, Some(0.31));
+    assert!((s[3].pos.nx - 0.55).abs() < 1e-15);
+    // Median interval 0.0417 s -> 24 fps.
+    assert!((r.rate_hz - 1.0 / 0.042).abs() < 0.1, "{}", r.rate_hz);
+}
+
+#[test]
+fn csv_without_xy_columns_says_how_to_name_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("gaze.tsv");
+    std::fs::write(&p, "time\tgx\tgy\n0\t1\t2\n").unwrap();
+    let e = read_source(
+        &SourceSpec::Csv {
+            path: p,
+            time_column: None,
+            x_column: None,
+            y_column: None,
+            time_unit: TimeUnit::Ms,
+            screen_px: [1920.0, 1080.0],
+            geometry: ViewingGeometry::default(),
+        },
+        &ReadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("gaze.tsv") && e.contains("x_column"), "{e}");
+}
+
+#[test]
+fn missing_file_is_named() {
+    let e = read_source(
+        &SourceSpec::Extract {
+            path: Path::new("/nonexistent/iris.csv").into(),
+        },
+        &ReadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.starts_with("/nonexistent/iris.csv:"), "{e}");
+}
