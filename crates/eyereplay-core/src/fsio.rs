@@ -4,8 +4,11 @@ use std::io::{BufWriter, Read, Write};
 use std::path::Path;
 
 /// Writes a file so that readers only ever see the old file or the complete
-/// new one: the content goes to a temporary file in the same directory, is
-/// flushed to disk, then renamed over the target.
+/// new one: the content goes to a temporary file in the same directory, then
+/// is renamed over the target. This holds when the process is killed at any
+/// point (the kernel keeps what was written); it does not fsync, so after a
+/// power loss a file may be empty, which the resuming commands detect by
+/// verifying files before they skip them.
 pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<(), CoreError> {
     atomic_write_with(path, |w| w.write_all(bytes))
 }
@@ -31,9 +34,6 @@ pub fn atomic_write_with(
         fill(&mut w).map_err(|e| CoreError::io(path, e))?;
         w.flush().map_err(|e| CoreError::io(path, e))?;
     }
-    tmp.as_file()
-        .sync_all()
-        .map_err(|e| CoreError::io(path, e))?;
     tmp.persist(path)
         .map_err(|e| CoreError::io(path, e.error))?;
     Ok(())

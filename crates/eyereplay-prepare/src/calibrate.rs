@@ -106,12 +106,16 @@ pub struct FillCounts {
 pub fn blink_filter(
     segments: &[Trajectory<NormPos>],
     cfg: &BlinkFilterConfig,
+    use_iqr: bool,
 ) -> (Vec<Trajectory<NormPos>>, FillCounts) {
     let gaze: Vec<NormPos> = segments
         .iter()
         .flat_map(|s| s.samples().iter().filter(|x| x.is_gaze()).map(|x| x.pos))
         .collect();
     let fence = |v: Vec<f64>| -> (f64, f64) {
+        if !use_iqr {
+            return (f64::NEG_INFINITY, f64::INFINITY);
+        }
         let (q1, q3) = quartiles(&v).unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
         let iqr = q3 - q1;
         (q1 - cfg.iqr_k * iqr, q3 + cfg.iqr_k * iqr)
@@ -224,7 +228,7 @@ mod tests {
         v[6] = mk(6.0, f64::NAN, false); // tracking loss
         v[0] = mk(0.0, f64::NAN, false); // before any valid sample
         let seg = Trajectory::new(v).unwrap();
-        let (out, counts) = blink_filter(&[seg], &BlinkFilterConfig::default());
+        let (out, counts) = blink_filter(&[seg], &BlinkFilterConfig::default(), true);
         let xs: Vec<f64> = out[0].positions().map(|p| p.nx).collect();
         assert_eq!(counts.invalid_or_blink, 2);
         assert_eq!(counts.outlier_x, 1);

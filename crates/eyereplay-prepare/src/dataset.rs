@@ -15,7 +15,7 @@
 //! presence marks a complete dataset.
 
 use crate::{Calibration, DatasetConfig, PrepareError, Prepared, SourceReport};
-use eyereplay_core::{atomic_write_with, write_session_csv, CanvasPos, GazeClass};
+use eyereplay_core::{atomic_write_with, push_fixed3, push_u64, write_session_csv, CanvasPos, GazeClass};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -120,8 +120,18 @@ pub fn write_dataset(
         let path = out.join(format!("pool/{}.csv", c.class.name()));
         atomic_write_with(&path, |w| {
             w.write_all(b"frame,x,y,source\n")?;
+            let mut line = Vec::with_capacity(48);
             for (i, (p, s)) in c.pool.iter().zip(&c.pool_source).enumerate() {
-                writeln!(w, "{i},{:.3},{:.3},{s}", p.x_px, p.y_px)?;
+                line.clear();
+                push_u64(&mut line, i as u64);
+                line.push(b',');
+                push_fixed3(&mut line, p.x_px);
+                line.push(b',');
+                push_fixed3(&mut line, p.y_px);
+                line.push(b',');
+                push_u64(&mut line, *s as u64);
+                line.push(b'\n');
+                w.write_all(&line)?;
             }
             Ok(())
         })?;

@@ -24,7 +24,7 @@ mod slice;
 pub use calibrate::{blink_filter, Calibration, FillCounts};
 pub use config::{
     BlinkFilterConfig, CalibrationConfig, CalibrationMode, CalibrationScope, ClassConfig,
-    DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod, SmoothingTarget,
+    DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod, AppliesTo,
     SpeedCorrection,
 };
 pub use dataset::{write_dataset, DatasetMetadata, SessionEntry, ToolInfo, WriteSummary};
@@ -117,7 +117,10 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
     // Stage 2a: blink filter per recording.
     let filtered: Vec<(Vec<Trajectory<NormPos>>, FillCounts)> = inputs
         .par_iter()
-        .map(|s| blink_filter(&s.recording.segments, &cfg.blink_filter))
+        .map(|s| {
+            let iqr = cfg.blink_filter.iqr_applies_to == AppliesTo::All || s.recording.kind == RecordingKind::Video;
+            blink_filter(&s.recording.segments, &cfg.blink_filter, iqr)
+        })
         .collect();
 
     // Stage 2b: calibration, pooled over all sources by default. Each source
@@ -166,7 +169,7 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
             let mut canvas: Vec<Trajectory<CanvasPos>> =
                 segs.iter().map(|t| t.map(|n| calib.apply(n))).collect();
             let smooth = cfg.smoothing.method == SmoothingMethod::EdgeGauss
-                && (cfg.smoothing.apply_to == SmoothingTarget::All
+                && (cfg.smoothing.apply_to == AppliesTo::All
                     || s.recording.kind == RecordingKind::Video);
             let mut smoothing = None;
             if smooth {

@@ -1,0 +1,98 @@
+//! `eyereplay prepare` as a user runs it: exit codes, one-line errors,
+//! nothing written on failure or dry run.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn eyereplay(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_eyereplay")).args(args).output().unwrap()
+}
+
+fn webcam_csv(path: &Path, frames: usize) {
+    let mut s = String::from("frame,time_s,valid,nx,ny\n");
+    for i in 0..frames {
+        let x = 0.45 + 0.1 * ((i / 10) % 2) as f64 + 0.001 * ((i * 37 % 11) as f64);
+        let y = 0.5 + 0.05 * ((i / 25) % 2) as f64;
+        s.push_str(&format!("{i},{:.4},1,{x:.5},{y:.5}\n", i as f64 / 24.0));
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+fn one_line_error(o: &Output) -> String {
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    assert!(e.starts_with("error: "), "{e}");
+    e
+}
+
+#[test]
+fn prepare_writes_dataset_and_dry_run_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    webcam_csv(&dir.path().join("r.csv"), 600);
+    webcam_csv(&dir.path().join("c.csv"), 900);
+    let cfg = dir.path().join("d.toml");
+    std::fs::write(
+        &cfg,
+        "session_frames = 100\n[classes.reading]\nsessions = 3\nsources = [{ format = \"extract\", path = \"r.csv\" }]\n\
+         [classes.conversation]\nsessions = 4\nsources = [{ format = \"extract\", path = \"c.csv\" }]\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let o = eyereplay(&["prepare", "--config", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--dry-run"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("dry run: would write 7 sessions"));
+    assert!(!out.exists());
+
+    let o = eyereplay(&["prepare", "--config", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in ["labels.csv", "metadata.json", "reading/reading_0002.csv", "conversation/conversation_0003.csv", "pool/reading.csv"] {
+        assert!(out.join(f).exists(), "{f}");
+    }
+    // No temporary files left behind.
+    let tmp = walk(&out).into_iter().filter(|p| p.ends_with(".tmp")).count();
+    assert_eq!(tmp, 0);
+}
+
+fn walk(p: &Path) -> Vec<String> {
+    let mut v = Vec::new();
+    for e in std::fs::read_dir(p).unwrap().flatten() {
+        if e.path().is_dir() {
+            v.extend(walk(&e.path()));
+        } else {
+            v.push(e.path().display().to_string());
+        }
+    }
+    v
+}
+
+#[test]
+fn bad_configs_fail_in_one_line_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    webcam_csv(&dir.path().join("r.csv"), 600);
+    let out = dir.path().join("out");
+    let cases = [
+        ("[classes.reading]\nsesions = 3\nsources = [{ format = \"extract\", path = \"r.csv\" }]\n", "did you mean 'sessions'"),
+        ("session_frames = 0\n[classes.reading]\nsources = [{ format = \"extract\", path = \"r.csv\" }]\n", "session_frames"),
+        ("[classes.reading]\nsessions = 0\nsources = [{ format = \"extract\", path = \"r.csv\" }]\n", "sessions must be at least 1"),
+        ("[classes.reading]\nsources = [{ format = \"extract\", path = \"missing.csv\" }]\n", "missing.csv"),
+        ("[classes.reading]\nsessions = 5000\nsources = [{ format = \"extract\", path = \"r.csv\" }]\n", "5000 sessions"),
+    ];
+    for (i, (body, want)) in cases.iter().enumerate() {
+        let cfg = dir.path().join(format!("c{i}.toml"));
+        std::fs::write(&cfg, body).unwrap();
+        let o = eyereplay(&["prepare", "--config", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        let e = one_line_error(&o);
+        assert!(e.contains(want), "case {i}: {e}");
+        assert!(!out.exists(), "case {i} wrote output");
+    }
+    let o = eyereplay(&["prepare", "--config", "/nonexistent.toml", "--out", out.to_str().unwrap()]);
+    assert!(one_line_error(&o).contains("/nonexistent.toml"));
+}
+
+#[test]
+fn help_teaches_with_examples() {
+    let o = eyereplay(&["prepare", "--help"]);
+    let h = String::from_utf8_lossy(&o.stdout);
+    assert!(h.contains("Examples:") && h.contains("--dry-run") && h.contains("fixations"));
+}
