@@ -159,9 +159,14 @@ mod tests {
     #[test]
     fn fixed3_matches_format() {
         let mut seed = 1u64;
-        let mut vals = vec![0.0, -0.0, 0.0004, -0.0004, 0.0005, 0.0015, 1.2345, -1.2345, 639.9995, 1280.0, -3.5e-7, 123456.789];
+        let mut vals = vec![
+            0.0, -0.0, 0.0004, -0.0004, 0.0005, 0.0015, 1.2345, -1.2345, 639.9995, 1280.0, -3.5e-7,
+            123456.789,
+        ];
         for _ in 0..20000 {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             let u = (seed >> 11) as f64 / (1u64 << 53) as f64;
             vals.push((u - 0.3) * 3000.0);
             vals.push(((u * 1e6).round()) / 1000.0 + 0.0005);

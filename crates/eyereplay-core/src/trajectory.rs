@@ -47,7 +47,8 @@ impl<P: PlanePos> Trajectory<P> {
     /// increasing (resampling on real timestamps depends on it).
     pub fn new(samples: Vec<Sample<P>>) -> Result<Self, CoreError> {
         for (i, w) in samples.windows(2).enumerate() {
-            if !(w[1].t_s > w[0].t_s) {
+            // Written so that NaN fails too.
+            if w[1].t_s.partial_cmp(&w[0].t_s) != Some(std::cmp::Ordering::Greater) {
                 return Err(CoreError::Trajectory(format!(
                     "timestamps must increase strictly: sample {} at {} s follows {} s",
                     i + 1,

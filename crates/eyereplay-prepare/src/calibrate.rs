@@ -48,7 +48,7 @@ impl Calibration {
         let axis = |v: &[f64], extent: f64| -> Option<(f64, f64, f64, f64)> {
             let lo = percentile(v, cfg.low_percentile)?;
             let hi = percentile(v, cfg.high_percentile)?;
-            if !(hi - lo > 1e-12) {
+            if (hi - lo).is_nan() || hi - lo <= 1e-12 {
                 return None;
             }
             let s = cfg.fill_fraction * extent / (hi - lo);

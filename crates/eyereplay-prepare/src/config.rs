@@ -270,7 +270,7 @@ impl DatasetConfig {
     }
 
     pub fn validate(&self) -> Result<(), String> {
-        if !(self.fps > 0.0 && self.fps.is_finite()) {
+        if !self.fps.is_finite() || self.fps <= 0.0 {
             return Err(format!("fps must be a positive number, got {}", self.fps));
         }
         if self.session_frames == 0 {
@@ -286,12 +286,13 @@ impl DatasetConfig {
             );
         }
         let c = &self.calibration;
-        if !(0.0..100.0).contains(&c.low_percentile)
-            || !(c.low_percentile < c.high_percentile && c.high_percentile <= 100.0)
-        {
+        let ordered = (0.0..100.0).contains(&c.low_percentile)
+            && c.low_percentile < c.high_percentile
+            && c.high_percentile <= 100.0;
+        if !ordered {
             return Err("calibration percentiles must satisfy 0 <= low < high <= 100".into());
         }
-        if !(c.fill_fraction > 0.0 && c.fill_fraction <= 1.0) {
+        if c.fill_fraction.is_nan() || c.fill_fraction <= 0.0 || c.fill_fraction > 1.0 {
             return Err("calibration.fill_fraction must be in (0, 1]".into());
         }
         if c.mode == CalibrationMode::Manual {
@@ -319,7 +320,7 @@ impl DatasetConfig {
                 return Err(format!("classes.{class} has no sources"));
             }
             if let Some(s) = cc.speed_scale {
-                if !(s > 0.0 && s.is_finite()) {
+                if !s.is_finite() || s <= 0.0 {
                     return Err(format!("classes.{class}.speed_scale must be positive"));
                 }
             }

@@ -15,7 +15,9 @@
 //! presence marks a complete dataset.
 
 use crate::{Calibration, DatasetConfig, PrepareError, Prepared, SourceReport};
-use eyereplay_core::{atomic_write_with, push_fixed3, push_u64, write_session_csv, CanvasPos, GazeClass};
+use eyereplay_core::{
+    atomic_write_with, push_fixed3, push_u64, write_session_csv, CanvasPos, GazeClass,
+};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::Path;

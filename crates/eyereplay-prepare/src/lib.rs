@@ -23,9 +23,8 @@ mod slice;
 
 pub use calibrate::{blink_filter, Calibration, FillCounts};
 pub use config::{
-    BlinkFilterConfig, CalibrationConfig, CalibrationMode, CalibrationScope, ClassConfig,
-    DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod, AppliesTo,
-    SpeedCorrection,
+    AppliesTo, BlinkFilterConfig, CalibrationConfig, CalibrationMode, CalibrationScope,
+    ClassConfig, DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod, SpeedCorrection,
 };
 pub use dataset::{write_dataset, DatasetMetadata, SessionEntry, ToolInfo, WriteSummary};
 pub use error::PrepareError;
@@ -41,6 +40,9 @@ use eyereplay_sources::{Recording, RecordingKind};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+
+/// `[[lo_x, hi_x], [lo_y, hi_y]]`: the percentile ranges behind an auto calibration.
+pub type PercentileRanges = [[f64; 2]; 2];
 
 /// A recording to prepare, with where it came from.
 #[derive(Clone, Debug)]
@@ -118,7 +120,8 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
     let filtered: Vec<(Vec<Trajectory<NormPos>>, FillCounts)> = inputs
         .par_iter()
         .map(|s| {
-            let iqr = cfg.blink_filter.iqr_applies_to == AppliesTo::All || s.recording.kind == RecordingKind::Video;
+            let iqr = cfg.blink_filter.iqr_applies_to == AppliesTo::All
+                || s.recording.kind == RecordingKind::Video;
             blink_filter(&s.recording.segments, &cfg.blink_filter, iqr)
         })
         .collect();
@@ -126,7 +129,7 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
     // Stage 2b: calibration, pooled over all sources by default. Each source
     // contributes about one sample per target frame, so a 500 Hz tracker does
     // not outweigh a 25 fps video twenty times over.
-    let calib_for = |idx: usize| -> Result<(Calibration, Option<[[f64; 2]; 2]>), PrepareError> {
+    let calib_for = |idx: usize| -> Result<(Calibration, Option<PercentileRanges>), PrepareError> {
         if let Some(c) = Calibration::manual(&cfg.calibration) {
             return Ok((c, None));
         }

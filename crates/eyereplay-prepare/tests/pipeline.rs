@@ -2,7 +2,9 @@
 //! EyeLink and BIDS samples) and on hand-built webcam-like CSVs.
 
 use eyereplay_core::{read_session_csv, CanvasPos, GazeClass};
-use eyereplay_prepare::{load_sources, prepare, write_dataset, DatasetConfig, PrepareError, ToolInfo};
+use eyereplay_prepare::{
+    load_sources, prepare, write_dataset, DatasetConfig, PrepareError, ToolInfo,
+};
 use std::path::{Path, PathBuf};
 
 fn cache() -> Option<PathBuf> {
@@ -13,7 +15,10 @@ fn cache() -> Option<PathBuf> {
     if std::env::var_os("CI").is_some() {
         panic!("{} missing: run scripts/fetch-data.sh", p.display());
     }
-    eprintln!("skipping: {} missing (run scripts/fetch-data.sh)", p.display());
+    eprintln!(
+        "skipping: {} missing (run scripts/fetch-data.sh)",
+        p.display()
+    );
     None
 }
 
@@ -40,7 +45,11 @@ sources = [
 }
 
 fn tool() -> ToolInfo {
-    ToolInfo { name: "eyereplay".into(), version: "test".into(), git_revision: None }
+    ToolInfo {
+        name: "eyereplay".into(),
+        version: "test".into(),
+        git_revision: None,
+    }
 }
 
 fn no_video(p: &Path) -> Result<PathBuf, PrepareError> {
@@ -70,8 +79,14 @@ fn real_sources_make_a_complete_deterministic_dataset() {
                 continue;
             }
             let m = eyereplay_core::mean_of(pts.iter().copied()).unwrap();
-            assert!((m.x_px - prepared.global_mean.x_px).abs() < 1e-6, "source {src}");
-            assert!((m.y_px - prepared.global_mean.y_px).abs() < 1e-6, "source {src}");
+            assert!(
+                (m.x_px - prepared.global_mean.x_px).abs() < 1e-6,
+                "source {src}"
+            );
+            assert!(
+                (m.y_px - prepared.global_mean.y_px).abs() < 1e-6,
+                "source {src}"
+            );
         }
     }
     // Fast sources are decimated, never speed-corrected.
@@ -81,7 +96,10 @@ fn real_sources_make_a_complete_deterministic_dataset() {
     // wide saccades are not mistaken for blink spikes (the IQR rule is for
     // video landmarks).
     let f = prepared.sources[24].filled;
-    assert!(f.invalid_or_blink > 500 && f.outlier_x + f.outlier_y == 0, "{f:?}");
+    assert!(
+        f.invalid_or_blink > 500 && f.outlier_x + f.outlier_y == 0,
+        "{f:?}"
+    );
 
     let out_a = dir.path().join("a");
     let out_b = dir.path().join("b");
@@ -89,13 +107,27 @@ fn real_sources_make_a_complete_deterministic_dataset() {
     // A second, independent run gives byte-identical files.
     let prepared2 = prepare(&cfg, &load_sources(&cfg, no_video).unwrap()).unwrap();
     write_dataset(&out_b, &cfg, &prepared2, tool()).unwrap();
-    for f in ["labels.csv", "metadata.json", "pool/reading.csv", "reading/reading_0007.csv", "conversation/conversation_0005.csv"] {
-        assert_eq!(std::fs::read(out_a.join(f)).unwrap(), std::fs::read(out_b.join(f)).unwrap(), "{f}");
+    for f in [
+        "labels.csv",
+        "metadata.json",
+        "pool/reading.csv",
+        "reading/reading_0007.csv",
+        "conversation/conversation_0005.csv",
+    ] {
+        assert_eq!(
+            std::fs::read(out_a.join(f)).unwrap(),
+            std::fs::read(out_b.join(f)).unwrap(),
+            "{f}"
+        );
     }
 
     // Stage 5: every session has F frames and follows idx = (i stride + j) mod T
     // on the speed-scaled pool.
-    let reading = prepared.classes.iter().find(|c| c.class == GazeClass::Reading).unwrap();
+    let reading = prepared
+        .classes
+        .iter()
+        .find(|c| c.class == GazeClass::Reading)
+        .unwrap();
     let t = reading.pool.len();
     let mut scaled = reading.pool.clone();
     eyereplay_prepare::scale_about_centroid(&mut scaled, 1.05);
@@ -111,7 +143,8 @@ fn real_sources_make_a_complete_deterministic_dataset() {
     assert_eq!(labels.lines().count(), 1 + 8 + 6);
     assert!(labels.contains("reading/reading_0000.csv,1,reading,onestop_fixations.csv#l37_1129/44"));
     assert!(labels.contains("conversation/conversation_0000.csv,0,conversation,both_eyes.asc"));
-    let meta: serde_json::Value = serde_json::from_slice(&std::fs::read(out_a.join("metadata.json")).unwrap()).unwrap();
+    let meta: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out_a.join("metadata.json")).unwrap()).unwrap();
     assert_eq!(meta["session_frames"], 1500);
     assert_eq!(meta["seed"], 7);
     assert_eq!(meta["sources"].as_array().unwrap().len(), 26);
@@ -134,7 +167,11 @@ fn webcam_csv(path: &Path, seconds: usize, offset: f64) {
             // Landmark jitter: every sample turns a corner, which linear
             // interpolation cuts.
             let j = ((i * 7919) % 13) as f64 - 6.0;
-            s.push_str(&format!("{i},{t:.4},1,{:.5},{:.5},0\n", x + offset + 0.0004 * j, y + offset - 0.0003 * j));
+            s.push_str(&format!(
+                "{i},{t:.4},1,{:.5},{:.5},0\n",
+                x + offset + 0.0004 * j,
+                y + offset - 0.0003 * j
+            ));
         }
     }
     std::fs::write(path, s).unwrap();
@@ -164,7 +201,8 @@ fn webcam_sources_are_speed_corrected_and_centred() {
     // Offset source b is shifted onto the same global mean: its shift is
     // opposite in sign to a's, and their frames-weighted sum cancels.
     let (a, b) = (&p.sources[0], &p.sources[1]);
-    let wx = a.normalization_shift_px[0] * a.frames as f64 + b.normalization_shift_px[0] * b.frames as f64;
+    let wx = a.normalization_shift_px[0] * a.frames as f64
+        + b.normalization_shift_px[0] * b.frames as f64;
     assert!(wx.abs() < 1e-6 * a.frames as f64, "{wx}");
     assert!(a.normalization_shift_px[0] > 0.0 && b.normalization_shift_px[0] < 0.0);
     // The files written are in config order in metadata.
@@ -178,8 +216,13 @@ fn too_few_frames_for_the_sessions_is_an_error() {
     let cfgp = dir.path().join("d.toml");
     std::fs::write(&cfgp, "[classes.reading]\nsessions = 72\nsources = [{ format = \"extract\", path = \"a.csv\" }]\n").unwrap();
     let cfg = DatasetConfig::load(&cfgp).unwrap();
-    let e = prepare(&cfg, &load_sources(&cfg, no_video).unwrap()).unwrap_err().to_string();
-    assert!(e.contains("class 'reading'") && e.contains("72 sessions"), "{e}");
+    let e = prepare(&cfg, &load_sources(&cfg, no_video).unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("class 'reading'") && e.contains("72 sessions"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -193,5 +236,8 @@ fn missing_sources_are_all_named_before_any_work() {
     .unwrap();
     let cfg = DatasetConfig::load(&cfgp).unwrap();
     let e = load_sources(&cfg, no_video).unwrap_err().to_string();
-    assert!(e.contains("nope1.csv") && e.contains("nope2.asc") && !e.contains('\n'), "{e}");
+    assert!(
+        e.contains("nope1.csv") && e.contains("nope2.asc") && !e.contains('\n'),
+        "{e}"
+    );
 }

@@ -11,7 +11,7 @@ pub const ANTIALIAS_STOP_GAIN: f64 = 0.01;
 /// Computed from `k` rather than accumulated, so a long recording does not
 /// drift by rounding.
 pub fn resample_times(t_start_s: f64, t_end_s: f64, rate_hz: f64) -> Vec<f64> {
-    if !(t_end_s >= t_start_s) || rate_hz <= 0.0 {
+    if t_end_s.is_nan() || t_start_s.is_nan() || t_end_s < t_start_s || rate_hz <= 0.0 {
         return Vec::new();
     }
     // A tolerance of 1e-9 s keeps an end time that is an exact multiple of
