@@ -145,7 +145,9 @@ mod tests {
         let out_t = resample_times(0.5, 9.5, 25.0);
         let s = antialias_sigma_s(25.0);
         let out = gaussian_resample(&times, &vals, &out_t, s);
-        out.iter().map(|p| p[0].abs()).fold(0.0, f64::max)
+        // Amplitude from the RMS over whole cycles (9 s of output).
+        let ms = out.iter().map(|p| p[0] * p[0]).sum::<f64>() / out.len() as f64;
+        (2.0 * ms).sqrt()
     }
 
     #[test]
@@ -153,7 +155,9 @@ mod tests {
         // Naive sampling of a 20 Hz sine at 25 fps aliases to a full-amplitude
         // 5 Hz wave; the filter must suppress it below its stop gain.
         assert!(amplitude_after_decimation(20.0) < ANTIALIAS_STOP_GAIN);
-        // A 1 Hz movement keeps > 97 % of its amplitude.
-        assert!(amplitude_after_decimation(1.0) > 0.97);
+        // A 1 Hz movement keeps the Gaussian's gain H(1 Hz) = 0.971.
+        let s = antialias_sigma_s(25.0);
+        let h1 = (-2.0 * PI * PI * s * s).exp();
+        assert!((amplitude_after_decimation(1.0) - h1).abs() < 0.005, "{}", amplitude_after_decimation(1.0));
     }
 }
