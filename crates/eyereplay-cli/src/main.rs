@@ -32,6 +32,11 @@ struct Cli {
 enum Command {
     Prepare(cmd::prepare::Args),
     Evaluate(cmd::evaluate::Args),
+    Render(cmd::render::Args),
+    Extract(cmd::extract::Args),
+    Models(cmd::models::Args),
+    Generate(cmd::generate::Args),
+    Merge(cmd::merge::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -40,6 +45,11 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Prepare(a) => cmd::prepare::run(a),
         Command::Evaluate(a) => cmd::evaluate::run(a),
+        Command::Render(a) => cmd::render::run(a),
+        Command::Extract(a) => cmd::extract::run(a),
+        Command::Models(a) => cmd::models::run(a),
+        Command::Generate(a) => cmd::generate::run(a),
+        Command::Merge(a) => cmd::merge::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

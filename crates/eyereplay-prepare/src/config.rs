@@ -37,6 +37,11 @@ pub struct DatasetConfig {
     pub read: ReadOptions,
     /// Classes by name (`reading`, `conversation`).
     pub classes: BTreeMap<GazeClass, ClassConfig>,
+    /// Rendering settings, read by `eyereplay generate` (the renderer's
+    /// options; kept as a table here so trajectory preparation does not
+    /// depend on the renderer).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub render: Option<toml::Table>,
     /// Folder that relative source paths are relative to (the config's).
     #[serde(skip)]
     pub base_dir: PathBuf,
@@ -346,7 +351,7 @@ impl DatasetConfig {
 
 /// Turns a toml/serde error into one line: `line L, column C: message`,
 /// plus `(did you mean 'x'?)` for unknown keys and variants.
-fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
+pub fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
     let msg = e.message().replace('\n', " ");
     let pos = e.span().map(|span| {
         let before = &text[..span.start.min(text.len())];

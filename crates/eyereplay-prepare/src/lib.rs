@@ -23,7 +23,7 @@ mod slice;
 
 pub use calibrate::{blink_filter, Calibration, FillCounts};
 pub use config::{
-    AppliesTo, BlinkFilterConfig, CalibrationConfig, CalibrationMode, CalibrationScope,
+    describe_toml_error, AppliesTo, BlinkFilterConfig, CalibrationConfig, CalibrationMode, CalibrationScope,
     ClassConfig, DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod, SpeedCorrection,
 };
 pub use dataset::{write_dataset, DatasetMetadata, SessionEntry, ToolInfo, WriteSummary};

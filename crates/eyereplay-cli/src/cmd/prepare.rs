@@ -31,12 +31,22 @@ pub struct Args {
     /// Read the sources and print what would be made, without writing anything.
     #[arg(long)]
     pub dry_run: bool,
+    /// Folder for cached video extractions (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
+    #[arg(long, value_name = "DIR")]
+    pub cache: Option<PathBuf>,
 }
 
 pub fn run(args: Args) -> Result<()> {
     let started = Instant::now();
     let cfg = DatasetConfig::load(&args.config)?;
-    let inputs = load_sources(&cfg, |video| crate::cmd::video_source_csv(video))?;
+    // Video sources: extracted once, cached by content (see `eyereplay generate --help`).
+    let extracted = if crate::cmd::video_sources(&cfg).is_empty() {
+        Default::default()
+    } else {
+        crate::cmd::check_models()?;
+        crate::cmd::extract_videos_cached(&cfg, &crate::cmd::cache_dir(args.cache.as_deref()))?
+    };
+    let inputs = load_sources(&cfg, |video| crate::cmd::lookup_extracted(&extracted, video))?;
     let prepared = prepare(&cfg, &inputs)?;
     print_summary(&cfg, &prepared);
     for w in &prepared.warnings {

@@ -1,0 +1,271 @@
+//! `eyereplay extract`: iris trajectories from videos (stage 1).
+
+use anyhow::{bail, Context, Result};
+use clap::Parser;
+use eyereplay_extract as ex;
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::path::{Path, PathBuf};
+
+#[derive(Parser, Debug)]
+#[command(
+    about = "Extract normalized iris positions from videos (one CSV row per frame)",
+    long_about = "Runs MediaPipe's face detection, face mesh and iris networks (fetched by \
+'eyereplay models fetch') on every frame and writes one CSV row per decoded frame: \
+frame, time_s (the frame's own presentation time), valid, nx, ny, blink, then per-eye \
+values, iris centres and eye corners in pixels.\n\n\
+nx runs from the image-left eye corner (0) to the image-right one (1) for BOTH eyes; \
+ny from the upper lid (0) to the lower lid (1); 'left'/'right' name the eye on the \
+image's left/right. Blinks (lid aperture below --blink-ratio x the video's median) \
+are flagged and get valid=0.",
+    after_help = "Examples:\n  \
+eyereplay extract interview.mp4 --out interview.csv\n  \
+eyereplay extract a.mp4 b.webm c.mov --out iris/            # several videos in parallel\n  \
+eyereplay extract clip.mp4 --out iris/ --preview previews/  # annotated PNGs every 5 s\n  \
+eyereplay extract franck.mp4 --out /tmp/f.csv --compare crates/eyereplay-extract/tests/data/franck_mediapipe.csv\n  \
+eyereplay extract franck.mp4 --out /tmp/f.csv --bench-mediapipe   # speed vs MediaPipe Python, same run"
+)]
+pub struct Args {
+    /// Video files (mp4, mov, webm, mkv, avi, ...).
+    #[arg(required = true)]
+    pub videos: Vec<PathBuf>,
+    /// Output: a .csv file (one video) or a folder (one <video stem>.csv each).
+    #[arg(short, long)]
+    pub out: PathBuf,
+    /// Models folder [default: $EYEREPLAY_MODELS or .cache/models].
+    #[arg(long)]
+    pub models: Option<PathBuf>,
+    /// Worker threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Write annotated PNG frames (landmarks drawn) to this folder.
+    #[arg(long)]
+    pub preview: Option<PathBuf>,
+    /// Seconds between preview frames.
+    #[arg(long, default_value_t = 5.0)]
+    pub preview_every: f64,
+    /// A frame is a blink when its lid aperture is below this fraction of the video's median.
+    #[arg(long, default_value_t = ex::DEFAULT_BLINK_RATIO)]
+    pub blink_ratio: f64,
+    /// Only the first this many seconds of each video.
+    #[arg(long)]
+    pub max_seconds: Option<f64>,
+    /// Run the face mesh on one frame in N (1 = MediaPipe's full pipeline on every
+    /// frame; larger is faster but agrees less with MediaPipe).
+    #[arg(long, default_value_t = ex::DEFAULT_MESH_EVERY)]
+    pub mesh_every: u32,
+    /// Compare with a MediaPipe reference CSV (scripts/dev/mediapipe_ref.sh) and print
+    /// detection rate, Pearson r per axis and |difference| (one video only).
+    #[arg(long)]
+    pub compare: Option<PathBuf>,
+    /// Benchmark: run MediaPipe Python's face mesh on the same video in this same run
+    /// (scripts/dev/mediapipe_ref.sh) and print both frame rates and their ratio.
+    #[arg(long)]
+    pub bench_mediapipe: bool,
+    /// No progress bars.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+struct Bars {
+    bars: Vec<ProgressBar>,
+}
+
+impl ex::Progress for Bars {
+    fn start(&self, video: usize, frames: Option<u64>) {
+        if let Some(n) = frames {
+            self.bars[video].set_length(n);
+        }
+    }
+    fn advance(&self, video: usize, n: u64) {
+        self.bars[video].inc(n);
+    }
+}
+
+fn find_upwards(rel: &str) -> Option<PathBuf> {
+    if let Some(root) = std::env::var_os("EYEREPLAY_ROOT") {
+        let p = PathBuf::from(root).join(rel);
+        if p.is_file() {
+            return Some(p);
+        }
+    }
+    let mut starts = vec![];
+    if let Ok(c) = std::env::current_dir() {
+        starts.push(c);
+    }
+    if let Ok(e) = std::env::current_exe() {
+        starts.push(e);
+    }
+    starts
+        .iter()
+        .flat_map(|s| s.ancestors().map(|d| d.join(rel)).collect::<Vec<_>>())
+        .find(|p| p.is_file())
+}
+
+/// Runs the MediaPipe reference on `video` and returns its frames/s.
+fn mediapipe_fps(video: &Path, max_seconds: Option<f64>) -> Result<f64> {
+    if max_seconds.is_some() {
+        bail!("--bench-mediapipe compares whole videos; drop --max-seconds");
+    }
+    let script = find_upwards("scripts/dev/mediapipe_ref.sh")
+        .context("scripts/dev/mediapipe_ref.sh not found (run from the eyereplay checkout or set EYEREPLAY_ROOT)")?;
+    eprintln!("running MediaPipe Python face mesh on {} ...", video.display());
+    let out = std::process::Command::new("bash")
+        .arg(&script)
+        .arg(video)
+        .stderr(std::process::Stdio::null())
+        .output()
+        .with_context(|| format!("running {}", script.display()))?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    if !out.status.success() {
+        bail!("{} failed: {}", script.display(), text.trim());
+    }
+    text.split_whitespace()
+        .find_map(|w| w.strip_prefix("fps="))
+        .and_then(|v| v.parse::<f64>().ok())
+        .with_context(|| format!("no fps= in the MediaPipe script's output: {}", text.trim()))
+}
+
+/// Peak resident memory of this process (Linux), in MiB.
+fn peak_rss_mib() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let single_file = a.out.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+    if single_file && a.videos.len() > 1 {
+        bail!(
+            "--out {} is one file but {} videos were given; pass a folder",
+            a.out.display(),
+            a.videos.len()
+        );
+    }
+    if (a.compare.is_some() || a.bench_mediapipe) && a.videos.len() != 1 {
+        bail!("--compare and --bench-mediapipe take exactly one video");
+    }
+    let opts = ex::ExtractOptions {
+        models_dir: a.models.clone().unwrap_or_else(ex::default_models_dir),
+        threads: a.threads,
+        blink_ratio: a.blink_ratio,
+        max_duration_s: a.max_seconds,
+        preview_dir: a.preview.clone(),
+        preview_every_s: a.preview_every,
+        mesh_every: a.mesh_every,
+    };
+    let reference = match &a.compare {
+        Some(p) => Some(ex::Series::read_reference(p)?),
+        None => None,
+    };
+    let mp_fps = if a.bench_mediapipe {
+        Some(mediapipe_fps(&a.videos[0], a.max_seconds)?)
+    } else {
+        None
+    };
+
+    let multi = MultiProgress::with_draw_target(if a.quiet {
+        ProgressDrawTarget::hidden()
+    } else {
+        ProgressDrawTarget::stderr()
+    });
+    let style = ProgressStyle::with_template(
+        "{prefix:>20} [{bar:30}] {pos}/{len} frames  {per_sec}  ETA {eta}",
+    )
+    .expect("valid template")
+    .progress_chars("=> ");
+    let bars = Bars {
+        bars: a
+            .videos
+            .iter()
+            .map(|v| {
+                let b = multi.add(ProgressBar::new(0));
+                b.set_style(style.clone());
+                let name = v.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+                b.set_prefix(name);
+                b
+            })
+            .collect(),
+    };
+    let results = ex::extract_many(&a.videos, &opts, &bars);
+    for b in &bars.bars {
+        b.finish_and_clear();
+    }
+
+    let mut failed = vec![];
+    for (video, res) in a.videos.iter().zip(results) {
+        let x = match res {
+            Ok(x) => x,
+            Err(e) => {
+                failed.push(e.to_string());
+                continue;
+            }
+        };
+        let out = if single_file {
+            a.out.clone()
+        } else {
+            let stem = video.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "video".into());
+            a.out.join(format!("{stem}.csv"))
+        };
+        ex::save_csv(&out, &x.rows)?;
+        let fps = x.rows.len() as f64 / x.elapsed_s.max(1e-9);
+        println!(
+            "{}: {} frames ({}x{}, {}), face in {:.1}%, {} valid, {} blinks -> {}",
+            video.display(),
+            x.rows.len(),
+            x.info.width,
+            x.info.height,
+            x.info.codec,
+            100.0 * x.detection_rate(),
+            x.valid_frames(),
+            x.blinks,
+            out.display()
+        );
+        if x.decode_errors > 0 {
+            println!("  warning: {} corrupt packets or frames skipped", x.decode_errors);
+        }
+        if let Some(r) = &reference {
+            let agreement = ex::compare(&ex::Series::from_rows(&x.rows), r, opts.blink_ratio);
+            println!("agreement with {}:", a.compare.as_ref().expect("set").display());
+            for line in agreement.to_string().lines() {
+                println!("  {line}");
+            }
+        }
+        if a.bench_mediapipe || a.verbose_timing() {
+            let t = x.stage_times;
+            println!(
+                "eyereplay: {:.1} frames/s ({} workers, {} segments, decoding included); \
+                 stage seconds summed over workers: detect {:.2}, mesh crop {:.2}, mesh {:.2}, \
+                 iris crops {:.2}, iris {:.2}",
+                fps,
+                opts.worker_count(),
+                x.segments,
+                t.detect_s,
+                t.mesh_crop_s,
+                t.mesh_s,
+                t.iris_crop_s,
+                t.iris_s
+            );
+        }
+        if let Some(mp) = mp_fps {
+            println!("MediaPipe Python face mesh: {mp:.1} frames/s (decoding included)");
+            println!("speed ratio eyereplay / MediaPipe: {:.2}x", fps / mp);
+        }
+    }
+    if let Some(mib) = peak_rss_mib() {
+        if a.bench_mediapipe {
+            println!("peak RSS: {mib:.0} MiB");
+        }
+    }
+    match failed.len() {
+        0 => Ok(()),
+        1 => bail!("{}", failed[0]),
+        n => bail!("{n} of {} videos failed: {}", a.videos.len(), failed.join("; ")),
+    }
+}
+
+impl Args {
+    fn verbose_timing(&self) -> bool {
+        std::env::var_os("EYEREPLAY_TIMING").is_some()
+    }
+}

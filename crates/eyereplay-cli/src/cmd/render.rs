@@ -1,0 +1,252 @@
+use anyhow::{bail, Context};
+use eyereplay_core::{read_session_csv, Canvas};
+use eyereplay_render::{
+    read_blink_column, read_dataset_info, render_dataset, render_session, render_session_pngs,
+    run_bench, Codec, DatasetOptions, Identity, RenderParams, SessionOutcome,
+};
+use std::path::PathBuf;
+
+/// Stage 6: render eye-movement video on eyereplay's own 3D eye simulator.
+///
+/// A session trajectory (canvas px, `frame,x,y`, optional `blink` column)
+/// becomes an H.264 yuv420p MP4 (BT.709) of a close-up of two eyes that
+/// follow it, plus `<out>_truth.csv` with per-frame eye rotation, iris
+/// centre in the image, lid aperture and blink flag.
+#[derive(clap::Args)]
+#[command(after_help = "Examples:\n  \
+eyereplay render data/reading/reading_0000.csv --out s.mp4       # s.mp4 + s_truth.csv\n  \
+eyereplay render traj.csv --out s.mp4 --seed 7 --gain 2 --natural-blinks\n  \
+eyereplay render traj.csv --out s.mp4 --calibration data/metadata.json\n  \
+eyereplay render traj.csv --png-frames frames/                   # lossless stills\n  \
+eyereplay render --dataset data/ --jobs 2                        # every session of a prepared dataset\n  \
+eyereplay render --bench --frames 1000                           # frames/s, real-time factor")]
+pub struct Args {
+    /// Session trajectory CSV (frame,x,y in canvas pixels).
+    #[arg(required_unless_present_any = ["dataset", "bench"], conflicts_with_all = ["dataset", "bench"])]
+    pub trajectory: Option<PathBuf>,
+    /// Output MP4 (default: the trajectory's path with .mp4).
+    #[arg(long, short)]
+    pub out: Option<PathBuf>,
+    /// Ground-truth CSV (default: <out stem>_truth.csv beside the video).
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
+    /// Write PNG frames into this folder instead of a video (lossless).
+    #[arg(long, value_name = "DIR", conflicts_with = "lossless")]
+    pub png_frames: Option<PathBuf>,
+    /// Render every session of a dataset folder written by 'eyereplay prepare'.
+    #[arg(long, value_name = "DIR", conflicts_with = "bench")]
+    pub dataset: Option<PathBuf>,
+    /// Sessions rendered at once with --dataset.
+    #[arg(long, default_value_t = 2)]
+    pub jobs: usize,
+    /// Print render-only, encode-only and end-to-end speed, measured in one run.
+    #[arg(long)]
+    pub bench: bool,
+    /// Frames for --bench.
+    #[arg(long, default_value_t = 750)]
+    pub frames: usize,
+    /// Identity seed (face, iris, lighting, camera); 0 is the reference face.
+    /// With --dataset, the dataset seed each session's seed is derived from.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Amplify the normalized iris excursion by this factor.
+    #[arg(long, default_value_t = 1.0)]
+    pub gain: f64,
+    /// Distance of the fixated screen, for binocular vergence (mm).
+    #[arg(long, default_value_t = 600.0, value_name = "MM")]
+    pub viewing_distance_mm: f64,
+    /// Take canvas, fps and calibration (s_x, s_y, mu_x, mu_y) from a
+    /// dataset's metadata.json, so the iris reproduces the source's amplitude.
+    #[arg(long, value_name = "METADATA_JSON")]
+    pub calibration: Option<PathBuf>,
+    /// Video size WIDTHxHEIGHT (even numbers).
+    #[arg(long, default_value = "1280x720")]
+    pub size: String,
+    /// Frame rate of the trajectory and video.
+    #[arg(long)]
+    pub fps: Option<f64>,
+    /// Add blinks at the identity's natural rate (8-22 per minute).
+    #[arg(long)]
+    pub natural_blinks: bool,
+    /// Lossless H.264 (qp 0) instead of constant quality.
+    #[arg(long)]
+    pub lossless: bool,
+    /// x264 constant rate factor (lower is better quality).
+    #[arg(long, default_value_t = 18)]
+    pub crf: u32,
+    /// x264 preset.
+    #[arg(long, default_value = "veryfast")]
+    pub preset: String,
+    /// Also write the identity and eye geometry as JSON here.
+    #[arg(long, value_name = "PATH")]
+    pub identity_out: Option<PathBuf>,
+}
+
+fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .with_context(|| format!("--size '{s}': expected WIDTHxHEIGHT, e.g. 1280x720"))?;
+    let w: usize = w
+        .trim()
+        .parse()
+        .with_context(|| format!("--size '{s}': bad width"))?;
+    let h: usize = h
+        .trim()
+        .parse()
+        .with_context(|| format!("--size '{s}': bad height"))?;
+    Ok((w, h))
+}
+
+fn params(args: &Args) -> anyhow::Result<RenderParams> {
+    let identity = if args.seed == 0 {
+        Identity::reference()
+    } else {
+        Identity::sample(args.seed)
+    };
+    let mut p = RenderParams::new(identity);
+    (p.width, p.height) = parse_size(&args.size)?;
+    if let Some(meta) = &args.calibration {
+        let dir = meta.parent().unwrap_or(std::path::Path::new("."));
+        let info = read_dataset_info(dir)?;
+        anyhow::ensure!(
+            meta.file_name().is_some_and(|n| n == "metadata.json"),
+            "--calibration expects a dataset's metadata.json, got {}",
+            meta.display()
+        );
+        p.mapping.canvas = info.canvas;
+        p.fps = info.fps;
+        match info.calibration {
+            Some(c) => p.mapping.calibration = c,
+            None => tracing::warn!("{}: no calibration; using the default", meta.display()),
+        }
+    } else {
+        p.mapping.canvas = Canvas::default();
+    }
+    if let Some(f) = args.fps {
+        p.fps = f;
+    }
+    p.mapping.gain = args.gain;
+    p.mapping.viewing_distance_mm = args.viewing_distance_mm;
+    p.natural_blinks = args.natural_blinks;
+    p.encoder.crf = args.crf;
+    p.encoder.preset = args.preset.clone();
+    if args.lossless {
+        p.encoder.codec = Codec::Lossless;
+    }
+    p.validate()?;
+    Ok(p)
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let p = params(&args)?;
+    if args.bench {
+        anyhow::ensure!(args.frames >= 25, "--frames must be at least 25");
+        let report = run_bench(&p, args.frames)?;
+        println!("{report}");
+        return Ok(());
+    }
+    if let Some(dir) = &args.dataset {
+        return run_dataset(dir, &args, p);
+    }
+    let traj_path = args.trajectory.as_ref().expect("clap requires it");
+    let traj = read_session_csv(traj_path)?;
+    let blinks = read_blink_column(traj_path)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| traj_path.with_extension("mp4"));
+    let truth = args.truth.clone().unwrap_or_else(|| {
+        let stem = out
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        out.with_file_name(format!("{stem}_truth.csv"))
+    });
+    let stats = if let Some(dir) = &args.png_frames {
+        render_session_pngs(&traj, blinks.as_deref(), &p, dir, &truth)?
+    } else {
+        render_session(&traj, blinks.as_deref(), &p, &out, &truth)?
+    };
+    if stats.clamped_points > 0 {
+        eprintln!(
+            "warning: {} of {} trajectory points were off the {}x{} canvas and were clamped to its edge",
+            stats.clamped_points, stats.frames, p.mapping.canvas.width_px, p.mapping.canvas.height_px
+        );
+    }
+    if let Some(path) = &args.identity_out {
+        let json = serde_json::json!({
+            "identity": p.identity,
+            "mapping": p.mapping,
+            "eyes": stats.eyes,
+        });
+        eyereplay_core::atomic_write(path, serde_json::to_string_pretty(&json)?.as_bytes())?;
+    }
+    let target = args.png_frames.as_ref().unwrap_or(&out);
+    eprintln!(
+        "{}: {} frames in {:.1} s ({:.0} frames/s, {:.1}x real time); truth {}",
+        target.display(),
+        stats.frames,
+        stats.total_s,
+        stats.fps(),
+        stats.fps() / p.fps,
+        truth.display()
+    );
+    Ok(())
+}
+
+fn run_dataset(dir: &std::path::Path, args: &Args, p: RenderParams) -> anyhow::Result<()> {
+    let jobs = eyereplay_render::list_sessions(dir, args.seed)?;
+    let bar = indicatif::ProgressBar::new(jobs.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} render [{bar:30}] {pos}/{len} sessions  {elapsed_precise} (eta {eta})  {msg}",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    let t0 = std::time::Instant::now();
+    let opts = DatasetOptions {
+        dataset_seed: args.seed,
+        jobs: args.jobs,
+        natural_blinks: args.natural_blinks,
+        params: p,
+        shard: None,
+    };
+    let summary = render_dataset(dir, &opts, &|job, outcome| {
+        match outcome {
+            SessionOutcome::Failed(m) => bar.println(format!("error: {m}")),
+            SessionOutcome::Rendered {
+                clamped_points,
+                frames,
+            } if *clamped_points > 0 => bar.println(format!(
+                "warning: {}: {clamped_points} of {frames} points off the canvas were clamped",
+                job.file
+            )),
+            _ => {}
+        }
+        bar.set_message(job.file.clone());
+        bar.inc(1);
+    })?;
+    bar.finish_and_clear();
+    let secs = t0.elapsed().as_secs_f64();
+    eprintln!(
+        "{}: {} sessions: {} rendered, {} already complete, {} failed; {} frames in {:.1} s ({:.0} frames/s)",
+        dir.display(),
+        summary.sessions,
+        summary.rendered,
+        summary.skipped,
+        summary.failed.len(),
+        summary.frames,
+        secs,
+        summary.frames as f64 / secs.max(1e-9)
+    );
+    if !summary.failed.is_empty() {
+        bail!(
+            "{} of {} sessions failed (first: {})",
+            summary.failed.len(),
+            summary.sessions,
+            summary.failed[0]
+        );
+    }
+    Ok(())
+}

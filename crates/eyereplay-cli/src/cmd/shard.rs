@@ -1,0 +1,121 @@
+//! Which part of a dataset this process renders.
+//!
+//! Sessions are numbered in `labels.csv` order; session `i` belongs to shard
+//! `i mod N`. Round-robin rather than contiguous blocks, so every shard gets
+//! both classes and about the same work.
+
+use anyhow::{bail, Context, Result};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// 0-based.
+    pub index: usize,
+    pub count: usize,
+}
+
+impl Shard {
+    pub fn new(index: usize, count: usize) -> Result<Self> {
+        if count == 0 {
+            bail!("shard count must be at least 1");
+        }
+        if index >= count {
+            bail!("shard index {index} is out of range for {count} shards (indices are 0-based)");
+        }
+        Ok(Shard { index, count })
+    }
+
+    /// `K/N`.
+    pub fn parse(s: &str) -> Result<Self> {
+        let (k, n) = s
+            .split_once('/')
+            .with_context(|| format!("--shard '{s}': expected K/N, e.g. 0/4"))?;
+        let k: usize = k.trim().parse().with_context(|| format!("--shard '{s}': K is not a number"))?;
+        let n: usize = n.trim().parse().with_context(|| format!("--shard '{s}': N is not a number"))?;
+        Shard::new(k, n)
+    }
+
+    /// `--shard` first; else Slurm's array variables; else Kubernetes'
+    /// `JOB_COMPLETION_INDEX` with `--shards` / `EYEREPLAY_SHARDS`.
+    pub fn resolve(flag: Option<&str>, shards: Option<usize>) -> Result<Option<Self>> {
+        Self::resolve_with(flag, shards, |k| std::env::var(k).ok())
+    }
+
+    pub fn resolve_with(
+        flag: Option<&str>,
+        shards: Option<usize>,
+        env: impl Fn(&str) -> Option<String>,
+    ) -> Result<Option<Self>> {
+        if let Some(f) = flag {
+            return Shard::parse(f).map(Some);
+        }
+        let num = |k: &str| -> Result<Option<usize>> {
+            match env(k) {
+                None => Ok(None),
+                Some(v) => v
+                    .trim()
+                    .parse()
+                    .map(Some)
+                    .with_context(|| format!("{k}='{v}' is not a number")),
+            }
+        };
+        if let Some(k) = num("SLURM_ARRAY_TASK_ID")? {
+            let n = num("SLURM_ARRAY_TASK_COUNT")?
+                .context("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not")?;
+            // Arrays may start at a nonzero id (--array=1-4).
+            let min = num("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
+            return Shard::new(k.checked_sub(min).context("SLURM_ARRAY_TASK_ID below SLURM_ARRAY_TASK_MIN")?, n).map(Some);
+        }
+        if let Some(k) = num("JOB_COMPLETION_INDEX")? {
+            let n = shards.context("JOB_COMPLETION_INDEX is set: give the shard count with --shards N or EYEREPLAY_SHARDS")?;
+            return Shard::new(k, n).map(Some);
+        }
+        Ok(None)
+    }
+
+    pub fn contains(&self, session_ordinal: usize) -> bool {
+        session_ordinal % self.count == self.index
+    }
+
+    /// Sessions of `total` in this shard.
+    pub fn count_of(&self, total: usize) -> usize {
+        (0..total).filter(|i| self.contains(*i)).count()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn env(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> + '_ {
+        move |k| pairs.iter().find(|(a, _)| *a == k).map(|(_, v)| v.to_string())
+    }
+
+    #[test]
+    fn parse_and_partition() {
+        let s = Shard::parse("2/4").unwrap();
+        let mine: Vec<usize> = (0..10).filter(|i| s.contains(*i)).collect();
+        assert_eq!(mine, vec![2, 6]);
+        assert_eq!(s.count_of(10), 2);
+        // Every session lands in exactly one shard.
+        for i in 0..37 {
+            assert_eq!((0..4).filter(|k| Shard::new(*k, 4).unwrap().contains(i)).count(), 1);
+        }
+        assert!(Shard::parse("4/4").unwrap_err().to_string().contains("0-based"));
+        assert!(Shard::parse("x").is_err());
+    }
+
+    #[test]
+    fn engines_indices() {
+        let slurm = env(&[("SLURM_ARRAY_TASK_ID", "3"), ("SLURM_ARRAY_TASK_COUNT", "4")]);
+        assert_eq!(Shard::resolve_with(None, None, slurm).unwrap(), Some(Shard { index: 3, count: 4 }));
+        let slurm1 = env(&[("SLURM_ARRAY_TASK_ID", "4"), ("SLURM_ARRAY_TASK_COUNT", "4"), ("SLURM_ARRAY_TASK_MIN", "1")]);
+        assert_eq!(Shard::resolve_with(None, None, slurm1).unwrap(), Some(Shard { index: 3, count: 4 }));
+        let k8s = env(&[("JOB_COMPLETION_INDEX", "5")]);
+        assert_eq!(Shard::resolve_with(None, Some(8), &k8s).unwrap(), Some(Shard { index: 5, count: 8 }));
+        assert!(Shard::resolve_with(None, None, &k8s).unwrap_err().to_string().contains("--shards"));
+        // The flag wins over the environment.
+        let both = env(&[("SLURM_ARRAY_TASK_ID", "1"), ("SLURM_ARRAY_TASK_COUNT", "2")]);
+        assert_eq!(Shard::resolve_with(Some("0/3"), None, both).unwrap(), Some(Shard { index: 0, count: 3 }));
+        assert_eq!(Shard::resolve_with(None, None, env(&[])).unwrap(), None);
+    }
+}

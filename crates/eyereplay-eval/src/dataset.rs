@@ -1,0 +1,351 @@
+//! Reading a dataset folder written by `eyereplay prepare`:
+//! `labels.csv`, `metadata.json`, the session CSVs, and the per-class source
+//! pool `pool/<class>.csv`.
+
+use crate::EvalError;
+use eyereplay_core::{read_session_csv, Canvas, GazeClass};
+use std::path::{Path, PathBuf};
+
+/// A continuous stretch of the source pool: one source recording.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Segment {
+    /// Index into metadata's sources.
+    pub source: i64,
+    pub points: Vec<[f64; 2]>,
+}
+
+/// One generated session.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Session {
+    /// Path relative to the dataset folder, as in labels.csv.
+    pub file: String,
+    pub points: Vec<[f64; 2]>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClassData {
+    pub class: GazeClass,
+    pub sessions: Vec<Session>,
+    /// The concatenated source pool, split where the source changes.
+    pub pool: Vec<Segment>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dataset {
+    pub dir: PathBuf,
+    pub fps: f64,
+    pub canvas: Canvas,
+    pub session_frames: usize,
+    /// In [`GazeClass::ALL`] order.
+    pub classes: Vec<ClassData>,
+}
+
+fn read_text(path: &Path) -> Result<String, EvalError> {
+    std::fs::read_to_string(path).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::NotFound {
+            EvalError::dataset(
+                path,
+                "not found (is this a dataset folder written by 'eyereplay prepare'?)",
+            )
+        } else {
+            EvalError::io(path, e)
+        }
+    })
+}
+
+fn num(meta: &serde_json::Value, key: &str, path: &Path) -> Result<f64, EvalError> {
+    let mut cur = meta;
+    for k in key.split('.') {
+        cur = cur
+            .get(k)
+            .ok_or_else(|| EvalError::dataset(path, format!("missing key '{key}'")))?;
+    }
+    cur.as_f64()
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .ok_or_else(|| EvalError::dataset(path, format!("'{key}' must be a positive number")))
+}
+
+/// The parts of metadata.json evaluation needs.
+pub fn read_metadata(dir: &Path) -> Result<(f64, Canvas, usize), EvalError> {
+    let path = dir.join("metadata.json");
+    let text = read_text(&path)?;
+    let meta: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| EvalError::dataset(&path, format!("not valid JSON: {e}")))?;
+    let fps = num(&meta, "fps", &path)?;
+    let w = num(&meta, "canvas.width_px", &path)?;
+    let h = num(&meta, "canvas.height_px", &path)?;
+    let frames = num(&meta, "session_frames", &path)?;
+    Ok((
+        fps,
+        Canvas {
+            width_px: w as u32,
+            height_px: h as u32,
+        },
+        frames as usize,
+    ))
+}
+
+/// `(file, class)` rows of labels.csv, checked for a consistent label.
+pub fn read_labels(dir: &Path) -> Result<Vec<(String, GazeClass)>, EvalError> {
+    let path = dir.join("labels.csv");
+    let text = read_text(&path)?;
+    let mut rdr = csv::ReaderBuilder::new().from_reader(text.as_bytes());
+    let headers = rdr
+        .headers()
+        .map_err(|e| EvalError::dataset(&path, e.to_string()))?
+        .clone();
+    let col = |name: &str| -> Result<usize, EvalError> {
+        headers
+            .iter()
+            .position(|h| h.trim() == name)
+            .ok_or_else(|| {
+                EvalError::dataset(
+                    &path,
+                    format!(
+                        "missing column '{name}' (expected file,label,class,sources; found {})",
+                        headers.iter().collect::<Vec<_>>().join(",")
+                    ),
+                )
+            })
+    };
+    let (cf, cl, cc) = (col("file")?, col("label")?, col("class")?);
+    let mut out = Vec::new();
+    for (i, rec) in rdr.records().enumerate() {
+        let line = i + 2;
+        let rec = rec.map_err(|e| EvalError::dataset(&path, format!("line {line}: {e}")))?;
+        let field = |c: usize| rec.get(c).unwrap_or("").trim().to_string();
+        let class: GazeClass = field(cc)
+            .parse()
+            .map_err(|e: String| EvalError::dataset(&path, format!("line {line}: {e}")))?;
+        let label = field(cl);
+        if label != class.label().to_string() {
+            return Err(EvalError::dataset(
+                &path,
+                format!(
+                    "line {line}: label '{label}' does not match class '{class}' (expected {})",
+                    class.label()
+                ),
+            ));
+        }
+        out.push((field(cf), class));
+    }
+    Ok(out)
+}
+
+/// Reads `pool/<class>.csv` (`frame,x,y,source`), split into segments where
+/// `source` changes.
+pub fn read_pool(path: &Path) -> Result<Vec<Segment>, EvalError> {
+    let text = read_text(path)?;
+    let mut rdr = csv::ReaderBuilder::new().from_reader(text.as_bytes());
+    let headers = rdr
+        .headers()
+        .map_err(|e| EvalError::dataset(path, e.to_string()))?
+        .clone();
+    let col = |name: &str| -> Result<usize, EvalError> {
+        headers
+            .iter()
+            .position(|h| h.trim() == name)
+            .ok_or_else(|| {
+                EvalError::dataset(
+                    path,
+                    format!("missing column '{name}' (expected frame,x,y,source)"),
+                )
+            })
+    };
+    let (cx, cy, cs) = (col("x")?, col("y")?, col("source")?);
+    let mut segs: Vec<Segment> = Vec::new();
+    for (i, rec) in rdr.records().enumerate() {
+        let line = i + 2;
+        let rec = rec.map_err(|e| EvalError::dataset(path, format!("line {line}: {e}")))?;
+        let f = |c: usize| -> Result<f64, EvalError> {
+            rec.get(c)
+                .and_then(|s| s.trim().parse::<f64>().ok())
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    EvalError::dataset(
+                        path,
+                        format!("line {line}: column {} is not a finite number", c + 1),
+                    )
+                })
+        };
+        let (x, y) = (f(cx)?, f(cy)?);
+        let src = f(cs)?;
+        if src.fract() != 0.0 {
+            return Err(EvalError::dataset(
+                path,
+                format!("line {line}: source must be an integer index"),
+            ));
+        }
+        let src = src as i64;
+        match segs.last_mut() {
+            Some(s) if s.source == src => s.points.push([x, y]),
+            _ => segs.push(Segment {
+                source: src,
+                points: vec![[x, y]],
+            }),
+        }
+    }
+    if segs.is_empty() {
+        return Err(EvalError::dataset(path, "source pool has no frames"));
+    }
+    Ok(segs)
+}
+
+/// Loads and checks a whole dataset folder.
+pub fn load_dataset(dir: &Path) -> Result<Dataset, EvalError> {
+    if !dir.is_dir() {
+        return Err(EvalError::dataset(dir, "not a folder"));
+    }
+    let labels = read_labels(dir)?;
+    let (fps, canvas, session_frames) = read_metadata(dir)?;
+    let mut classes = Vec::new();
+    for class in GazeClass::ALL {
+        let files: Vec<&String> = labels
+            .iter()
+            .filter(|(_, c)| *c == class)
+            .map(|(f, _)| f)
+            .collect();
+        if files.is_empty() {
+            return Err(EvalError::dataset(
+                dir.join("labels.csv"),
+                format!("class '{class}' has no sessions (empty class)"),
+            ));
+        }
+        let mut sessions = Vec::with_capacity(files.len());
+        for f in files {
+            let path = dir.join(f);
+            let pts = read_session_csv(&path)?;
+            if pts.len() != session_frames {
+                return Err(EvalError::dataset(
+                    &path,
+                    format!(
+                        "{} frames, but metadata.json says session_frames = {session_frames}",
+                        pts.len()
+                    ),
+                ));
+            }
+            sessions.push(Session {
+                file: f.clone(),
+                points: pts.iter().map(|p| [p.x_px, p.y_px]).collect(),
+            });
+        }
+        let pool = read_pool(&dir.join("pool").join(format!("{}.csv", class.name())))?;
+        classes.push(ClassData {
+            class,
+            sessions,
+            pool,
+        });
+    }
+    Ok(Dataset {
+        dir: dir.to_path_buf(),
+        fps,
+        canvas,
+        session_frames,
+        classes,
+    })
+}
+
+/// The linear calibration of metadata.json (paper eq. `c = s (n - 0.5) + mu`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Calibration {
+    pub s_x: f64,
+    pub s_y: f64,
+    pub mu_x: f64,
+    pub mu_y: f64,
+}
+
+impl Calibration {
+    /// Canvas px back to the normalized iris position that produced them:
+    /// `n = (c - mu) / s + 0.5`.
+    pub fn to_norm(&self, c: [f64; 2]) -> [f64; 2] {
+        [
+            (c[0] - self.mu_x) / self.s_x + 0.5,
+            (c[1] - self.mu_y) / self.s_y + 0.5,
+        ]
+    }
+}
+
+/// `calibration.{s_x,s_y,mu_x,mu_y}` of `<dir>/metadata.json`.
+pub fn read_calibration(dir: &Path) -> Result<Calibration, EvalError> {
+    let path = dir.join("metadata.json");
+    let meta: serde_json::Value = serde_json::from_str(&read_text(&path)?)
+        .map_err(|e| EvalError::dataset(&path, format!("not valid JSON: {e}")))?;
+    let get = |k: &str| -> Result<f64, EvalError> {
+        meta.get("calibration")
+            .and_then(|c| c.get(k))
+            .and_then(|v| v.as_f64())
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| EvalError::dataset(&path, format!("missing number 'calibration.{k}'")))
+    };
+    let c = Calibration {
+        s_x: get("s_x")?,
+        s_y: get("s_y")?,
+        mu_x: get("mu_x")?,
+        mu_y: get("mu_y")?,
+    };
+    if c.s_x == 0.0 || c.s_y == 0.0 {
+        return Err(EvalError::dataset(
+            &path,
+            "calibration scale s_x or s_y is 0",
+        ));
+    }
+    Ok(c)
+}
+
+/// The rendered video of a session CSV: `<class>/<stem>.mp4` beside it.
+pub fn rendered_video_path(dir: &Path, session_rel: &str) -> PathBuf {
+    dir.join(session_rel).with_extension("mp4")
+}
+
+/// The renderer's per-frame ground truth beside a session:
+/// `<class>/<stem>_truth.csv`.
+pub fn truth_csv_path(dir: &Path, session_rel: &str) -> PathBuf {
+    let p = dir.join(session_rel);
+    let stem = p
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    p.with_file_name(format!("{stem}_truth.csv"))
+}
+
+/// Mean of both eyes' `(nx, ny)` per frame from a renderer truth CSV
+/// (columns `left_nx,left_ny,right_nx,right_ny`).
+pub fn read_truth_norm(path: &Path) -> Result<Vec<[f64; 2]>, EvalError> {
+    let text = read_text(path)?;
+    let mut rdr = csv::ReaderBuilder::new().from_reader(text.as_bytes());
+    let headers = rdr
+        .headers()
+        .map_err(|e| EvalError::dataset(path, e.to_string()))?
+        .clone();
+    let col = |name: &str| -> Result<usize, EvalError> {
+        headers
+            .iter()
+            .position(|h| h.trim() == name)
+            .ok_or_else(|| EvalError::dataset(path, format!("missing column '{name}'")))
+    };
+    let cols = [
+        col("left_nx")?,
+        col("left_ny")?,
+        col("right_nx")?,
+        col("right_ny")?,
+    ];
+    let mut out = Vec::new();
+    for (i, rec) in rdr.records().enumerate() {
+        let line = i + 2;
+        let rec = rec.map_err(|e| EvalError::dataset(path, format!("line {line}: {e}")))?;
+        let mut v = [0.0; 4];
+        for (k, c) in cols.iter().enumerate() {
+            v[k] = rec
+                .get(*c)
+                .and_then(|s| s.trim().parse::<f64>().ok())
+                .ok_or_else(|| {
+                    EvalError::dataset(
+                        path,
+                        format!("line {line}: column {} is not a number", c + 1),
+                    )
+                })?;
+        }
+        out.push([(v[0] + v[2]) / 2.0, (v[1] + v[3]) / 2.0]);
+    }
+    Ok(out)
+}

@@ -1,0 +1,29 @@
+//! Evaluation of an eyereplay dataset (issue 5, paper section 5):
+//! eye-movement metrics, a two-sample KS test that agrees with scipy,
+//! distributional fidelity of generated sessions against their source pool,
+//! visual mapping fidelity of a render against its source, plots (PNG and
+//! SVG) and a self-contained HTML report with a deterministic metrics.json.
+
+pub mod dataset;
+pub mod distribution;
+mod error;
+pub mod json;
+pub mod ks;
+pub mod metrics;
+pub mod stats;
+pub mod visual;
+
+pub use dataset::{load_dataset, Dataset};
+pub use distribution::{compare_metric, evaluate_class, ClassEvaluation, EvalConfig, Metric};
+pub use error::EvalError;
+pub use ks::{ks_2samp, KsMethod, KsResult};
+pub use metrics::{
+    detect_events, speeds_px_per_frame, Event, EventKind, IvtThresholds, MetricSamples,
+};
+pub use visual::{compare_visual, VisualFidelity};
+pub mod plot;
+pub mod report;
+pub use dataset::{read_calibration, rendered_video_path, truth_csv_path, Calibration};
+pub use report::{
+    evaluate_dataset, metrics_json, write_report, Evaluation, VisualRun, VisualSection,
+};

@@ -1,0 +1,555 @@
+//! Figures, each drawn twice from the same code: PNG (for the HTML report,
+//! inlined as base64) and SVG (for papers). Text uses a font embedded in the
+//! binary (Ubuntu Light, from the `epaint_default_fonts` crate), so nothing
+//! depends on the fonts installed on the machine.
+
+use crate::distribution::{ClassEvaluation, Metric};
+use crate::visual::VisualFidelity;
+use crate::EvalError;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+use std::sync::Once;
+
+const FONT: &str = "sans-serif";
+const SRC_COLOR: RGBColor = RGBColor(31, 119, 180);
+const GEN_COLOR: RGBColor = RGBColor(255, 127, 14);
+const X_COLOR: RGBColor = RGBColor(31, 119, 180);
+const Y_COLOR: RGBColor = RGBColor(214, 39, 40);
+
+/// One figure in both formats.
+#[derive(Clone, Debug)]
+pub struct Figure {
+    /// File stem, e.g. `qq`.
+    pub name: String,
+    pub png: Vec<u8>,
+    pub svg: String,
+    pub size: (u32, u32),
+}
+
+fn ensure_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The font bytes are a valid TTF shipped inside the crate.
+        let _ = plotters::style::register_font(
+            FONT,
+            FontStyle::Normal,
+            epaint_default_fonts::UBUNTU_LIGHT,
+        );
+    });
+}
+
+type DrawResult = Result<(), String>;
+
+fn s<E: std::fmt::Display>(e: E) -> String {
+    e.to_string()
+}
+
+/// Draws with `draw` on a PNG bitmap and on an SVG string.
+fn render(
+    name: &str,
+    size: (u32, u32),
+    draw_png: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> DrawResult,
+    draw_svg: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> DrawResult,
+) -> Result<Figure, EvalError> {
+    ensure_font();
+    let err = |m: String| EvalError::Plot {
+        name: name.to_string(),
+        message: m,
+    };
+    let mut buf = vec![255u8; size.0 as usize * size.1 as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(s(e)))?;
+        draw_png(&root).map_err(err)?;
+        root.present().map_err(|e| err(s(e)))?;
+    }
+    let mut png_bytes = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut png_bytes, size.0, size.1);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut w = enc.write_header().map_err(|e| err(s(e)))?;
+        w.write_image_data(&buf).map_err(|e| err(s(e)))?;
+    }
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(s(e)))?;
+        draw_svg(&root).map_err(err)?;
+        root.present().map_err(|e| err(s(e)))?;
+    }
+    Ok(Figure {
+        name: name.to_string(),
+        png: png_bytes,
+        svg,
+        size,
+    })
+}
+
+fn padded_range(lo: f64, hi: f64) -> (f64, f64) {
+    if !(lo.is_finite() && hi.is_finite()) {
+        return (0.0, 1.0);
+    }
+    if hi - lo <= f64::EPSILON * hi.abs().max(1.0) {
+        return (lo - 0.5, hi + 0.5);
+    }
+    let pad = (hi - lo) * 0.04;
+    (lo - pad, hi + pad)
+}
+
+fn fmt_p(p: f64) -> String {
+    if p == 0.0 {
+        "0".into()
+    } else if p >= 1e-3 {
+        format!("{p:.3}")
+    } else {
+        format!("{p:.1e}")
+    }
+}
+
+fn draw_qq_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    c: &ClassEvaluation,
+    m: Metric,
+    d_max: f64,
+) -> DrawResult {
+    let cmp = c
+        .comparisons
+        .iter()
+        .find(|x| x.metric == m)
+        .expect("every metric compared");
+    let title = format!("{} - {} ({})", c.class, m.title(), m.unit());
+    if cmp.qq.is_empty() {
+        let mut chart = ChartBuilder::on(area)
+            .caption(&title, (FONT, 16))
+            .margin(10)
+            .build_cartesian_2d(0.0..1.0, 0.0..1.0)
+            .map_err(s)?;
+        chart
+            .draw_series(std::iter::once(Text::new(
+                format!(
+                    "no samples (source {}, generated {})",
+                    cmp.n_source, cmp.n_generated
+                ),
+                (0.05, 0.5),
+                (FONT, 14),
+            )))
+            .map_err(s)?;
+        return Ok(());
+    }
+    let lo = cmp
+        .qq
+        .iter()
+        .map(|p| p.0.min(p.1))
+        .fold(f64::INFINITY, f64::min);
+    let hi = cmp
+        .qq
+        .iter()
+        .map(|p| p.0.max(p.1))
+        .fold(f64::NEG_INFINITY, f64::max);
+    let (lo, hi) = padded_range(lo, hi);
+    let mut chart = ChartBuilder::on(area)
+        .caption(&title, (FONT, 16))
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(48)
+        .build_cartesian_2d(lo..hi, lo..hi)
+        .map_err(s)?;
+    chart
+        .configure_mesh()
+        .x_desc("source quantile")
+        .y_desc("generated quantile")
+        .label_style((FONT, 12))
+        .axis_desc_style((FONT, 13))
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(s)?;
+    chart
+        .draw_series(DashedLineSeries::new(
+            vec![(lo, lo), (hi, hi)],
+            6,
+            4,
+            BLACK.stroke_width(1),
+        ))
+        .map_err(s)?;
+    chart
+        .draw_series(
+            cmp.qq
+                .iter()
+                .map(|&(x, y)| Circle::new((x, y), 3, SRC_COLOR.mix(0.8).filled())),
+        )
+        .map_err(s)?;
+    let label = match &cmp.ks {
+        Some(k) => format!(
+            "D = {:.3} {} {d_max} ({})   p = {}",
+            k.d,
+            if k.d <= d_max { "<=" } else { ">" },
+            if k.d <= d_max { "pass" } else { "fail" },
+            fmt_p(k.p)
+        ),
+        None => "D: n/a".into(),
+    };
+    chart
+        .draw_series(std::iter::once(Text::new(
+            label,
+            (lo + 0.04 * (hi - lo), hi - 0.06 * (hi - lo)),
+            (FONT, 15),
+        )))
+        .map_err(s)?;
+    chart
+        .draw_series(std::iter::once(Text::new(
+            format!("n = {} / {}", cmp.n_source, cmp.n_generated),
+            (lo + 0.04 * (hi - lo), hi - 0.14 * (hi - lo)),
+            (FONT, 12),
+        )))
+        .map_err(s)?;
+    Ok(())
+}
+
+fn draw_qq<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    classes: &[ClassEvaluation],
+    d_max: f64,
+) -> DrawResult {
+    let panels = root.split_evenly((classes.len(), Metric::ALL.len()));
+    for (ci, c) in classes.iter().enumerate() {
+        for (mi, &m) in Metric::ALL.iter().enumerate() {
+            draw_qq_panel(&panels[ci * Metric::ALL.len() + mi], c, m, d_max)?;
+        }
+    }
+    Ok(())
+}
+
+/// Q-Q plots: one panel per class (rows) and metric (columns), the 1:1 line
+/// dashed, KS D (against the threshold `d_max`) and p annotated.
+pub fn qq_figure(classes: &[ClassEvaluation], d_max: f64) -> Result<Figure, EvalError> {
+    let size = (1380, 420 * classes.len().max(1) as u32);
+    render(
+        "qq",
+        size,
+        |r| draw_qq(r, classes, d_max),
+        |r| draw_qq(r, classes, d_max),
+    )
+}
+
+fn draw_series_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    pts: &[[f64; 2]],
+    fps: f64,
+    yr: (f64, f64),
+) -> DrawResult {
+    let t_max = (pts.len().max(2) - 1) as f64 / fps;
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, (FONT, 16))
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(52)
+        .build_cartesian_2d(0.0..t_max, yr.0..yr.1)
+        .map_err(s)?;
+    chart
+        .configure_mesh()
+        .x_desc("time (s)")
+        .y_desc("canvas position (px)")
+        .label_style((FONT, 12))
+        .axis_desc_style((FONT, 13))
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(s)?;
+    for (axis, color, name) in [(0usize, X_COLOR, "x"), (1, Y_COLOR, "y")] {
+        chart
+            .draw_series(LineSeries::new(
+                pts.iter()
+                    .enumerate()
+                    .map(|(i, p)| (i as f64 / fps, p[axis])),
+                color.stroke_width(1),
+            ))
+            .map_err(s)?
+            .label(name)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+            });
+    }
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(s)?;
+    Ok(())
+}
+
+fn draw_windows<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    classes: &[ClassEvaluation],
+    fps: f64,
+) -> DrawResult {
+    let panels = root.split_evenly((classes.len(), 2));
+    for (ci, c) in classes.iter().enumerate() {
+        let all = c.window_source.iter().chain(&c.window_generated);
+        let lo = all
+            .clone()
+            .map(|p| p[0].min(p[1]))
+            .fold(f64::INFINITY, f64::min);
+        let hi = all
+            .map(|p| p[0].max(p[1]))
+            .fold(f64::NEG_INFINITY, f64::max);
+        let yr = padded_range(lo, hi);
+        let secs = c.window_source.len().max(c.window_generated.len()) as f64 / fps;
+        draw_series_panel(
+            &panels[ci * 2],
+            &format!("{} - source pool, first {secs:.0} s", c.class),
+            &c.window_source,
+            fps,
+            yr,
+        )?;
+        draw_series_panel(
+            &panels[ci * 2 + 1],
+            &format!("{} - generated {}", c.class, c.window_generated_file),
+            &c.window_generated,
+            fps,
+            yr,
+        )?;
+    }
+    Ok(())
+}
+
+/// Time-series windows, source (left) beside generated (right), per class.
+pub fn windows_figure(classes: &[ClassEvaluation], fps: f64) -> Result<Figure, EvalError> {
+    let size = (1400, 380 * classes.len().max(1) as u32);
+    render(
+        "timeseries",
+        size,
+        |r| draw_windows(r, classes, fps),
+        |r| draw_windows(r, classes, fps),
+    )
+}
+
+/// At most `max` items, evenly strided (deterministic).
+fn thin<T: Copy>(v: &[T], max: usize) -> Vec<T> {
+    if v.len() <= max {
+        return v.to_vec();
+    }
+    let step = v.len() as f64 / max as f64;
+    (0..max).map(|i| v[(i as f64 * step) as usize]).collect()
+}
+
+fn draw_main_sequence<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    classes: &[ClassEvaluation],
+    fps: f64,
+) -> DrawResult {
+    let panels = root.split_evenly((1, classes.len()));
+    for (ci, c) in classes.iter().enumerate() {
+        let pts = |m: &crate::metrics::MetricSamples| -> Vec<(f64, f64)> {
+            m.saccade_amplitude_px
+                .iter()
+                .zip(&m.saccade_peak_speed_px_per_frame)
+                .filter(|(a, p)| **a > 0.0 && **p > 0.0)
+                .map(|(a, p)| (*a, p * fps))
+                .collect()
+        };
+        let (sp, gp) = (thin(&pts(&c.source), 3000), thin(&pts(&c.generated), 3000));
+        let all = sp.iter().chain(&gp);
+        let (xl, xh) = all
+            .clone()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| {
+                (a.0.min(p.0), a.1.max(p.0))
+            });
+        let (yl, yh) = all.fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| {
+            (a.0.min(p.1), a.1.max(p.1))
+        });
+        let (xl, xh) = if xl.is_finite() {
+            (xl * 0.9, xh * 1.1)
+        } else {
+            (1.0, 10.0)
+        };
+        let (yl, yh) = if yl.is_finite() {
+            (yl * 0.9, yh * 1.1)
+        } else {
+            (1.0, 10.0)
+        };
+        let mut chart = ChartBuilder::on(&panels[ci])
+            .caption(format!("{} - main sequence", c.class), (FONT, 16))
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(56)
+            .build_cartesian_2d((xl..xh).log_scale(), (yl..yh).log_scale())
+            .map_err(s)?;
+        chart
+            .configure_mesh()
+            .x_desc("saccade amplitude (px)")
+            .y_desc("peak speed (px/s)")
+            .label_style((FONT, 12))
+            .axis_desc_style((FONT, 13))
+            .light_line_style(WHITE)
+            .draw()
+            .map_err(s)?;
+        for (pts, color, name) in [(&sp, SRC_COLOR, "source"), (&gp, GEN_COLOR, "generated")] {
+            chart
+                .draw_series(
+                    pts.iter()
+                        .map(|&(x, y)| Circle::new((x, y), 2, color.mix(0.35).filled())),
+                )
+                .map_err(s)?
+                .label(name)
+                .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .label_font((FONT, 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::LowerRight)
+            .draw()
+            .map_err(s)?;
+    }
+    Ok(())
+}
+
+/// Main sequence (saccade amplitude against peak speed, log-log), source
+/// and generated overlaid, one panel per class.
+pub fn main_sequence_figure(classes: &[ClassEvaluation], fps: f64) -> Result<Figure, EvalError> {
+    let size = (600 * classes.len().max(1) as u32, 460);
+    render(
+        "main_sequence",
+        size,
+        |r| draw_main_sequence(r, classes, fps),
+        |r| draw_main_sequence(r, classes, fps),
+    )
+}
+
+fn draw_visual<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    v: &VisualFidelity,
+    source_n: &[[f64; 2]],
+    rendered_n: &[[f64; 2]],
+    fps: f64,
+) -> DrawResult {
+    let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 * 2 / 3);
+    let rows = top.split_evenly((2, 1));
+    let t_max = (source_n.len().max(2) - 1) as f64 / fps;
+    for (axis, name) in [(0usize, "n_x"), (1, "n_y")] {
+        let vals = source_n
+            .iter()
+            .chain(rendered_n)
+            .map(|p| p[axis])
+            .filter(|v| v.is_finite());
+        let lo = vals.clone().fold(f64::INFINITY, f64::min);
+        let hi = vals.fold(f64::NEG_INFINITY, f64::max);
+        let (lo, hi) = padded_range(lo, hi);
+        let af = if axis == 0 { &v.x } else { &v.y };
+        let cap = format!(
+            "{name}: source vs rendered   r = {}   amplitude ratio = {}",
+            af.r.map_or("n/a".into(), |r| format!("{r:.3}")),
+            af.amplitude_ratio
+                .map_or("n/a".into(), |a| format!("{a:.2}"))
+        );
+        let mut chart = ChartBuilder::on(&rows[axis])
+            .caption(cap, (FONT, 15))
+            .margin(8)
+            .x_label_area_size(30)
+            .y_label_area_size(48)
+            .build_cartesian_2d(0.0..t_max, lo..hi)
+            .map_err(s)?;
+        chart
+            .configure_mesh()
+            .x_desc("time (s)")
+            .label_style((FONT, 12))
+            .axis_desc_style((FONT, 13))
+            .light_line_style(WHITE)
+            .draw()
+            .map_err(s)?;
+        for (sig, color, label) in [
+            (source_n, SRC_COLOR, "source"),
+            (rendered_n, GEN_COLOR, "rendered"),
+        ] {
+            chart
+                .draw_series(LineSeries::new(
+                    sig.iter()
+                        .enumerate()
+                        .filter(|(_, p)| p[axis].is_finite())
+                        .map(|(i, p)| (i as f64 / fps, p[axis])),
+                    color.stroke_width(1),
+                ))
+                .map_err(s)?
+                .label(label)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .label_font((FONT, 12))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(s)?;
+    }
+    // Error histogram.
+    let bins = 40usize;
+    let emax = v.errors.iter().cloned().fold(0.0, f64::max).max(1e-9);
+    let width = emax / bins as f64;
+    let mut counts = vec![0usize; bins];
+    for e in &v.errors {
+        counts[((e / width) as usize).min(bins - 1)] += 1;
+    }
+    let cmax = *counts.iter().max().unwrap_or(&1) as f64;
+    let mut chart = ChartBuilder::on(&bottom)
+        .caption(
+            format!(
+                "per-frame error (normalized): mean {:.3}, median {:.3}, p95 {:.3}",
+                v.error.mean, v.error.median, v.error.p95
+            ),
+            (FONT, 15),
+        )
+        .margin(8)
+        .x_label_area_size(30)
+        .y_label_area_size(48)
+        .build_cartesian_2d(0.0..emax, 0.0..cmax * 1.05)
+        .map_err(s)?;
+    chart
+        .configure_mesh()
+        .x_desc("error")
+        .y_desc("frames")
+        .x_label_formatter(&|v| {
+            if emax < 0.01 {
+                format!("{v:.1e}")
+            } else {
+                format!("{v:.3}")
+            }
+        })
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .label_style((FONT, 12))
+        .axis_desc_style((FONT, 13))
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(s)?;
+    chart
+        .draw_series(counts.iter().enumerate().map(|(i, &c)| {
+            Rectangle::new(
+                [(i as f64 * width, 0.0), ((i + 1) as f64 * width, c as f64)],
+                SRC_COLOR.mix(0.7).filled(),
+            )
+        }))
+        .map_err(s)?;
+    Ok(())
+}
+
+/// Visual fidelity: both signals over time per axis, and the error histogram.
+pub fn visual_figure(
+    v: &VisualFidelity,
+    source_n: &[[f64; 2]],
+    rendered_n: &[[f64; 2]],
+    fps: f64,
+) -> Result<Figure, EvalError> {
+    render(
+        "visual",
+        (1200, 780),
+        |r| draw_visual(r, v, source_n, rendered_n, fps),
+        |r| draw_visual(r, v, source_n, rendered_n, fps),
+    )
+}

@@ -1,0 +1,629 @@
+//! The evaluation of a whole dataset folder and its outputs:
+//! `report/metrics.json` (deterministic), `report/index.html`
+//! (self-contained, figures inlined as base64 PNG), `report/figures/*.{png,svg}`
+//! and `report/events/<class>/<stem>.csv` (pymovements' events layout).
+
+use crate::dataset::{load_dataset, Dataset};
+use crate::distribution::{evaluate_class, ClassEvaluation, EvalConfig, Extras, Metric};
+use crate::json::Json;
+use crate::metrics::events_csv;
+use crate::plot::{main_sequence_figure, qq_figure, visual_figure, windows_figure, Figure};
+use crate::visual::{VisualFidelity, TARGET_AMPLITUDE_RATIO, TARGET_R_MIN};
+use crate::EvalError;
+use base64::Engine;
+use eyereplay_core::{atomic_write, Canvas};
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+/// A visual-fidelity run: a source iris trajectory against the iris
+/// extracted back from its render.
+#[derive(Clone, Debug)]
+pub struct VisualRun {
+    pub fidelity: VisualFidelity,
+    pub source_n: Vec<[f64; 2]>,
+    pub rendered_n: Vec<[f64; 2]>,
+    /// The video that was compared, as given.
+    pub video: String,
+    /// How the eye was found in the render (e.g. "face detector" or
+    /// "eye crops from the render's known geometry").
+    pub eye_locator: String,
+    /// Share of compared frames where the extractor found the eyes.
+    pub detection_rate: f64,
+}
+
+/// Whether the visual section was computed.
+#[derive(Clone, Debug)]
+pub enum VisualSection {
+    NotComputed { reason: String },
+    Computed(Box<VisualRun>),
+}
+
+/// Everything `eyereplay evaluate` measures.
+#[derive(Clone, Debug)]
+pub struct Evaluation {
+    pub config: EvalConfig,
+    pub fps: f64,
+    pub canvas: Canvas,
+    pub session_frames: usize,
+    pub classes: Vec<ClassEvaluation>,
+    pub pool_frames: Vec<usize>,
+    pub pool_segments: Vec<usize>,
+    pub visual: VisualSection,
+    /// The renderer's ground truth (`<stem>_truth.csv`) of a rendered
+    /// session against its source, without the extractor: (truth CSV,
+    /// comparison). Set whenever a truth file exists, even when the
+    /// extractor cannot read the video.
+    pub render_truth: Option<(String, VisualFidelity)>,
+}
+
+/// Why the visual section is empty until the video path is wired.
+pub const VISUAL_NOT_WIRED: &str = "not computed: evaluating a rendered video needs the iris \
+extractor (eyereplay-extract) and rendered sessions (<class>/<stem>.mp4); this build of \
+'evaluate' does not read videos yet. The comparison itself is available as \
+eyereplay_eval::compare_visual.";
+
+/// Loads a dataset folder and measures its distributional fidelity.
+pub fn evaluate_dataset(dir: &Path, cfg: &EvalConfig) -> Result<Evaluation, EvalError> {
+    let ds = load_dataset(dir)?;
+    Ok(evaluate_loaded(&ds, cfg))
+}
+
+/// [`evaluate_dataset`] on an already loaded dataset.
+pub fn evaluate_loaded(ds: &Dataset, cfg: &EvalConfig) -> Evaluation {
+    let classes = (0..ds.classes.len())
+        .map(|i| evaluate_class(ds, i, cfg))
+        .collect();
+    Evaluation {
+        config: cfg.clone(),
+        fps: ds.fps,
+        canvas: ds.canvas,
+        session_frames: ds.session_frames,
+        classes,
+        pool_frames: ds
+            .classes
+            .iter()
+            .map(|c| c.pool.iter().map(|s| s.points.len()).sum())
+            .collect(),
+        pool_segments: ds.classes.iter().map(|c| c.pool.len()).collect(),
+        visual: VisualSection::NotComputed {
+            reason: VISUAL_NOT_WIRED.to_string(),
+        },
+        render_truth: None,
+    }
+}
+
+fn extras_json(e: &Extras) -> Json {
+    let mut j = Json::obj();
+    j.set("n_frames", e.n_frames);
+    j.set("n_segments", e.n_segments);
+    j.set("duration_s", e.duration_s);
+    j.set("n_fixations", e.n_fixations);
+    j.set("n_saccades", e.n_saccades);
+    j.set("fixation_rate_per_s", e.fixation_rate_per_s);
+    j.set("saccade_rate_per_s", e.saccade_rate_per_s);
+    j.set("blink_rate_per_min", e.blink_rate_per_min);
+    j.set("fixation_duration_median_ms", e.fixation_duration_median_ms);
+    j.set("saccade_amplitude_median_px", e.saccade_amplitude_median_px);
+    j.set(
+        "saccade_amplitude_median_deg",
+        e.saccade_amplitude_median_deg,
+    );
+    j.set(
+        "fixation_dispersion_median_px",
+        e.fixation_dispersion_median_px,
+    );
+    j.set("speed_median_px_per_s", e.speed_median_px_per_s);
+    j.set("main_sequence.exponent", e.main_sequence_exponent);
+    j.set(
+        "main_sequence.coefficient_px_per_s",
+        e.main_sequence_coefficient,
+    );
+    j
+}
+
+/// The metrics.json tree. Keys at least
+/// `distribution.<class>.<metric>.{ks_d,ks_p,n_source,n_generated}`,
+/// `visual.{x,y}.{r,amplitude_ratio}`, `visual.error.{mean,median,p95}`.
+pub fn metrics_json(ev: &Evaluation) -> Json {
+    let mut j = Json::obj();
+    j.set("tool_version", eyereplay_core::TOOL_VERSION);
+    j.set("dataset.fps", ev.fps);
+    j.set("dataset.canvas.width_px", ev.canvas.width_px);
+    j.set("dataset.canvas.height_px", ev.canvas.height_px);
+    j.set("dataset.session_frames", ev.session_frames);
+    let c = &ev.config;
+    j.set(
+        "parameters.fixation_below_px_per_frame",
+        c.thresholds.fixation_below_px_per_frame,
+    );
+    j.set(
+        "parameters.saccade_above_px_per_frame",
+        c.thresholds.saccade_above_px_per_frame,
+    );
+    j.set(
+        "parameters.blink_hold_min_frames",
+        c.thresholds.hold_min_frames,
+    );
+    j.set("parameters.window_s", c.window_s);
+    j.set("parameters.qq_points", c.qq_points);
+    j.set("parameters.ks_d_max", c.d_max);
+    j.set("parameters.px_per_deg", c.px_per_deg);
+    j.set(
+        "parameters.ks_test",
+        "two-sided two-sample KS as scipy.stats.ks_2samp(method='auto'): exact p if max(n1, n2) <= 10000, else asymptotic",
+    );
+    j.set(
+        "parameters.segments",
+        "source pool metrics are computed within each source recording (column 'source'); each generated session is one segment",
+    );
+    for (i, ce) in ev.classes.iter().enumerate() {
+        let cls = ce.class.name();
+        j.set(&format!("dataset.classes.{cls}.n_sessions"), ce.n_sessions);
+        j.set(
+            &format!("dataset.classes.{cls}.pool_frames"),
+            ev.pool_frames[i],
+        );
+        j.set(
+            &format!("dataset.classes.{cls}.pool_segments"),
+            ev.pool_segments[i],
+        );
+        for cmp in &ce.comparisons {
+            let base = format!("distribution.{cls}.{}", cmp.metric.key());
+            j.set(&format!("{base}.ks_d"), cmp.ks.map(|k| k.d));
+            j.set(&format!("{base}.ks_p"), cmp.ks.map(|k| k.p));
+            j.set(
+                &format!("{base}.ks_method"),
+                cmp.ks.map(|k| format!("{:?}", k.method).to_lowercase()),
+            );
+            j.set(&format!("{base}.n_source"), cmp.n_source);
+            j.set(&format!("{base}.n_generated"), cmp.n_generated);
+            j.set(&format!("{base}.median_source"), cmp.median_source);
+            j.set(&format!("{base}.median_generated"), cmp.median_generated);
+            j.set(&format!("{base}.unit"), cmp.metric.unit());
+            j.set(&format!("{base}.paper_ks_d"), cmp.metric.paper_d(ce.class));
+            j.set(
+                &format!("{base}.passes_d_max"),
+                cmp.ks.map(|k| k.d <= c.d_max),
+            );
+        }
+        j.set(
+            &format!("extras.{cls}.source"),
+            extras_json(&ce.extras_source),
+        );
+        j.set(
+            &format!("extras.{cls}.generated"),
+            extras_json(&ce.extras_generated),
+        );
+    }
+    j.set("events.layout", "name,onset,offset");
+    j.set("events.time_unit", "ms");
+    j.set("events.dir", "report/events");
+    j.set("visual.target.r_min", TARGET_R_MIN);
+    j.set(
+        "visual.target.amplitude_ratio_min",
+        TARGET_AMPLITUDE_RATIO.0,
+    );
+    j.set(
+        "visual.target.amplitude_ratio_max",
+        TARGET_AMPLITUDE_RATIO.1,
+    );
+    match &ev.visual {
+        VisualSection::NotComputed { reason } => {
+            j.set("visual.computed", false);
+            j.set("visual.reason", reason.as_str());
+            for ax in ["x", "y"] {
+                j.set(&format!("visual.{ax}.r"), Json::Null);
+                j.set(&format!("visual.{ax}.amplitude_ratio"), Json::Null);
+            }
+            for k in ["mean", "median", "p95"] {
+                j.set(&format!("visual.error.{k}"), Json::Null);
+            }
+        }
+        VisualSection::Computed(run) => {
+            let v = &run.fidelity;
+            j.set("visual.computed", true);
+            j.set("visual.video", run.video.as_str());
+            j.set("visual.eye_locator", run.eye_locator.as_str());
+            j.set("visual.n_frames", v.n_frames);
+            for (ax, a) in [("x", &v.x), ("y", &v.y)] {
+                j.set(&format!("visual.{ax}.r"), a.r);
+                j.set(&format!("visual.{ax}.amplitude_ratio"), a.amplitude_ratio);
+                j.set(&format!("visual.{ax}.std_source"), a.std_source);
+                j.set(&format!("visual.{ax}.std_rendered"), a.std_rendered);
+                j.set(&format!("visual.{ax}.meets_targets"), a.meets_targets());
+            }
+            j.set("visual.error.mean", v.error.mean);
+            j.set("visual.error.median", v.error.median);
+            j.set("visual.error.p95", v.error.p95);
+            if let Some(inp) = &v.input {
+                j.set("visual.input.range_x_px", inp.range_px[0]);
+                j.set("visual.input.range_y_px", inp.range_px[1]);
+                j.set("visual.input.range_x_pct_canvas", inp.range_pct_canvas[0]);
+                j.set("visual.input.range_y_pct_canvas", inp.range_pct_canvas[1]);
+                j.set("visual.input.p5_p95_x_px", inp.p5_p95_px[0]);
+                j.set("visual.input.p5_p95_y_px", inp.p5_p95_px[1]);
+            }
+            j.set("visual.meets_targets", v.meets_targets());
+            j.set("visual.detection_rate", run.detection_rate);
+        }
+    }
+    if let Some((file, t)) = &ev.render_truth {
+        j.set("visual.render_truth.file", file.as_str());
+        j.set("visual.render_truth.n_frames", t.n_frames);
+        for (ax, a) in [("x", &t.x), ("y", &t.y)] {
+            j.set(&format!("visual.render_truth.{ax}.r"), a.r);
+            j.set(
+                &format!("visual.render_truth.{ax}.amplitude_ratio"),
+                a.amplitude_ratio,
+            );
+        }
+        j.set("visual.render_truth.error.mean", t.error.mean);
+        j.set("visual.render_truth.error.median", t.error.median);
+        j.set("visual.render_truth.error.p95", t.error.p95);
+    }
+    j
+}
+
+/// All figures of an evaluation.
+pub fn figures(ev: &Evaluation) -> Result<Vec<Figure>, EvalError> {
+    let mut f = vec![
+        qq_figure(&ev.classes, ev.config.d_max)?,
+        windows_figure(&ev.classes, ev.fps)?,
+        main_sequence_figure(&ev.classes, ev.fps)?,
+    ];
+    if let VisualSection::Computed(run) = &ev.visual {
+        f.push(visual_figure(
+            &run.fidelity,
+            &run.source_n,
+            &run.rendered_n,
+            ev.fps,
+        )?);
+    }
+    Ok(f)
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn f3(v: Option<f64>) -> String {
+    v.map_or("n/a".into(), |v| format!("{v:.3}"))
+}
+
+fn fp(p: f64) -> String {
+    if p == 0.0 {
+        "0 (below double precision)".into()
+    } else if p >= 1e-3 {
+        format!("{p:.4}")
+    } else {
+        format!("{p:.3e}")
+    }
+}
+
+fn img(f: &Figure, alt: &str) -> String {
+    format!(
+        "<figure><img alt=\"{}\" width=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{} \
+(<a href=\"figures/{}.svg\">SVG</a>, <a href=\"figures/{}.png\">PNG</a>)</figcaption></figure>\n",
+        esc(alt),
+        f.size.0,
+        base64::engine::general_purpose::STANDARD.encode(&f.png),
+        alt,
+        f.name,
+        f.name
+    )
+}
+
+fn verdict(ok: bool) -> &'static str {
+    if ok {
+        "<span class=\"pass\">pass</span>"
+    } else {
+        "<span class=\"fail\">fail</span>"
+    }
+}
+
+/// The self-contained HTML report.
+pub fn report_html(ev: &Evaluation, figs: &[Figure]) -> String {
+    let fig = |name: &str| figs.iter().find(|f| f.name == name);
+    let c = &ev.config;
+    let mut h = String::new();
+    h.push_str(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>eyereplay evaluation</title>\n<style>\n\
+body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;max-width:1440px;margin:2em auto;padding:0 1em;color:#222}\n\
+table{border-collapse:collapse;margin:0.8em 0}td,th{border:1px solid #ccc;padding:4px 10px;text-align:right}\n\
+th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}\n\
+.pass{color:#1a7f37;font-weight:600}.fail{color:#c62828;font-weight:600}\n\
+figure{margin:1em 0}img{max-width:100%;height:auto;border:1px solid #ddd}figcaption{color:#555;font-size:0.9em}\n\
+table.kv td{text-align:left}\n\
+.note{background:#fff8e1;border-left:4px solid #f0b400;padding:0.6em 1em}code{background:#f3f3f3;padding:0 3px}\n\
+</style></head><body>\n<h1>eyereplay evaluation</h1>\n",
+    );
+    // Dataset
+    h.push_str("<h2>Dataset</h2>\n<table class=\"kv\"><tr><th>property</th><th>value</th></tr>\n");
+    let _ = writeln!(h, "<tr><td>frame rate</td><td>{} fps</td></tr>", ev.fps);
+    let _ = writeln!(
+        h,
+        "<tr><td>canvas</td><td>{} x {} px</td></tr>",
+        ev.canvas.width_px, ev.canvas.height_px
+    );
+    let _ = writeln!(
+        h,
+        "<tr><td>session length</td><td>{} frames ({:.1} s)</td></tr>",
+        ev.session_frames,
+        ev.session_frames as f64 / ev.fps
+    );
+    for (i, ce) in ev.classes.iter().enumerate() {
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{} sessions; source pool {} frames ({:.1} min) in {} source segment(s)</td></tr>",
+            ce.class,
+            ce.n_sessions,
+            ev.pool_frames[i],
+            ev.pool_frames[i] as f64 / ev.fps / 60.0,
+            ev.pool_segments[i]
+        );
+    }
+    h.push_str("</table>\n");
+    // Parameters
+    h.push_str(
+        "<h2>Parameters</h2>\n<table class=\"kv\"><tr><th>parameter</th><th>value</th></tr>\n",
+    );
+    let _ = writeln!(
+        h,
+        "<tr><td>speed</td><td>frame-to-frame Euclidean displacement (px/frame)</td></tr>\n\
+<tr><td>fixation (I-VT)</td><td>maximal run of speeds &lt; {} px/frame; duration in frames</td></tr>\n\
+<tr><td>saccade (I-VT)</td><td>maximal run of speeds &gt; {} px/frame; amplitude = summed displacement (px)</td></tr>\n\
+<tr><td>blink proxy</td><td>run of &ge; {} zero-speed steps (stage 2 forward-fills blinks)</td></tr>\n\
+<tr><td>KS test</td><td>two-sided, as scipy.stats.ks_2samp(method='auto'): exact p if max(n1, n2) &le; 10000, else asymptotic</td></tr>\n\
+<tr><td>KS D threshold</td><td>D &le; {} passes (the paper's D: 0.006-0.136)</td></tr>\n\
+<tr><td>time-series window</td><td>{} s</td></tr>\n<tr><td>Q-Q quantiles per panel</td><td>{}</td></tr>\n\
+<tr><td>viewing geometry</td><td>{}</td></tr>",
+        c.thresholds.fixation_below_px_per_frame,
+        c.thresholds.saccade_above_px_per_frame,
+        c.thresholds.hold_min_frames,
+        c.d_max,
+        c.window_s,
+        c.qq_points,
+        c.px_per_deg
+            .map_or("not given (no degrees)".into(), |k| format!("{k} px per degree"))
+    );
+    h.push_str("</table>\n<p>Source pool metrics are computed within each source recording, so the jump where two recordings were concatenated is not counted; each generated session is measured as a whole, as it would be rendered. Sessions overlap (circular slicing), so they are not independent draws.</p>\n");
+    // Distribution
+    h.push_str("<h2>Distributional fidelity</h2>\n<table><tr><th>class</th><th>metric</th><th>KS D</th><th>p</th><th>p method</th><th>n source</th><th>n generated</th><th>median source</th><th>median generated</th><th>paper D</th><th>D &le; threshold</th></tr>\n");
+    for ce in &ev.classes {
+        for cmp in &ce.comparisons {
+            let (d, p, m, ok) = match &cmp.ks {
+                Some(k) => (
+                    format!("{:.4}", k.d),
+                    fp(k.p),
+                    format!("{:?}", k.method).to_lowercase(),
+                    verdict(k.d <= c.d_max).to_string(),
+                ),
+                None => ("n/a".into(), "n/a".into(), "-".into(), "no samples".into()),
+            };
+            let _ = writeln!(
+                h,
+                "<tr><td>{}</td><td>{} ({})</td><td>{d}</td><td>{p}</td><td>{m}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td><td>{ok}</td></tr>",
+                ce.class,
+                cmp.metric.title(),
+                cmp.metric.unit(),
+                cmp.n_source,
+                cmp.n_generated,
+                f3(cmp.median_source),
+                f3(cmp.median_generated),
+                cmp.metric.paper_d(ce.class)
+            );
+        }
+    }
+    h.push_str("</table>\n<p>With tens of thousands of samples, p-values are small even for tiny differences; D is the measure of practical fidelity.</p>\n");
+    if let Some(f) = fig("qq") {
+        h.push_str(&img(f, "Q-Q plots: generated quantiles against source quantiles, per class and metric; dashed line 1:1; KS D annotated"));
+    }
+    if let Some(f) = fig("timeseries") {
+        h.push_str(&img(f, "Time-series windows: source pool (left) beside a generated session (right), x and y in canvas px"));
+    }
+    // Extras
+    h.push_str("<h2>Beyond the paper</h2>\n<table><tr><th>class</th><th>measure</th><th>source</th><th>generated</th></tr>\n");
+    for ce in &ev.classes {
+        let (s, g) = (&ce.extras_source, &ce.extras_generated);
+        let rows: Vec<(&str, String, String)> = vec![
+            (
+                "duration (s)",
+                format!("{:.1}", s.duration_s),
+                format!("{:.1}", g.duration_s),
+            ),
+            (
+                "fixations per second",
+                format!("{:.3}", s.fixation_rate_per_s),
+                format!("{:.3}", g.fixation_rate_per_s),
+            ),
+            (
+                "saccades per second",
+                format!("{:.3}", s.saccade_rate_per_s),
+                format!("{:.3}", g.saccade_rate_per_s),
+            ),
+            (
+                "blinks per minute (held-position proxy)",
+                format!("{:.2}", s.blink_rate_per_min),
+                format!("{:.2}", g.blink_rate_per_min),
+            ),
+            (
+                "median fixation duration (ms)",
+                f3(s.fixation_duration_median_ms),
+                f3(g.fixation_duration_median_ms),
+            ),
+            (
+                "median saccade amplitude (px)",
+                f3(s.saccade_amplitude_median_px),
+                f3(g.saccade_amplitude_median_px),
+            ),
+            (
+                "median saccade amplitude (deg)",
+                f3(s.saccade_amplitude_median_deg),
+                f3(g.saccade_amplitude_median_deg),
+            ),
+            (
+                "median fixation dispersion (px)",
+                f3(s.fixation_dispersion_median_px),
+                f3(g.fixation_dispersion_median_px),
+            ),
+            (
+                "median speed (px/s)",
+                f3(s.speed_median_px_per_s),
+                f3(g.speed_median_px_per_s),
+            ),
+            (
+                "main sequence exponent (peak speed ~ amplitude^e)",
+                f3(s.main_sequence_exponent),
+                f3(g.main_sequence_exponent),
+            ),
+        ];
+        for (name, a, b) in rows {
+            let _ = writeln!(
+                h,
+                "<tr><td>{}</td><td>{name}</td><td>{a}</td><td>{b}</td></tr>",
+                ce.class
+            );
+        }
+    }
+    h.push_str("</table>\n");
+    if let Some(f) = fig("main_sequence") {
+        h.push_str(&img(
+            f,
+            "Main sequence: saccade amplitude against peak speed (log-log), source and generated",
+        ));
+    }
+    h.push_str("<p>Events of every generated session are exported in pymovements' events layout (<code>name,onset,offset</code>, times in ms from the session start) under <code>report/events/&lt;class&gt;/&lt;session&gt;.csv</code>.</p>\n");
+    // Visual
+    h.push_str("<h2>Visual mapping fidelity</h2>\n");
+    match &ev.visual {
+        VisualSection::NotComputed { reason } => {
+            let _ = writeln!(h, "<p class=\"note\">{}</p>", esc(reason));
+        }
+        VisualSection::Computed(run) => {
+            let v = &run.fidelity;
+            let (lo, hi) = TARGET_AMPLITUDE_RATIO;
+            let _ = writeln!(
+                h,
+                "<p>Video <code>{}</code>, {} frames compared; eye located by: {} (eyes found in {:.1} % of frames).</p>",
+                esc(&run.video),
+                v.n_frames,
+                esc(&run.eye_locator),
+                100.0 * run.detection_rate
+            );
+            h.push_str("<table><tr><th>measure</th><th>value</th><th>target</th><th>verdict</th><th>paper</th></tr>\n");
+            let _ = writeln!(h, "<tr><td>mean error (normalized)</td><td>{:.4}</td><td>-</td><td>-</td><td>0.053</td></tr>", v.error.mean);
+            let _ = writeln!(
+                h,
+                "<tr><td>median error</td><td>{:.4}</td><td>-</td><td>-</td><td>0.036</td></tr>",
+                v.error.median
+            );
+            let _ = writeln!(h, "<tr><td>95th percentile error</td><td>{:.4}</td><td>-</td><td>-</td><td>0.161</td></tr>", v.error.p95);
+            for (ax, a, pr, pa) in [("x", &v.x, 0.006, 0.30), ("y", &v.y, 0.077, 0.42)] {
+                let r_ok = matches!(a.r, Some(r) if r >= TARGET_R_MIN);
+                let a_ok = matches!(a.amplitude_ratio, Some(x) if (lo..=hi).contains(&x));
+                let _ = writeln!(
+                    h,
+                    "<tr><td>Pearson r ({ax})</td><td>{}</td><td>&ge; {TARGET_R_MIN}</td><td>{}</td><td>{pr}</td></tr>\n<tr><td>amplitude ratio ({ax}, std rendered / std source)</td><td>{}</td><td>{lo}-{hi}</td><td>{}</td><td>{pa}</td></tr>",
+                    f3(a.r),
+                    verdict(r_ok),
+                    f3(a.amplitude_ratio),
+                    verdict(a_ok)
+                );
+            }
+            if let Some(inp) = &v.input {
+                let _ = writeln!(
+                    h,
+                    "<tr><td>input range x</td><td>{:.0} px ({:.1} % of canvas width)</td><td>-</td><td>-</td><td>100 px (7.8 %)</td></tr>\n<tr><td>input range y</td><td>{:.0} px ({:.1} % of canvas height)</td><td>-</td><td>-</td><td>155 px (21.5 %)</td></tr>",
+                    inp.range_px[0], inp.range_pct_canvas[0], inp.range_px[1], inp.range_pct_canvas[1]
+                );
+            }
+            h.push_str("</table>\n");
+            if let Some(f) = fig("visual") {
+                h.push_str(&img(f, "Visual fidelity: source and rendered iris position over time per axis; per-frame error histogram"));
+            }
+        }
+    }
+    if let Some((file, t)) = &ev.render_truth {
+        let _ = writeln!(
+            h,
+            "<h3>Renderer ground truth against the source</h3>\n<p>The renderer's own per-frame iris position (<code>{}</code>, mean of both eyes) against the source, without the extractor, {} frames: r x {} / y {}, amplitude ratio x {} / y {}, error mean {:.4}, median {:.4}, p95 {:.4}. This isolates the simulator's mapping from extraction error.</p>",
+            esc(file),
+            t.n_frames,
+            f3(t.x.r),
+            f3(t.y.r),
+            f3(t.x.amplitude_ratio),
+            f3(t.y.amplitude_ratio),
+            t.error.mean,
+            t.error.median,
+            t.error.p95
+        );
+    }
+    h.push_str("</body></html>\n");
+    h
+}
+
+/// Paths written by [`write_report`].
+#[derive(Clone, Debug)]
+pub struct ReportPaths {
+    pub dir: PathBuf,
+    pub html: PathBuf,
+    pub metrics: PathBuf,
+}
+
+fn file_stem(rel: &str) -> String {
+    Path::new(rel).file_stem().map_or_else(
+        || rel.replace('/', "_"),
+        |s| s.to_string_lossy().into_owned(),
+    )
+}
+
+/// Writes `<dataset>/report/`: index.html, metrics.json, figures, events.
+/// Returns the paths and the metrics.json text.
+pub fn write_report(
+    dataset_dir: &Path,
+    ev: &Evaluation,
+) -> Result<(ReportPaths, String), EvalError> {
+    let dir = dataset_dir.join("report");
+    let figs = figures(ev)?;
+    for f in &figs {
+        atomic_write(&dir.join("figures").join(format!("{}.png", f.name)), &f.png)?;
+        atomic_write(
+            &dir.join("figures").join(format!("{}.svg", f.name)),
+            f.svg.as_bytes(),
+        )?;
+    }
+    for ce in &ev.classes {
+        for (file, events) in &ce.events {
+            let p = dir
+                .join("events")
+                .join(ce.class.name())
+                .join(format!("{}.csv", file_stem(file)));
+            atomic_write(&p, events_csv(events, ev.fps).as_bytes())?;
+        }
+    }
+    let metrics = metrics_json(ev).to_pretty();
+    let mpath = dir.join("metrics.json");
+    atomic_write(&mpath, metrics.as_bytes())?;
+    let hpath = dir.join("index.html");
+    atomic_write(&hpath, report_html(ev, &figs).as_bytes())?;
+    Ok((
+        ReportPaths {
+            dir,
+            html: hpath,
+            metrics: mpath,
+        },
+        metrics,
+    ))
+}
+
+/// Metric keys used in metrics.json, in table order.
+pub fn metric_keys() -> [&'static str; 3] {
+    [
+        Metric::Speed.key(),
+        Metric::FixationDuration.key(),
+        Metric::SaccadeAmplitude.key(),
+    ]
+}

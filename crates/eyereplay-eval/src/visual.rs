@@ -1,0 +1,215 @@
+//! Visual mapping fidelity (paper section 5.2): a source iris trajectory,
+//! normalized within the eye aperture, against the iris trajectory extracted
+//! back from the rendered video of that same trajectory, frame by frame.
+
+use crate::stats::{mean, pearson, quantile_sorted, sorted, std_pop};
+use crate::EvalError;
+use eyereplay_core::{Canvas, CanvasPos};
+use serde::Serialize;
+
+/// Targets at reading scale (issue 5): r >= 0.95 on both axes, amplitude
+/// ratio within 0.9-1.1.
+pub const TARGET_R_MIN: f64 = 0.95;
+pub const TARGET_AMPLITUDE_RATIO: (f64, f64) = (0.9, 1.1);
+
+/// Per-axis agreement.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct AxisFidelity {
+    /// Pearson r between source and rendered; `None` when either is constant.
+    pub r: Option<f64>,
+    /// `std(rendered) / std(source)` (population std); `None` when the
+    /// source is constant.
+    pub amplitude_ratio: Option<f64>,
+    pub std_source: f64,
+    pub std_rendered: f64,
+}
+
+impl AxisFidelity {
+    pub fn meets_targets(&self) -> bool {
+        let (lo, hi) = TARGET_AMPLITUDE_RATIO;
+        matches!(self.r, Some(r) if r >= TARGET_R_MIN)
+            && matches!(self.amplitude_ratio, Some(a) if (lo..=hi).contains(&a))
+    }
+}
+
+/// Per-frame Euclidean error in normalized iris units.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ErrorStats {
+    pub mean: f64,
+    pub median: f64,
+    pub p95: f64,
+}
+
+/// Extent of the cursor input that drove the render.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct InputRange {
+    /// `max - min` per axis, canvas px.
+    pub range_px: [f64; 2],
+    /// The same as a percentage of the canvas width / height.
+    pub range_pct_canvas: [f64; 2],
+    /// 5th-95th percentile spread per axis, canvas px (robust to outliers).
+    pub p5_p95_px: [f64; 2],
+}
+
+/// Result of [`compare_visual`].
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct VisualFidelity {
+    pub n_frames: usize,
+    pub x: AxisFidelity,
+    pub y: AxisFidelity,
+    pub error: ErrorStats,
+    pub input: Option<InputRange>,
+    /// Per-frame errors, kept for the histogram.
+    #[serde(skip)]
+    pub errors: Vec<f64>,
+}
+
+impl VisualFidelity {
+    pub fn meets_targets(&self) -> bool {
+        self.x.meets_targets() && self.y.meets_targets()
+    }
+}
+
+fn axis(src: &[f64], ren: &[f64]) -> AxisFidelity {
+    let (ss, sr) = (std_pop(src).unwrap_or(0.0), std_pop(ren).unwrap_or(0.0));
+    AxisFidelity {
+        r: pearson(src, ren),
+        amplitude_ratio: (ss > 0.0).then(|| sr / ss),
+        std_source: ss,
+        std_rendered: sr,
+    }
+}
+
+/// Cursor input extent on the canvas.
+pub fn input_range(input: &[CanvasPos], canvas: Canvas) -> Option<InputRange> {
+    if input.is_empty() {
+        return None;
+    }
+    let xs = sorted(&input.iter().map(|p| p.x_px).collect::<Vec<_>>());
+    let ys = sorted(&input.iter().map(|p| p.y_px).collect::<Vec<_>>());
+    let span = |s: &[f64]| s[s.len() - 1] - s[0];
+    let robust = |s: &[f64]| quantile_sorted(s, 0.95).unwrap() - quantile_sorted(s, 0.05).unwrap();
+    let range_px = [span(&xs), span(&ys)];
+    Some(InputRange {
+        range_px,
+        range_pct_canvas: [
+            100.0 * range_px[0] / canvas.width_px as f64,
+            100.0 * range_px[1] / canvas.height_px as f64,
+        ],
+        p5_p95_px: [robust(&xs), robust(&ys)],
+    })
+}
+
+/// Compares two frame-aligned normalized iris signals `(nx, ny)`.
+///
+/// `input` is the cursor trajectory that drove the render (for the input
+/// range); pass `None` when unknown. Frames where either signal is not
+/// finite (the extractor found no eye) are left out; at least two frames
+/// must remain. Lengths must match: a video whose frame count differs from
+/// its trajectory is an error, not something to trim silently.
+pub fn compare_visual(
+    source_n: &[[f64; 2]],
+    rendered_n: &[[f64; 2]],
+    input: Option<(&[CanvasPos], Canvas)>,
+) -> Result<VisualFidelity, EvalError> {
+    if source_n.len() != rendered_n.len() {
+        return Err(EvalError::Stats(format!(
+            "visual comparison: source has {} frames, rendered has {}",
+            source_n.len(),
+            rendered_n.len()
+        )));
+    }
+    let pairs: Vec<([f64; 2], [f64; 2])> = source_n
+        .iter()
+        .zip(rendered_n)
+        .filter(|(s, r)| s.iter().chain(r.iter()).all(|v| v.is_finite()))
+        .map(|(s, r)| (*s, *r))
+        .collect();
+    if pairs.len() < 2 {
+        return Err(EvalError::Stats(format!(
+            "visual comparison: only {} frame(s) with both signals finite",
+            pairs.len()
+        )));
+    }
+    let col = |f: fn(&([f64; 2], [f64; 2])) -> f64| pairs.iter().map(f).collect::<Vec<_>>();
+    let (sx, sy, rx, ry) = (
+        col(|p| p.0[0]),
+        col(|p| p.0[1]),
+        col(|p| p.1[0]),
+        col(|p| p.1[1]),
+    );
+    let errors: Vec<f64> = pairs
+        .iter()
+        .map(|(s, r)| (r[0] - s[0]).hypot(r[1] - s[1]))
+        .collect();
+    let es = sorted(&errors);
+    Ok(VisualFidelity {
+        n_frames: pairs.len(),
+        x: axis(&sx, &rx),
+        y: axis(&sy, &ry),
+        error: ErrorStats {
+            mean: mean(&errors).unwrap(),
+            median: quantile_sorted(&es, 0.5).unwrap(),
+            p95: quantile_sorted(&es, 0.95).unwrap(),
+        },
+        input: input.and_then(|(pts, c)| input_range(pts, c)),
+        errors,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identical_signals_are_perfect() {
+        let s: Vec<[f64; 2]> = (0..50)
+            .map(|i| {
+                [
+                    0.5 + 0.1 * (i as f64 * 0.3).sin(),
+                    0.5 + 0.05 * (i as f64 * 0.2).cos(),
+                ]
+            })
+            .collect();
+        let v = compare_visual(&s, &s, None).unwrap();
+        assert_eq!(v.error.mean, 0.0);
+        assert!((v.x.r.unwrap() - 1.0).abs() < 1e-12);
+        assert!((v.y.amplitude_ratio.unwrap() - 1.0).abs() < 1e-12);
+        assert!(v.meets_targets());
+    }
+
+    #[test]
+    fn hand_worked_attenuated_copy() {
+        // Source x: 0.4, 0.6, 0.4, 0.6 (std 0.1); rendered x at 30 % amplitude
+        // about 0.5: 0.47, 0.53, ... (std 0.03); y constant 0.5 in both.
+        let s = [[0.4, 0.5], [0.6, 0.5], [0.4, 0.5], [0.6, 0.5]];
+        let r = [[0.47, 0.5], [0.53, 0.5], [0.47, 0.5], [0.53, 0.5]];
+        let input = [
+            CanvasPos {
+                x_px: 600.0,
+                y_px: 300.0,
+            },
+            CanvasPos {
+                x_px: 700.0,
+                y_px: 455.0,
+            },
+        ];
+        let v = compare_visual(&s, &r, Some((&input, Canvas::default()))).unwrap();
+        assert!((v.x.amplitude_ratio.unwrap() - 0.3).abs() < 1e-12);
+        assert!((v.x.r.unwrap() - 1.0).abs() < 1e-12);
+        assert_eq!(v.y.r, None);
+        // every frame is 0.07 off
+        assert!((v.error.mean - 0.07).abs() < 1e-12);
+        assert!((v.error.p95 - 0.07).abs() < 1e-12);
+        let inp = v.input.unwrap();
+        assert_eq!(inp.range_px, [100.0, 155.0]);
+        assert!((inp.range_pct_canvas[0] - 7.8125).abs() < 1e-12);
+        assert!(!v.meets_targets());
+    }
+
+    #[test]
+    fn length_mismatch_is_an_error() {
+        let e = compare_visual(&[[0.0, 0.0]; 3], &[[0.0, 0.0]; 2], None).unwrap_err();
+        assert!(e.to_string().contains("3 frames"), "{e}");
+    }
+}

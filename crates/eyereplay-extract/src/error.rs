@@ -1,0 +1,51 @@
+use std::path::PathBuf;
+
+/// Errors of iris extraction. Each renders as one line naming the file and
+/// what to do, because the CLI prints them as the whole error message.
+#[derive(Debug, thiserror::Error)]
+pub enum ExtractError {
+    #[error("{path}: cannot open video: {message}")]
+    Open { path: PathBuf, message: String },
+    #[error("{path}: no video stream (audio-only or not a video file)")]
+    NoVideoStream { path: PathBuf },
+    #[error("{path}: no video frames could be decoded")]
+    NoFrames { path: PathBuf },
+    #[error("{path}: decoding failed: {message}")]
+    Decode { path: PathBuf, message: String },
+    #[error("{path}: no face found in any of its {frames} frames")]
+    NoFace { path: PathBuf, frames: usize },
+    #[error(
+        "models not found in {dir}: missing {missing}; run `eyereplay models fetch` (or scripts/models.sh)"
+    )]
+    ModelsMissing { dir: PathBuf, missing: String },
+    #[error("{path}: sha256 {actual} does not match the pinned {expected}; run `eyereplay models fetch`")]
+    ModelChecksum {
+        path: PathBuf,
+        expected: String,
+        actual: String,
+    },
+    #[error("ONNX Runtime: {0}")]
+    Runtime(String),
+    #[error("{path}: line {line}: {message}")]
+    Reference {
+        path: PathBuf,
+        line: u64,
+        message: String,
+    },
+    #[error(transparent)]
+    Core(#[from] eyereplay_core::CoreError),
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl From<ort::Error> for ExtractError {
+    fn from(e: ort::Error) -> Self {
+        ExtractError::Runtime(e.to_string())
+    }
+}
+
+pub type Result<T, E = ExtractError> = std::result::Result<T, E>;

@@ -1,0 +1,58 @@
+//! Stage 1 of eyereplay: iris positions from real video.
+//!
+//! The pipeline is MediaPipe's face mesh with iris refinement, rebuilt in
+//! Rust around its own networks (taken from the `mediapipe==0.10.21` wheel
+//! and converted to ONNX by `scripts/models.sh`), run with ONNX Runtime:
+//! face detection -> rotated face crop -> 468 landmarks -> two eye crops ->
+//! iris model (iris centre, rim and a 71-point eye contour), mapped back to
+//! image pixels. The face crop of the next frame comes from this frame's
+//! landmarks; the detector runs again when the face score drops below 0.5.
+//!
+//! # Conventions of the output
+//!
+//! - "left"/"right" name the eye on the image's left/right (not the
+//!   person's), whatever the head's roll.
+//! - `nx = (iris_x - left_corner_x) / (right_corner_x - left_corner_x)`,
+//!   the same image direction for both eyes, so a sideways gaze moves both
+//!   eyes' `nx` the same way and their mean keeps it. (Anatomical
+//!   inner/outer corners would make the eyes move in opposite directions
+//!   and the mean would cancel the horizontal signal.)
+//! - `ny = (iris_y - upper_lid_y) / (lower_lid_y - upper_lid_y)`.
+//! - Corners and lids come from the iris model's eye contour, as in
+//!   MediaPipe's iris tracking (the 468-point mesh's lids gave a vertical
+//!   signal uncorrelated with MediaPipe's).
+//! - `aperture` = lid gap / corner-to-corner width; frames whose aperture
+//!   drops below 0.6 x the video's median (and their neighbours) are
+//!   blinks: `blink=1`, `valid=0`.
+//! - `time_s` is the frame's presentation time on the stream's clock
+//!   (`best_effort_timestamp x time_base`, as ffprobe's `pts_time`), so
+//!   variable-frame-rate video keeps its real timing.
+
+mod compare;
+mod decode;
+mod detect;
+mod error;
+mod geom;
+mod image;
+mod models;
+mod output;
+mod preview;
+mod run;
+mod tracker;
+
+pub use compare::{compare, pearson, percentile, Agreement, Series};
+pub use decode::{probe, Decoder, VideoInfo};
+pub use detect::{anchors, decode as decode_detections, weighted_nms, Detection};
+pub use error::{ExtractError, Result};
+pub use geom::{Pt, Roi};
+pub use image::{Border, ImageView, Planes, Rotation, YuvMatrix};
+pub use models::{check as check_models, default_models_dir, init_runtime, missing_files, Models};
+pub use output::{flag_blinks, save_csv, write_csv, EyeRow, Row, CSV_HEADER, DEFAULT_BLINK_RATIO};
+pub use run::{extract_many, ExtractOptions, Extraction, NoProgress, Progress, DEFAULT_MESH_EVERY};
+pub use tracker::{Eye, EyeMeasure, Face, StageTimes, Tracker};
+
+/// The fetch script, embedded so that `eyereplay models fetch` works from
+/// an installed binary too.
+pub const MODELS_SCRIPT: &str = include_str!("../../../scripts/models.sh");
+/// The TFLite -> ONNX converter the fetch script runs.
+pub const CONVERTER_SCRIPT: &str = include_str!("../../../scripts/tflite_to_onnx.py");

@@ -1,0 +1,214 @@
+//! The three MediaPipe networks (converted to ONNX by `scripts/models.sh`)
+//! and the ONNX Runtime library, loaded with `ort`'s load-dynamic.
+//!
+//! Why ONNX Runtime rather than tract: on this 2-core machine a whole frame
+//! (detector + mesh + two irises) took about 7 ms with ONNX Runtime and
+//! about 20 ms with tract-onnx (shared RESEARCH.md, section 1), and the
+//! library comes prebuilt inside the pinned `onnxruntime` wheel, so the build
+//! downloads nothing.
+
+use crate::error::{ExtractError, Result};
+use ort::session::builder::GraphOptimizationLevel;
+use ort::session::Session;
+use ort::value::TensorRef;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+pub const DETECTOR: &str = "face_detection_short_range.onnx";
+pub const MESH: &str = "face_landmark.onnx";
+pub const IRIS: &str = "iris_landmark.onnx";
+pub const ORT_LIB: &str = "libonnxruntime.so.1.22.1";
+
+/// The pinned sha256 of the `.tflite` files the ONNX files are made from
+/// (as shipped in the mediapipe==0.10.21 wheel).
+pub const TFLITE_SHA256: [(&str, &str); 3] = [
+    (
+        "face_detection_short_range.tflite",
+        "bbff11cebd1eb27a1e004cae0b0e63ec8c551cbf34a4451148b4908b8db3eca8",
+    ),
+    (
+        "face_landmark.tflite",
+        "1055cb9d4a9ca8b8c688902a3a5194311138ba256bcc94e336d8373a5f30c814",
+    ),
+    (
+        "iris_landmark.tflite",
+        "d1744d2a09c25f501d39eba4faff47e53ecca8852c5ce19bce8eeac39357521f",
+    ),
+];
+
+/// Where the models live: `$EYEREPLAY_MODELS`, else `.cache/models` in the
+/// current directory or the nearest ancestor that has one (so the binary
+/// works from anywhere inside the checkout).
+pub fn default_models_dir() -> PathBuf {
+    if let Some(d) = std::env::var_os("EYEREPLAY_MODELS") {
+        return PathBuf::from(d);
+    }
+    let mut starts = vec![];
+    if let Ok(cwd) = std::env::current_dir() {
+        starts.push(cwd);
+    }
+    if let Ok(exe) = std::env::current_exe() {
+        starts.push(exe);
+    }
+    for start in &starts {
+        for dir in start.ancestors() {
+            let cand = dir.join(".cache/models");
+            if cand.join(DETECTOR).is_file() {
+                return cand;
+            }
+        }
+    }
+    PathBuf::from(".cache/models")
+}
+
+/// Names of the files missing from `dir` (empty when all are there).
+pub fn missing_files(dir: &Path) -> Vec<&'static str> {
+    [DETECTOR, MESH, IRIS, ORT_LIB]
+        .into_iter()
+        .filter(|f| !dir.join(f).is_file())
+        .collect()
+}
+
+/// Verifies the models folder: all files present and the `.tflite` sources
+/// matching their pinned sha256. Returns one line per checked file.
+pub fn check(dir: &Path) -> Result<Vec<String>> {
+    let missing = missing_files(dir);
+    if !missing.is_empty() {
+        return Err(ExtractError::ModelsMissing {
+            dir: dir.to_path_buf(),
+            missing: missing.join(", "),
+        });
+    }
+    let mut lines = vec![];
+    for (file, want) in TFLITE_SHA256 {
+        let p = dir.join(file);
+        let got = eyereplay_core::sha256_file(&p)?;
+        if got != want {
+            return Err(ExtractError::ModelChecksum {
+                path: p,
+                expected: want.into(),
+                actual: got,
+            });
+        }
+        lines.push(format!("{file}: sha256 {got} (pinned, ok)"));
+    }
+    init_runtime(dir)?;
+    let mut m = Models::load(dir)?;
+    // One inference each on a grey image proves the graphs run and have the
+    // expected output sizes.
+    let grey = vec![0.5f32; 3 * 192 * 192];
+    let (reg, scores) = m.detect(&grey[..3 * 128 * 128])?;
+    lines.push(format!(
+        "{DETECTOR}: runs, {} anchors x {} values",
+        scores.len(),
+        reg.len() / scores.len().max(1)
+    ));
+    let (lm, _) = m.mesh(&grey)?;
+    lines.push(format!("{MESH}: runs, {} landmarks", lm.len() / 3));
+    let eyes = vec![0.5f32; 2 * 3 * 64 * 64];
+    let out = m.iris(&eyes)?;
+    lines.push(format!(
+        "{IRIS}: runs, 2 eyes x ({} contour + {} iris points)",
+        out[0].0.len() / 3,
+        out[0].1.len() / 3
+    ));
+    lines.push(format!("{ORT_LIB}: loaded"));
+    Ok(lines)
+}
+
+static RUNTIME: OnceLock<std::result::Result<(), String>> = OnceLock::new();
+
+/// Loads `libonnxruntime.so` from the models folder (once per process).
+pub fn init_runtime(dir: &Path) -> Result<()> {
+    let lib = dir.join(ORT_LIB);
+    RUNTIME
+        .get_or_init(|| {
+            if !lib.is_file() {
+                return Err(format!(
+                    "{} not found; run `eyereplay models fetch`",
+                    lib.display()
+                ));
+            }
+            ort::init_from(lib.to_string_lossy().to_string())
+                .with_name("eyereplay")
+                .commit()
+                .map(|_| ())
+                .map_err(|e| e.to_string())
+        })
+        .clone()
+        .map_err(ExtractError::Runtime)
+}
+
+/// One set of sessions; each worker thread owns one.
+pub struct Models {
+    detector: Session,
+    mesh: Session,
+    iris: Session,
+}
+
+fn session(path: &Path) -> Result<Session> {
+    // One thread per inference and no spinning: on 2 cores two threads per
+    // inference measured slower than one, and the parallelism comes from
+    // running one worker per core instead.
+    Ok(Session::builder()?
+        .with_optimization_level(GraphOptimizationLevel::Level3)?
+        .with_intra_threads(1)?
+        .with_inter_threads(1)?
+        .with_config_entry("session.intra_op.allow_spinning", "0")?
+        .with_config_entry("session.inter_op.allow_spinning", "0")?
+        .commit_from_file(path)?)
+}
+
+/// Iris model output for one eye: 71 contour points and 5 iris points, each
+/// (x, y, z) in the 64x64 crop's pixels.
+pub type IrisOut = (Vec<f32>, Vec<f32>);
+
+impl Models {
+    pub fn load(dir: &Path) -> Result<Models> {
+        let missing = missing_files(dir);
+        if !missing.is_empty() {
+            return Err(ExtractError::ModelsMissing {
+                dir: dir.to_path_buf(),
+                missing: missing.join(", "),
+            });
+        }
+        init_runtime(dir)?;
+        Ok(Models {
+            detector: session(&dir.join(DETECTOR))?,
+            mesh: session(&dir.join(MESH))?,
+            iris: session(&dir.join(IRIS))?,
+        })
+    }
+
+    /// Face detector on a 1x3x128x128 input in [-1, 1]: (regressors 896x16,
+    /// score logits 896).
+    pub fn detect(&mut self, input: &[f32]) -> Result<(Vec<f32>, Vec<f32>)> {
+        let t = TensorRef::from_array_view(([1usize, 3, 128, 128], input))?;
+        let out = self.detector.run(ort::inputs!["input" => t])?;
+        let (_, reg) = out["regressors"].try_extract_tensor::<f32>()?;
+        let (_, sc) = out["classificators"].try_extract_tensor::<f32>()?;
+        Ok((reg.to_vec(), sc.to_vec()))
+    }
+
+    /// Face mesh on a 1x3x192x192 input in [0, 1]: (468 x (x,y,z) in crop
+    /// pixels, face presence logit).
+    pub fn mesh(&mut self, input: &[f32]) -> Result<(Vec<f32>, f32)> {
+        let t = TensorRef::from_array_view(([1usize, 3, 192, 192], input))?;
+        let out = self.mesh.run(ort::inputs!["input" => t])?;
+        let (_, lm) = out["conv2d_21_flat"].try_extract_tensor::<f32>()?;
+        let (_, sc) = out["conv2d_31_flat"].try_extract_tensor::<f32>()?;
+        Ok((lm.to_vec(), sc[0]))
+    }
+
+    /// Iris model on both eyes at once (a 2x3x64x64 batch in [0, 1]).
+    pub fn iris(&mut self, input: &[f32]) -> Result<[IrisOut; 2]> {
+        let t = TensorRef::from_array_view(([2usize, 3, 64, 64], input))?;
+        let out = self.iris.run(ort::inputs!["input" => t])?;
+        let (_, contour) = out["output_eyes_contours_and_brows"].try_extract_tensor::<f32>()?;
+        let (_, iris) = out["output_iris"].try_extract_tensor::<f32>()?;
+        Ok([
+            (contour[..213].to_vec(), iris[..15].to_vec()),
+            (contour[213..].to_vec(), iris[15..].to_vec()),
+        ])
+    }
+}

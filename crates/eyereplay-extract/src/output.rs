@@ -1,0 +1,260 @@
+//! Per-frame rows, blink flagging and the CSV file.
+//!
+//! Conventions (see the crate docs): "left"/"right" name the eye on the
+//! image's left/right; `nx` runs from the image-left corner (0) to the
+//! image-right corner (1) for both eyes, `ny` from the upper lid (0) to the
+//! lower lid (1); `nx`, `ny` and `aperture` are the means of the two eyes.
+
+use crate::error::Result;
+use crate::geom::Pt;
+use crate::tracker::Face;
+use std::io::Write;
+use std::path::Path;
+
+/// The CSV header; `frame,time_s,valid,nx,ny,blink` and
+/// `aperture_left,aperture_right` are what trajectory readers rely on.
+pub const CSV_HEADER: &str = "frame,time_s,valid,nx,ny,blink,face,face_score,aperture,\
+nx_left,ny_left,nx_right,ny_right,aperture_left,aperture_right,\
+iris_left_x_px,iris_left_y_px,iris_right_x_px,iris_right_y_px,\
+left_eye_left_corner_x_px,left_eye_left_corner_y_px,left_eye_right_corner_x_px,left_eye_right_corner_y_px,\
+right_eye_left_corner_x_px,right_eye_left_corner_y_px,right_eye_right_corner_x_px,right_eye_right_corner_y_px";
+
+/// One eye's values for a row.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EyeRow {
+    pub nx: f64,
+    pub ny: f64,
+    pub aperture: f64,
+    pub iris: Pt,
+    pub corner_left: Pt,
+    pub corner_right: Pt,
+}
+
+/// One decoded frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    /// 0-based index in presentation order.
+    pub frame: u64,
+    pub time_s: f64,
+    pub face_score: f32,
+    /// Image-left and image-right eye; `None` when no face was found.
+    pub eyes: Option<[EyeRow; 2]>,
+    /// Set by [`flag_blinks`].
+    pub blink: bool,
+}
+
+impl Row {
+    pub fn from_face(frame: u64, time_s: f64, face: Option<&Face>) -> Row {
+        let eyes = face.map(|f| {
+            let e = |k: usize| {
+                let m = f.eyes[k].measure();
+                EyeRow {
+                    nx: m.nx,
+                    ny: m.ny,
+                    aperture: m.aperture,
+                    iris: f.eyes[k].iris,
+                    corner_left: f.eyes[k].corner_left,
+                    corner_right: f.eyes[k].corner_right,
+                }
+            };
+            [e(0), e(1)]
+        });
+        Row {
+            frame,
+            time_s,
+            face_score: face.map(|f| f.score).unwrap_or(0.0),
+            eyes,
+            blink: false,
+        }
+    }
+    /// A row carrying only a mean aperture and mean (nx, ny), both eyes
+    /// equal (used to apply the blink rule to reference data).
+    pub fn synthetic(values: Option<(f64, (f64, f64))>) -> Row {
+        let eye = |a: f64, n: (f64, f64)| EyeRow {
+            nx: n.0,
+            ny: n.1,
+            aperture: a,
+            iris: Pt::default(),
+            corner_left: Pt::default(),
+            corner_right: Pt::default(),
+        };
+        Row {
+            frame: 0,
+            time_s: 0.0,
+            face_score: 0.0,
+            eyes: values.map(|(a, n)| [eye(a, n), eye(a, n)]),
+            blink: false,
+        }
+    }
+    pub fn face(&self) -> bool {
+        self.eyes.is_some()
+    }
+    /// Mean of the two eyes' (nx, ny).
+    pub fn mean_n(&self) -> Option<(f64, f64)> {
+        self.eyes
+            .map(|e| ((e[0].nx + e[1].nx) / 2.0, (e[0].ny + e[1].ny) / 2.0))
+    }
+    pub fn aperture(&self) -> Option<f64> {
+        self.eyes.map(|e| (e[0].aperture + e[1].aperture) / 2.0)
+    }
+    /// Gaze usable: a face, eyes open, finite values.
+    pub fn valid(&self) -> bool {
+        !self.blink
+            && self
+                .mean_n()
+                .is_some_and(|(x, y)| x.is_finite() && y.is_finite())
+    }
+}
+
+/// Blink threshold as a fraction of the video's median aperture.
+pub const DEFAULT_BLINK_RATIO: f64 = 0.6;
+
+/// Flags blinks from the lid aperture (the iris model still returns iris
+/// points with closed eyes, so the gaze values there are meaningless).
+///
+/// A frame is a blink when its mean aperture (lid gap / eye width) falls
+/// below `ratio` x the median aperture of the video's face frames: relative
+/// to the person's own open eye, so narrow and wide eyes both work. The
+/// frame on each side of a blink is flagged too, as the lids are mid-way
+/// there and ny swings far outside [0, 1]. Returns the number of blinks
+/// (runs of flagged frames).
+pub fn flag_blinks(rows: &mut [Row], ratio: f64) -> usize {
+    let mut aps: Vec<f64> = rows
+        .iter()
+        .filter_map(|r| r.aperture())
+        .filter(|a| a.is_finite())
+        .collect();
+    if aps.is_empty() {
+        return 0;
+    }
+    aps.sort_by(f64::total_cmp);
+    let median = aps[aps.len() / 2];
+    let threshold = ratio * median;
+    let closed: Vec<bool> = rows
+        .iter()
+        .map(|r| r.aperture().is_some_and(|a| !(a >= threshold)))
+        .collect();
+    let mut runs = 0;
+    for i in 0..rows.len() {
+        let near = closed[i]
+            || (i > 0 && closed[i - 1] && rows[i].face())
+            || (i + 1 < rows.len() && closed[i + 1] && rows[i].face());
+        rows[i].blink = near;
+        if closed[i] && (i == 0 || !closed[i - 1]) {
+            runs += 1;
+        }
+    }
+    runs
+}
+
+fn num(v: f64, digits: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.digits$}")
+    } else {
+        String::new()
+    }
+}
+
+/// Writes rows as CSV to `w` (empty fields where there is no face).
+pub fn write_csv(w: &mut dyn Write, rows: &[Row]) -> std::io::Result<()> {
+    writeln!(w, "{CSV_HEADER}")?;
+    for r in rows {
+        write!(w, "{},{:.6},{}", r.frame, r.time_s, r.valid() as u8)?;
+        match (r.eyes, r.mean_n(), r.aperture()) {
+            (Some([l, rt]), Some((nx, ny)), Some(ap)) => {
+                write!(
+                    w,
+                    ",{},{},{},1,{:.4},{}",
+                    num(nx, 5),
+                    num(ny, 5),
+                    r.blink as u8,
+                    r.face_score,
+                    num(ap, 5)
+                )?;
+                for v in [l.nx, l.ny, rt.nx, rt.ny, l.aperture, rt.aperture] {
+                    write!(w, ",{}", num(v, 5))?;
+                }
+                for p in [
+                    l.iris,
+                    rt.iris,
+                    l.corner_left,
+                    l.corner_right,
+                    rt.corner_left,
+                    rt.corner_right,
+                ] {
+                    write!(w, ",{:.2},{:.2}", p.x, p.y)?;
+                }
+                writeln!(w)?;
+            }
+            _ => {
+                // No face: gaze fields empty, blink 0, face 0.
+                writeln!(w, ",,,0,0,0{}", ",".repeat(19))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Writes the CSV atomically: readers see the old file or the whole new one,
+/// never a partial one.
+pub fn save_csv(path: &Path, rows: &[Row]) -> Result<()> {
+    eyereplay_core::atomic_write_with(path, |w| write_csv(w, rows))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(frame: u64, ap: Option<f64>) -> Row {
+        let e = |a: f64| EyeRow {
+            nx: 0.5,
+            ny: 0.5,
+            aperture: a,
+            iris: Pt::default(),
+            corner_left: Pt::default(),
+            corner_right: Pt::default(),
+        };
+        Row {
+            frame,
+            time_s: frame as f64 / 25.0,
+            face_score: 0.9,
+            eyes: ap.map(|a| [e(a), e(a)]),
+            blink: false,
+        }
+    }
+
+    #[test]
+    fn blink_is_a_dip_below_the_median_and_its_neighbours() {
+        let aps = [0.3, 0.31, 0.29, 0.3, 0.25, 0.05, 0.04, 0.2, 0.3, 0.3, 0.3];
+        let mut rows: Vec<Row> = aps
+            .iter()
+            .enumerate()
+            .map(|(i, &a)| row(i as u64, Some(a)))
+            .collect();
+        // median 0.3 -> threshold 0.18: frames 5, 6 closed; 4 and 7 next to them.
+        assert_eq!(flag_blinks(&mut rows, 0.6), 1);
+        let flagged: Vec<u64> = rows.iter().filter(|r| r.blink).map(|r| r.frame).collect();
+        assert_eq!(flagged, vec![4, 5, 6, 7]);
+        assert!(!rows[5].valid() && rows[3].valid());
+    }
+
+    #[test]
+    fn csv_rows_have_as_many_fields_as_the_header() {
+        let mut rows = vec![row(0, Some(0.3)), row(1, None)];
+        flag_blinks(&mut rows, 0.6);
+        let mut buf = vec![];
+        write_csv(&mut buf, &rows).unwrap();
+        let text = String::from_utf8(buf).unwrap();
+        let n = CSV_HEADER.split(',').count();
+        for line in text.lines() {
+            assert_eq!(line.split(',').count(), n, "{line}");
+        }
+        assert!(text
+            .lines()
+            .nth(2)
+            .unwrap()
+            .starts_with("1,0.040000,0,,,0,0,"));
+        assert!(CSV_HEADER.starts_with("frame,time_s,valid,nx,ny,blink,"));
+    }
+}

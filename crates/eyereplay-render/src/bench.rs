@@ -1,0 +1,233 @@
+//! The speed benchmark: render only, encode only, and end to end, measured
+//! in one run on the same frames so the ratios mean something.
+
+use crate::encode::Encoder;
+use crate::scene::Scene;
+use crate::session::{render_frames, render_session, solve_truth, FrameSink, RenderParams};
+use crate::RenderError;
+use eyereplay_core::CanvasPos;
+use serde::Serialize;
+use std::time::Instant;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub frames: usize,
+    pub width: usize,
+    pub height: usize,
+    pub video_fps: f64,
+    /// Frames per second rendering yuv420p frames, no encoder.
+    pub render_fps: f64,
+    /// Frames per second of the encoder alone, fed pre-rendered frames.
+    pub encode_fps: f64,
+    /// Frames per second end to end (render + encode + ground truth).
+    pub end_to_end_fps: f64,
+    /// End-to-end speed over real time.
+    pub realtime_factor: f64,
+    /// End-to-end speed over encode-only speed (1.0 = rendering is free).
+    pub ratio_to_encode: f64,
+    pub scene_setup_s: f64,
+    /// CPU milliseconds per frame (all threads) of rendering, of the
+    /// encoder, and of the whole end-to-end run including ffmpeg. Unlike
+    /// frames/s these do not change when other work shares the machine.
+    pub render_cpu_ms: Option<f64>,
+    pub encode_cpu_ms: Option<f64>,
+    pub end_to_end_cpu_ms: Option<f64>,
+    /// Frames/s the end-to-end CPU cost allows on the machine's cores if
+    /// nothing else runs: cores * 1000 / end_to_end_cpu_ms.
+    pub cpu_bound_fps: Option<f64>,
+    pub cores: usize,
+}
+
+impl std::fmt::Display for BenchReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "{} frames {}x{} @ {} fps",
+            self.frames, self.width, self.height, self.video_fps
+        )?;
+        writeln!(
+            f,
+            "scene setup      {:8.3} s (once per session)",
+            self.scene_setup_s
+        )?;
+        writeln!(f, "render only      {:8.1} frames/s", self.render_fps)?;
+        writeln!(f, "encode only      {:8.1} frames/s", self.encode_fps)?;
+        writeln!(f, "end to end       {:8.1} frames/s", self.end_to_end_fps)?;
+        writeln!(f, "real-time factor {:8.2} x", self.realtime_factor)?;
+        write!(f, "ratio to encode  {:8.2}", self.ratio_to_encode)?;
+        if let (Some(r), Some(e), Some(t), Some(b)) = (
+            self.render_cpu_ms,
+            self.encode_cpu_ms,
+            self.end_to_end_cpu_ms,
+            self.cpu_bound_fps,
+        ) {
+            write!(
+                f,
+                "\nCPU per frame    render {r:.2} ms, encode {e:.2} ms, end to end {t:.2} ms\n\
+                 CPU-bound limit  {b:8.1} frames/s ({:.2}x real time) on {} cores",
+                b / self.video_fps,
+                self.cores
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// A reading-like trajectory: left-to-right sweeps over 8 % of the canvas
+/// width with return sweeps and line steps, plus small fixation jitter.
+pub fn reading_trajectory(frames: usize, width: f64, height: f64) -> Vec<CanvasPos> {
+    let span = 0.08 * width;
+    let x0 = width / 2.0 - span / 2.0;
+    (0..frames)
+        .map(|i| {
+            let line = i / 60;
+            let k = i % 60;
+            // 50 frames of stepwise progress (fixations), 10 frames return.
+            let x = if k < 50 {
+                x0 + span * ((k / 5) as f64 / 9.0)
+            } else {
+                x0 + span * (1.0 - (k - 50) as f64 / 10.0)
+            };
+            let y = height / 2.0 + 0.02 * height * ((line % 8) as f64 - 3.5);
+            CanvasPos {
+                x_px: x + ((i * 7919) % 13) as f64 * 0.2,
+                y_px: y,
+            }
+        })
+        .collect()
+}
+
+/// A conversation-like trajectory: larger saccades between random targets
+/// over most of the canvas, each held for 4-20 frames.
+pub fn conversation_trajectory(
+    frames: usize,
+    width: f64,
+    height: f64,
+    seed: u64,
+) -> Vec<CanvasPos> {
+    let mut r = crate::rng::SplitMix64::new(seed);
+    let mut out = Vec::with_capacity(frames);
+    let mut target = CanvasPos {
+        x_px: width / 2.0,
+        y_px: height / 2.0,
+    };
+    let mut cur = target;
+    while out.len() < frames {
+        let hold = 4 + r.below(17);
+        target = CanvasPos {
+            x_px: width * r.range(0.1, 0.9),
+            y_px: height * r.range(0.15, 0.85),
+        };
+        for j in 0..hold {
+            // Two-frame saccade, then fixation.
+            let a = ((j + 1) as f64 / 2.0).min(1.0);
+            cur = CanvasPos {
+                x_px: cur.x_px + (target.x_px - cur.x_px) * a,
+                y_px: cur.y_px + (target.y_px - cur.y_px) * a,
+            };
+            out.push(cur);
+        }
+    }
+    out.truncate(frames);
+    out
+}
+
+struct Keep(Vec<Vec<u8>>);
+impl FrameSink for Keep {
+    fn frame(&mut self, _i: usize, yuv: &[u8]) -> Result<(), RenderError> {
+        self.0.push(yuv.to_vec());
+        Ok(())
+    }
+}
+
+/// Runs the three measurements; the video goes to a temporary directory.
+pub fn run_bench(params: &RenderParams, frames: usize) -> Result<BenchReport, RenderError> {
+    params.validate()?;
+    let canvas = params.mapping.canvas;
+    let traj = reading_trajectory(frames, canvas.width_px as f64, canvas.height_px as f64);
+    let dir = tempfile::tempdir().map_err(|e| RenderError::io(std::env::temp_dir(), e))?;
+
+    let t = Instant::now();
+    let scene = Scene::new(&params.identity, params.width, params.height);
+    let scene_setup_s = t.elapsed().as_secs_f64();
+    let truth = solve_truth(&scene, &traj, None, params);
+
+    // Render only (kept in memory for the encode-only pass; the copy is
+    // timed too, so render-only is slightly pessimistic).
+    let mut keep = Keep(Vec::with_capacity(frames));
+    let c0 = cpu_times();
+    let t = Instant::now();
+    render_frames(&scene, &truth, &mut keep)?;
+    let render_s = t.elapsed().as_secs_f64();
+    let c1 = cpu_times();
+
+    // Encode only.
+    let out = dir.path().join("encode_only.mp4");
+    let t = Instant::now();
+    let mut enc = Encoder::start(
+        &out,
+        params.width,
+        params.height,
+        params.fps,
+        &params.encoder,
+    )?;
+    for f in &keep.0 {
+        enc.write_frame(f)?;
+    }
+    enc.finish()?;
+    let encode_s = t.elapsed().as_secs_f64();
+    let c2 = cpu_times();
+    drop(keep);
+
+    // End to end, through the public entry point.
+    let t = Instant::now();
+    render_session(
+        &traj,
+        None,
+        params,
+        &dir.path().join("session.mp4"),
+        &dir.path().join("session_truth.csv"),
+    )?;
+    let e2e_s = t.elapsed().as_secs_f64();
+    let c3 = cpu_times();
+    let n = frames as f64;
+    let ms = |a: Option<(f64, f64)>, b: Option<(f64, f64)>, pick: fn((f64, f64)) -> f64| {
+        Some((pick(b?) - pick(a?)) * 1000.0 / n)
+    };
+    let render_cpu_ms = ms(c0, c1, |c| c.0);
+    let encode_cpu_ms = ms(c1, c2, |c| c.0 + c.1);
+    let end_to_end_cpu_ms = ms(c2, c3, |c| c.0 + c.1);
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+
+    Ok(BenchReport {
+        frames,
+        width: params.width,
+        height: params.height,
+        video_fps: params.fps,
+        render_fps: n / render_s,
+        encode_fps: n / encode_s,
+        end_to_end_fps: n / e2e_s,
+        realtime_factor: n / e2e_s / params.fps,
+        ratio_to_encode: encode_s / e2e_s,
+        scene_setup_s,
+        render_cpu_ms,
+        encode_cpu_ms,
+        end_to_end_cpu_ms,
+        cpu_bound_fps: end_to_end_cpu_ms.map(|m| cores as f64 * 1000.0 / m),
+        cores,
+    })
+}
+
+/// CPU seconds used so far by this process (`self_s`) and by its waited-for
+/// children such as ffmpeg (`children_s`), from /proc/self/stat. CPU time
+/// is what the 2-core budget is made of, and unlike wall time it does not
+/// change when other work shares the machine. `None` off Linux.
+pub fn cpu_times() -> Option<(f64, f64)> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime is field 14.
+    let rest = &s[s.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let tick = 100.0; // USER_HZ on Linux
+    let n = |i: usize| -> Option<f64> { f.get(i)?.parse::<f64>().ok().map(|v| v / tick) };
+    Some((n(11)? + n(12)?, n(13)? + n(14)?))
+}

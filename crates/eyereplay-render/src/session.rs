@@ -1,0 +1,369 @@
+//! Rendering one session: trajectory in, MP4 and ground-truth CSV out.
+
+use crate::encode::{Encoder, EncoderSettings};
+use crate::scene::{EyePose, EyeTruth, Scene};
+use crate::{closure_track, GazeMapping, Identity, RenderError};
+use eyereplay_core::{Canvas, CanvasPos};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use std::sync::mpsc;
+use std::time::Instant;
+
+/// Everything that decides how a session looks.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RenderParams {
+    /// Output video size (even numbers; need not match the canvas).
+    pub width: usize,
+    pub height: usize,
+    pub fps: f64,
+    pub identity: Identity,
+    pub mapping: GazeMapping,
+    /// Add blinks at the identity's natural rate where none are flagged.
+    pub natural_blinks: bool,
+    pub encoder: EncoderSettings,
+}
+
+impl RenderParams {
+    /// 1280x720 at 25 fps, default canvas and calibration, the given identity.
+    pub fn new(identity: Identity) -> RenderParams {
+        RenderParams {
+            width: 1280,
+            height: 720,
+            fps: 25.0,
+            identity,
+            mapping: GazeMapping::new(Canvas::default()),
+            natural_blinks: false,
+            encoder: EncoderSettings::default(),
+        }
+    }
+
+    pub fn validate(&self) -> Result<(), RenderError> {
+        if self.width < 64 || self.height < 64 || (self.width | self.height) & 1 != 0 {
+            return Err(RenderError::Params(format!(
+                "video size must be even and at least 64x64, got {}x{}",
+                self.width, self.height
+            )));
+        }
+        if !(self.fps.is_finite() && self.fps > 0.0 && self.fps <= 1000.0) {
+            return Err(RenderError::Params(format!(
+                "fps must be in (0, 1000], got {}",
+                self.fps
+            )));
+        }
+        self.mapping.validate().map_err(RenderError::Params)
+    }
+}
+
+/// Per-frame ground truth of a rendered session.
+#[derive(Clone, Debug)]
+pub struct FrameTruth {
+    pub input: CanvasPos,
+    /// Image-left eye, then image-right eye.
+    pub eyes: [EyeTruth; 2],
+    pub closure: f64,
+    pub pupil_scale: f64,
+}
+
+impl FrameTruth {
+    pub fn blink(&self) -> bool {
+        self.closure >= 0.5
+    }
+}
+
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct RenderStats {
+    pub frames: usize,
+    /// Input points outside the canvas, clamped onto its edge.
+    pub clamped_points: usize,
+    /// Frames with the lids at least half closed.
+    pub blink_frames: usize,
+    pub render_s: f64,
+    pub total_s: f64,
+    /// Where the eyes are in the image.
+    pub eyes: Option<[crate::EyeGeometry; 2]>,
+}
+
+impl RenderStats {
+    pub fn fps(&self) -> f64 {
+        self.frames as f64 / self.total_s.max(1e-9)
+    }
+}
+
+/// Checks a trajectory and clamps it onto the canvas; returns the number
+/// of clamped points.
+pub fn check_trajectory(
+    traj: &[CanvasPos],
+    blinks: Option<&[bool]>,
+    canvas: Canvas,
+) -> Result<(Vec<CanvasPos>, usize), RenderError> {
+    if traj.is_empty() {
+        return Err(RenderError::Input("trajectory has no frames".into()));
+    }
+    if let Some(b) = blinks {
+        if b.len() != traj.len() {
+            return Err(RenderError::Input(format!(
+                "blink flags have {} frames, trajectory has {}",
+                b.len(),
+                traj.len()
+            )));
+        }
+    }
+    let [w, h] = canvas.extent();
+    let mut clamped = 0;
+    let mut out = Vec::with_capacity(traj.len());
+    for (i, p) in traj.iter().enumerate() {
+        if !p.x_px.is_finite() || !p.y_px.is_finite() {
+            return Err(RenderError::Input(format!(
+                "frame {i}: position ({}, {}) is not a finite number",
+                p.x_px, p.y_px
+            )));
+        }
+        let q = CanvasPos {
+            x_px: p.x_px.clamp(0.0, w),
+            y_px: p.y_px.clamp(0.0, h),
+        };
+        if q != *p {
+            clamped += 1;
+        }
+        out.push(q);
+    }
+    Ok((out, clamped))
+}
+
+/// Solves both eyes and the lids for every frame (frames are independent,
+/// so this runs in parallel and is still deterministic).
+pub fn solve_truth(
+    scene: &Scene,
+    traj: &[CanvasPos],
+    blinks: Option<&[bool]>,
+    params: &RenderParams,
+) -> Vec<FrameTruth> {
+    let id = &params.identity;
+    let closure = closure_track(
+        traj.len(),
+        params.fps,
+        blinks,
+        params.natural_blinks.then_some(id.blink_rate_per_min),
+        id.seed,
+    );
+    let verg = params.mapping.vergence_rad(id.eye.ipd_mm);
+    let mut rng = crate::rng::SplitMix64::new(id.seed ^ 0x9091);
+    let (ph1, ph2) = (
+        rng.range(0.0, std::f64::consts::TAU),
+        rng.range(0.0, std::f64::consts::TAU),
+    );
+    traj.par_iter()
+        .enumerate()
+        .map(|(i, &c)| {
+            let target = params.mapping.target_norm(c);
+            let eyes = [0usize, 1].map(|k| {
+                let mut pose = scene.solve_pose(k, target);
+                // Converge: the image-left eye turns right (+yaw), the other left.
+                pose.yaw_rad += if k == 0 { verg } else { -verg };
+                EyePose { ..pose }
+            });
+            let t = i as f64 / params.fps;
+            // Slow pupil drift plus hippus; deterministic from the seed.
+            let pupil_scale = 1.0
+                + id.eye.pupil_variation
+                    * (0.6 * (std::f64::consts::TAU * 0.05 * t + ph1).sin()
+                        + 0.4 * (std::f64::consts::TAU * 0.23 * t + ph2).sin());
+            FrameTruth {
+                input: c,
+                eyes: [0, 1].map(|k| scene.truth(k, eyes[k], closure[i])),
+                closure: closure[i],
+                pupil_scale,
+            }
+        })
+        .collect()
+}
+
+pub const TRUTH_HEADER: &str =
+    "frame,x,y,left_yaw_deg,left_pitch_deg,right_yaw_deg,right_pitch_deg,\
+left_iris_x_px,left_iris_y_px,right_iris_x_px,right_iris_y_px,left_nx,left_ny,right_nx,right_ny,\
+left_aperture,right_aperture,lid_closure,blink";
+
+/// Writes the ground-truth CSV atomically. `left` is the image-left eye
+/// (the subject's right eye). Fixed decimals keep it byte-identical.
+pub fn write_truth_csv(path: &Path, truth: &[FrameTruth]) -> Result<(), RenderError> {
+    eyereplay_core::atomic_write_with(path, |w| {
+        writeln!(w, "{TRUTH_HEADER}")?;
+        for (i, t) in truth.iter().enumerate() {
+            let [l, r] = &t.eyes;
+            writeln!(
+                w,
+                "{i},{:.3},{:.3},{:.4},{:.4},{:.4},{:.4},{:.3},{:.3},{:.3},{:.3},{:.5},{:.5},{:.5},{:.5},{:.4},{:.4},{:.3},{}",
+                t.input.x_px,
+                t.input.y_px,
+                l.pose.yaw_rad.to_degrees(),
+                l.pose.pitch_rad.to_degrees(),
+                r.pose.yaw_rad.to_degrees(),
+                r.pose.pitch_rad.to_degrees(),
+                l.iris_px[0],
+                l.iris_px[1],
+                r.iris_px[0],
+                r.iris_px[1],
+                l.norm.nx,
+                l.norm.ny,
+                r.norm.nx,
+                r.norm.ny,
+                l.aperture,
+                r.aperture,
+                t.closure,
+                t.blink() as u8
+            )?;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
+/// Where rendered frames go.
+pub trait FrameSink {
+    fn frame(&mut self, index: usize, yuv: &[u8]) -> Result<(), RenderError>;
+}
+
+/// Renders every frame's yuv420p image in order and hands it to `sink` on a
+/// separate thread, so rendering and piping to the encoder overlap.
+pub fn render_frames(
+    scene: &Scene,
+    truth: &[FrameTruth],
+    sink: &mut (dyn FrameSink + Send),
+) -> Result<(), RenderError> {
+    let (tx, rx) = mpsc::sync_channel::<(usize, Vec<u8>)>(2);
+    let (back_tx, back_rx) = mpsc::channel::<Vec<u8>>();
+    std::thread::scope(|s| {
+        let writer = s.spawn(move || -> Result<(), RenderError> {
+            for (i, buf) in rx {
+                sink.frame(i, &buf)?;
+                let _ = back_tx.send(buf);
+            }
+            Ok(())
+        });
+        let mut scratch = Vec::new();
+        let mut result = Ok(());
+        for (i, t) in truth.iter().enumerate() {
+            let mut buf = back_rx
+                .try_recv()
+                .unwrap_or_else(|_| scene.background_yuv().to_vec());
+            let poses = [t.eyes[0].pose, t.eyes[1].pose];
+            scene.render_eyes(
+                poses,
+                t.closure,
+                t.pupil_scale,
+                None,
+                Some(&mut buf),
+                &mut scratch,
+            );
+            if tx.send((i, buf)).is_err() {
+                break; // the writer failed; its error is reported below
+            }
+        }
+        drop(tx);
+        match writer.join() {
+            Ok(r) => {
+                if r.is_err() {
+                    result = r;
+                }
+            }
+            Err(_) => result = Err(RenderError::Input("frame writer panicked".into())),
+        }
+        result
+    })
+}
+
+impl FrameSink for Encoder {
+    fn frame(&mut self, _index: usize, yuv: &[u8]) -> Result<(), RenderError> {
+        self.write_frame(yuv)
+    }
+}
+
+/// Renders a session to an H.264 MP4 and a ground-truth CSV.
+///
+/// `traj` is in canvas pixels (one point per frame at `params.fps`);
+/// `blinks`, when given, flags frames where the source blinked. Points off
+/// the canvas are clamped (counted in the stats). Both outputs appear only
+/// when complete: the video is encoded to a hidden temporary file and
+/// renamed, the CSV is written atomically, and on error neither is left.
+pub fn render_session(
+    traj: &[CanvasPos],
+    blinks: Option<&[bool]>,
+    params: &RenderParams,
+    out_mp4: &Path,
+    out_truth_csv: &Path,
+) -> Result<RenderStats, RenderError> {
+    let t0 = Instant::now();
+    params.validate()?;
+    let (traj, clamped) = check_trajectory(traj, blinks, params.mapping.canvas)?;
+    let mut encoder = Encoder::start(
+        out_mp4,
+        params.width,
+        params.height,
+        params.fps,
+        &params.encoder,
+    )?;
+    let scene = Scene::new(&params.identity, params.width, params.height);
+    let truth = solve_truth(&scene, &traj, blinks, params);
+    let t1 = Instant::now();
+    render_frames(&scene, &truth, &mut encoder)?;
+    let render_s = t1.elapsed().as_secs_f64();
+    write_truth_csv(out_truth_csv, &truth)?;
+    if let Err(e) = encoder.finish() {
+        let _ = std::fs::remove_file(out_truth_csv);
+        return Err(e);
+    }
+    Ok(RenderStats {
+        frames: truth.len(),
+        clamped_points: clamped,
+        blink_frames: truth.iter().filter(|t| t.blink()).count(),
+        render_s,
+        total_s: t0.elapsed().as_secs_f64(),
+        eyes: Some(scene.geometry()),
+    })
+}
+
+/// Renders a session's frames as PNG files `frame_000000.png`... into
+/// `dir` (the lossless stills option), plus the ground-truth CSV.
+pub fn render_session_pngs(
+    traj: &[CanvasPos],
+    blinks: Option<&[bool]>,
+    params: &RenderParams,
+    dir: &Path,
+    out_truth_csv: &Path,
+) -> Result<RenderStats, RenderError> {
+    let t0 = Instant::now();
+    params.validate()?;
+    let (traj, clamped) = check_trajectory(traj, blinks, params.mapping.canvas)?;
+    std::fs::create_dir_all(dir).map_err(|e| RenderError::io(dir, e))?;
+    let scene = Scene::new(&params.identity, params.width, params.height);
+    let truth = solve_truth(&scene, &traj, blinks, params);
+    let mut rgb = scene.background_rgb().to_vec();
+    let mut scratch = Vec::new();
+    for (i, t) in truth.iter().enumerate() {
+        let poses = [t.eyes[0].pose, t.eyes[1].pose];
+        scene.render_eyes(
+            poses,
+            t.closure,
+            t.pupil_scale,
+            Some(&mut rgb),
+            None,
+            &mut scratch,
+        );
+        crate::write_png(
+            &dir.join(format!("frame_{i:06}.png")),
+            &rgb,
+            params.width,
+            params.height,
+        )?;
+    }
+    write_truth_csv(out_truth_csv, &truth)?;
+    Ok(RenderStats {
+        frames: truth.len(),
+        clamped_points: clamped,
+        blink_frames: truth.iter().filter(|t| t.blink()).count(),
+        render_s: t0.elapsed().as_secs_f64(),
+        total_s: t0.elapsed().as_secs_f64(),
+        eyes: Some(scene.geometry()),
+    })
+}

@@ -1,0 +1,125 @@
+//! Rendering a dataset laid out like `eyereplay prepare` writes it.
+
+use eyereplay_core::{write_session_csv, CanvasPos};
+use eyereplay_render::*;
+use std::path::Path;
+use std::sync::Mutex;
+
+fn make_dataset(dir: &Path) {
+    let sweep: Vec<CanvasPos> = reading_trajectory(20, 1280.0, 720.0);
+    let talk: Vec<CanvasPos> = conversation_trajectory(15, 1280.0, 720.0, 1);
+    write_session_csv(&dir.join("reading/reading_0000.csv"), &sweep).unwrap();
+    write_session_csv(&dir.join("conversation/conversation_0000.csv"), &talk).unwrap();
+    std::fs::write(
+        dir.join("labels.csv"),
+        "file,label,class,sources\nreading/reading_0000.csv,1,reading,a\nconversation/conversation_0000.csv,0,conversation,b\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("metadata.json"),
+        r#"{"canvas": {"width_px": 1280, "height_px": 720}, "fps": 25.0,
+            "calibration": {"s_x": 5120.0, "s_y": 3000.0, "mu_x": 640.0, "mu_y": 360.0}}"#,
+    )
+    .unwrap();
+}
+
+fn opts() -> DatasetOptions {
+    let mut p = RenderParams::new(Identity::reference());
+    p.width = 320;
+    p.height = 180;
+    DatasetOptions {
+        dataset_seed: 5,
+        jobs: 2,
+        params: p,
+        natural_blinks: false,
+        shard: None,
+    }
+}
+
+#[test]
+fn renders_every_session_then_skips_complete_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    make_dataset(dir.path());
+    let seen = Mutex::new(Vec::new());
+    let s = render_dataset(dir.path(), &opts(), &|job, o| {
+        seen.lock()
+            .unwrap()
+            .push((job.file.clone(), format!("{o:?}")));
+    })
+    .unwrap();
+    assert_eq!(
+        (s.sessions, s.rendered, s.skipped, s.frames),
+        (2, 2, 0, 35),
+        "{s:?}"
+    );
+    assert_eq!(seen.lock().unwrap().len(), 2);
+    let r = dir.path().join("reading");
+    for f in [
+        "reading_0000.mp4",
+        "reading_0000_truth.csv",
+        "reading_0000_identity.json",
+    ] {
+        assert!(r.join(f).exists(), "{f}");
+    }
+    let info = probe_video(&r.join("reading_0000.mp4"), Path::new("ffprobe")).unwrap();
+    assert_eq!((info.width, info.height, info.frames), (320, 180, 20));
+    // The dataset's calibration is used: 100 px right of mu is n = 0.5 + 100/5120.
+    let truth = std::fs::read_to_string(r.join("reading_0000_truth.csv")).unwrap();
+    let meta: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(r.join("reading_0000_identity.json")).unwrap())
+            .unwrap();
+    assert_eq!(meta["mapping"]["calibration"]["s_x"], 5120.0);
+    let id: Identity = serde_json::from_value(meta["identity"].clone()).unwrap();
+    assert_eq!(
+        id,
+        Identity::sample(session_seed(5, "reading/reading_0000.csv"))
+    );
+    assert_eq!(truth.lines().count(), 21);
+
+    // Second run: everything verifies, nothing is re-rendered.
+    let before = std::fs::metadata(r.join("reading_0000.mp4"))
+        .unwrap()
+        .modified()
+        .unwrap();
+    let s = render_dataset(dir.path(), &opts(), &|_, _| {}).unwrap();
+    assert_eq!((s.rendered, s.skipped), (0, 2));
+    let after = std::fs::metadata(r.join("reading_0000.mp4"))
+        .unwrap()
+        .modified()
+        .unwrap();
+    assert_eq!(before, after);
+
+    // A truncated video (wrong frame count) is rendered again.
+    std::fs::write(r.join("reading_0000.mp4"), b"not a video").unwrap();
+    let s = render_dataset(dir.path(), &opts(), &|_, _| {}).unwrap();
+    assert_eq!((s.rendered, s.skipped), (1, 1));
+}
+
+#[test]
+fn a_bad_session_fails_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    make_dataset(dir.path());
+    std::fs::write(
+        dir.path().join("conversation/conversation_0000.csv"),
+        "frame,x,y\n0,1,nan\n",
+    )
+    .unwrap();
+    let s = render_dataset(dir.path(), &opts(), &|_, _| {}).unwrap();
+    assert_eq!(s.rendered, 1);
+    assert_eq!(s.failed.len(), 1);
+    assert!(
+        s.failed[0].contains("conversation_0000.csv"),
+        "{:?}",
+        s.failed
+    );
+    assert!(!dir
+        .path()
+        .join("conversation/conversation_0000.mp4")
+        .exists());
+    // A dataset without labels.csv is a one-line error.
+    std::fs::remove_file(dir.path().join("labels.csv")).unwrap();
+    let e = render_dataset(dir.path(), &opts(), &|_, _| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("labels.csv") && !e.contains('\n'), "{e}");
+}

