@@ -34,6 +34,12 @@
 
 _sl_log() { echo "slurm-local: $*" >&2; }
 
+# Pids of running munged/slurmctld/slurmd (pgrep -x takes one name at a time).
+_sl_daemon_pids() {
+  local n
+  for n in munged slurmctld slurmd; do pgrep -x "$n" || true; done | tr '\n' ' '
+}
+
 # Install the Debian packages that are missing (idempotent; apt-get update only
 # when something is missing). Kills any daemon the packages' maintainer scripts
 # may have started, so that nothing is left running.
@@ -48,13 +54,13 @@ slurm_local_install() {
     return 1
   fi
   local before
-  before=" $(pgrep -d ' ' -x 'munged|slurmctld|slurmd' || true) "
+  before=" $(_sl_daemon_pids) "
   _sl_log "apt-get install ${missing[*]}"
   apt-get update -qq
   DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
   # Without systemd the packages' init scripts may start daemons: stop those.
   local pid
-  for pid in $(pgrep -x 'munged|slurmctld|slurmd' || true); do
+  for pid in $(_sl_daemon_pids); do
     [[ $before == *" $pid "* ]] || { _sl_log "stopping $pid started by the install"; kill "$pid" 2>/dev/null || true; }
   done
 }
@@ -166,6 +172,8 @@ TaskPlugin=task/none
 SelectType=select/cons_tres
 SelectTypeParameters=CR_Core
 SchedulerType=sched/builtin
+# Start jobs at once (default: batch jobs may wait up to 3 s for a scheduling pass).
+SchedulerParameters=batch_sched_delay=0
 AccountingStorageType=accounting_storage/none
 JobAcctGatherType=jobacct_gather/none
 JobCompType=jobcomp/none
@@ -209,15 +217,17 @@ EOF
 slurm_local_stop() {
   local d="${SLURM_LOCAL_STATE:-}" rc=0
   [[ -n $d ]] || return 0
+  local pid grace=0
   if _sl_alive "${_SL_CTLD_PID:-}"; then
+    # Cancel what is still queued or running, then shut slurmctld and slurmd down.
     timeout 5 scancel --quiet --user="$(id -un)" 2>/dev/null || true
     local deadline=$((SECONDS + 15))
     while [[ -n $(timeout 3 squeue -h -o %A 2>/dev/null) ]] && ((SECONDS <= deadline)); do sleep 0.2; done
-    timeout 5 scontrol shutdown >/dev/null 2>&1 || true
+    timeout 5 scontrol shutdown >/dev/null 2>&1 && grace=10
   fi
-  local pid
+  # Without a working slurmctld nobody tells slurmd to stop: SIGTERM at once.
   for pid in ${_SL_CTLD_PID:-} ${_SL_SLURMD_PID:-}; do
-    _sl_wait_gone 10 "$pid" || { kill "$pid" 2>/dev/null; _sl_wait_gone 3 "$pid" || kill -9 "$pid" 2>/dev/null; }
+    _sl_wait_gone "$grace" "$pid" || { kill "$pid" 2>/dev/null; _sl_wait_gone 5 "$pid" || kill -9 "$pid" 2>/dev/null; }
     wait "$pid" 2>/dev/null || true
   done
   # Job steps of this cluster (slurmstepd and what it started) carry our SLURM_CONF.
@@ -291,7 +301,7 @@ _sl_main() {
       # In the background + wait, so that a signal to this script is handled at
       # once (bash runs traps only between commands); stdin passed on explicitly.
       local status=0
-      "$@" 0<&0 &
+      if { true <&0; } 2>/dev/null; then "$@" 0<&0 & else "$@" </dev/null & fi
       _SL_CMD_PID=$!
       wait "$_SL_CMD_PID" || status=$?
       _SL_CMD_PID=""

@@ -29,7 +29,13 @@ fn main() -> anyhow::Result<()> {
         println!("{}", f.display());
         println!(
             "  {:<36} {:>12} {:>11} {:>10} {:>12} {:>10} {:>12}",
-            "smoothing", "median speed", "frames < 5", "fixations", "median fix", "saccades", "median amp"
+            "smoothing",
+            "median speed",
+            "frames < 5",
+            "fixations",
+            "median fix",
+            "saccades",
+            "median amp"
         );
         for (name, toml) in settings {
             let m = metrics(f, toml)?;
@@ -58,7 +64,9 @@ fn metrics(file: &Path, smoothing: &str) -> anyhow::Result<MetricSamples> {
     ))
     .map_err(anyhow::Error::msg)?;
     cfg.base_dir = PathBuf::from(".");
-    let inputs = load_sources(&cfg, |p| -> Result<PathBuf, PrepareError> { Ok(p.to_path_buf()) })?;
+    let inputs = load_sources(&cfg, |p| -> Result<PathBuf, PrepareError> {
+        Ok(p.to_path_buf())
+    })?;
     let p = prepare(&cfg, &inputs)?;
     let mut m = MetricSamples::default();
     let c = &p.classes[0];
@@ -66,8 +74,13 @@ fn metrics(file: &Path, smoothing: &str) -> anyhow::Result<MetricSamples> {
     let mut start = 0;
     while start < c.pool.len() {
         let src = c.pool_source[start];
-        let end = (start..c.pool.len()).find(|&i| c.pool_source[i] != src).unwrap_or(c.pool.len());
-        let pts: Vec<[f64; 2]> = c.pool[start..end].iter().map(|q| [q.x_px, q.y_px]).collect();
+        let end = (start..c.pool.len())
+            .find(|&i| c.pool_source[i] != src)
+            .unwrap_or(c.pool.len());
+        let pts: Vec<[f64; 2]> = c.pool[start..end]
+            .iter()
+            .map(|q| [q.x_px, q.y_px])
+            .collect();
         m.add_segment(&pts, &IvtThresholds::default());
         start = end;
     }

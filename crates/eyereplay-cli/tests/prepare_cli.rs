@@ -5,7 +5,10 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 fn eyereplay(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_eyereplay")).args(args).output().unwrap()
+    Command::new(env!("CARGO_BIN_EXE_eyereplay"))
+        .args(args)
+        .output()
+        .unwrap()
 }
 
 fn webcam_csv(path: &Path, frames: usize) {
@@ -39,18 +42,40 @@ fn prepare_writes_dataset_and_dry_run_writes_nothing() {
     )
     .unwrap();
     let out = dir.path().join("out");
-    let o = eyereplay(&["prepare", "--config", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--dry-run"]);
+    let o = eyereplay(&[
+        "prepare",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--dry-run",
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(String::from_utf8_lossy(&o.stdout).contains("dry run: would write 7 sessions"));
     assert!(!out.exists());
 
-    let o = eyereplay(&["prepare", "--config", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let o = eyereplay(&[
+        "prepare",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    for f in ["labels.csv", "metadata.json", "reading/reading_0002.csv", "conversation/conversation_0003.csv", "pool/reading.csv"] {
+    for f in [
+        "labels.csv",
+        "metadata.json",
+        "reading/reading_0002.csv",
+        "conversation/conversation_0003.csv",
+        "pool/reading.csv",
+    ] {
         assert!(out.join(f).exists(), "{f}");
     }
     // No temporary files left behind.
-    let tmp = walk(&out).into_iter().filter(|p| p.ends_with(".tmp")).count();
+    let tmp = walk(&out)
+        .into_iter()
+        .filter(|p| p.ends_with(".tmp"))
+        .count();
     assert_eq!(tmp, 0);
 }
 
@@ -81,12 +106,24 @@ fn bad_configs_fail_in_one_line_and_write_nothing() {
     for (i, (body, want)) in cases.iter().enumerate() {
         let cfg = dir.path().join(format!("c{i}.toml"));
         std::fs::write(&cfg, body).unwrap();
-        let o = eyereplay(&["prepare", "--config", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        let o = eyereplay(&[
+            "prepare",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
         let e = one_line_error(&o);
         assert!(e.contains(want), "case {i}: {e}");
         assert!(!out.exists(), "case {i} wrote output");
     }
-    let o = eyereplay(&["prepare", "--config", "/nonexistent.toml", "--out", out.to_str().unwrap()]);
+    let o = eyereplay(&[
+        "prepare",
+        "--config",
+        "/nonexistent.toml",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(one_line_error(&o).contains("/nonexistent.toml"));
 }
 

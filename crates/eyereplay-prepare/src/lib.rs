@@ -23,8 +23,9 @@ mod slice;
 
 pub use calibrate::{blink_filter, Calibration, FillCounts};
 pub use config::{
-    describe_toml_error, AppliesTo, BlinkFilterConfig, CalibrationConfig, CalibrationMode, CalibrationScope,
-    ClassConfig, DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod, SpeedCorrection,
+    describe_toml_error, AppliesTo, BlinkFilterConfig, CalibrationConfig, CalibrationMode,
+    CalibrationScope, ClassConfig, DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod,
+    SpeedCorrection,
 };
 pub use dataset::{write_dataset, DatasetMetadata, SessionEntry, ToolInfo, WriteSummary};
 pub use error::PrepareError;

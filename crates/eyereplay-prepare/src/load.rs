@@ -37,6 +37,8 @@ where
     F: Fn(&Path) -> Result<PathBuf, PrepareError> + Sync,
 {
     check_source_files(cfg)?;
+    let mut read = cfg.read;
+    read.seed = cfg.seed;
     let jobs: Vec<(GazeClass, &SourceSpec)> = cfg
         .classes
         .iter()
@@ -51,11 +53,11 @@ where
                 SourceSpec::Video { path } => {
                     let csv = video_to_csv(path)?;
                     (
-                        read_source(&SourceSpec::Extract { path: csv }, &cfg.read)?,
+                        read_source(&SourceSpec::Extract { path: csv }, &read)?,
                         "video",
                     )
                 }
-                other => (read_source(other, &cfg.read)?, other.format_name()),
+                other => (read_source(other, &read)?, other.format_name()),
             };
             Ok(recs
                 .into_iter()

@@ -149,6 +149,13 @@ impl F3 {
         f3(self.x * o.x, self.y * o.y, self.z * o.z)
     }
 }
+impl Neg for F3 {
+    type Output = F3;
+    #[inline]
+    fn neg(self) -> F3 {
+        f3(-self.x, -self.y, -self.z)
+    }
+}
 impl Add for F3 {
     type Output = F3;
     #[inline]
@@ -212,7 +219,7 @@ pub struct SrgbLut {
 }
 
 impl SrgbLut {
-    const N: usize = 16384;
+    const N: usize = 16384; // a power of two, for the mask in `encode`
     pub fn new() -> Self {
         let table = (0..Self::N)
             .map(|i| {
@@ -228,9 +235,14 @@ impl SrgbLut {
         SrgbLut { table }
     }
     #[inline]
+    #[allow(clippy::manual_clamp)] // clamp would keep NaN; max(0.0) maps it to 0
     pub fn encode(&self, l: f32) -> u8 {
-        let i = (l.clamp(0.0, 1.0) * (Self::N - 1) as f32 + 0.5) as usize;
-        self.table[i.min(Self::N - 1)]
+        // Adding 2^23 leaves round(l * (N - 1)) in the low mantissa bits: a
+        // float-to-index conversion without the checks of a saturating `as`
+        // (this ran for every pixel and showed in the profile). `max` also
+        // maps NaN to 0.
+        let v = l.max(0.0).min(1.0) * (Self::N - 1) as f32 + 8_388_608.0;
+        self.table[(v.to_bits() & (Self::N as u32 - 1)) as usize]
     }
     #[inline]
     pub fn rgb(&self, c: F3) -> [u8; 3] {

@@ -198,6 +198,10 @@ struct EyeRaster {
     lash_up_rows: usize,
     lash_lo: Vec<f32>,
     lash_lo_rows: usize,
+    /// Per column: how far above the upper margin and below the lower one
+    /// anything (lashes, lash line, waterline) is drawn, in px.
+    up_reach: Vec<f32>,
+    lo_reach: Vec<f32>,
     inner_corner_px: [f64; 2],
     outer_corner_px: [f64; 2],
 }
@@ -221,24 +225,35 @@ pub struct Scene {
     bg_yuv: Vec<u8>,
 }
 
+/// Eye dimensions in f32 for the per-pixel ray tracer (eye coordinates, mm).
+struct EyeGeoF32 {
+    radius: f32,
+    iris_r: f32,
+    limbus_z: f32,
+    cornea_z: f32,
+    cornea_r: f32,
+    iris_z: f32,
+}
+
 /// Per-frame, per-eye values shared by all pixels.
 struct EyeFrame<'a> {
     r: &'a EyeRaster,
 
-    origin: V3,
-    dir_fwd: V3,
-    dir_right: V3,
-    dir_down: V3,
-    light: V3,
-    pupil_mm: f64,
+    origin: F3,
+    dir_fwd: F3,
+    dir_right: F3,
+    dir_down: F3,
+    light: F3,
+    cx: f32,
+    cy: f32,
+    geo: EyeGeoF32,
+    pupil_mm: f32,
     up: Vec<f32>,
     lo: Vec<f32>,
     /// Lid parameter s (0 inner corner .. 1 outer) per column.
     s_col: Vec<f32>,
     /// How far along a ray to jump before intersecting (keeps precision).
-    origin_skip_mm: f64,
-    lash_up_reach: f32,
-    lash_lo_reach: f32,
+    origin_skip_mm: f32,
     waterline_px: f32,
     inv_shadow_px: f32,
     hair: F3,
@@ -573,10 +588,34 @@ impl Scene {
         }
     }
 
+    /// Renders both eye regions of one frame into yuv420p planes (which must
+    /// hold this scene's background outside the eye boxes) on the calling
+    /// thread only. Used when whole frames are rendered in parallel, which
+    /// scales better than splitting a frame's rows across threads.
+    pub fn render_eyes_yuv_serial(
+        &self,
+        poses: [EyePose; 2],
+        closure: f64,
+        pupil_scale: f64,
+        yuv: &mut [u8],
+    ) {
+        for (k, (r, pose)) in self.eyes.iter().zip(poses).enumerate() {
+            if r.w == 0 || r.h == 0 {
+                continue;
+            }
+            let ef = self.eye_frame(k, pose, closure, pupil_scale);
+            self.render_box_yuv_with(&ef, yuv, false);
+        }
+    }
+
+    fn render_box_yuv(&self, ef: &EyeFrame, yuv: &mut [u8]) {
+        self.render_box_yuv_with(ef, yuv, true)
+    }
+
     /// Writes one eye box into yuv420p planes: the box is reset to the
     /// background, then only 2x2 blocks that the lids, lashes or eye can
     /// reach this frame are shaded.
-    fn render_box_yuv(&self, ef: &EyeFrame, yuv: &mut [u8]) {
+    fn render_box_yuv_with(&self, ef: &EyeFrame, yuv: &mut [u8], parallel: bool) {
         let r = ef.r;
         let (w, h) = (self.width, self.height);
         let cw = w / 2;
@@ -594,37 +633,60 @@ impl Scene {
         let (up, vp) = rest.split_at_mut(cw * (h / 2));
         let (bgy, bgrest) = bg.split_at(w * h);
         let (bgu, bgv) = bgrest.split_at(cw * (h / 2));
-        yp[by * w..(by + bh) * w]
-            .par_chunks_mut(2 * w)
-            .zip(up[(by / 2) * cw..(by + bh) / 2 * cw].par_chunks_mut(cw))
-            .zip(vp[(by / 2) * cw..(by + bh) / 2 * cw].par_chunks_mut(cw))
-            .enumerate()
-            .for_each(|(pair, ((yrows, urow), vrow))| {
-                let row = by + pair * 2;
-                for dy in 0..2 {
-                    let o = (row + dy) * w + bx;
-                    yrows[dy * w + bx..dy * w + bx + bw].copy_from_slice(&bgy[o..o + bw]);
+        type Rows<'a> = (usize, ((&'a mut [u8], &'a mut [u8]), &'a mut [u8]));
+        let body = |(pair, ((yrows, urow), vrow)): Rows<'_>| {
+            let row = by + pair * 2;
+            for dy in 0..2 {
+                let o = (row + dy) * w + bx;
+                yrows[dy * w + bx..dy * w + bx + bw].copy_from_slice(&bgy[o..o + bw]);
+            }
+            let co = (row / 2) * cw + bx / 2;
+            urow[bx / 2..bx / 2 + bw / 2].copy_from_slice(&bgu[co..co + bw / 2]);
+            vrow[bx / 2..bx / 2 + bw / 2].copy_from_slice(&bgv[co..co + bw / 2]);
+            let (fy0, fy1) = ((pair * 2) as f32, (pair * 2 + 2) as f32);
+            for (cx, &(a, b)) in ranges.iter().enumerate() {
+                if fy1 <= a || fy0 >= b {
+                    continue;
                 }
-                let co = (row / 2) * cw + bx / 2;
-                urow[bx / 2..bx / 2 + bw / 2].copy_from_slice(&bgu[co..co + bw / 2]);
-                vrow[bx / 2..bx / 2 + bw / 2].copy_from_slice(&bgv[co..co + bw / 2]);
-                let (fy0, fy1) = ((pair * 2) as f32, (pair * 2 + 2) as f32);
-                for (cx, &(a, b)) in ranges.iter().enumerate() {
-                    if fy1 <= a || fy0 >= b {
-                        continue;
-                    }
-                    let (mut su, mut sv) = (0, 0);
-                    for (dy, dx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
-                        let c = self.lut.rgb(self.shade_px(ef, cx * 2 + dx, pair * 2 + dy));
-                        let (yy, u, v) = yuv_of(c[0] as i32, c[1] as i32, c[2] as i32);
-                        yrows[dy * w + bx + cx * 2 + dx] = yy;
-                        su += u;
-                        sv += v;
-                    }
-                    urow[bx / 2 + cx] = chroma(su);
-                    vrow[bx / 2 + cx] = chroma(sv);
+                let shaded = [(0, 0), (0, 1), (1, 0), (1, 1)]
+                    .map(|(dy, dx)| self.shade_px(ef, cx * 2 + dx, pair * 2 + dy));
+                if shaded.iter().all(Option::is_none) {
+                    continue; // the background copied above is exact
                 }
-            });
+                let (mut su, mut sv) = (0, 0);
+                for (j, (dy, dx)) in [(0, 0), (0, 1), (1, 0), (1, 1)].into_iter().enumerate() {
+                    let c = match shaded[j] {
+                        Some(c) => self.lut.rgb(c),
+                        None => {
+                            let i = ((row + dy) * w + bx + cx * 2 + dx) * 3;
+                            [self.bg_rgb[i], self.bg_rgb[i + 1], self.bg_rgb[i + 2]]
+                        }
+                    };
+                    let (yy, u, v) = yuv_of(c[0] as i32, c[1] as i32, c[2] as i32);
+                    yrows[dy * w + bx + cx * 2 + dx] = yy;
+                    su += u;
+                    sv += v;
+                }
+                urow[bx / 2 + cx] = chroma(su);
+                vrow[bx / 2 + cx] = chroma(sv);
+            }
+        };
+        let ys = &mut yp[by * w..(by + bh) * w];
+        let us = &mut up[(by / 2) * cw..(by + bh) / 2 * cw];
+        let vs = &mut vp[(by / 2) * cw..(by + bh) / 2 * cw];
+        if parallel {
+            ys.par_chunks_mut(2 * w)
+                .zip(us.par_chunks_mut(cw))
+                .zip(vs.par_chunks_mut(cw))
+                .enumerate()
+                .for_each(body);
+        } else {
+            ys.chunks_mut(2 * w)
+                .zip(us.chunks_mut(cw))
+                .zip(vs.chunks_mut(cw))
+                .enumerate()
+                .for_each(body);
+        }
     }
 
     fn eye_frame(&self, k: usize, pose: EyePose, closure: f64, pupil_scale: f64) -> EyeFrame<'_> {
@@ -655,21 +717,31 @@ impl Scene {
         }
         let cam = &self.camera;
         let waterline_px = (0.9 * self.px_per_mm) as f32;
+        let sk = self.identity.skin_rgb;
+        let skin = f3(sk[0], sk[1], sk[2]);
         EyeFrame {
             r,
-            origin: rot.to_local(cam.pos - m.centre),
-            dir_fwd: rot.to_local(cam.fwd),
-            dir_right: rot.to_local(cam.right * (1.0 / cam.f_px)),
-            dir_down: rot.to_local(cam.down * (1.0 / cam.f_px)),
-            light: rot.to_local(self.light),
+            origin: rot.to_local(cam.pos - m.centre).f(),
+            dir_fwd: rot.to_local(cam.fwd).f(),
+            dir_right: rot.to_local(cam.right * (1.0 / cam.f_px)).f(),
+            dir_down: rot.to_local(cam.down * (1.0 / cam.f_px)).f(),
+            cx: cam.cx as f32,
+            cy: cam.cy as f32,
+            geo: EyeGeoF32 {
+                radius: m.radius_mm as f32,
+                iris_r: m.iris_radius_mm as f32,
+                limbus_z: m.limbus_z_mm as f32,
+                cornea_z: m.cornea_centre_z_mm as f32,
+                cornea_r: CORNEA_RADIUS_MM as f32,
+                iris_z: m.iris_z_mm as f32,
+            },
+            light: rot.to_local(self.light).f(),
 
-            pupil_mm: self.identity.eye.pupil_radius_mm * pupil_scale,
+            pupil_mm: (self.identity.eye.pupil_radius_mm * pupil_scale) as f32,
             up,
             lo,
             s_col,
-            origin_skip_mm: (cam.pos - m.centre).len() - 30.0,
-            lash_up_reach: r.lash_up_rows as f32 + 1.0,
-            lash_lo_reach: r.lash_lo_rows as f32 + waterline_px * 1.6 + 1.0,
+            origin_skip_mm: ((cam.pos - m.centre).len() - 30.0) as f32,
             waterline_px,
             inv_shadow_px: 1.0 / (1.6 * self.px_per_mm) as f32,
             hair: F3 {
@@ -678,17 +750,28 @@ impl Scene {
                 z: self.identity.hair_rgb[2],
             }
             .mulv(self.light_rgb * 0.5 + f3(1.0, 1.0, 1.0) * self.ambient),
-            wet: f3(0.5, 0.26, 0.23).mulv(self.light_rgb * 0.7 + f3(1.0, 1.0, 1.0) * self.ambient),
+            // Mucosa is pink, but darker skin has darker lid margins.
+            wet: f3(0.5, 0.26, 0.23)
+                .lerp(skin.mulv(f3(1.1, 0.85, 0.85)), 0.45)
+                .mulv(self.light_rgb * 0.7 + f3(1.0, 1.0, 1.0) * self.ambient),
             caruncle: f3(0.55, 0.22, 0.2)
+                .lerp(skin.mulv(f3(1.1, 0.8, 0.8)), 0.35)
                 .mulv(self.light_rgb * 0.6 + f3(1.0, 1.0, 1.0) * self.ambient),
         }
     }
 
     /// Shades one row (box-relative `y`) of an eye box into sRGB bytes.
     fn shade_row(&self, ef: &EyeFrame, y: usize, out: &mut [u8]) {
-        for x in 0..ef.r.w {
-            let c = self.shade_px(ef, x, y);
-            out[x * 3..x * 3 + 3].copy_from_slice(&self.lut.rgb(c));
+        let r = ef.r;
+        for x in 0..r.w {
+            let rgb = match self.shade_px(ef, x, y) {
+                Some(c) => self.lut.rgb(c),
+                None => {
+                    let i = ((r.y0 + y) * self.width + r.x0 + x) * 3;
+                    [self.bg_rgb[i], self.bg_rgb[i + 1], self.bg_rgb[i + 2]]
+                }
+            };
+            out[x * 3..x * 3 + 3].copy_from_slice(&rgb);
         }
     }
 
@@ -703,29 +786,30 @@ impl Scene {
         }
         let y0 = ef.r.y0 as f32;
         (
-            up - ef.lash_up_reach - 1.0 - y0,
-            ef.lo[x] + ef.lash_lo_reach + 1.0 - y0,
+            up - ef.r.up_reach[x] - 1.0 - y0,
+            ef.lo[x] + ef.r.lo_reach[x] + 1.0 - y0,
         )
     }
 
-    /// Shades one pixel (box-relative) in linear RGB.
+    /// Shades one pixel (box-relative) in linear RGB; `None` where it shows
+    /// the background unchanged.
     #[inline]
-    fn shade_px(&self, ef: &EyeFrame, x: usize, y: usize) -> F3 {
+    fn shade_px(&self, ef: &EyeFrame, x: usize, y: usize) -> Option<F3> {
         let r = ef.r;
         let py = (r.y0 + y) as f32 + 0.5;
         let du = py - ef.up[x]; // > 0 below the upper margin
         let dl = ef.lo[x] - py; // > 0 above the lower margin
-        let bgc = r.bg_lin[y * r.w + x];
-        if du < -ef.lash_up_reach || dl < -ef.lash_lo_reach {
-            return bgc;
+        if du < -r.up_reach[x] || dl < -r.lo_reach[x] {
+            return None;
         }
+        let bgc = r.bg_lin[y * r.w + x];
         let wl_px = ef.waterline_px;
         let mut col = bgc;
         // The eye, with anti-aliased lid edges.
         let cover = clamp01(du + 0.5) * clamp01(dl + 0.5);
         if cover > 0.0 {
-            let px = (r.x0 + x) as f64 + 0.5;
-            let mut e = self.shade_eyeball(ef, px, py as f64);
+            let px = (r.x0 + x) as f32 + 0.5;
+            let mut e = self.shade_eyeball(ef, px, py);
             // Upper-lid and lash shadow on the eye, a softer one from the lower lid.
             let sh = 1.0
                 - 0.6 * fast_exp(-du.max(0.0) * ef.inv_shadow_px)
@@ -758,115 +842,98 @@ impl Scene {
             let a = r.lash_lo[d_lo as usize * r.w + x];
             col = col.lerp(ef.hair, a * 0.8);
         }
-        col
+        Some(col)
     }
 
     /// Ray-traces the eyeball at image point (px, py); linear RGB.
+    ///
+    /// In f32: the ray starts 30 mm before the eye (so the quadratics do not
+    /// lose precision to the 400+ mm camera distance), and single precision
+    /// halves the latency of the square roots and divisions that dominate.
     #[inline(always)]
-    fn shade_eyeball(&self, ef: &EyeFrame, px: f64, py: f64) -> F3 {
-        let m = &ef.r.model;
-        let cam = &self.camera;
-        let d = ef.dir_fwd + ef.dir_right * (px - cam.cx) + ef.dir_down * (py - cam.cy);
-        let d = d * (1.0 / d.len());
-        // Start the ray near the eye so the quadratic does not lose precision.
+    fn shade_eyeball(&self, ef: &EyeFrame, px: f32, py: f32) -> F3 {
+        let g = &ef.geo;
+        let d = ef.dir_fwd + ef.dir_right * (px - ef.cx) + ef.dir_down * (py - ef.cy);
+        let d = d * (1.0 / d.dot(d).sqrt());
         let o = ef.origin + d * ef.origin_skip_mm;
         let light = ef.light;
         let lc = self.light_rgb;
         let amb = self.ambient;
         // Cornea.
-        let oc = v3(o.x, o.y, o.z - m.cornea_centre_z_mm);
+        let oc = f3(o.x, o.y, o.z - g.cornea_z);
         let b = oc.dot(d);
-        let c = oc.dot(oc) - CORNEA_RADIUS_MM * CORNEA_RADIUS_MM;
+        let c = oc.dot(oc) - g.cornea_r * g.cornea_r;
         let disc = b * b - c;
         if disc > 0.0 {
             let t = -b - disc.sqrt();
             let p = o + d * t;
-            if p.z >= m.limbus_z_mm {
-                let n = v3(p.x, p.y, p.z - m.cornea_centre_z_mm) * (1.0 / CORNEA_RADIUS_MM);
+            if p.z >= g.limbus_z {
+                let n = f3(p.x, p.y, p.z - g.cornea_z) * (1.0 / g.cornea_r);
                 let cosi = -d.dot(n);
                 // Refraction into the aqueous humour, then hit the iris plane.
-                let eta = 1.0 / CORNEA_INDEX;
+                let eta = 1.0 / CORNEA_INDEX as f32;
                 let k = 1.0 - eta * eta * (1.0 - cosi * cosi);
                 let tr = d * eta + n * (eta * cosi - k.max(0.0).sqrt());
-                let s = (m.iris_z_mm - p.z) / tr.z;
+                let s = (g.iris_z - p.z) / tr.z;
                 let q = p + tr * s;
                 let r2 = q.x * q.x + q.y * q.y;
-                let ri = m.iris_radius_mm;
+                let ri = g.iris_r;
                 let pr = ef.pupil_mm;
-                let iris_light = amb + 0.75 * (0.4 + 0.6 * light.z.max(0.0)) as f32;
+                let iris_light = amb + 0.75 * (0.4 + 0.6 * light.z.max(0.0));
                 let mut col = if r2 < pr * pr {
                     f3(0.006, 0.005, 0.005)
                 } else if r2 < ri * ri {
-                    let tex = sample_bilinear(
-                        &self.tex.iris,
-                        IRIS_TEX,
-                        (q.x / ri) as f32,
-                        (q.y / ri) as f32,
-                    );
+                    let tex = sample_bilinear(&self.tex.iris, IRIS_TEX, q.x / ri, q.y / ri);
                     // Dark pupillary ruff right at the pupil edge.
-                    let rr = r2.sqrt();
-                    let ruff = smoothstep((pr * 1.12) as f32, pr as f32, rr as f32);
+                    let ruff = smoothstep(pr * 1.12, pr, r2.sqrt());
                     tex.lerp(f3(0.03, 0.02, 0.015), ruff * 0.8) * iris_light
                 } else {
                     f3(0.05, 0.045, 0.045) * iris_light
                 };
                 col = col.mulv(lc * 0.7 + f3(1.0, 1.0, 1.0) * 0.3);
                 // Blend into the sclera over the last 0.3 mm at the limbus.
-                let edge = smoothstep(
-                    m.limbus_z_mm as f32,
-                    (m.limbus_z_mm + 0.3) as f32,
-                    p.z as f32,
-                );
+                let edge = smoothstep(g.limbus_z, g.limbus_z + 0.3, p.z);
                 if edge < 1.0 {
-                    let sc = self.sclera_color(ef, p * (m.radius_mm / p.len()), d);
-                    col = sc.lerp(col, edge);
+                    let on_ball = p * (g.radius / p.dot(p).sqrt());
+                    col = self.sclera_color(ef, on_ball, d).lerp(col, edge);
                 }
                 // Corneal reflections: the key light's glint and a faint room.
                 let refl = d + n * (2.0 * cosi);
-                let g = refl.dot(light) as f32;
-                let glint = smoothstep(0.9965, 0.9985, g) * 2.2;
+                let glint = smoothstep(0.9965, 0.9985, refl.dot(light)) * 2.2;
                 // A dim, even room reflection growing toward grazing angles.
-                let fresnel = 0.02 + 0.2 * (1.0 - cosi as f32).powi(4);
+                let fresnel = 0.02 + 0.2 * (1.0 - cosi).powi(4);
                 let env = f3(0.5, 0.5, 0.55) * fresnel;
                 return col + lc * glint + env;
             }
         }
         // Sclera.
         let b = o.dot(d);
-        let c = o.dot(o) - m.radius_mm * m.radius_mm;
+        let c = o.dot(o) - g.radius * g.radius;
         let disc = b * b - c;
         if disc > 0.0 {
             let t = -b - disc.sqrt();
-            let p = o + d * t;
-            return self.sclera_color(ef, p, d);
+            return self.sclera_color(ef, o + d * t, d);
         }
         // Past the eyeball (toward the corners): the sclera curving away
-        // into the fold of the canthus, darkened.
-        // Shade it as flesh-tinted sclera at the silhouette, facing the camera.
+        // into the fold of the canthus, shaded as flesh-tinted sclera at the
+        // silhouette.
         let p = o - d * b;
-        let p = p * (m.radius_mm / p.len());
-        let tex = sample_nearest(
-            &self.tex.sclera,
-            SCLERA_TEX,
-            (p.x / m.radius_mm) as f32,
-            (p.y / m.radius_mm) as f32,
-        );
+        let p = p * (1.0 / p.dot(p).sqrt());
+        let tex = sample_nearest(&self.tex.sclera, SCLERA_TEX, p.x, p.y);
         tex.mulv(f3(0.85, 0.62, 0.58))
             .mulv(lc * 0.45 + f3(1.0, 1.0, 1.0) * amb)
     }
 
     #[inline]
-    fn sclera_color(&self, ef: &EyeFrame, p: V3, d: V3) -> F3 {
-        let m = &ef.r.model;
-        let inv_r = 1.0 / m.radius_mm;
-        let n = p * inv_r;
-        let tex = sample_nearest(&self.tex.sclera, SCLERA_TEX, n.x as f32, n.y as f32);
-        let ndl = n.dot(ef.light) as f32;
-        let ndv = (-n.dot(d)) as f32;
+    fn sclera_color(&self, ef: &EyeFrame, p: F3, d: F3) -> F3 {
+        let n = p * (1.0 / ef.geo.radius);
+        let tex = sample_nearest(&self.tex.sclera, SCLERA_TEX, n.x, n.y);
+        let ndl = n.dot(ef.light);
+        let ndv = -n.dot(d);
         let diffuse = self.ambient + 0.8 * ((ndl + 0.25) / 1.25).max(0.0);
         let rim = 0.45 + 0.55 * ndv.max(0.0);
-        let refl = d + n * (2.0 * ndv as f64);
-        let spec = smoothstep(0.992, 0.998, refl.dot(ef.light) as f32) * 0.6;
+        let refl = d + n * (2.0 * ndv);
+        let spec = smoothstep(0.992, 0.998, refl.dot(ef.light)) * 0.6;
         tex.mulv(self.light_rgb * diffuse + f3(1.0, 1.0, 1.0) * (self.ambient * 0.3)) * rim
             + self.light_rgb * spec
     }
@@ -931,17 +998,44 @@ impl Scene {
                 * smoothstep(-35.0, 30.0, y as f32) as f64;
             hgt
         };
-        // Height on a pixel grid, then normals by central differences.
+        // Slowly varying fields (shape normals, mottling, redness, the dark
+        // skin around the eyes) on a coarse grid, interpolated per pixel:
+        // evaluating them per pixel dominated the set-up time.
+        const STEP: usize = 4;
+        let (gw, gh) = (w / STEP + 2, h / STEP + 2);
+        let mm_per_px = 1.0 / self.px_per_mm;
+        let dmm = STEP as f64 * mm_per_px;
+        let slow: Vec<[f32; 6]> = (0..gw * gh)
+            .into_par_iter()
+            .map(|i| {
+                let (u, v) = (((i % gw) * STEP) as f64, ((i / gw) * STEP) as f64);
+                let (x, y) = face_xy(u, v);
+                // Normal from the height field by central differences.
+                let hx = height_mm(x + dmm, y) - height_mm(x - dmm, y);
+                let hy = height_mm(x, y + dmm) - height_mm(x, y - dmm);
+                let n = v3(-hx / (2.0 * dmm), -hy / (2.0 * dmm), 1.0).norm();
+                let (xf, yf) = (x as f32, y as f32);
+                // Rotated sample coordinates hide the noise lattice's axes.
+                let (rx, ry) = (0.8 * xf + 0.6 * yf, -0.6 * xf + 0.8 * yf);
+                let mottle = noise.fbm(rx / 9.0, ry / 9.0, 3);
+                let red = noise.fbm(ry / 14.0 + 40.0, rx / 14.0, 3);
+                let mut peri = 0.0f32;
+                for ex in [-half_ipd, half_ipd] {
+                    let dx = (x - ex) as f32;
+                    let dy = y as f32 + 1.0;
+                    peri += (-(dx * dx / 300.0 + dy * dy / 110.0)).exp();
+                }
+                [n.x as f32, n.y as f32, n.z as f32, mottle, red, peri]
+            })
+            .collect();
         let coords: Vec<(f64, f64)> = (0..w * h)
             .into_par_iter()
             .map(|i| face_xy((i % w) as f64 + 0.5, (i / w) as f64 + 0.5))
             .collect();
-        let hmap: Vec<f64> = coords.par_iter().map(|&(x, y)| height_mm(x, y)).collect();
-        let mm_per_px = 1.0 / self.px_per_mm;
         let light = self.light;
         let lrgb = self.light_rgb;
         let amb = self.ambient;
-        let brow = self.brow_alpha(&coords);
+        let brow = self.brow_alpha();
         let hair = f3(id.hair_rgb[0], id.hair_rgb[1], id.hair_rgb[2]);
         // Crease curves: per eye, in mm, sampled densely for a lookup by x.
         let creases: Vec<Vec<(f64, f64)>> = eyes
@@ -963,28 +1057,31 @@ impl Scene {
             .map(|i| {
                 let (x, y) = coords[i];
                 let (px, py) = (i % w, i / w);
-                let hx = hmap[py * w + (px + 1).min(w - 1)] - hmap[py * w + px.saturating_sub(1)];
-                let hy = hmap[(py + 1).min(h - 1) * w + px] - hmap[py.saturating_sub(1) * w + px];
-                let n = v3(-hx / (2.0 * mm_per_px), -hy / (2.0 * mm_per_px), 1.0).norm();
+                let (gx, gy) = (px / STEP, py / STEP);
+                let (tx, ty) = (
+                    ((px % STEP) as f32 + 0.5) / STEP as f32,
+                    ((py % STEP) as f32 + 0.5) / STEP as f32,
+                );
+                let g = |dx: usize, dy: usize| &slow[(gy + dy) * gw + gx + dx];
+                let mut f = [0f32; 6];
+                for (k, v) in f.iter_mut().enumerate() {
+                    let top = g(0, 0)[k] + (g(1, 0)[k] - g(0, 0)[k]) * tx;
+                    let bot = g(0, 1)[k] + (g(1, 1)[k] - g(0, 1)[k]) * tx;
+                    *v = top + (bot - top) * ty;
+                }
+                let [nx, ny, nz, mottle, red, peri] = f;
+                let n = v3(nx as f64, ny as f64, nz as f64).norm();
                 let ndl = n.dot(light) as f32;
                 let diffuse = ((ndl + 0.35) / 1.35).max(0.0);
                 // Albedo: mottling, pores, darker and redder skin around the eyes.
                 let (xf, yf) = (x as f32, y as f32);
-                let mottle = noise.fbm(xf / 9.0, yf / 9.0, 4);
-                let red = noise.fbm(xf / 14.0 + 40.0, yf / 14.0, 3);
                 let pore = pores.value(xf * 2.2, yf * 2.2).max(0.0);
-                let fine = pores.fbm(xf * 0.9 + 11.0, yf * 0.9, 2);
+                let fine = pores.value(0.8 * yf + 11.0, 0.8 * xf);
                 let mut alb = skin.mulv(f3(
-                    1.0 + 0.05 * mottle + 0.05 * red,
-                    1.0 + 0.05 * mottle - 0.03 * red,
-                    1.0 + 0.05 * mottle - 0.03 * red,
-                )) * (1.0 - 0.10 * pore + 0.03 * fine);
-                let mut peri = 0.0f32;
-                for ex in [-half_ipd, half_ipd] {
-                    let dx = (x - ex) as f32;
-                    let dy = y as f32 + 1.0;
-                    peri += (-(dx * dx / 300.0 + dy * dy / 110.0)).exp();
-                }
+                    1.0 + 0.035 * mottle + 0.025 * red,
+                    1.0 + 0.035 * mottle - 0.015 * red,
+                    1.0 + 0.035 * mottle - 0.015 * red,
+                )) * (1.0 - 0.09 * pore + 0.015 * fine);
                 alb = alb.mulv(f3(1.0 - 0.10 * peri, 1.0 - 0.17 * peri, 1.0 - 0.15 * peri));
                 // Lid crease: a soft dark fold with a lighter lid below it.
                 let mut crease = 0.0f32;
@@ -1011,7 +1108,7 @@ impl Scene {
                 let mut col = alb.mulv(shade);
                 // A faint sheen on the skin.
                 let hv = (light + v3(0.0, 0.0, 1.0)).norm();
-                let spec = (n.dot(hv).max(0.0) as f32).powi(24) * 0.05 * (1.0 + 0.5 * fine);
+                let spec = (n.dot(hv).max(0.0) as f32).powi(24) * 0.035 * (1.0 - 0.6 * pore);
                 col = col + lrgb * spec;
                 let b = brow[i];
                 if b > 0.0 {
@@ -1026,13 +1123,12 @@ impl Scene {
     }
 
     /// Brow hairs as an alpha map over the image.
-    fn brow_alpha(&self, coords: &[(f64, f64)]) -> Vec<f32> {
+    fn brow_alpha(&self) -> Vec<f32> {
         let id = &self.identity;
         let sh = &id.eye;
         let (w, h) = (self.width, self.height);
         let mut alpha = vec![0f32; w * h];
         let mut rng = SplitMix64::new(id.seed ^ 0xB80);
-        let _ = coords;
         for side in [-1.0f64, 1.0] {
             let ex = side * sh.ipd_mm / 2.0;
             for _ in 0..1500 {
@@ -1156,7 +1252,27 @@ impl Scene {
                 rng.range(0.4, 0.8) as f32,
             );
         }
+        let wl = 0.9 * px_mm as f32;
+        let max_row = |tex: &[f32], rows: usize, x: usize| {
+            (0..rows)
+                .rev()
+                .find(|&r| tex[r * w + x] > 1.0 / 512.0)
+                .map(|r| r as f32)
+        };
+        let up_reach = (0..w)
+            .map(|x| {
+                max_row(&up, up_rows, x).map_or(1.0, |r| (r - LASH_ROOT_PX as f32 + 2.0).max(1.0))
+            })
+            .collect();
+        let lo_reach = (0..w)
+            .map(|x| {
+                let lash = max_row(&lo, lo_rows, x).map_or(0.0, |r| wl * 0.6 + r + 2.0);
+                lash.max(wl + 1.5)
+            })
+            .collect();
         let e = &mut self.eyes[k];
+        e.up_reach = up_reach;
+        e.lo_reach = lo_reach;
         e.lash_up = up;
         e.lash_up_rows = up_rows;
         e.lash_lo = lo;
@@ -1177,6 +1293,8 @@ impl EyeRaster {
             lash_up_rows: 0,
             lash_lo: Vec::new(),
             lash_lo_rows: 0,
+            up_reach: Vec::new(),
+            lo_reach: Vec::new(),
             inner_corner_px: [0.0; 2],
             outer_corner_px: [0.0; 2],
         }

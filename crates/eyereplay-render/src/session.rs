@@ -224,52 +224,50 @@ pub trait FrameSink {
     fn frame(&mut self, index: usize, yuv: &[u8]) -> Result<(), RenderError>;
 }
 
-/// Renders every frame's yuv420p image in order and hands it to `sink` on a
-/// separate thread, so rendering and piping to the encoder overlap.
+/// Renders every frame's yuv420p image and hands them to `sink` in order.
+///
+/// Whole frames are rendered in parallel, one worker thread per core, each
+/// frame on one thread (splitting a frame's rows across threads left cores
+/// idle at every frame's end); the calling thread feeds the sink (the
+/// encoder's pipe) meanwhile. Frames are independent, so the output does not
+/// depend on the number of workers.
 pub fn render_frames(
     scene: &Scene,
     truth: &[FrameTruth],
     sink: &mut (dyn FrameSink + Send),
 ) -> Result<(), RenderError> {
-    let (tx, rx) = mpsc::sync_channel::<(usize, Vec<u8>)>(2);
-    let (back_tx, back_rx) = mpsc::channel::<Vec<u8>>();
+    let workers = std::thread::available_parallelism()
+        .map_or(2, |n| n.get())
+        .clamp(1, 16);
     std::thread::scope(|s| {
-        let writer = s.spawn(move || -> Result<(), RenderError> {
-            for (i, buf) in rx {
-                sink.frame(i, &buf)?;
-                let _ = back_tx.send(buf);
-            }
-            Ok(())
-        });
-        let mut scratch = Vec::new();
-        let mut result = Ok(());
-        for (i, t) in truth.iter().enumerate() {
-            let mut buf = back_rx
-                .try_recv()
-                .unwrap_or_else(|_| scene.background_yuv().to_vec());
-            let poses = [t.eyes[0].pose, t.eyes[1].pose];
-            scene.render_eyes(
-                poses,
-                t.closure,
-                t.pupil_scale,
-                None,
-                Some(&mut buf),
-                &mut scratch,
-            );
-            if tx.send((i, buf)).is_err() {
-                break; // the writer failed; its error is reported below
-            }
-        }
-        drop(tx);
-        match writer.join() {
-            Ok(r) => {
-                if r.is_err() {
-                    result = r;
+        let mut frames_rx = Vec::with_capacity(workers);
+        let mut spare_tx = Vec::with_capacity(workers);
+        for first in 0..workers {
+            let (tx, rx) = mpsc::sync_channel::<Vec<u8>>(1);
+            let (spare, spare_rx) = mpsc::channel::<Vec<u8>>();
+            frames_rx.push(rx);
+            spare_tx.push(spare);
+            s.spawn(move || {
+                for t in truth.iter().skip(first).step_by(workers) {
+                    let mut buf = spare_rx
+                        .try_recv()
+                        .unwrap_or_else(|_| scene.background_yuv().to_vec());
+                    let poses = [t.eyes[0].pose, t.eyes[1].pose];
+                    scene.render_eyes_yuv_serial(poses, t.closure, t.pupil_scale, &mut buf);
+                    if tx.send(buf).is_err() {
+                        break; // the writer stopped on an error
+                    }
                 }
-            }
-            Err(_) => result = Err(RenderError::Input("frame writer panicked".into())),
+            });
         }
-        result
+        for i in 0..truth.len() {
+            let buf = frames_rx[i % workers]
+                .recv()
+                .map_err(|_| RenderError::Input(format!("frame {i}: render worker stopped")))?;
+            sink.frame(i, &buf)?;
+            let _ = spare_tx[i % workers].send(buf);
+        }
+        Ok(())
     })
 }
 

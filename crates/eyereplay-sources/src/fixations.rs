@@ -12,6 +12,16 @@
 //! `max_gap_s` (blinks and tracking loss end up there in a fixation report)
 //! split the recording rather than being bridged.
 //!
+//! Real fixations are not still: the eye drifts. During each fixation the
+//! position follows a random walk (Brownian motion) with diffusion
+//! coefficient `drift_deg2_per_s` (default 0.0056 deg^2/s, i.e. 20 arcmin^2/s,
+//! the order reported for fixational drift), starting at the reported
+//! fixation position; the saccade leaves from wherever the drift ended. At
+//! 25 fps that is about 0.02 degrees of movement per frame, the same order as
+//! the residual landmark jitter of smoothed webcam sources, so the two kinds
+//! of recording do not differ in stillness alone. Drift is seeded by the
+//! dataset seed and the recording id (deterministic); 0 turns it off.
+//!
 //! Samples are synthesized at `synth_rate_hz` (default 1000 Hz) and then
 //! travel the same anti-aliased decimation as eye-tracker data, so a saccade
 //! looks in the 25 fps output as it would have looked to a fast tracker.
@@ -49,6 +59,8 @@ pub struct SaccadeModel {
     pub base_ms: f64,
     pub ms_per_deg: f64,
     pub synth_rate_hz: f64,
+    /// Fixational drift diffusion coefficient (deg^2/s); 0 = still fixations.
+    pub drift_deg2_per_s: f64,
 }
 
 impl Default for SaccadeModel {
@@ -57,6 +69,7 @@ impl Default for SaccadeModel {
             base_ms: 21.0,
             ms_per_deg: 2.2,
             synth_rate_hz: 1000.0,
+            drift_deg2_per_s: 0.0056,
         }
     }
 }
@@ -177,6 +190,12 @@ pub(crate) fn read(spec: &SourceSpec, opts: &ReadOptions) -> Result<Vec<Recordin
                 &opts.eye_gains,
             )
         };
+        let id = if key.is_empty() {
+            file_name(path)
+        } else {
+            format!("{}#{}", file_name(path), key.join("/"))
+        };
+        let mut drift = Drift::new(opts.seed, &id, saccade.drift_deg2_per_s, dt, ppd);
         // Sample times are k * dt on one grid per group, so they never
         // collide and rounding cannot accumulate.
         let t0 = fixes[0].start_s;
@@ -191,6 +210,8 @@ pub(crate) fn read(spec: &SourceSpec, opts: &ReadOptions) -> Result<Vec<Recordin
             }
             let next = fixes.get(i + 1);
             let span_end = next.map_or(f.end_s, |n| n.start_s);
+            // Where the eye is while it fixates: the report's position plus drift.
+            let mut here = [f.x_px, f.y_px];
             loop {
                 let t = t0 + k as f64 * dt;
                 if t >= span_end && next.is_some() {
@@ -207,31 +228,64 @@ pub(crate) fn read(spec: &SourceSpec, opts: &ReadOptions) -> Result<Vec<Recordin
                             k = ((n.start_s - t0) / dt).ceil() as u64;
                             continue;
                         }
-                        let amp_deg = (n.x_px - f.x_px).hypot(n.y_px - f.y_px) / ppd;
+                        let amp_deg = (n.x_px - here[0]).hypot(n.y_px - here[1]) / ppd;
                         let d = saccade.duration_s(amp_deg).min(gap);
                         let w = min_jerk((t - f.end_s) / d);
                         to_iris(
-                            f.x_px + w * (n.x_px - f.x_px),
-                            f.y_px + w * (n.y_px - f.y_px),
+                            here[0] + w * (n.x_px - here[0]),
+                            here[1] + w * (n.y_px - here[1]),
                         )
                     }
-                    _ => to_iris(f.x_px, f.y_px),
+                    _ => {
+                        if t > f.start_s {
+                            drift.step(&mut here);
+                        }
+                        to_iris(here[0], here[1])
+                    }
                 };
                 series.push(f.line, Sample::new(t, pos))?;
                 k += 1;
             }
         }
         let segments = series.finish(opts.max_gap_s)?;
-        let id = if key.is_empty() {
-            file_name(path)
-        } else {
-            format!("{}#{}", file_name(path), key.join("/"))
-        };
         let mut r = recording(path, id, RecordingKind::FixationReport, segments, Some(ppd))?;
         r.rate_hz = saccade.synth_rate_hz;
         out.push(r);
     }
     Ok(out)
+}
+
+/// Brownian fixational drift in screen pixels.
+struct Drift {
+    rng: rand_chacha::ChaCha8Rng,
+    /// Per-axis standard deviation of one sample step, px.
+    step_px: f64,
+}
+
+impl Drift {
+    fn new(seed: u64, id: &str, d_deg2_per_s: f64, dt_s: f64, px_per_deg: f64) -> Self {
+        use rand::SeedableRng;
+        use sha2::{Digest, Sha256};
+        // One stream per recording, stable across runs and platforms.
+        let h = Sha256::digest(format!("{seed}/{id}").as_bytes());
+        let mut key = [0u8; 32];
+        key.copy_from_slice(&h);
+        Drift {
+            rng: rand_chacha::ChaCha8Rng::from_seed(key),
+            // 2-D Brownian motion: per-axis variance 2 D dt.
+            step_px: (2.0 * d_deg2_per_s * dt_s).sqrt() * px_per_deg,
+        }
+    }
+
+    fn step(&mut self, p: &mut [f64; 2]) {
+        if self.step_px > 0.0 {
+            use rand_distr::{Distribution, StandardNormal};
+            let a: f64 = StandardNormal.sample(&mut self.rng);
+            let b: f64 = StandardNormal.sample(&mut self.rng);
+            p[0] += self.step_px * a;
+            p[1] += self.step_px * b;
+        }
+    }
 }
 
 fn estimate_px_per_deg<'a>(groups: impl Iterator<Item = &'a Vec<Fixation>>) -> Option<f64> {
@@ -260,6 +314,33 @@ mod tests {
         assert_eq!(min_jerk(0.0), 0.0);
         assert_eq!(min_jerk(1.0), 1.0);
         assert!((min_jerk(0.5) - 0.5).abs() < 1e-15);
+    }
+
+    #[test]
+    fn drift_diffuses_at_the_set_rate() {
+        // Mean squared displacement after time T: 4 D T (2-D).
+        let (d, dt, ppd) = (0.0056, 0.001, 50.0);
+        let n_walks = 400;
+        let steps = 500; // 0.5 s
+        let mut msd = 0.0;
+        for w in 0..n_walks {
+            let mut dr = Drift::new(1, &format!("w{w}"), d, dt, ppd);
+            let mut p = [0.0, 0.0];
+            for _ in 0..steps {
+                dr.step(&mut p);
+            }
+            msd += (p[0] * p[0] + p[1] * p[1]) / (ppd * ppd);
+        }
+        msd /= n_walks as f64;
+        let want = 4.0 * d * steps as f64 * dt;
+        assert!((msd / want - 1.0).abs() < 0.15, "{msd} vs {want}");
+        // Same seed and id: same walk.
+        let mut a = Drift::new(3, "x", d, dt, ppd);
+        let mut b = Drift::new(3, "x", d, dt, ppd);
+        let (mut pa, mut pb) = ([0.0; 2], [0.0; 2]);
+        a.step(&mut pa);
+        b.step(&mut pb);
+        assert_eq!(pa, pb);
     }
 
     #[test]

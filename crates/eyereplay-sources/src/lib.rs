@@ -222,6 +222,9 @@ pub struct ReadOptions {
     pub max_gap_s: f64,
     /// Eye model for converting screen positions to iris positions.
     pub eye_gains: EyeGains,
+    /// Seed for synthesized detail (fixational drift); the dataset's seed.
+    #[serde(skip)]
+    pub seed: u64,
 }
 
 impl Default for ReadOptions {
@@ -229,6 +232,7 @@ impl Default for ReadOptions {
         ReadOptions {
             max_gap_s: 1.0,
             eye_gains: EyeGains::default(),
+            seed: 0,
         }
     }
 }

@@ -241,9 +241,9 @@ fn onestop_fixations_become_trajectories() {
     // about 73.7 px/deg; the median over all saccades is close to it.
     let ppd = r0.px_per_deg.unwrap();
     assert!((65.0..80.0).contains(&ppd), "{ppd}");
-    // The first fixation lasts 18288..18319 ms; mid-fixation the eye sits at it.
+    // The first fixation lasts 18288..18319 ms: the first sample sits on it,
+    // and mid-fixation the drift has moved it by a few hundredths of a degree.
     let s = r0.segments[0].samples();
-    let mid = s.iter().find(|x| (x.t_s - 18.3035).abs() < 0.0006).unwrap();
     let want = screen_to_iris(
         eyereplay_core::ScreenPos {
             x_px: 374.0,
@@ -253,6 +253,28 @@ fn onestop_fixations_become_trajectories() {
         ppd,
         &EyeGains::default(),
     );
+    assert!((s[0].t_s - 18.288).abs() < 1e-9);
+    assert!((s[0].pos.nx - want.nx).abs() < 1e-12 && (s[0].pos.ny - want.ny).abs() < 1e-12);
+    let mid = s.iter().find(|x| (x.t_s - 18.3035).abs() < 0.0006).unwrap();
+    let moved_deg = (mid.pos.nx - want.nx).abs() / 0.0061;
+    assert!(moved_deg > 0.0 && moved_deg < 0.1, "{moved_deg}");
+    // Without drift the fixation is held exactly.
+    let still = match &spec {
+        SourceSpec::Fixations { .. } => {
+            let mut sp = spec.clone();
+            if let SourceSpec::Fixations { saccade, .. } = &mut sp {
+                saccade.drift_deg2_per_s = 0.0;
+            }
+            read_source(&sp, &ReadOptions::default()).unwrap()
+        }
+        _ => unreachable!(),
+    };
+    let mid = still[0].segments[0]
+        .samples()
+        .iter()
+        .find(|x| (x.t_s - 18.3035).abs() < 0.0006)
+        .copied()
+        .unwrap();
     assert!((mid.pos.nx - want.nx).abs() < 1e-12 && (mid.pos.ny - want.ny).abs() < 1e-12);
     // Samples are on a 1 kHz grid.
     assert!((r0.rate_hz - 1000.0).abs() < 1e-9);

@@ -195,7 +195,7 @@ beside a session CSV); run 'eyereplay render' first, or pass --video and --traje
     let missing = eyereplay_extract::missing_files(&models);
     if !missing.is_empty() {
         let reason = format!(
-            "not computed: iris models missing in {} ({}); run scripts/models.sh",
+            "not computed: iris models missing in {} ({}); run 'eyereplay models fetch'",
             models.display(),
             missing.join(", ")
         );
@@ -226,33 +226,95 @@ beside a session CSV); run 'eyereplay render' first, or pass --video and --traje
             .with_context(|| format!("{}: comparing with the source", p.display()))?;
         ev.render_truth = Some((shown(&args.dataset_dir, &p), cmp));
     }
-    match compare_video(args, ev, &video, &input, calibration, models) {
-        Ok(run) => Ok(VisualSection::Computed(Box::new(run))),
-        Err(e) if !explicit => Ok(VisualSection::NotComputed {
-            reason: format!(
-                "not computed: {}. The eye-crop fallback (iris model on eye crops placed from the \
-render's known geometry, for close-ups where the face detector finds no face) is not built yet",
-                crate::format_chain(&e)
-            ),
-        }),
-        Err(e) => Err(e),
-    }
+    let n = ((args.visual_seconds * ev.fps).round() as usize).min(input.len());
+    let geometry = render_geometry_path(&video);
+    // 1. The extractor's own pipeline (face detector -> mesh -> iris). When
+    //    the render's geometry is at hand, a 4-s trial decides first whether
+    //    the detector sees a face at all, so a close-up does not cost a
+    //    full detector pass.
+    let trial = (4.0 * ev.fps).round() as usize;
+    let detected = if geometry.is_file() && n > trial {
+        match extract_with_detector(&video, &models, trial, ev.fps) {
+            Ok(r) if detection_rate(&r) < 0.5 => Ok(r),
+            _ => extract_with_detector(&video, &models, n, ev.fps),
+        }
+    } else {
+        extract_with_detector(&video, &models, n, ev.fps)
+    };
+    let (rendered_n, locator) = match detected {
+        Ok(r) if detection_rate(&r) >= 0.5 || !geometry.is_file() => (
+            r,
+            "face detector, face mesh and iris model (eyereplay-extract)".to_string(),
+        ),
+        // 2. A close-up without a detectable face: the iris model on eye
+        //    crops placed from the render's known eye corners.
+        first => {
+            if !geometry.is_file() {
+                let e = first.expect_err("handled above");
+                let reason = format!(
+                    "not computed: {}; no render geometry ({}) to place the eye crops",
+                    crate::format_chain(&e),
+                    shown(dir, &geometry)
+                );
+                if explicit {
+                    bail!("{reason}");
+                }
+                return Ok(VisualSection::NotComputed { reason });
+            }
+            let corners = render_eye_corners(&geometry)?;
+            let r = extract_at_corners(&video, &models, corners, n)?;
+            (
+                r,
+                format!(
+                    "iris model on eye crops placed from the render's known geometry ({}), \
+because the face detector found the face in {} of the compared frames",
+                    shown(dir, &geometry),
+                    match &first {
+                        Ok(r) => format!("{:.0} %", 100.0 * detection_rate(r)),
+                        Err(_) => "none".to_string(),
+                    }
+                ),
+            )
+        }
+    };
+    let n = n.min(rendered_n.len());
+    anyhow::ensure!(n >= 2, "{}: only {n} frame(s) decoded", video.display());
+    let rendered_n = rendered_n[..n].to_vec();
+    let input = &input[..n];
+    let source_n: Vec<[f64; 2]> = input
+        .iter()
+        .map(|p| calibration.to_norm([p.x_px, p.y_px]))
+        .collect();
+    let fidelity = compare_visual(&source_n, &rendered_n, Some((input, ev.canvas)))
+        .with_context(|| format!("{}: visual comparison", video.display()))?;
+    Ok(VisualSection::Computed(Box::new(VisualRun {
+        fidelity,
+        detection_rate: detection_rate(&rendered_n),
+        source_n,
+        rendered_n,
+        video: shown(dir, &video),
+        eye_locator: locator,
+    })))
 }
 
-/// Extracts the iris from `video` and compares it with the trajectory
-/// mapped back to normalized units.
-fn compare_video(
-    args: &Args,
-    ev: &Evaluation,
+fn detection_rate(n: &[[f64; 2]]) -> f64 {
+    n.iter()
+        .filter(|p| p[0].is_finite() && p[1].is_finite())
+        .count() as f64
+        / n.len().max(1) as f64
+}
+
+/// Mean `(nx, ny)` of both eyes per frame for the first `n_max` frames by
+/// the extractor's full pipeline; NaN where it found no open eyes.
+fn extract_with_detector(
     video: &Path,
-    input: &[CanvasPos],
-    calibration: eyereplay_eval::Calibration,
-    models: PathBuf,
-) -> anyhow::Result<VisualRun> {
-    let n_max = ((args.visual_seconds * ev.fps).round() as usize).min(input.len());
+    models: &Path,
+    n_max: usize,
+    fps: f64,
+) -> anyhow::Result<Vec<[f64; 2]>> {
     let opts = eyereplay_extract::ExtractOptions {
-        models_dir: models,
-        max_duration_s: Some(n_max as f64 / ev.fps),
+        models_dir: models.to_path_buf(),
+        max_duration_s: Some(n_max as f64 / fps),
         ..Default::default()
     };
     let ext = eyereplay_extract::extract_many(
@@ -263,36 +325,126 @@ fn compare_video(
     .pop()
     .expect("one result per video")
     .with_context(|| format!("{}: extracting the iris", video.display()))?;
-    let n = n_max.min(ext.rows.len());
-    anyhow::ensure!(
-        n >= 2,
-        "{}: only {} frame(s) decoded",
-        video.display(),
-        ext.rows.len()
-    );
-    let rendered_n: Vec<[f64; 2]> = ext.rows[..n]
+    Ok(ext
+        .rows
         .iter()
+        .take(n_max)
         .map(|r| match r.mean_n() {
             Some((x, y)) if r.valid() => [x, y],
             _ => [f64::NAN, f64::NAN],
         })
-        .collect();
-    let input = &input[..n];
-    let source_n: Vec<[f64; 2]> = input
-        .iter()
-        .map(|p| calibration.to_norm([p.x_px, p.y_px]))
-        .collect();
-    let detection_rate = rendered_n.iter().filter(|p| p[0].is_finite()).count() as f64 / n as f64;
-    let fidelity = compare_visual(&source_n, &rendered_n, Some((input, ev.canvas)))
-        .with_context(|| format!("{}: visual comparison", video.display()))?;
-    Ok(VisualRun {
-        fidelity,
-        source_n,
-        rendered_n,
-        video: shown(&args.dataset_dir, video),
-        eye_locator: "face detector, face mesh and iris model (eyereplay-extract)".into(),
-        detection_rate,
+        .collect())
+}
+
+/// The render's identity/geometry JSON beside a video: `<stem>_identity.json`
+/// (written by 'eyereplay render --dataset', or by --identity-out).
+fn render_geometry_path(video: &Path) -> PathBuf {
+    let stem = video
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    video.with_file_name(format!("{stem}_identity.json"))
+}
+
+type Corners = [(eyereplay_extract::Pt, eyereplay_extract::Pt); 2];
+
+/// Eye corners in image px from the render geometry JSON (`eyes[k].
+/// inner_corner_px / outer_corner_px`): image-left eye first, each pair
+/// ordered left to right in the image.
+fn render_eye_corners(path: &Path) -> anyhow::Result<Corners> {
+    use eyereplay_extract::Pt;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("{}: reading", path.display()))?;
+    let j: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not valid JSON", path.display()))?;
+    let eyes = j["eyes"]
+        .as_array()
+        .filter(|a| a.len() == 2)
+        .with_context(|| format!("{}: expected 'eyes' with two entries", path.display()))?;
+    let pt = |e: &serde_json::Value, k: &str| -> anyhow::Result<Pt> {
+        let v = e[k]
+            .as_array()
+            .filter(|a| a.len() == 2)
+            .and_then(|a| Some(Pt::new(a[0].as_f64()? as f32, a[1].as_f64()? as f32)))
+            .with_context(|| format!("{}: eyes[].{k} must be [x, y]", path.display()))?;
+        Ok(v)
+    };
+    let mut pairs = Vec::new();
+    for e in eyes {
+        let (a, b) = (pt(e, "inner_corner_px")?, pt(e, "outer_corner_px")?);
+        pairs.push(if a.x <= b.x { (a, b) } else { (b, a) });
+    }
+    pairs.sort_by(|p, q| (p.0.x + p.1.x).total_cmp(&(q.0.x + q.1.x)));
+    Ok([pairs[0], pairs[1]])
+}
+
+/// The extractor's iris step without face detection: for every frame, the
+/// iris model on two eye crops placed at known corners (crop side 2.3 x the
+/// corner distance, the image-right eye fed mirrored, as MediaPipe does);
+/// corners and lids from the model's eye contour, as in eyereplay-extract.
+fn extract_at_corners(
+    video: &Path,
+    models: &Path,
+    corners: Corners,
+    n_max: usize,
+) -> anyhow::Result<Vec<[f64; 2]>> {
+    use eyereplay_extract::{Border, Eye, Pt, Roi};
+    use std::ops::ControlFlow;
+    const SIZE: usize = 64;
+    let mut m = eyereplay_extract::Models::load(models)?;
+    let rois = corners.map(|(a, b)| Roi::from_two_points(a, b, 2.3));
+    let mirror = [false, true];
+    let plane = 3 * SIZE * SIZE;
+    let mut input = vec![0f32; 2 * plane];
+    let mut out: Vec<[f64; 2]> = Vec::with_capacity(n_max);
+    let mut dec = eyereplay_extract::Decoder::open(video)
+        .with_context(|| format!("{}: opening", video.display()))?;
+    dec.frames(|_t, img| {
+        for k in 0..2 {
+            img.crop_nchw(
+                &rois[k],
+                SIZE,
+                mirror[k],
+                Border::Replicate,
+                1.0 / 255.0,
+                0.0,
+                &mut input[k * plane..(k + 1) * plane],
+            );
+        }
+        let outs = m.iris(&input)?;
+        let mut n = [0.0f64; 2];
+        for (k, (contour, iris)) in outs.iter().enumerate() {
+            let s = SIZE as f32;
+            let map = |p: &[f32]| {
+                let u = if mirror[k] { 1.0 - p[0] / s } else { p[0] / s };
+                rois[k].to_image(u, p[1] / s)
+            };
+            let c: Vec<Pt> = contour.chunks_exact(3).map(map).collect();
+            let centre = map(&iris[0..3]);
+            let (a, b) = (c[0], c[8]);
+            let (corner_left, corner_right) = if a.x <= b.x { (a, b) } else { (b, a) };
+            let eye = Eye {
+                iris: centre,
+                corner_left,
+                corner_right,
+                upper_lid: c[12],
+                lower_lid: c[4],
+                contour: Vec::new(),
+                iris_rim: [centre; 5],
+            };
+            let me = eye.measure();
+            n[0] += me.nx / 2.0;
+            n[1] += me.ny / 2.0;
+        }
+        out.push(n);
+        Ok(if out.len() >= n_max {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        })
     })
+    .with_context(|| format!("{}: decoding", video.display()))?;
+    Ok(out)
 }
 
 /// A video whose frame count differs from its trajectory is bad input.
@@ -314,4 +466,45 @@ fn check_frame_count(video: &Path, trajectory_frames: usize) -> anyhow::Result<(
 /// inside it (so reports do not depend on where the dataset lives).
 fn shown(dir: &Path, p: &Path) -> String {
     p.strip_prefix(dir).unwrap_or(p).display().to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn eye_corners_from_render_geometry_are_ordered_left_to_right() {
+        let dir = std::env::temp_dir().join(format!("eyereplay-eval-geom-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("s_identity.json");
+        // Image-right eye listed first; its inner corner is on the left.
+        std::fs::write(
+            &p,
+            r#"{"eyes": [
+                {"inner_corner_px": [811.0, 403.0], "outer_corner_px": [1094.0, 383.0]},
+                {"inner_corner_px": [469.0, 403.0], "outer_corner_px": [186.0, 383.0]}
+            ]}"#,
+        )
+        .unwrap();
+        let c = render_eye_corners(&p).unwrap();
+        assert_eq!((c[0].0.x, c[0].1.x), (186.0, 469.0));
+        assert_eq!((c[1].0.x, c[1].1.x), (811.0, 1094.0));
+        std::fs::write(&p, r#"{"eyes": []}"#).unwrap();
+        let e = render_eye_corners(&p).unwrap_err().to_string();
+        assert!(e.contains("s_identity.json"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn geometry_and_shown_paths() {
+        assert_eq!(
+            render_geometry_path(Path::new("d/reading/reading_0001.mp4")),
+            PathBuf::from("d/reading/reading_0001_identity.json")
+        );
+        assert_eq!(
+            shown(Path::new("/data"), Path::new("/data/reading/r.mp4")),
+            "reading/r.mp4"
+        );
+        assert_eq!(shown(Path::new("/data"), Path::new("/x/r.mp4")), "/x/r.mp4");
+    }
 }

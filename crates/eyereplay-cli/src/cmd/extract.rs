@@ -101,14 +101,40 @@ fn find_upwards(rel: &str) -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
-/// Runs the MediaPipe reference on `video` and returns its frames/s.
-fn mediapipe_fps(video: &Path, max_seconds: Option<f64>) -> Result<f64> {
+/// CPU seconds (user + system) of this process and of its waited-for
+/// children, from /proc/self/stat (Linux; clock ticks are USER_HZ = 100).
+fn cpu_seconds() -> Option<(f64, f64)> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime is field 14.
+    let rest = &s[s.rfind(')')? + 2..];
+    let f: Vec<f64> = rest
+        .split_whitespace()
+        .filter_map(|v| v.parse().ok())
+        .collect();
+    // rest starts at field 3 (state, not numeric, so filtered out): field n
+    // is at index n - 4.
+    let tick = 100.0;
+    Some(((f[10] + f[11]) / tick, (f[12] + f[13]) / tick))
+}
+
+/// MediaPipe's run: frames/s (wall) and CPU seconds per frame.
+struct MediapipeRun {
+    fps: f64,
+    cpu_per_frame_s: Option<f64>,
+}
+
+/// Runs the MediaPipe reference on `video` and measures it.
+fn mediapipe_fps(video: &Path, max_seconds: Option<f64>) -> Result<MediapipeRun> {
     if max_seconds.is_some() {
         bail!("--bench-mediapipe compares whole videos; drop --max-seconds");
     }
     let script = find_upwards("scripts/dev/mediapipe_ref.sh")
         .context("scripts/dev/mediapipe_ref.sh not found (run from the eyereplay checkout or set EYEREPLAY_ROOT)")?;
-    eprintln!("running MediaPipe Python face mesh on {} ...", video.display());
+    eprintln!(
+        "running MediaPipe Python face mesh on {} ...",
+        video.display()
+    );
+    let children_before = cpu_seconds().map(|c| c.1);
     let out = std::process::Command::new("bash")
         .arg(&script)
         .arg(video)
@@ -119,10 +145,24 @@ fn mediapipe_fps(video: &Path, max_seconds: Option<f64>) -> Result<f64> {
     if !out.status.success() {
         bail!("{} failed: {}", script.display(), text.trim());
     }
-    text.split_whitespace()
-        .find_map(|w| w.strip_prefix("fps="))
-        .and_then(|v| v.parse::<f64>().ok())
-        .with_context(|| format!("no fps= in the MediaPipe script's output: {}", text.trim()))
+    let field = |key: &str| {
+        text.split_whitespace()
+            .find_map(|w| w.strip_prefix(key))
+            .and_then(|v| v.parse::<f64>().ok())
+    };
+    let fps = field("fps=")
+        .with_context(|| format!("no fps= in the MediaPipe script's output: {}", text.trim()))?;
+    let frames = field("frames=").unwrap_or(0.0);
+    // Includes the interpreter's start-up and model loading, which its own
+    // fps leaves out: a slight handicap for MediaPipe in the CPU ratio.
+    let cpu_per_frame_s = children_before
+        .zip(cpu_seconds().map(|c| c.1))
+        .filter(|_| frames > 0.0)
+        .map(|(a, b)| (b - a) / frames);
+    Ok(MediapipeRun {
+        fps,
+        cpu_per_frame_s,
+    })
 }
 
 /// Peak resident memory of this process (Linux), in MiB.
@@ -134,7 +174,10 @@ fn peak_rss_mib() -> Option<f64> {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let single_file = a.out.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+    let single_file = a
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
     if single_file && a.videos.len() > 1 {
         bail!(
             "--out {} is one file but {} videos were given; pass a folder",
@@ -158,7 +201,7 @@ pub fn run(a: Args) -> Result<()> {
         Some(p) => Some(ex::Series::read_reference(p)?),
         None => None,
     };
-    let mp_fps = if a.bench_mediapipe {
+    let mp_fps: Option<MediapipeRun> = if a.bench_mediapipe {
         Some(mediapipe_fps(&a.videos[0], a.max_seconds)?)
     } else {
         None
@@ -181,13 +224,20 @@ pub fn run(a: Args) -> Result<()> {
             .map(|v| {
                 let b = multi.add(ProgressBar::new(0));
                 b.set_style(style.clone());
-                let name = v.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+                let name = v
+                    .file_name()
+                    .map(|n| n.to_string_lossy().to_string())
+                    .unwrap_or_default();
                 b.set_prefix(name);
                 b
             })
             .collect(),
     };
+    let cpu_before = cpu_seconds().map(|c| c.0);
     let results = ex::extract_many(&a.videos, &opts, &bars);
+    let cpu_used_s = cpu_before
+        .zip(cpu_seconds().map(|c| c.0))
+        .map(|(a, b)| b - a);
     for b in &bars.bars {
         b.finish_and_clear();
     }
@@ -204,7 +254,10 @@ pub fn run(a: Args) -> Result<()> {
         let out = if single_file {
             a.out.clone()
         } else {
-            let stem = video.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "video".into());
+            let stem = video
+                .file_stem()
+                .map(|s| s.to_string_lossy().to_string())
+                .unwrap_or_else(|| "video".into());
             a.out.join(format!("{stem}.csv"))
         };
         ex::save_csv(&out, &x.rows)?;
@@ -222,11 +275,17 @@ pub fn run(a: Args) -> Result<()> {
             out.display()
         );
         if x.decode_errors > 0 {
-            println!("  warning: {} corrupt packets or frames skipped", x.decode_errors);
+            println!(
+                "  warning: {} corrupt packets or frames skipped",
+                x.decode_errors
+            );
         }
         if let Some(r) = &reference {
             let agreement = ex::compare(&ex::Series::from_rows(&x.rows), r, opts.blink_ratio);
-            println!("agreement with {}:", a.compare.as_ref().expect("set").display());
+            println!(
+                "agreement with {}:",
+                a.compare.as_ref().expect("set").display()
+            );
             for line in agreement.to_string().lines() {
                 println!("  {line}");
             }
@@ -247,9 +306,25 @@ pub fn run(a: Args) -> Result<()> {
                 t.iris_s
             );
         }
-        if let Some(mp) = mp_fps {
-            println!("MediaPipe Python face mesh: {mp:.1} frames/s (decoding included)");
-            println!("speed ratio eyereplay / MediaPipe: {:.2}x", fps / mp);
+        if let Some(mp) = &mp_fps {
+            println!(
+                "MediaPipe Python face mesh: {:.1} frames/s (decoding included)",
+                mp.fps
+            );
+            println!(
+                "speed ratio eyereplay / MediaPipe (frames/s, same run): {:.2}x",
+                fps / mp.fps
+            );
+            if let (Some(ours), Some(theirs)) = (cpu_used_s, mp.cpu_per_frame_s) {
+                let ours = ours / x.rows.len() as f64;
+                println!(
+                    "CPU per frame: eyereplay {:.2} ms, MediaPipe {:.2} ms (ratio {:.2}x; the fair \
+                     comparison when other processes load the machine)",
+                    1e3 * ours,
+                    1e3 * theirs,
+                    theirs / ours
+                );
+            }
         }
     }
     if let Some(mib) = peak_rss_mib() {
@@ -260,7 +335,11 @@ pub fn run(a: Args) -> Result<()> {
     match failed.len() {
         0 => Ok(()),
         1 => bail!("{}", failed[0]),
-        n => bail!("{n} of {} videos failed: {}", a.videos.len(), failed.join("; ")),
+        n => bail!(
+            "{n} of {} videos failed: {}",
+            a.videos.len(),
+            failed.join("; ")
+        ),
     }
 }
 

@@ -124,7 +124,9 @@ impl RenderSettings {
         if self.jobs > 0 {
             self.jobs
         } else {
-            std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+            std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(1)
         }
     }
 }
@@ -182,7 +184,8 @@ pub fn run(args: Args) -> Result<()> {
     let bytes_per_frame = estimate_bytes_per_frame(params.width, params.height);
     let need = frames as u64 * bytes_per_frame;
     if !args.dry_run {
-        std::fs::create_dir_all(&args.out).with_context(|| format!("{}: cannot create", args.out.display()))?;
+        std::fs::create_dir_all(&args.out)
+            .with_context(|| format!("{}: cannot create", args.out.display()))?;
         if let Some(free) = cmd::free_bytes(&args.out) {
             if free < need {
                 bail!(
@@ -318,7 +321,12 @@ fn dry_run(
     let frames = sessions * cfg.session_frames;
     println!("plan:");
     for (class, cc) in &cfg.classes {
-        println!("  {:<13} {} sessions x {} frames", class.name(), cc.sessions, cfg.session_frames);
+        println!(
+            "  {:<13} {} sessions x {} frames",
+            class.name(),
+            cc.sessions,
+            cfg.session_frames
+        );
     }
     if let Some(s) = shard {
         println!("  shard {}/{}: {} sessions", s.index, s.count, sessions);
@@ -361,7 +369,8 @@ impl RunLog {
         if dry_run {
             return Ok(RunLog { file: None });
         }
-        std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
+        std::fs::create_dir_all(out)
+            .with_context(|| format!("{}: cannot create", out.display()))?;
         let path = out.join("run.log");
         let mut f = std::fs::OpenOptions::new()
             .create(true)
@@ -369,7 +378,13 @@ impl RunLog {
             .open(&path)
             .with_context(|| path.display().to_string())?;
         let argv: Vec<String> = std::env::args().collect();
-        writeln!(f, "run {} (pid {}): {}", now_s(), std::process::id(), argv.join(" "))?;
+        writeln!(
+            f,
+            "run {} (pid {}): {}",
+            now_s(),
+            std::process::id(),
+            argv.join(" ")
+        )?;
         Ok(RunLog { file: Some(f) })
     }
 

@@ -47,8 +47,12 @@ struct RenderMetadata {
 /// Verifies completeness, writes final labels/metadata, optionally evaluates.
 pub fn finalize(dir: &Path, evaluate: bool) -> Result<()> {
     let meta_path = dir.join("metadata.json");
-    let text = std::fs::read_to_string(&meta_path)
-        .with_context(|| format!("{}: not a dataset folder (run 'eyereplay generate' first)", meta_path.display()))?;
+    let text = std::fs::read_to_string(&meta_path).with_context(|| {
+        format!(
+            "{}: not a dataset folder (run 'eyereplay generate' first)",
+            meta_path.display()
+        )
+    })?;
     // A merged metadata.json carries a "render" section; the dataset part is
     // the same either way.
     let meta: DatasetMetadata = serde_json::from_str(&text)
@@ -73,9 +77,10 @@ pub fn finalize(dir: &Path, evaluate: bool) -> Result<()> {
     }
     let mut sessions = Vec::with_capacity(jobs.len());
     for j in &jobs {
-        let t = std::fs::read_to_string(&j.identity_json).with_context(|| j.identity_json.display().to_string())?;
-        let v: serde_json::Value =
-            serde_json::from_str(&t).with_context(|| format!("{}: invalid JSON", j.identity_json.display()))?;
+        let t = std::fs::read_to_string(&j.identity_json)
+            .with_context(|| j.identity_json.display().to_string())?;
+        let v: serde_json::Value = serde_json::from_str(&t)
+            .with_context(|| format!("{}: invalid JSON", j.identity_json.display()))?;
         sessions.push(v);
     }
     let labels = std::fs::read(dir.join("labels.csv")).context("labels.csv")?;

@@ -38,7 +38,9 @@ pub fn cache_dir(flag: Option<&Path>) -> PathBuf {
     if let Some(p) = std::env::var_os("EYEREPLAY_CACHE") {
         return PathBuf::from(p);
     }
-    let home = std::env::var_os("HOME").map(PathBuf::from).unwrap_or_else(std::env::temp_dir);
+    let home = std::env::var_os("HOME")
+        .map(PathBuf::from)
+        .unwrap_or_else(std::env::temp_dir);
     home.join(".cache/eyereplay")
 }
 
@@ -62,7 +64,11 @@ pub fn check_ffmpeg(ffmpeg: &Path) -> Result<()> {
 
 /// Free bytes on the file system holding `dir` (`df -Pk`), if it can tell.
 pub fn free_bytes(dir: &Path) -> Option<u64> {
-    let o = std::process::Command::new("df").arg("-Pk").arg(dir).output().ok()?;
+    let o = std::process::Command::new("df")
+        .arg("-Pk")
+        .arg(dir)
+        .output()
+        .ok()?;
     let text = String::from_utf8(o.stdout).ok()?;
     let line = text.lines().nth(1)?;
     let kb: u64 = line.split_whitespace().nth(3)?.parse().ok()?;
@@ -73,13 +79,18 @@ pub fn free_bytes(dir: &Path) -> Option<u64> {
 /// video, its iris CSV. Cached by the video's sha256 and the extractor
 /// version, so a renamed copy is not extracted twice and a new extractor
 /// does not reuse old results.
-pub fn extract_videos_cached(cfg: &DatasetConfig, cache: &Path) -> Result<BTreeMap<PathBuf, PathBuf>> {
+pub fn extract_videos_cached(
+    cfg: &DatasetConfig,
+    cache: &Path,
+) -> Result<BTreeMap<PathBuf, PathBuf>> {
     let videos = video_sources(cfg);
     let mut out = BTreeMap::new();
     let mut todo: Vec<(PathBuf, PathBuf)> = Vec::new();
     for v in videos {
         let sha = eyereplay_core::sha256_file(&v)?;
-        let csv = cache.join("extract").join(format!("{sha}-v{}.csv", env!("CARGO_PKG_VERSION")));
+        let csv = cache
+            .join("extract")
+            .join(format!("{sha}-v{}.csv", env!("CARGO_PKG_VERSION")));
         if !csv.is_file() {
             todo.push((v.clone(), csv.clone()));
         }
@@ -91,11 +102,17 @@ pub fn extract_videos_cached(cfg: &DatasetConfig, cache: &Path) -> Result<BTreeM
     let paths: Vec<PathBuf> = todo.iter().map(|(v, _)| v.clone()).collect();
     let bar = ProgressBar::new(0);
     bar.set_style(
-        ProgressStyle::with_template("extract {bar:30} {human_pos}/{human_len} frames, {per_sec}, ETA {eta}")
-            .expect("static template"),
+        ProgressStyle::with_template(
+            "extract {bar:30} {human_pos}/{human_len} frames, {per_sec}, ETA {eta}",
+        )
+        .expect("static template"),
     );
     let progress = TotalBar { bar: &bar };
-    let results = eyereplay_extract::extract_many(&paths, &eyereplay_extract::ExtractOptions::default(), &progress);
+    let results = eyereplay_extract::extract_many(
+        &paths,
+        &eyereplay_extract::ExtractOptions::default(),
+        &progress,
+    );
     bar.finish_and_clear();
     for ((video, csv), r) in todo.iter().zip(results) {
         let ex = r.with_context(|| video.display().to_string())?;
@@ -127,7 +144,10 @@ impl eyereplay_extract::Progress for TotalBar<'_> {
 }
 
 /// The cached CSV of a video extracted by [`extract_videos_cached`].
-pub fn lookup_extracted(map: &BTreeMap<PathBuf, PathBuf>, video: &Path) -> Result<PathBuf, PrepareError> {
+pub fn lookup_extracted(
+    map: &BTreeMap<PathBuf, PathBuf>,
+    video: &Path,
+) -> Result<PathBuf, PrepareError> {
     map.get(video).cloned().ok_or_else(|| PrepareError::Source {
         id: video.display().to_string(),
         message: "video was not extracted".into(),

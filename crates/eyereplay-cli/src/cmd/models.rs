@@ -48,7 +48,10 @@ pub fn run(a: Args) -> Result<()> {
             let converter = tmp.join("tflite_to_onnx.py");
             std::fs::write(&script, ex::MODELS_SCRIPT)?;
             std::fs::write(&converter, ex::CONVERTER_SCRIPT)?;
-            let cache = dir.parent().map(|p| p.to_path_buf()).unwrap_or_else(|| dir.clone());
+            let cache = dir
+                .parent()
+                .map(|p| p.to_path_buf())
+                .unwrap_or_else(|| dir.clone());
             let status = std::process::Command::new("bash")
                 .arg(&script)
                 .arg(&dir)

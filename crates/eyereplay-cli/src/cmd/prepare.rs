@@ -46,7 +46,9 @@ pub fn run(args: Args) -> Result<()> {
         crate::cmd::check_models()?;
         crate::cmd::extract_videos_cached(&cfg, &crate::cmd::cache_dir(args.cache.as_deref()))?
     };
-    let inputs = load_sources(&cfg, |video| crate::cmd::lookup_extracted(&extracted, video))?;
+    let inputs = load_sources(&cfg, |video| {
+        crate::cmd::lookup_extracted(&extracted, video)
+    })?;
     let prepared = prepare(&cfg, &inputs)?;
     print_summary(&cfg, &prepared);
     for w in &prepared.warnings {

@@ -29,8 +29,14 @@ impl Shard {
         let (k, n) = s
             .split_once('/')
             .with_context(|| format!("--shard '{s}': expected K/N, e.g. 0/4"))?;
-        let k: usize = k.trim().parse().with_context(|| format!("--shard '{s}': K is not a number"))?;
-        let n: usize = n.trim().parse().with_context(|| format!("--shard '{s}': N is not a number"))?;
+        let k: usize = k
+            .trim()
+            .parse()
+            .with_context(|| format!("--shard '{s}': K is not a number"))?;
+        let n: usize = n
+            .trim()
+            .parse()
+            .with_context(|| format!("--shard '{s}': N is not a number"))?;
         Shard::new(k, n)
     }
 
@@ -63,7 +69,12 @@ impl Shard {
                 .context("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not")?;
             // Arrays may start at a nonzero id (--array=1-4).
             let min = num("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
-            return Shard::new(k.checked_sub(min).context("SLURM_ARRAY_TASK_ID below SLURM_ARRAY_TASK_MIN")?, n).map(Some);
+            return Shard::new(
+                k.checked_sub(min)
+                    .context("SLURM_ARRAY_TASK_ID below SLURM_ARRAY_TASK_MIN")?,
+                n,
+            )
+            .map(Some);
         }
         if let Some(k) = num("JOB_COMPLETION_INDEX")? {
             let n = shards.context("JOB_COMPLETION_INDEX is set: give the shard count with --shards N or EYEREPLAY_SHARDS")?;
@@ -87,7 +98,12 @@ mod tests {
     use super::*;
 
     fn env(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> + '_ {
-        move |k| pairs.iter().find(|(a, _)| *a == k).map(|(_, v)| v.to_string())
+        move |k| {
+            pairs
+                .iter()
+                .find(|(a, _)| *a == k)
+                .map(|(_, v)| v.to_string())
+        }
     }
 
     #[test]
@@ -98,24 +114,57 @@ mod tests {
         assert_eq!(s.count_of(10), 2);
         // Every session lands in exactly one shard.
         for i in 0..37 {
-            assert_eq!((0..4).filter(|k| Shard::new(*k, 4).unwrap().contains(i)).count(), 1);
+            assert_eq!(
+                (0..4)
+                    .filter(|k| Shard::new(*k, 4).unwrap().contains(i))
+                    .count(),
+                1
+            );
         }
-        assert!(Shard::parse("4/4").unwrap_err().to_string().contains("0-based"));
+        assert!(Shard::parse("4/4")
+            .unwrap_err()
+            .to_string()
+            .contains("0-based"));
         assert!(Shard::parse("x").is_err());
     }
 
     #[test]
     fn engines_indices() {
-        let slurm = env(&[("SLURM_ARRAY_TASK_ID", "3"), ("SLURM_ARRAY_TASK_COUNT", "4")]);
-        assert_eq!(Shard::resolve_with(None, None, slurm).unwrap(), Some(Shard { index: 3, count: 4 }));
-        let slurm1 = env(&[("SLURM_ARRAY_TASK_ID", "4"), ("SLURM_ARRAY_TASK_COUNT", "4"), ("SLURM_ARRAY_TASK_MIN", "1")]);
-        assert_eq!(Shard::resolve_with(None, None, slurm1).unwrap(), Some(Shard { index: 3, count: 4 }));
+        let slurm = env(&[
+            ("SLURM_ARRAY_TASK_ID", "3"),
+            ("SLURM_ARRAY_TASK_COUNT", "4"),
+        ]);
+        assert_eq!(
+            Shard::resolve_with(None, None, slurm).unwrap(),
+            Some(Shard { index: 3, count: 4 })
+        );
+        let slurm1 = env(&[
+            ("SLURM_ARRAY_TASK_ID", "4"),
+            ("SLURM_ARRAY_TASK_COUNT", "4"),
+            ("SLURM_ARRAY_TASK_MIN", "1"),
+        ]);
+        assert_eq!(
+            Shard::resolve_with(None, None, slurm1).unwrap(),
+            Some(Shard { index: 3, count: 4 })
+        );
         let k8s = env(&[("JOB_COMPLETION_INDEX", "5")]);
-        assert_eq!(Shard::resolve_with(None, Some(8), &k8s).unwrap(), Some(Shard { index: 5, count: 8 }));
-        assert!(Shard::resolve_with(None, None, &k8s).unwrap_err().to_string().contains("--shards"));
+        assert_eq!(
+            Shard::resolve_with(None, Some(8), &k8s).unwrap(),
+            Some(Shard { index: 5, count: 8 })
+        );
+        assert!(Shard::resolve_with(None, None, &k8s)
+            .unwrap_err()
+            .to_string()
+            .contains("--shards"));
         // The flag wins over the environment.
-        let both = env(&[("SLURM_ARRAY_TASK_ID", "1"), ("SLURM_ARRAY_TASK_COUNT", "2")]);
-        assert_eq!(Shard::resolve_with(Some("0/3"), None, both).unwrap(), Some(Shard { index: 0, count: 3 }));
+        let both = env(&[
+            ("SLURM_ARRAY_TASK_ID", "1"),
+            ("SLURM_ARRAY_TASK_COUNT", "2"),
+        ]);
+        assert_eq!(
+            Shard::resolve_with(Some("0/3"), None, both).unwrap(),
+            Some(Shard { index: 0, count: 3 })
+        );
         assert_eq!(Shard::resolve_with(None, None, env(&[])).unwrap(), None);
     }
 }

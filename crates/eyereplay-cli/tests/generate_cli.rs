@@ -1,0 +1,221 @@
+//! `eyereplay generate` / `merge` on the tiny config (real eye-tracker
+//! recordings from scripts/fetch-data.sh): determinism, resuming after
+//! kill -9, sharding + merge equal to a single-machine run.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .unwrap()
+}
+
+fn have_data() -> bool {
+    let ok = root().join(".cache/data/onestop_fixations.csv").exists();
+    if !ok && std::env::var_os("CI").is_some() {
+        panic!("sample data missing: run scripts/fetch-data.sh");
+    }
+    ok
+}
+
+fn eyereplay(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_eyereplay"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .unwrap()
+}
+
+fn tiny() -> String {
+    root().join("examples/tiny.toml").display().to_string()
+}
+
+fn generate(out: &Path, extra: &[&str]) -> Output {
+    let cfg = tiny();
+    let mut a = vec![
+        "generate",
+        "--config",
+        cfg.as_str(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    a.extend_from_slice(extra);
+    eyereplay(&a)
+}
+
+/// sha256 of every CSV and JSON below `dir` (the run log is not data).
+fn hashes(dir: &Path) -> BTreeMap<String, String> {
+    let mut m = BTreeMap::new();
+    walk(dir, dir, &mut m);
+    m
+}
+
+fn walk(base: &Path, dir: &Path, m: &mut BTreeMap<String, String>) {
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            walk(base, &p, m);
+        } else if matches!(p.extension().and_then(|x| x.to_str()), Some("csv" | "json")) {
+            let rel = p.strip_prefix(base).unwrap().display().to_string();
+            m.insert(rel, eyereplay_core::sha256_file(&p).unwrap());
+        }
+    }
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+#[test]
+fn generate_is_deterministic_resumable_and_shardable() {
+    if !have_data() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a");
+    let o = generate(&a, &[]);
+    ok(&o);
+    let ha = hashes(&a);
+    for f in [
+        "labels.csv",
+        "metadata.json",
+        "reading/reading_0003.csv",
+        "conversation/conversation_0000_truth.csv",
+        "report/metrics.json",
+    ] {
+        assert!(ha.contains_key(f), "{f} missing: {:?}", ha.keys());
+    }
+    assert_eq!(walk_count(&a, "mp4"), 8);
+    let meta: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(a.join("metadata.json")).unwrap()).unwrap();
+    assert_eq!(meta["render"]["sessions"].as_array().unwrap().len(), 8);
+    assert!(meta["tool"]["version"].is_string());
+
+    // Rerun in place: everything is skipped and nothing changes.
+    let o = generate(&a, &[]);
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("rendered 0 sessions"));
+    assert_eq!(hashes(&a), ha);
+
+    // Two shards into one folder, then merge: same files as one machine.
+    let s = dir.path().join("s");
+    ok(&generate(&s, &["--shard", "0/2"]));
+    // Before the second shard, merge refuses and names what is missing.
+    let o = eyereplay(&["merge", s.to_str().unwrap(), "--no-evaluate"]);
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("4 of 8 sessions are not rendered") && e.contains("reading/reading_0001.csv"),
+        "{e}"
+    );
+    ok(&generate(&s, &["--shard", "1/2"]));
+    ok(&eyereplay(&["merge", s.to_str().unwrap()]));
+    assert_eq!(hashes(&s), ha);
+
+    // kill -9 in the middle of rendering, then the same command again.
+    let k = dir.path().join("k");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_eyereplay"))
+        .args([
+            "generate",
+            "--config",
+            &tiny(),
+            "--out",
+            k.to_str().unwrap(),
+        ])
+        .current_dir(root())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait until at least one video is finished, then kill.
+    let t0 = std::time::Instant::now();
+    while walk_count(&k, "mp4") < 1 && t0.elapsed().as_secs() < 120 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    // No half-written file is visible under a final name.
+    for p in walk_files(&k) {
+        let name = p.file_name().unwrap().to_string_lossy().into_owned();
+        assert!(!name.ends_with(".tmp") || name.starts_with('.'), "{name}");
+    }
+    ok(&generate(&k, &[]));
+    assert_eq!(hashes(&k), ha);
+}
+
+fn walk_files(dir: &Path) -> Vec<PathBuf> {
+    let mut v = Vec::new();
+    if let Ok(rd) = std::fs::read_dir(dir) {
+        for e in rd.flatten() {
+            if e.path().is_dir() {
+                v.extend(walk_files(&e.path()));
+            } else {
+                v.push(e.path());
+            }
+        }
+    }
+    v
+}
+
+fn walk_count(dir: &Path, ext: &str) -> usize {
+    walk_files(dir)
+        .iter()
+        .filter(|p| p.extension().and_then(|x| x.to_str()) == Some(ext))
+        .count()
+}
+
+#[test]
+fn bad_inputs_stop_before_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("c.toml");
+    std::fs::write(&cfg, "[render]\nwidht = 3\n[classes.reading]\nsources = [{ format = \"extract\", path = \"x.csv\" }]\n").unwrap();
+    let out = dir.path().join("out");
+    let o = eyereplay(&[
+        "generate",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && e.contains("did you mean 'width'"),
+        "{e}"
+    );
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+
+    std::fs::write(
+        &cfg,
+        "[classes.reading]\nsources = [{ format = \"video\", path = \"missing.mp4\" }]\n",
+    )
+    .unwrap();
+    let o = eyereplay(&[
+        "generate",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("missing.mp4"), "{e}");
+    assert!(!out.join("metadata.json").exists());
+
+    let o = eyereplay(&[
+        "generate",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--shard",
+        "3/3",
+    ]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("0-based"));
+}

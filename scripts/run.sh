@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# The main job: a small labeled dataset from the bundled real recordings
+# (examples/default.toml), with its evaluation report.
+#
+#   scripts/run.sh [OUT]          default OUT: out/default
+#
+# Installs what it needs first (scripts/setup.sh; skips what is in place),
+# builds eyereplay in release mode, then runs 'eyereplay generate'. Rerunning
+# resumes: finished sessions are verified and skipped.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+out="${1:-out/default}"
+"$root/scripts/setup.sh"
+echo "run: cargo build --release"
+cargo build --release --quiet -p eyereplay-cli
+export EYEREPLAY_CACHE="${EYEREPLAY_CACHE:-$root/.cache}"
+"$root/target/release/eyereplay" generate --config examples/default.toml --out "$out"
