@@ -10,6 +10,7 @@
 # 2. Real sample recordings (scripts/fetch-data.sh), pinned by sha256.
 # 3. Face / iris models and the ONNX Runtime library (scripts/models.sh),
 #    pinned by sha256.
+# 4. Slurm and munge for the single-node cluster test (scripts/test-cluster.sh).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 
@@ -31,7 +32,6 @@ else
 fi
 
 "$here/fetch-data.sh"
-if [[ -x "$here/models.sh" ]]; then
-  "$here/models.sh"
-fi
+"$here/models.sh"
+"$here/test-cluster.sh" --setup
 echo "setup: done"

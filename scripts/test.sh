@@ -19,7 +19,16 @@ set +e
 cargo test --workspace 2>&1 | tee target/test.log
 status=${PIPESTATUS[0]}
 set -e
+echo "test: cluster (single-node Slurm on loopback)"
+set +e
+bash scripts/test-cluster.sh 2>&1 | tee target/test-cluster.log
+[[ ${PIPESTATUS[0]} -eq 0 ]] || status=1
+set -e
+# One closing line over both runners.
 passed=$(grep -oE 'test result: [a-zA-Z]+\. [0-9]+ passed' target/test.log | awk '{s+=$4} END {print s+0}')
 failed=$(grep -oE 'test result: [a-zA-Z]+\. [0-9]+ passed; [0-9]+ failed' target/test.log | awk '{s+=$6} END {print s+0}')
+read -r cp cf < <(grep -oE '^[0-9]+ passed, [0-9]+ failed' target/test-cluster.log | tail -1 | awk '{print $1, $3}') || true
+passed=$((passed + ${cp:-0}))
+failed=$((failed + ${cf:-0}))
 echo "${passed} passed, ${failed} failed"
 exit "$status"

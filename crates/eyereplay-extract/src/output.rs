@@ -132,7 +132,7 @@ pub fn flag_blinks(rows: &mut [Row], ratio: f64) -> usize {
     let threshold = ratio * median;
     let closed: Vec<bool> = rows
         .iter()
-        .map(|r| r.aperture().is_some_and(|a| !(a >= threshold)))
+        .map(|r| r.aperture().is_some_and(|a| a.is_nan() || a < threshold))
         .collect();
     let mut runs = 0;
     for i in 0..rows.len() {

@@ -6,9 +6,45 @@
 //! pipes yuv420p frames to an `ffmpeg` child running x264, and writes a
 //! per-frame ground-truth CSV beside the video.
 //!
-//! Speed comes from caching what does not move: the face background is
-//! rendered once per session, and each frame redraws only the two eye boxes
-//! ([`EyeGeometry::box_px`]) with precomputed iris and sclera textures.
+//! Entry points: [`render_session`] (one trajectory to MP4 + truth CSV),
+//! [`render_dataset`] (every session a `prepare` run wrote), [`run_bench`]
+//! (speed), [`Identity::sample`] (a seeded face, serializable to JSON).
+//!
+//! # Gaze mapping
+//!
+//! See [`GazeMapping`]: canvas px -> the source's normalized iris position
+//! `n` (inverse of the `prepare` calibration) -> optional gain -> each eye's
+//! yaw/pitch solved so that the iris, measured in the rendered image like the
+//! paper's eq. 1, sits at `n` -> plus nasal vergence for a screen at the
+//! viewing distance. So by default the video reproduces the source's iris
+//! amplitude (the paper's web simulator showed 30-42 % of it).
+//!
+//! # Where the eyes are
+//!
+//! See [`Scene`] for the head frame and camera, [`EyeGeometry`] for each
+//! eye's corners, centre and redrawn box in image pixels (written to
+//! `<stem>_identity.json` by the dataset render). With the default framing
+//! the eye centres sit at 55 % of the image height and at
+//! `width/2 -+ ipd/2 * px_per_mm` (about x = 330 and 950 of 1280).
+//!
+//! # Ground truth CSV (`<stem>_truth.csv`)
+//!
+//! One row per frame; `left` is the image-left eye (the subject's right):
+//! `frame`, `x`, `y` (input canvas px after clamping), `*_yaw_deg`,
+//! `*_pitch_deg` (eye rotation; + is image-right / up), `*_iris_x_px`,
+//! `*_iris_y_px` (projected limbus centre), `*_nx`, `*_ny` (iris position
+//! normalized between the eye corners and between the lid midpoints, the
+//! paper's eq. 1), `*_aperture` (lid gap at the lid midpoint over the
+//! corner-to-corner width), `lid_closure` (0 open .. 1 closed), `blink`
+//! (closure >= 0.5).
+//!
+//! # Speed
+//!
+//! The face background is rendered once per session; each frame redraws only
+//! the 2x2 blocks of the two eye boxes that lids, lashes or the eyeball can
+//! reach, straight into yuv420p, with precomputed iris, sclera and lash
+//! textures. Whole frames render in parallel on worker threads while the
+//! calling thread feeds ffmpeg.
 
 mod bench;
 mod blink;
