@@ -18,7 +18,9 @@ pub use class::GazeClass;
 pub use error::CoreError;
 pub use fsio::{atomic_write, atomic_write_with, sha256_file, sha256_hex};
 pub use position::{Canvas, CanvasPos, NormPos, PlanePos, ScreenPos, ScreenSize};
-pub use session_csv::{push_fixed3, push_u64, read_session_csv, write_session_csv, SessionRow};
+pub use session_csv::{
+    push_fixed3, push_point_row, push_u64, read_session_csv, write_session_csv, SessionRow,
+};
 pub use trajectory::{mean_of, path_length, Sample, Trajectory};
 
 /// Version of the eyereplay toolkit, recorded in every metadata file.

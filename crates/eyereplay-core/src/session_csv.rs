@@ -21,16 +21,22 @@ pub fn write_session_csv(path: &Path, points: &[CanvasPos]) -> Result<(), CoreEr
         let mut line = Vec::with_capacity(48);
         for (i, p) in points.iter().enumerate() {
             line.clear();
-            push_u64(&mut line, i as u64);
-            line.push(b',');
-            push_fixed3(&mut line, p.x_px);
-            line.push(b',');
-            push_fixed3(&mut line, p.y_px);
+            push_point_row(&mut line, i as u64, *p);
             line.push(b'\n');
             w.write_all(&line)?;
         }
         Ok(())
     })
+}
+
+/// Appends `frame,x,y` (3 decimals, no newline): the row of every
+/// canvas-trajectory CSV eyereplay writes.
+pub fn push_point_row(out: &mut Vec<u8>, frame: u64, p: CanvasPos) {
+    push_u64(out, frame);
+    out.push(b',');
+    push_fixed3(out, p.x_px);
+    out.push(b',');
+    push_fixed3(out, p.y_px);
 }
 
 /// Appends an unsigned integer in decimal.

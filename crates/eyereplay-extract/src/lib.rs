@@ -48,7 +48,10 @@ pub use geom::{Pt, Roi};
 pub use image::{Border, ImageView, Planes, Rotation, YuvMatrix};
 pub use models::{check as check_models, default_models_dir, init_runtime, missing_files, Models};
 pub use output::{flag_blinks, save_csv, write_csv, EyeRow, Row, CSV_HEADER, DEFAULT_BLINK_RATIO};
-pub use run::{extract_many, ExtractOptions, Extraction, NoProgress, Progress, DEFAULT_MESH_EVERY};
+pub use run::{
+    extract_many, extract_video_to_csv, ExtractOptions, Extraction, NoProgress, Progress,
+    DEFAULT_MESH_EVERY,
+};
 pub use tracker::{Eye, EyeMeasure, Face, StageTimes, Tracker};
 
 /// The fetch script, embedded so that `eyereplay models fetch` works from

@@ -445,3 +445,13 @@ fn run_segment(
         },
     })
 }
+
+/// Extracts one video and writes its CSV atomically (for callers such as
+/// `eyereplay prepare` that take videos as sources). No CSV on error.
+pub fn extract_video_to_csv(video: &Path, csv: &Path, opts: &ExtractOptions) -> Result<Extraction> {
+    let x = extract_many(&[video.to_path_buf()], opts, &NoProgress)
+        .pop()
+        .expect("one result per video")?;
+    crate::output::save_csv(csv, &x.rows)?;
+    Ok(x)
+}

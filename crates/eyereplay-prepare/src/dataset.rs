@@ -16,7 +16,7 @@
 
 use crate::{Calibration, DatasetConfig, PrepareError, Prepared, SourceReport};
 use eyereplay_core::{
-    atomic_write_with, push_fixed3, push_u64, write_session_csv, CanvasPos, GazeClass,
+    atomic_write_with, push_point_row, push_u64, write_session_csv, CanvasPos, GazeClass,
 };
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -125,11 +125,7 @@ pub fn write_dataset(
             let mut line = Vec::with_capacity(48);
             for (i, (p, s)) in c.pool.iter().zip(&c.pool_source).enumerate() {
                 line.clear();
-                push_u64(&mut line, i as u64);
-                line.push(b',');
-                push_fixed3(&mut line, p.x_px);
-                line.push(b',');
-                push_fixed3(&mut line, p.y_px);
+                push_point_row(&mut line, i as u64, *p);
                 line.push(b',');
                 push_u64(&mut line, *s as u64);
                 line.push(b'\n');

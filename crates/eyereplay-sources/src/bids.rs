@@ -7,10 +7,8 @@
 //! the timestamp unit is inferred from the sampling frequency (an interval of
 //! 2 at 500 Hz is milliseconds) and checked, never guessed silently.
 
-use crate::screen::screen_to_iris;
-use crate::series::{parse_f64, recording, SeriesBuilder};
-use crate::{file_name, ReadOptions, Recording, RecordingKind, ScreenOptions, SourceError};
-use eyereplay_core::{NormPos, Sample, ScreenPos};
+use crate::series::{parse_f64, ScreenSeries};
+use crate::{file_name, ReadOptions, Recording, ScreenOptions, SourceError};
 use serde_json::Value;
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
@@ -149,36 +147,11 @@ pub(crate) fn read(
         None => 1.0,
         Some(_) => timestamp_scale(path, declared_unit.as_deref(), &rows, fs)?,
     };
-    let mut series = SeriesBuilder::<NormPos>::new(path);
+    let mut series = ScreenSeries::new(path, screen_px, ppd, opts);
     for (line, t, g) in rows {
-        let p = g.unwrap_or([f64::NAN, f64::NAN]);
-        series.push(
-            line,
-            Sample {
-                t_s: t * to_s,
-                pos: screen_to_iris(
-                    ScreenPos {
-                        x_px: p[0],
-                        y_px: p[1],
-                    },
-                    screen_px,
-                    ppd,
-                    &opts.eye_gains,
-                ),
-                valid: g.is_some(),
-                aperture: None,
-                blink: false,
-            },
-        )?;
+        series.push(line, t * to_s, g, false)?;
     }
-    let segments = series.finish(opts.max_gap_s)?;
-    recording(
-        path,
-        file_name(path),
-        RecordingKind::EyeTracker,
-        segments,
-        Some(ppd),
-    )
+    series.finish()
 }
 
 /// Seconds per timestamp unit: declared, or inferred from the sampling

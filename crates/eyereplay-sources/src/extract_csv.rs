@@ -2,8 +2,8 @@
 //! `blink` and per-eye apertures. Columns are found by name, so columns the
 //! extractor adds later do not break this reader.
 
-use crate::samples_csv::{column_index, open_table, record_line};
-use crate::series::{parse_f64, recording, SeriesBuilder};
+use crate::samples_csv::{column_index, open_table};
+use crate::series::{for_each_record, parse_f64, recording, SeriesBuilder};
 use crate::{file_name, ReadOptions, Recording, RecordingKind, SourceError};
 use eyereplay_core::{NormPos, Sample};
 use std::path::Path;
@@ -28,14 +28,7 @@ pub(crate) fn read(path: &Path, opts: &ReadOptions) -> Result<Recording, SourceE
     let ar = column_index(&headers, &["aperture_right"]);
 
     let mut series = SeriesBuilder::<NormPos>::new(path);
-    let mut rec = csv::StringRecord::new();
-    loop {
-        match rdr.read_record(&mut rec) {
-            Ok(true) => {}
-            Ok(false) => break,
-            Err(e) => return Err(SourceError::file(path, e.to_string())),
-        }
-        let line = record_line(&rec);
+    for_each_record(path, &mut rdr, |rec, line| {
         let flag = |i: usize, name: &str| -> Result<bool, SourceError> {
             match rec.get(i).unwrap_or("").trim() {
                 "1" | "true" => Ok(true),
@@ -84,7 +77,8 @@ pub(crate) fn read(path: &Path, opts: &ReadOptions) -> Result<Recording, SourceE
                 blink,
             },
         )?;
-    }
+        Ok(())
+    })?;
     let segments = series.finish(opts.max_gap_s)?;
     recording(path, file_name(path), RecordingKind::Video, segments, None)
 }

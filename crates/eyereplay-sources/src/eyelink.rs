@@ -6,12 +6,8 @@
 //! blink are flagged), and `MSG ... DISPLAY_COORDS l t r b` for the screen
 //! size. Timestamps are tracker milliseconds.
 
-use crate::screen::screen_to_iris;
-use crate::series::{recording, SeriesBuilder};
-use crate::{
-    file_name, EyeChoice, ReadOptions, Recording, RecordingKind, ScreenOptions, SourceError,
-};
-use eyereplay_core::{NormPos, Sample, ScreenPos};
+use crate::series::ScreenSeries;
+use crate::{EyeChoice, ReadOptions, Recording, ScreenOptions, SourceError};
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 
@@ -167,7 +163,7 @@ pub(crate) fn read(
         })
     };
 
-    let mut series = SeriesBuilder::<NormPos>::new(path);
+    let mut series = ScreenSeries::new(path, screen_px, ppd, opts);
     for s in raw {
         let l = if want_left { s.left } else { None };
         let r = if want_right { s.right } else { None };
@@ -175,32 +171,7 @@ pub(crate) fn read(
             (Some(a), Some(b)) => Some([(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0]),
             (a, b) => a.or(b),
         };
-        let p = g.unwrap_or([f64::NAN, f64::NAN]);
-        series.push(
-            s.line,
-            Sample {
-                t_s: s.t_ms * 1e-3,
-                pos: screen_to_iris(
-                    ScreenPos {
-                        x_px: p[0],
-                        y_px: p[1],
-                    },
-                    screen_px,
-                    ppd,
-                    &opts.eye_gains,
-                ),
-                valid: g.is_some(),
-                aperture: None,
-                blink: in_blink(s.t_ms),
-            },
-        )?;
+        series.push(s.line, s.t_ms * 1e-3, g, in_blink(s.t_ms))?;
     }
-    let segments = series.finish(opts.max_gap_s)?;
-    recording(
-        path,
-        file_name(path),
-        RecordingKind::EyeTracker,
-        segments,
-        Some(ppd),
-    )
+    series.finish()
 }

@@ -31,9 +31,9 @@
 //! median ratio of pixel distance to reported amplitude over saccades of at
 //! least 0.5 degrees.
 
-use crate::samples_csv::{column_index, open_table, record_line};
+use crate::samples_csv::{column_index, open_table};
 use crate::screen::screen_to_iris;
-use crate::series::{parse_f64, recording, SeriesBuilder};
+use crate::series::{for_each_record, parse_f64, recording, SeriesBuilder};
 use crate::{file_name, ReadOptions, Recording, RecordingKind, SourceError, SourceSpec};
 use eyereplay_core::{NormPos, Sample, ScreenPos};
 use serde::{Deserialize, Serialize};
@@ -137,14 +137,7 @@ pub(crate) fn read(spec: &SourceSpec, opts: &ReadOptions) -> Result<Vec<Recordin
 
     // BTreeMap: groups come out in a stable order, so output is deterministic.
     let mut groups: BTreeMap<Vec<String>, Vec<Fixation>> = BTreeMap::new();
-    let mut rec = csv::StringRecord::new();
-    loop {
-        match rdr.read_record(&mut rec) {
-            Ok(true) => {}
-            Ok(false) => break,
-            Err(e) => return Err(SourceError::file(path, e.to_string())),
-        }
-        let line = record_line(&rec);
+    for_each_record(path, &mut rdr, |rec, line| {
         let get = |i: usize| rec.get(i).unwrap_or("");
         let f = Fixation {
             line,
@@ -163,7 +156,8 @@ pub(crate) fn read(spec: &SourceSpec, opts: &ReadOptions) -> Result<Vec<Recordin
         }
         let key: Vec<String> = gi.iter().map(|&i| get(i).trim().to_string()).collect();
         groups.entry(key).or_default().push(f);
-    }
+        Ok(())
+    })?;
     if groups.is_empty() {
         return Err(SourceError::file(path, "no fixation rows"));
     }

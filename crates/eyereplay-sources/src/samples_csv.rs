@@ -1,12 +1,8 @@
 //! Generic eye-tracker samples in a CSV or TSV table, and the table helpers
 //! the other delimited-text readers share.
 
-use crate::screen::screen_to_iris;
-use crate::series::{parse_f64, recording, SeriesBuilder};
-use crate::{
-    file_name, ReadOptions, Recording, RecordingKind, SourceError, TimeUnit, ViewingGeometry,
-};
-use eyereplay_core::{NormPos, Sample, ScreenPos};
+use crate::series::{for_each_record, parse_f64, ScreenSeries};
+use crate::{ReadOptions, Recording, SourceError, TimeUnit, ViewingGeometry};
 use std::path::Path;
 
 pub(crate) struct Columns<'a> {
@@ -57,15 +53,8 @@ pub(crate) fn read(
     let yi = find(cols.y, Y_NAMES, "y")?;
     let ppd = geometry.px_per_deg(screen_px[0]);
 
-    let mut series = SeriesBuilder::<NormPos>::new(path);
-    let mut rec = csv::StringRecord::new();
-    loop {
-        match rdr.read_record(&mut rec) {
-            Ok(true) => {}
-            Ok(false) => break,
-            Err(e) => return Err(SourceError::file(path, e.to_string())),
-        }
-        let line = record_line(&rec);
+    let mut series = ScreenSeries::new(path, screen_px, ppd, opts);
+    for_each_record(path, &mut rdr, |rec, line| {
         let t = parse_f64(path, line, &headers[ti], rec.get(ti).unwrap_or(""))?;
         // Empty or NaN coordinates are tracking loss, not a format error.
         let coord = |i: usize| -> Result<Option<f64>, SourceError> {
@@ -76,31 +65,13 @@ pub(crate) fn read(
                 parse_f64(path, line, &headers[i], c).map(Some)
             }
         };
-        let (x, y) = (coord(xi)?, coord(yi)?);
-        let valid = x.is_some() && y.is_some();
-        let p = ScreenPos {
-            x_px: x.unwrap_or(f64::NAN),
-            y_px: y.unwrap_or(f64::NAN),
+        let gaze = match (coord(xi)?, coord(yi)?) {
+            (Some(x), Some(y)) => Some([x, y]),
+            _ => None,
         };
-        series.push(
-            line,
-            Sample {
-                t_s: time_unit.to_seconds(t),
-                pos: screen_to_iris(p, screen_px, ppd, &opts.eye_gains),
-                valid,
-                aperture: None,
-                blink: false,
-            },
-        )?;
-    }
-    let segments = series.finish(opts.max_gap_s)?;
-    recording(
-        path,
-        file_name(path),
-        RecordingKind::EyeTracker,
-        segments,
-        Some(ppd),
-    )
+        series.push(line, time_unit.to_seconds(t), gaze, false)
+    })?;
+    series.finish()
 }
 
 /// Opens a delimited table with a header row; an empty file or a file
@@ -131,8 +102,4 @@ pub(crate) fn column_index(headers: &[String], names: &[&str]) -> Option<usize> 
     names
         .iter()
         .find_map(|n| headers.iter().position(|h| h.eq_ignore_ascii_case(n)))
-}
-
-pub(crate) fn record_line(rec: &csv::StringRecord) -> u64 {
-    rec.position().map(|p| p.line()).unwrap_or(0)
 }

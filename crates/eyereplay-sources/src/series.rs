@@ -1,8 +1,9 @@
 //! Collects samples while a reader parses a file: checks time order with the
 //! offending line, then splits into gap-free segments.
 
-use crate::{Recording, RecordingKind, SourceError};
-use eyereplay_core::{NormPos, PlanePos, Sample, Trajectory};
+use crate::screen::screen_to_iris;
+use crate::{file_name, ReadOptions, Recording, RecordingKind, SourceError};
+use eyereplay_core::{NormPos, PlanePos, Sample, ScreenPos, Trajectory};
 use std::path::{Path, PathBuf};
 
 pub(crate) struct SeriesBuilder<P> {
@@ -142,4 +143,86 @@ pub(crate) fn parse_f64(
             format!("column '{column}': '{c}' is not a number"),
         )
     })
+}
+
+/// Collects eye-tracker samples in screen pixels, converting each to a
+/// normalized iris position (see [`crate::screen`]).
+pub(crate) struct ScreenSeries<'a> {
+    series: SeriesBuilder<NormPos>,
+    path: &'a Path,
+    screen_px: [f64; 2],
+    px_per_deg: f64,
+    opts: &'a ReadOptions,
+}
+
+impl<'a> ScreenSeries<'a> {
+    pub fn new(
+        path: &'a Path,
+        screen_px: [f64; 2],
+        px_per_deg: f64,
+        opts: &'a ReadOptions,
+    ) -> Self {
+        ScreenSeries {
+            series: SeriesBuilder::new(path),
+            path,
+            screen_px,
+            px_per_deg,
+            opts,
+        }
+    }
+
+    /// `gaze` is `None` for tracking loss.
+    pub fn push(
+        &mut self,
+        line: u64,
+        t_s: f64,
+        gaze: Option<[f64; 2]>,
+        blink: bool,
+    ) -> Result<(), SourceError> {
+        let [x_px, y_px] = gaze.unwrap_or([f64::NAN, f64::NAN]);
+        let pos = screen_to_iris(
+            ScreenPos { x_px, y_px },
+            self.screen_px,
+            self.px_per_deg,
+            &self.opts.eye_gains,
+        );
+        self.series.push(
+            line,
+            Sample {
+                t_s,
+                pos,
+                valid: gaze.is_some(),
+                aperture: None,
+                blink,
+            },
+        )
+    }
+
+    pub fn finish(self) -> Result<Recording, SourceError> {
+        let segments = self.series.finish(self.opts.max_gap_s)?;
+        recording(
+            self.path,
+            file_name(self.path),
+            RecordingKind::EyeTracker,
+            segments,
+            Some(self.px_per_deg),
+        )
+    }
+}
+
+/// Calls `f` with each record of a CSV reader and its line number; a
+/// malformed record is an error naming the file.
+pub(crate) fn for_each_record<R: std::io::Read>(
+    path: &Path,
+    rdr: &mut csv::Reader<R>,
+    mut f: impl FnMut(&csv::StringRecord, u64) -> Result<(), SourceError>,
+) -> Result<(), SourceError> {
+    let mut rec = csv::StringRecord::new();
+    loop {
+        match rdr.read_record(&mut rec) {
+            Ok(true) => f(&rec, rec.position().map(|p| p.line()).unwrap_or(0))?,
+            Ok(false) => return Ok(()),
+            Err(e) => return Err(SourceError::file(path, e.to_string())),
+        }
+    }
 }
