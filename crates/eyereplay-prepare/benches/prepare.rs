@@ -73,6 +73,7 @@ fn main() {
         name: "eyereplay".into(),
         version: "bench".into(),
         git_revision: None,
+        models: vec![],
     };
 
     let t0 = Instant::now();

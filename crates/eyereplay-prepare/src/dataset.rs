@@ -27,6 +27,16 @@ pub struct ToolInfo {
     pub name: String,
     pub version: String,
     pub git_revision: Option<String>,
+    /// Model files used to extract video sources (empty without video).
+    #[serde(default)]
+    pub models: Vec<FileDigest>,
+}
+
+/// A file and its sha256, for provenance.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FileDigest {
+    pub file: String,
+    pub sha256: String,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

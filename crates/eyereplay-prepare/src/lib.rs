@@ -27,7 +27,9 @@ pub use config::{
     CalibrationScope, ClassConfig, DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod,
     SpeedCorrection,
 };
-pub use dataset::{write_dataset, DatasetMetadata, SessionEntry, ToolInfo, WriteSummary};
+pub use dataset::{
+    write_dataset, DatasetMetadata, FileDigest, SessionEntry, ToolInfo, WriteSummary,
+};
 pub use error::PrepareError;
 pub use load::{check_source_files, load_sources};
 pub use resample::{

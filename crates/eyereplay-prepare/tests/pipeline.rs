@@ -49,6 +49,7 @@ fn tool() -> ToolInfo {
         name: "eyereplay".into(),
         version: "test".into(),
         git_revision: None,
+        models: vec![],
     }
 }
 

@@ -805,9 +805,13 @@ impl Scene {
         let bgc = r.bg_lin[y * r.w + x];
         let wl_px = ef.waterline_px;
         let mut col = bgc;
+        // Pixels nothing below touches stay the background, and the caller
+        // can skip their colour conversion (gaps between lashes, mostly).
+        let mut touched = false;
         // The eye, with anti-aliased lid edges.
         let cover = clamp01(du + 0.5) * clamp01(dl + 0.5);
         if cover > 0.0 {
+            touched = true;
             let px = (r.x0 + x) as f32 + 0.5;
             let mut e = self.shade_eyeball(ef, px, py);
             // Upper-lid and lash shadow on the eye, a softer one from the lower lid.
@@ -824,6 +828,7 @@ impl Scene {
         }
         // Wet lower-lid margin (waterline) just below the aperture.
         if dl < 0.0 && dl > -wl_px - 1.0 && du > 0.0 {
+            touched = true;
             let t = -dl / wl_px;
             let a = (1.0 - smoothstep(0.7, 1.0, t)) * clamp01(-dl + 0.5);
             col = col.lerp(ef.wet, a * 0.9);
@@ -835,14 +840,20 @@ impl Scene {
         let d_up = -du + LASH_ROOT_PX as f32;
         if d_up >= 0.0 && d_up < r.lash_up_rows as f32 {
             let a = r.lash_up[d_up as usize * r.w + x];
-            col = col.lerp(ef.hair, a);
+            if a > 0.0 {
+                touched = true;
+                col = col.lerp(ef.hair, a);
+            }
         }
         let d_lo = -dl - wl_px * 0.6;
         if d_lo >= 0.0 && d_lo < r.lash_lo_rows as f32 {
             let a = r.lash_lo[d_lo as usize * r.w + x];
-            col = col.lerp(ef.hair, a * 0.8);
+            if a > 0.0 {
+                touched = true;
+                col = col.lerp(ef.hair, a * 0.8);
+            }
         }
-        Some(col)
+        touched.then_some(col)
     }
 
     /// Ray-traces the eyeball at image point (px, py); linear RGB.
@@ -1491,7 +1502,7 @@ fn sclera_texture(id: &Identity) -> Vec<F3> {
             // Vessels: zero crossings of smooth noise give long thin lines.
             let a = (vein.fbm(u * 2.5, v * 2.5, 2)).abs();
             let b = (vein2.fbm(u * 5.0 + 3.0, v * 5.0, 2)).abs();
-            let vessel = smoothstep(0.03, 0.0, a) * 0.55 + smoothstep(0.02, 0.0, b) * 0.3;
+            let vessel = smoothstep(0.03, 0.0, a) * 0.35 + smoothstep(0.02, 0.0, b) * 0.2;
             c = c.lerp(f3(0.55, 0.12, 0.10), (vessel * density).min(0.85));
             // Bluish-grey ring at the limbus.
             let lr = (-((r - limb - 0.02) / 0.04).powi(2)).exp();

@@ -218,7 +218,12 @@ pub fn run(args: Args) -> Result<()> {
     for w in &prepared.warnings {
         eprintln!("warning: {w}");
     }
-    write_dataset(&args.out, &cfg, &prepared, crate::cmd::prepare::tool_info())?;
+    write_dataset(
+        &args.out,
+        &cfg,
+        &prepared,
+        crate::cmd::prepare::tool_info(&cfg)?,
+    )?;
     log.stage("prepare", t);
 
     // 4. Render this shard's sessions.

@@ -153,3 +153,33 @@ pub fn lookup_extracted(
         message: "video was not extracted".into(),
     })
 }
+
+/// sha256 of the model files (`*.onnx`, `*.tflite`), sorted by name.
+pub fn model_digests() -> Result<Vec<eyereplay_prepare::FileDigest>> {
+    let dir = eyereplay_extract::default_models_dir();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .with_context(|| dir.display().to_string())?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            matches!(
+                p.extension().and_then(|x| x.to_str()),
+                Some("onnx" | "tflite")
+            )
+        })
+        .collect();
+    files.sort();
+    files
+        .iter()
+        .map(|p| {
+            Ok(eyereplay_prepare::FileDigest {
+                file: p
+                    .file_name()
+                    .unwrap_or_default()
+                    .to_string_lossy()
+                    .into_owned(),
+                sha256: eyereplay_core::sha256_file(p)?,
+            })
+        })
+        .collect()
+}

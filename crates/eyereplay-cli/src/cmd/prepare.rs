@@ -67,7 +67,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     let out = args.out.expect("clap requires --out without --dry-run");
     remove_stale_sessions(&out, &prepared).with_context(|| out.display().to_string())?;
-    let (_, summary) = write_dataset(&out, &cfg, &prepared, tool_info())?;
+    let (_, summary) = write_dataset(&out, &cfg, &prepared, tool_info(&cfg)?)?;
     println!(
         "wrote {} files ({:.1} MB, {:.2} h of sessions) to {} in {:.2} s",
         summary.files,
@@ -79,12 +79,20 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-pub fn tool_info() -> ToolInfo {
-    ToolInfo {
+/// The tool's provenance; with video sources, the sha256 of every model
+/// file that extracted them.
+pub fn tool_info(cfg: &DatasetConfig) -> Result<ToolInfo> {
+    let models = if crate::cmd::video_sources(cfg).is_empty() {
+        Vec::new()
+    } else {
+        crate::cmd::model_digests()?
+    };
+    Ok(ToolInfo {
         name: "eyereplay".into(),
         version: env!("CARGO_PKG_VERSION").into(),
         git_revision: option_env!("EYEREPLAY_GIT_REVISION").map(str::to_string),
-    }
+        models,
+    })
 }
 
 fn print_summary(cfg: &DatasetConfig, p: &Prepared) {
