@@ -158,6 +158,10 @@ mod tests {
         // A 1 Hz movement keeps the Gaussian's gain H(1 Hz) = 0.971.
         let s = antialias_sigma_s(25.0);
         let h1 = (-2.0 * PI * PI * s * s).exp();
-        assert!((amplitude_after_decimation(1.0) - h1).abs() < 0.005, "{}", amplitude_after_decimation(1.0));
+        assert!(
+            (amplitude_after_decimation(1.0) - h1).abs() < 0.005,
+            "{}",
+            amplitude_after_decimation(1.0)
+        );
     }
 }
