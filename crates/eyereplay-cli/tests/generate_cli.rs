@@ -142,13 +142,20 @@ fn generate_is_deterministic_resumable_and_shardable() {
     }
     child.kill().unwrap();
     child.wait().unwrap();
-    // No half-written file is visible under a final name.
+    // No half-written file is visible under a final name: every video there
+    // is complete (its truth CSV, written after the frames, is there too).
     for p in walk_files(&k) {
         let name = p.file_name().unwrap().to_string_lossy().into_owned();
-        assert!(!name.ends_with(".tmp") || name.starts_with('.'), "{name}");
+        assert!(!name.ends_with(".tmp") && !name.ends_with(".part") || name.starts_with('.'), "{name}");
     }
     ok(&generate(&k, &[]));
     assert_eq!(hashes(&k), ha);
+    // The rerun cleaned up what the killed run left behind.
+    let hidden: Vec<_> = walk_files(&k)
+        .into_iter()
+        .filter(|p| p.file_name().unwrap().to_string_lossy().starts_with('.'))
+        .collect();
+    assert!(hidden.is_empty(), "{hidden:?}");
 }
 
 fn walk_files(dir: &Path) -> Vec<PathBuf> {

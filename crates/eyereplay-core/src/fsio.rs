@@ -24,11 +24,25 @@ pub fn atomic_write_with(
         _ => Path::new("."),
     };
     std::fs::create_dir_all(dir).map_err(|e| CoreError::io(dir, e))?;
+    // The temporary name starts with the target's, so a resuming run can
+    // tell whose leftover it is (see `stale_temp_files`).
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let tmp = tempfile::Builder::new()
-        .prefix(".eyereplay-")
+        .prefix(&format!(".{name}."))
         .suffix(".tmp")
         .tempfile_in(dir)
         .map_err(|e| CoreError::io(dir, e))?;
+    // tempfile creates 0600; datasets are shared, so use what a plain
+    // create would give (0666 less the usual umask 022).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(tmp.path(), std::fs::Permissions::from_mode(0o644))
+            .map_err(|e| CoreError::io(path, e))?;
+    }
     {
         let mut w = BufWriter::new(tmp.as_file());
         fill(&mut w).map_err(|e| CoreError::io(path, e))?;
@@ -37,6 +51,31 @@ pub fn atomic_write_with(
     tmp.persist(path)
         .map_err(|e| CoreError::io(path, e.error))?;
     Ok(())
+}
+
+/// Leftover temporary files of `target` in its folder (from a process that
+/// was killed while writing it): `.NAME.*.tmp` and `.NAME.*.part`.
+pub fn stale_temp_files(target: &Path) -> Vec<std::path::PathBuf> {
+    let (Some(dir), Some(name)) = (target.parent(), target.file_name()) else {
+        return Vec::new();
+    };
+    let prefix = format!(".{}.", name.to_string_lossy());
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut v: Vec<_> = rd
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            let n = p
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            n.starts_with(&prefix) && (n.ends_with(".tmp") || n.ends_with(".part"))
+        })
+        .collect();
+    v.sort();
+    v
 }
 
 /// Hex SHA-256 of a byte slice.
@@ -69,6 +108,24 @@ mod tests {
             sha256_hex(b"abc"),
             "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
         );
+    }
+
+    #[test]
+    fn written_files_are_world_readable_and_temp_names_are_attributable() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("a.csv");
+        atomic_write(&target, b"x").unwrap();
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(&target).unwrap().permissions().mode();
+            assert_eq!(mode & 0o777, 0o644);
+        }
+        std::fs::write(dir.path().join(".a.csv.123.part"), b"").unwrap();
+        std::fs::write(dir.path().join(".a.csv.x1y2.tmp"), b"").unwrap();
+        std::fs::write(dir.path().join(".ab.csv.1.tmp"), b"").unwrap();
+        let stale = stale_temp_files(&target);
+        assert_eq!(stale.len(), 2, "{stale:?}");
     }
 
     #[test]

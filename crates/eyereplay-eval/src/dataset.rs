@@ -349,3 +349,84 @@ pub fn read_truth_norm(path: &Path) -> Result<Vec<[f64; 2]>, EvalError> {
     }
     Ok(out)
 }
+
+/// The calibration(s) that turned normalized iris positions into a
+/// session's canvas positions, frame by frame: the pooled calibration of
+/// metadata.json when there is one; else each frame's source calibration
+/// (`sources[k].calibration`), the frame's source found through the
+/// session's `pool_start` in `metadata.sessions` and the pool's `source`
+/// column (circular slicing: frame j is pool frame `(pool_start + j) mod T`).
+pub fn session_calibrations(
+    dir: &Path,
+    session_rel: &str,
+    frames: usize,
+) -> Result<Vec<Calibration>, EvalError> {
+    if let Ok(c) = read_calibration(dir) {
+        return Ok(vec![c; frames]);
+    }
+    let path = dir.join("metadata.json");
+    let meta: serde_json::Value = serde_json::from_str(&read_text(&path)?)
+        .map_err(|e| EvalError::dataset(&path, format!("not valid JSON: {e}")))?;
+    let bad = |m: String| EvalError::dataset(&path, m);
+    let cal_of = |v: &serde_json::Value| -> Option<Calibration> {
+        let g = |k: &str| v.get(k).and_then(|x| x.as_f64()).filter(|x| x.is_finite());
+        let c = Calibration {
+            s_x: g("s_x")?,
+            s_y: g("s_y")?,
+            mu_x: g("mu_x")?,
+            mu_y: g("mu_y")?,
+        };
+        (c.s_x != 0.0 && c.s_y != 0.0).then_some(c)
+    };
+    let mut by_index = std::collections::BTreeMap::new();
+    for s in meta
+        .get("sources")
+        .and_then(|v| v.as_array())
+        .into_iter()
+        .flatten()
+    {
+        if let (Some(i), Some(c)) = (
+            s.get("index").and_then(|v| v.as_i64()),
+            s.get("calibration").and_then(cal_of),
+        ) {
+            by_index.insert(i, c);
+        }
+    }
+    let entry = meta
+        .get("sessions")
+        .and_then(|v| v.as_array())
+        .and_then(|a| a.iter().find(|s| s.get("file").and_then(|f| f.as_str()) == Some(session_rel)))
+        .ok_or_else(|| {
+            bad(format!(
+                "no pooled calibration, and no entry for '{session_rel}' in 'sessions' to find its per-source calibrations"
+            ))
+        })?;
+    let start = entry
+        .get("pool_start")
+        .and_then(|v| v.as_u64())
+        .ok_or_else(|| {
+            bad(format!(
+                "sessions entry of '{session_rel}' has no pool_start"
+            ))
+        })? as usize;
+    let class = entry
+        .get("class")
+        .and_then(|v| v.as_str())
+        .ok_or_else(|| bad(format!("sessions entry of '{session_rel}' has no class")))?;
+    let pool_path = dir.join("pool").join(format!("{class}.csv"));
+    let pool = read_pool(&pool_path)?;
+    let sources: Vec<i64> = pool
+        .iter()
+        .flat_map(|s| std::iter::repeat_n(s.source, s.points.len()))
+        .collect();
+    let t = sources.len();
+    (0..frames)
+        .map(|j| {
+            let src = sources[(start + j) % t];
+            by_index
+                .get(&src)
+                .copied()
+                .ok_or_else(|| bad(format!("no calibration for source {src}")))
+        })
+        .collect()
+}

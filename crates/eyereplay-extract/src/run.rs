@@ -455,3 +455,46 @@ pub fn extract_video_to_csv(video: &Path, csv: &Path, opts: &ExtractOptions) -> 
     crate::output::save_csv(csv, &x.rows)?;
     Ok(x)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image::Rotation;
+
+    fn info(start_s: f64, duration_s: Option<f64>) -> VideoInfo {
+        VideoInfo {
+            width: 640,
+            height: 480,
+            rotation: Rotation::None,
+            start_s,
+            duration_s,
+            frames_estimate: None,
+            avg_fps: Some(25.0),
+            codec: "h264".into(),
+        }
+    }
+
+    #[test]
+    fn segments_split_the_span_evenly_with_open_outer_ends() {
+        // 200 s from t=1 on 2 workers: [-inf, 101) and [101, +inf).
+        let p = plan_segments(&info(1.0, Some(200.0)), None, 2);
+        assert_eq!(p, vec![(None, Some(101.0)), (Some(101.0), None)]);
+        // A 6 s clip is not worth two decoders (segments under 4 s).
+        assert_eq!(
+            plan_segments(&info(0.0, Some(6.0)), None, 2),
+            vec![(None, None)]
+        );
+        // --max-seconds 30 of a long video: the last segment stops at 30 s.
+        let p = plan_segments(&info(0.0, Some(3600.0)), Some(30.0), 3);
+        assert_eq!(
+            p,
+            vec![
+                (None, Some(10.0)),
+                (Some(10.0), Some(20.0)),
+                (Some(20.0), Some(30.0))
+            ]
+        );
+        // Unknown duration: one pass.
+        assert_eq!(plan_segments(&info(0.0, None), None, 2), vec![(None, None)]);
+    }
+}

@@ -250,8 +250,9 @@ struct EyeFrame<'a> {
     pupil_mm: f32,
     up: Vec<f32>,
     lo: Vec<f32>,
-    /// Lid parameter s (0 inner corner .. 1 outer) per column.
-    s_col: Vec<f32>,
+    /// Per column: corner shading factor and caruncle blend, from the lid
+    /// parameter s (0 inner corner .. 1 outer).
+    corner_col: Vec<(f32, f32)>,
     /// How far along a ray to jump before intersecting (keeps precision).
     origin_skip_mm: f32,
     waterline_px: f32,
@@ -740,7 +741,17 @@ impl Scene {
             pupil_mm: (self.identity.eye.pupil_radius_mm * pupil_scale) as f32,
             up,
             lo,
-            s_col,
+            // The eye darkens into both corners; the pink caruncle fills the
+            // inner one.
+            corner_col: s_col
+                .iter()
+                .map(|&s| {
+                    (
+                        0.55 + 0.45 * smoothstep(0.0, 0.22, s.min(1.0 - s)),
+                        smoothstep(0.10, 0.02, s) * 0.85,
+                    )
+                })
+                .collect(),
             origin_skip_mm: ((cam.pos - m.centre).len() - 30.0) as f32,
             waterline_px,
             inv_shadow_px: 1.0 / (1.6 * self.px_per_mm) as f32,
@@ -818,12 +829,10 @@ impl Scene {
             let sh = 1.0
                 - 0.6 * fast_exp(-du.max(0.0) * ef.inv_shadow_px)
                 - 0.2 * fast_exp(-dl.max(0.0) * 2.0 * ef.inv_shadow_px);
-            // Caruncle and corner shadow at the inner corner.
-            let s = ef.s_col[x];
-            let car = smoothstep(0.10, 0.02, s);
-            let corner = 0.55 + 0.45 * smoothstep(0.0, 0.22, s.min(1.0 - s));
+            // Caruncle and corner shadow (per column, see `eye_frame`).
+            let (corner, car) = ef.corner_col[x];
             e = e * (sh * corner);
-            e = e.lerp(ef.caruncle, car * 0.85);
+            e = e.lerp(ef.caruncle, car);
             col = col.lerp(e, cover);
         }
         // Wet lower-lid margin (waterline) just below the aperture.
@@ -1262,6 +1271,13 @@ impl Scene {
                 0.07 * px_mm,
                 rng.range(0.4, 0.8) as f32,
             );
+        }
+        // Alpha below half an 8-bit step cannot change a pixel: make it
+        // exactly zero so those pixels are recognised as background.
+        for a in up.iter_mut().chain(lo.iter_mut()) {
+            if *a < 1.0 / 512.0 {
+                *a = 0.0;
+            }
         }
         let wl = 0.9 * px_mm as f32;
         let max_row = |tex: &[f32], rows: usize, x: usize| {

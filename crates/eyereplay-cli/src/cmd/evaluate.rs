@@ -2,8 +2,9 @@ use anyhow::{bail, Context};
 use eyereplay_core::{read_session_csv, CanvasPos};
 use eyereplay_eval::dataset::read_truth_norm;
 use eyereplay_eval::{
-    compare_visual, evaluate_dataset, read_calibration, rendered_video_path, truth_csv_path,
-    write_report, EvalConfig, Evaluation, IvtThresholds, VisualRun, VisualSection,
+    compare_visual, dataset::session_calibrations, evaluate_dataset, read_calibration,
+    rendered_video_path, truth_csv_path, write_report, EvalConfig, Evaluation, IvtThresholds,
+    VisualRun, VisualSection,
 };
 use std::path::{Path, PathBuf};
 
@@ -148,12 +149,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn visual_section(args: &Args, ev: &mut Evaluation) -> anyhow::Result<VisualSection> {
     let dir = &args.dataset_dir;
     let explicit = args.video.is_some() || args.visual_session.is_some();
-    let (video, trajectory, truth) = match (&args.video, &args.trajectory) {
+    let (video, trajectory, truth, session) = match (&args.video, &args.trajectory) {
         (Some(v), Some(t)) => {
             if !v.is_file() {
                 bail!("{}: not found", v.display());
             }
-            (v.clone(), t.clone(), None)
+            (v.clone(), t.clone(), None, None)
         }
         _ => {
             let session = match &args.visual_session {
@@ -184,10 +185,14 @@ beside a session CSV); run 'eyereplay render' first, or pass --video and --traje
                 );
             }
             let truth = truth_csv_path(dir, &session);
-            (video, dir.join(&session), truth.is_file().then_some(truth))
+            (
+                video,
+                dir.join(&session),
+                truth.is_file().then_some(truth),
+                Some(session),
+            )
         }
     };
-    let calibration = read_calibration(dir)?;
     let models = args
         .models
         .clone()
@@ -206,6 +211,23 @@ beside a session CSV); run 'eyereplay render' first, or pass --video and --traje
     }
     let input: Vec<CanvasPos> = read_session_csv(&trajectory)?;
     check_frame_count(&video, input.len())?;
+    // Canvas px back to normalized iris units, with the calibration that
+    // produced each frame (pooled, or per source for a dataset session).
+    let cals = match &session {
+        Some(rel) => session_calibrations(dir, rel, input.len())?,
+        None => vec![
+            read_calibration(dir).context(
+                "--trajectory needs the dataset's pooled calibration; \
+for per-source calibrations compare a dataset session (--visual-session)"
+            )?;
+            input.len()
+        ],
+    };
+    let source_all: Vec<[f64; 2]> = input
+        .iter()
+        .zip(&cals)
+        .map(|(c, cal)| cal.to_norm([c.x_px, c.y_px]))
+        .collect();
     if let Some(p) = truth {
         // The renderer's own iris positions against the source: the
         // simulator's mapping without the extractor.
@@ -218,11 +240,7 @@ beside a session CSV); run 'eyereplay render' first, or pass --video and --traje
             input.len()
         );
         let n = ((args.visual_seconds * ev.fps).round() as usize).min(input.len());
-        let source_n: Vec<[f64; 2]> = input[..n]
-            .iter()
-            .map(|c| calibration.to_norm([c.x_px, c.y_px]))
-            .collect();
-        let cmp = compare_visual(&source_n, &t[..n], None)
+        let cmp = compare_visual(&source_all[..n], &t[..n], None)
             .with_context(|| format!("{}: comparing with the source", p.display()))?;
         ev.render_truth = Some((shown(&args.dataset_dir, &p), cmp));
     }
@@ -281,10 +299,7 @@ because the face detector found the face in {} of the compared frames",
     anyhow::ensure!(n >= 2, "{}: only {n} frame(s) decoded", video.display());
     let rendered_n = rendered_n[..n].to_vec();
     let input = &input[..n];
-    let source_n: Vec<[f64; 2]> = input
-        .iter()
-        .map(|p| calibration.to_norm([p.x_px, p.y_px]))
-        .collect();
+    let source_n = source_all[..n].to_vec();
     let fidelity = compare_visual(&source_n, &rendered_n, Some((input, ev.canvas)))
         .with_context(|| format!("{}: visual comparison", video.display()))?;
     Ok(VisualSection::Computed(Box::new(VisualRun {
