@@ -12,6 +12,28 @@ pub struct SessionRow {
     pub y: f64,
 }
 
+/// Writes `frame,x,y,blink` rows atomically (`blink` 1 where the source
+/// blinked), for datasets whose sources mark blinks; `blinks` has one flag
+/// per point. The renderer closes the lids there.
+pub fn write_session_csv_with_blinks(
+    path: &Path,
+    points: &[CanvasPos],
+    blinks: &[bool],
+) -> Result<(), CoreError> {
+    assert_eq!(points.len(), blinks.len(), "one blink flag per point");
+    atomic_write_with(path, |w| {
+        w.write_all(b"frame,x,y,blink\n")?;
+        let mut line = Vec::with_capacity(48);
+        for (i, (p, b)) in points.iter().zip(blinks).enumerate() {
+            line.clear();
+            push_point_row(&mut line, i as u64, *p);
+            line.extend_from_slice(if *b { b",1\n" } else { b",0\n" });
+            w.write_all(&line)?;
+        }
+        Ok(())
+    })
+}
+
 /// Writes `frame,x,y` rows atomically. Coordinates are written with 3
 /// decimals (1/1000 px), which keeps files small and byte-identical across
 /// runs.

@@ -292,3 +292,43 @@ fn computed_visual_section_reaches_html_and_json() {
     }
     assert!(paths.dir.join("figures/visual.svg").is_file());
 }
+
+#[test]
+fn per_source_calibrations_follow_the_pool() {
+    use eyereplay_eval::dataset::session_calibrations;
+    use eyereplay_eval::read_calibration;
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    tiny_dataset(d);
+    // No pooled calibration; two sources with their own. The pool is 8
+    // frames of source 0 then 5 of source 1 (13 in all); a session starting
+    // at pool frame 6 covers pool frames 6..=10: sources 0,0,1,1,1; one
+    // starting at 11 wraps: 11, 12, 0, 1, 2 -> 1,1,0,0,0.
+    std::fs::write(
+        d.join("metadata.json"),
+        r#"{"fps": 25, "canvas": {"width_px": 1280, "height_px": 720}, "session_frames": 5,
+            "calibration": null,
+            "sources": [
+              {"index": 0, "calibration": {"s_x": 100.0, "s_y": 50.0, "mu_x": 640.0, "mu_y": 360.0}},
+              {"index": 1, "calibration": {"s_x": 200.0, "s_y": 80.0, "mu_x": 600.0, "mu_y": 300.0}}],
+            "sessions": [
+              {"file": "reading/reading_0000.csv", "class": "reading", "pool_start": 6},
+              {"file": "reading/reading_0001.csv", "class": "reading", "pool_start": 11}]}"#,
+    )
+    .unwrap();
+    assert!(read_calibration(d).is_err());
+    let c = session_calibrations(d, "reading/reading_0000.csv", 5).unwrap();
+    let sx: Vec<f64> = c.iter().map(|c| c.s_x).collect();
+    assert_eq!(sx, vec![100.0, 100.0, 200.0, 200.0, 200.0]);
+    let c = session_calibrations(d, "reading/reading_0001.csv", 5).unwrap();
+    let sx: Vec<f64> = c.iter().map(|c| c.s_x).collect();
+    assert_eq!(sx, vec![200.0, 200.0, 100.0, 100.0, 100.0]);
+    // n = (c - mu) / s + 0.5: canvas (700, 380) with source 1 -> (1.0, 1.5).
+    assert_eq!(c[0].to_norm([700.0, 380.0]), [1.0, 1.5]);
+    let e = session_calibrations(d, "reading/nope.csv", 5)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("metadata.json") && e.contains("nope.csv"), "{e}");
+    // The evaluation itself does not need a calibration.
+    assert!(evaluate_dataset(d, &EvalConfig::default()).is_ok());
+}

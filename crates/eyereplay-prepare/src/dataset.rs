@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! OUT/
-//!   reading/reading_0000.csv        frame,x,y (canvas px), one per session
+//!   reading/reading_0000.csv        frame,x,y[,blink] (canvas px), one per session
 //!   conversation/conversation_0000.csv
 //!   pool/reading.csv                frame,x,y,source: the class's source pool
 //!   labels.csv                      file,label,class,sources
@@ -16,7 +16,8 @@
 
 use crate::{Calibration, DatasetConfig, PrepareError, Prepared, SourceReport};
 use eyereplay_core::{
-    atomic_write_with, push_point_row, push_u64, write_session_csv, CanvasPos, GazeClass,
+    atomic_write_with, push_point_row, push_u64, write_session_csv, write_session_csv_with_blinks,
+    CanvasPos, GazeClass,
 };
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -100,12 +101,12 @@ pub fn write_dataset(
     tool: ToolInfo,
 ) -> Result<(DatasetMetadata, WriteSummary), PrepareError> {
     let mut sessions = Vec::new();
-    let mut jobs: Vec<(String, &[CanvasPos])> = Vec::new();
+    let mut jobs: Vec<(String, &[CanvasPos], &[bool])> = Vec::new();
     let mut classes = Vec::new();
     for c in &prepared.classes {
         for (i, s) in c.sessions.iter().enumerate() {
             let file = session_file(c.class, i);
-            jobs.push((file.clone(), s));
+            jobs.push((file.clone(), s, &c.session_blinks[i]));
             sessions.push(SessionEntry {
                 file,
                 class: c.class,
@@ -125,8 +126,19 @@ pub fn write_dataset(
             speed_scale: c.speed_scale,
         });
     }
-    jobs.par_iter()
-        .try_for_each(|(file, pts)| write_session_csv(&out.join(file), pts))?;
+    // A blink column only when some source marks blinks, so eye-tracker
+    // free datasets keep the paper's exact frame,x,y layout.
+    let with_blinks = prepared
+        .classes
+        .iter()
+        .any(|c| c.session_blinks.iter().flatten().any(|b| *b));
+    jobs.par_iter().try_for_each(|(file, pts, blinks)| {
+        if with_blinks {
+            write_session_csv_with_blinks(&out.join(file), pts, blinks)
+        } else {
+            write_session_csv(&out.join(file), pts)
+        }
+    })?;
 
     for c in &prepared.classes {
         let path = out.join(format!("pool/{}.csv", c.class.name()));
@@ -183,7 +195,7 @@ pub fn write_dataset(
     })?;
 
     let mut summary = WriteSummary::default();
-    for (file, _) in &jobs {
+    for (file, _, _) in &jobs {
         summary.files += 1;
         summary.bytes += std::fs::metadata(out.join(file))
             .map(|m| m.len())

@@ -44,6 +44,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+/// One source after stage 3: frames, their blink flags, and its report.
+type SourceFrames = (Vec<CanvasPos>, Vec<bool>, SourceReport);
+
 /// `[[lo_x, hi_x], [lo_y, hi_y]]`: the percentile ranges behind an auto calibration.
 pub type PercentileRanges = [[f64; 2]; 2];
 
@@ -93,6 +96,8 @@ pub struct ClassOutput {
     pub stride: usize,
     pub reuse_ratio: f64,
     pub sessions: Vec<Vec<CanvasPos>>,
+    /// Per session, per frame: the source blinked here.
+    pub session_blinks: Vec<Vec<bool>>,
     /// Source indices present in each session, in order of appearance.
     pub session_sources: Vec<Vec<u32>>,
 }
@@ -163,7 +168,7 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
     };
 
     // Stages 2c-3 per recording, in parallel.
-    let per_source: Vec<Result<(Vec<CanvasPos>, SourceReport), PrepareError>> = inputs
+    let per_source: Vec<Result<SourceFrames, PrepareError>> = inputs
         .par_iter()
         .enumerate()
         .map(|(i, s)| {
@@ -203,7 +208,7 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
                 }
                 smoothing = Some(total);
             }
-            let (frames, speed) =
+            let (frames, blinks, speed) =
                 resample_recording(&canvas, s.recording.rate_hz, cfg.fps, &cfg.resample);
             if frames.len() < 2 {
                 return Err(PrepareError::Source {
@@ -235,14 +240,16 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
                 speed_correction: speed,
                 normalization_shift_px: [0.0, 0.0],
             };
-            Ok((frames, rep))
+            Ok((frames, blinks, rep))
         })
         .collect();
     let mut frames = Vec::with_capacity(per_source.len());
+    let mut blink_flags = Vec::with_capacity(per_source.len());
     let mut reports = Vec::with_capacity(per_source.len());
     for r in per_source {
-        let (f, rep) = r?;
+        let (f, b, rep) = r?;
         frames.push(f);
+        blink_flags.push(b);
         reports.push(rep);
     }
 
@@ -259,9 +266,11 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
     for (class, cc) in &cfg.classes {
         let mut pool = Vec::new();
         let mut pool_source = Vec::new();
+        let mut pool_blink = Vec::new();
         for (i, f) in frames.iter().enumerate() {
             if inputs[i].class == *class {
                 pool.extend_from_slice(f);
+                pool_blink.extend_from_slice(&blink_flags[i]);
                 pool_source.extend(std::iter::repeat_n(i as u32, f.len()));
             }
         }
@@ -287,9 +296,11 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
         let mut scaled = pool.clone();
         scale_about_centroid(&mut scaled, scale);
         let mut sessions = Vec::with_capacity(n);
+        let mut session_blinks = Vec::with_capacity(n);
         let mut session_sources = Vec::with_capacity(n);
         for i in 0..n {
             sessions.push(slice_session(&scaled, i, n, cfg.session_frames));
+            session_blinks.push(slice_session(&pool_blink, i, n, cfg.session_frames));
             let src = slice_session(&pool_source, i, n, cfg.session_frames);
             let mut seen: Vec<u32> = Vec::new();
             for s in src {
@@ -307,6 +318,7 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
             stride: stride(t, n),
             reuse_ratio: reuse,
             sessions,
+            session_blinks,
             session_sources,
         });
     }

@@ -38,13 +38,15 @@ pub struct SpeedCorrectionReport {
 }
 
 /// Resamples every segment at `k / fps` from its first timestamp, joins the
-/// segments, and applies the speed correction when the rule says so.
+/// segments, and applies the speed correction when the rule says so. Also
+/// returns a blink flag per output frame: set when a source sample within
+/// half a frame of it was marked as blink.
 pub fn resample_recording(
     segments: &[Trajectory<CanvasPos>],
     rate_hz: f64,
     fps: f64,
     cfg: &ResampleConfig,
-) -> (Vec<CanvasPos>, SpeedCorrectionReport) {
+) -> (Vec<CanvasPos>, Vec<bool>, SpeedCorrectionReport) {
     let linear = rate_hz <= cfg.linear_max_ratio * fps;
     let method = if linear {
         ResampleMethod::Linear
@@ -53,6 +55,7 @@ pub fn resample_recording(
     };
     let sigma = antialias_sigma_s(fps);
     let mut out: Vec<CanvasPos> = Vec::new();
+    let mut blinks: Vec<bool> = Vec::new();
     let (mut l_orig, mut l_res) = (0.0, 0.0);
     for seg in segments {
         let times: Vec<f64> = seg.samples().iter().map(|s| s.t_s).collect();
@@ -74,6 +77,7 @@ pub fn resample_recording(
                 y_px: p[1],
             })
             .collect();
+        blinks.extend(blink_frames(seg, &out_t, 0.5 / fps));
         // Path lengths within segments only: the jump between two segments
         // is not movement.
         l_orig += seg.path_length();
@@ -91,6 +95,7 @@ pub fn resample_recording(
     }
     (
         out,
+        blinks,
         SpeedCorrectionReport {
             method,
             applied,
@@ -99,6 +104,25 @@ pub fn resample_recording(
             path_length_resampled_px: l_res,
         },
     )
+}
+
+/// For each output time, whether a blink-flagged input sample lies within
+/// `half_s` of it.
+fn blink_frames(seg: &Trajectory<CanvasPos>, out_t: &[f64], half_s: f64) -> Vec<bool> {
+    let s = seg.samples();
+    let mut lo = 0usize;
+    out_t
+        .iter()
+        .map(|&t| {
+            while lo < s.len() && s[lo].t_s < t - half_s {
+                lo += 1;
+            }
+            s[lo..]
+                .iter()
+                .take_while(|x| x.t_s < t + half_s)
+                .any(|x| x.blink)
+        })
+        .collect()
 }
 
 /// `x' = mean + a (x - mean)` (paper eqs. 3 and 6).
@@ -134,7 +158,7 @@ mod tests {
             })
             .collect();
         let seg = Trajectory::new(samples).unwrap();
-        let (out, rep) = resample_recording(
+        let (out, _, rep) = resample_recording(
             std::slice::from_ref(&seg),
             24.0,
             25.0,
@@ -164,7 +188,7 @@ mod tests {
             })
             .collect();
         let seg = Trajectory::new(samples).unwrap();
-        let (out, rep) = resample_recording(&[seg], 500.0, 25.0, &ResampleConfig::default());
+        let (out, _, rep) = resample_recording(&[seg], 500.0, 25.0, &ResampleConfig::default());
         assert_eq!(rep.method, ResampleMethod::AntiAliasDecimate);
         assert!(!rep.applied);
         // 0..9.998 s at 25 fps: 250 frames; the 250 Hz alternation is gone.
@@ -173,6 +197,34 @@ mod tests {
         // alternation averages out to its mean.
         assert!(out[5..245].iter().all(|p| (p.y_px - 360.5).abs() < 1e-3));
         assert!(out.iter().all(|p| (p.y_px - 360.5).abs() < 0.05));
+    }
+
+    #[test]
+    fn blinks_carry_over_to_the_nearest_frames() {
+        // 500 Hz with a blink from 1.000 to 1.090 s: the frames at 1.00, 1.04
+        // and 1.08 s have blink samples within half a frame (20 ms).
+        let samples: Vec<Sample<CanvasPos>> = (0..1000)
+            .map(|i| {
+                let t = i as f64 / 500.0;
+                let mut s = Sample::new(
+                    t,
+                    CanvasPos {
+                        x_px: 1.0,
+                        y_px: 2.0,
+                    },
+                );
+                s.blink = (1.0..=1.09).contains(&t);
+                s
+            })
+            .collect();
+        let (_, blinks, _) = resample_recording(
+            &[Trajectory::new(samples).unwrap()],
+            500.0,
+            25.0,
+            &ResampleConfig::default(),
+        );
+        let frames: Vec<usize> = (0..blinks.len()).filter(|&k| blinks[k]).collect();
+        assert_eq!(frames, vec![25, 26, 27]);
     }
 
     #[test]

@@ -140,6 +140,19 @@ fn real_sources_make_a_complete_deterministic_dataset() {
             assert!((s[j].x_px - want.x_px).abs() <= 5e-4 && (s[j].y_px - want.y_px).abs() <= 5e-4);
         }
     }
+    // EyeLink marks blinks: sessions carry a blink column, with blinks in it.
+    let conv = std::fs::read_to_string(out_a.join("conversation/conversation_0000.csv")).unwrap();
+    assert!(conv.starts_with("frame,x,y,blink\n"));
+    let blink_frames: usize = (0..6)
+        .map(|i| {
+            std::fs::read_to_string(out_a.join(format!("conversation/conversation_{i:04}.csv")))
+                .unwrap()
+                .lines()
+                .filter(|l| l.ends_with(",1"))
+                .count()
+        })
+        .sum();
+    assert!(blink_frames > 0);
     let labels = std::fs::read_to_string(out_a.join("labels.csv")).unwrap();
     assert_eq!(labels.lines().count(), 1 + 8 + 6);
     assert!(labels.contains("reading/reading_0000.csv,1,reading,onestop_fixations.csv#l37_1129/44"));

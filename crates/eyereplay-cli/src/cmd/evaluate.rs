@@ -8,10 +8,15 @@ use eyereplay_eval::{
 };
 use std::path::{Path, PathBuf};
 
-/// Measure a dataset's fidelity: KS tests, Q-Q plots and time-series windows
-/// of generated sessions against their source pool, and (when a session has
-/// been rendered) the visual mapping fidelity of its video; writes
-/// DATASET_DIR/report/index.html (self-contained) and report/metrics.json.
+/// Measure a dataset's fidelity and write report/index.html and report/metrics.json.
+///
+/// Distributional fidelity: speed, fixation duration and saccade amplitude
+/// of the generated sessions against their source pool (two-sample KS as
+/// scipy's ks_2samp, Q-Q plots, 30-s time-series windows), plus rates, main
+/// sequence, dispersion, blink rate and per-session events in pymovements'
+/// layout. Visual fidelity (when a session has been rendered, or with
+/// --video/--trajectory): the iris extracted from the video against the
+/// source, frame by frame.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
 eyereplay evaluate data/                 # writes data/report/index.html and metrics.json\n  \
