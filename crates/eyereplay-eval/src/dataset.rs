@@ -20,6 +20,8 @@ pub struct Session {
     /// Path relative to the dataset folder, as in labels.csv.
     pub file: String,
     pub points: Vec<[f64; 2]>,
+    /// The optional `blink` column (1 where the source blinked).
+    pub blinks: Option<Vec<bool>>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -227,6 +229,7 @@ pub fn load_dataset(dir: &Path) -> Result<Dataset, EvalError> {
             sessions.push(Session {
                 file: f.clone(),
                 points: pts.iter().map(|p| [p.x_px, p.y_px]).collect(),
+                blinks: read_blink_column(&path)?,
             });
         }
         let pool = read_pool(&dir.join("pool").join(format!("{}.csv", class.name())))?;
@@ -429,4 +432,37 @@ pub fn session_calibrations(
                 .ok_or_else(|| bad(format!("no calibration for source {src}")))
         })
         .collect()
+}
+
+/// The optional `blink` column of a session CSV (`frame,x,y,blink`); `None`
+/// when the file has no such column.
+pub fn read_blink_column(path: &Path) -> Result<Option<Vec<bool>>, EvalError> {
+    let text = read_text(path)?;
+    let mut rdr = csv::ReaderBuilder::new().from_reader(text.as_bytes());
+    let headers = rdr
+        .headers()
+        .map_err(|e| EvalError::dataset(path, e.to_string()))?
+        .clone();
+    let Some(col) = headers.iter().position(|h| h.trim() == "blink") else {
+        return Ok(None);
+    };
+    let mut out = Vec::new();
+    for (i, rec) in rdr.records().enumerate() {
+        let line = i + 2;
+        let rec = rec.map_err(|e| EvalError::dataset(path, format!("line {line}: {e}")))?;
+        out.push(match rec.get(col).map(str::trim) {
+            Some("1") | Some("true") => true,
+            Some("0") | Some("false") | Some("") => false,
+            other => {
+                return Err(EvalError::dataset(
+                    path,
+                    format!(
+                        "line {line}: blink must be 0 or 1, found {:?}",
+                        other.unwrap_or("")
+                    ),
+                ))
+            }
+        });
+    }
+    Ok(Some(out))
 }

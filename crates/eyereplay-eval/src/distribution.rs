@@ -11,7 +11,7 @@
 
 use crate::dataset::Dataset;
 use crate::ks::KsResult;
-use crate::metrics::{Event, IvtThresholds, MetricSamples};
+use crate::metrics::{Event, EventKind, IvtThresholds, MetricSamples};
 use crate::stats::{linear_fit, median, quantile_sorted, sorted};
 use eyereplay_core::GazeClass;
 use serde::Serialize;
@@ -131,6 +131,9 @@ pub struct Extras {
     pub saccade_rate_per_s: f64,
     /// Held-position runs (forward-filled blinks) per minute.
     pub blink_rate_per_min: f64,
+    /// Blinks per minute from the sessions' `blink` column, when they have
+    /// one (generated side only: the pool has no such column).
+    pub blink_column_rate_per_min: Option<f64>,
     pub fixation_duration_median_ms: Option<f64>,
     pub saccade_amplitude_median_px: Option<f64>,
     pub saccade_amplitude_median_deg: Option<f64>,
@@ -162,6 +165,7 @@ pub fn extras(m: &MetricSamples, fps: f64, px_per_deg: Option<f64>) -> Extras {
         fixation_rate_per_s: m.fixation_duration_frames.len() as f64 / dur,
         saccade_rate_per_s: m.saccade_amplitude_px.len() as f64 / dur,
         blink_rate_per_min: m.n_blinks as f64 / dur * 60.0,
+        blink_column_rate_per_min: None,
         fixation_duration_median_ms: median(&m.fixation_duration_frames).map(|f| f * 1000.0 / fps),
         saccade_amplitude_median_px: amp_med,
         saccade_amplitude_median_deg: px_per_deg.and_then(|k| amp_med.map(|a| a / k)),
@@ -234,8 +238,26 @@ pub fn evaluate_class(ds: &Dataset, class_index: usize, cfg: &EvalConfig) -> Cla
     }
     let mut generated = MetricSamples::default();
     let mut events = Vec::with_capacity(cd.sessions.len());
+    let mut column_blinks: Option<usize> = None;
     for s in &cd.sessions {
-        let ev = generated.add_segment(&s.points, thr);
+        let mut ev = generated.add_segment(&s.points, thr);
+        if let Some(b) = &s.blinks {
+            // The source's own blink marks replace the held-position proxy
+            // in the events export.
+            ev.retain(|e| e.kind != EventKind::Blink);
+            let flags: Vec<f64> = b.iter().map(|&x| if x { 1.0 } else { 0.0 }).collect();
+            let runs = crate::metrics::runs(&flags, |v| v > 0.5);
+            *column_blinks.get_or_insert(0) += runs.len();
+            ev.extend(runs.into_iter().map(|(start, len)| Event {
+                kind: EventKind::Blink,
+                onset_frame: start,
+                offset_frame: start + len - 1,
+                amplitude_px: 0.0,
+                peak_speed_px_per_frame: 0.0,
+                dispersion_px: 0.0,
+            }));
+            ev.sort_by_key(|e| (e.onset_frame, e.kind));
+        }
         events.push((s.file.clone(), ev));
     }
     let comparisons = Metric::ALL
@@ -249,7 +271,11 @@ pub fn evaluate_class(ds: &Dataset, class_index: usize, cfg: &EvalConfig) -> Cla
         class: cd.class,
         n_sessions: cd.sessions.len(),
         extras_source: extras(&source, ds.fps, cfg.px_per_deg),
-        extras_generated: extras(&generated, ds.fps, cfg.px_per_deg),
+        extras_generated: Extras {
+            blink_column_rate_per_min: column_blinks
+                .map(|n| n as f64 / generated.duration_s(ds.fps) * 60.0),
+            ..extras(&generated, ds.fps, cfg.px_per_deg)
+        },
         source,
         generated,
         comparisons,

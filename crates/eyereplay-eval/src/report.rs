@@ -101,6 +101,7 @@ fn extras_json(e: &Extras) -> Json {
     j.set("fixation_rate_per_s", e.fixation_rate_per_s);
     j.set("saccade_rate_per_s", e.saccade_rate_per_s);
     j.set("blink_rate_per_min", e.blink_rate_per_min);
+    j.set("blink_column_rate_per_min", e.blink_column_rate_per_min);
     j.set("fixation_duration_median_ms", e.fixation_duration_median_ms);
     j.set("saccade_amplitude_median_px", e.saccade_amplitude_median_px);
     j.set(
@@ -447,6 +448,12 @@ table.kv td{text-align:left}\n\
                 "blinks per minute (held-position proxy)",
                 format!("{:.2}", s.blink_rate_per_min),
                 format!("{:.2}", g.blink_rate_per_min),
+            ),
+            (
+                "blinks per minute (sessions' blink column)",
+                "-".to_string(),
+                g.blink_column_rate_per_min
+                    .map_or("no column".into(), |r| format!("{r:.2}")),
             ),
             (
                 "median fixation duration (ms)",

@@ -332,3 +332,44 @@ fn per_source_calibrations_follow_the_pool() {
     // The evaluation itself does not need a calibration.
     assert!(evaluate_dataset(d, &EvalConfig::default()).is_ok());
 }
+
+#[test]
+fn blink_column_becomes_blink_events_and_a_rate() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    tiny_dataset(d);
+    // Session 0 with a blink column: one blink over frames 1..=2.
+    std::fs::write(
+        d.join("reading/reading_0000.csv"),
+        "frame,x,y,blink\n0,0,100,0\n1,1,100,1\n2,2,100,1\n3,3,100,0\n4,4,100,0\n",
+    )
+    .unwrap();
+    let ev = evaluate_dataset(d, &EvalConfig::default()).unwrap();
+    let reading = &ev.classes[0];
+    let (_, events) = &reading.events[0];
+    let blinks: Vec<_> = events
+        .iter()
+        .filter(|e| e.kind == eyereplay_eval::EventKind::Blink)
+        .map(|e| (e.onset_frame, e.offset_frame))
+        .collect();
+    assert_eq!(blinks, vec![(1, 2)]);
+    // 1 blink in 2 sessions x 5 frames at 25 fps = 0.4 s -> 150 per minute.
+    let r = reading.extras_generated.blink_column_rate_per_min.unwrap();
+    assert!((r - 150.0).abs() < 1e-9, "{r}");
+    assert_eq!(
+        ev.classes[1].extras_generated.blink_column_rate_per_min,
+        None
+    );
+    std::fs::write(
+        d.join("reading/reading_0000.csv"),
+        "frame,x,y,blink\n0,0,100,0\n1,1,100,x\n2,2,100,1\n3,3,100,0\n4,4,100,0\n",
+    )
+    .unwrap();
+    let e = evaluate_dataset(d, &EvalConfig::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("reading_0000.csv") && e.contains("line 3"),
+        "{e}"
+    );
+}

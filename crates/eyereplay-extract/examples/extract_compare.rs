@@ -1,5 +1,7 @@
-//! Extracts one video and compares it with a MediaPipe reference CSV:
+//! Extracts one video and compares it with a MediaPipe reference CSV, the
+//! library-level twin of `eyereplay extract --compare`, for experiments:
 //! `cargo run --release --example extract_compare -- VIDEO REF.csv [OUT.csv]`
+//! Environment: THREADS (workers), MESH_EVERY, MAX_S (seconds to process).
 use eyereplay_extract::*;
 use std::path::PathBuf;
 

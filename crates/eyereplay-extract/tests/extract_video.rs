@@ -360,3 +360,77 @@ fn models_check_reports_pinned_sources_and_runs_each_model() {
         "{lines:?}"
     );
 }
+
+/// The containers and codecs people record in (issue: mp4, mov, webm, mkv,
+/// avi; H.264, HEVC, VP8/9, AV1, MJPEG), including formats that are not
+/// 4:2:0 (MJPEG's yuvj422p, 4:4:4 H.264) and take the RGB conversion path:
+/// every frame decodes and the iris positions agree with a lossless H.264
+/// copy of the same 3 s.
+#[test]
+fn containers_and_codecs_give_the_same_positions() {
+    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else {
+        return;
+    };
+    if !ffmpeg() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let src = v.to_str().unwrap();
+    let o = opts(m);
+    let encode = |name: &str, codec: &[&str]| -> PathBuf {
+        let out = dir.path().join(name);
+        let mut args = vec!["-i", src, "-t", "3"];
+        args.extend_from_slice(codec);
+        args.extend_from_slice(&["-an", out.to_str().unwrap()]);
+        run_ffmpeg(&args);
+        out
+    };
+    let lossless = encode("ref.mp4", &["-c:v", "libx264", "-qp", "0"]);
+    let base = Series::from_rows(&extract_one(&lossless, &o).unwrap().rows);
+    let cases: [(&str, &[&str]); 6] = [
+        (
+            "vp9.webm",
+            &[
+                "-c:v",
+                "libvpx-vp9",
+                "-deadline",
+                "realtime",
+                "-cpu-used",
+                "8",
+                "-b:v",
+                "1M",
+            ],
+        ),
+        (
+            "vp8.webm",
+            &["-c:v", "libvpx", "-deadline", "realtime", "-b:v", "1M"],
+        ),
+        (
+            "hevc.mkv",
+            &[
+                "-c:v",
+                "libx265",
+                "-preset",
+                "ultrafast",
+                "-x265-params",
+                "log-level=none",
+            ],
+        ),
+        ("mjpeg.avi", &["-c:v", "mjpeg", "-q:v", "3"]),
+        ("av1.mp4", &["-c:v", "libsvtav1", "-preset", "12"]),
+        ("h264_444.mov", &["-c:v", "libx264", "-pix_fmt", "yuv444p"]),
+    ];
+    for (name, codec) in cases {
+        let x = extract_one(&encode(name, codec), &o).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(x.rows.len(), 72, "{name}: 3 s at 24 fps");
+        assert_eq!(x.face_frames, 72, "{name}");
+        let s = Series::from_rows(&x.rows);
+        let diffs: Vec<f64> =
+            s.n.iter()
+                .zip(&base.n)
+                .map(|(a, b)| (a.unwrap().0 - b.unwrap().0).abs())
+                .collect();
+        let med = percentile(&diffs, 0.5);
+        assert!(med < 0.02, "{name}: median |nx - lossless nx| = {med}");
+    }
+}

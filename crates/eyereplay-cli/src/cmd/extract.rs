@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 #[derive(Parser, Debug)]
 #[command(
     about = "Extract normalized iris positions from videos (one CSV row per frame)",
-    long_about = "Runs MediaPipe's face detection, face mesh and iris networks (fetched by \
-'eyereplay models fetch') on every frame and writes one CSV row per decoded frame: \
+    long_about = "Runs MediaPipe's face detection, face mesh (every --mesh-every frames) and iris \
+networks (fetched by 'eyereplay models fetch') and writes one CSV row per decoded frame: \
 frame, time_s (the frame's own presentation time), valid, nx, ny, blink, then per-eye \
 values, iris centres and eye corners in pixels.\n\n\
 nx runs from the image-left eye corner (0) to the image-right one (1) for BOTH eyes; \

@@ -77,6 +77,9 @@ pub struct Args {
     /// x264 preset.
     #[arg(long, default_value = "veryfast")]
     pub preset: String,
+    /// Extra x264 options, as for ffmpeg's -x264-params ('' for none).
+    #[arg(long, default_value = "rc-lookahead=5:bframes=2")]
+    pub x264_params: String,
     /// Also write the identity and eye geometry as JSON here.
     #[arg(long, value_name = "PATH")]
     pub identity_out: Option<PathBuf>,
@@ -130,6 +133,7 @@ fn params(args: &Args) -> anyhow::Result<RenderParams> {
     p.natural_blinks = args.natural_blinks;
     p.encoder.crf = args.crf;
     p.encoder.preset = args.preset.clone();
+    p.encoder.x264_params = Some(args.x264_params.clone()).filter(|s| !s.is_empty());
     if args.lossless {
         p.encoder.codec = Codec::Lossless;
     }
