@@ -1,3 +1,4 @@
+//! Same as `eyereplay render --bench`: `bench [FRAMES]`.
 fn main() {
     let n: usize = std::env::args()
         .nth(1)

@@ -1,3 +1,6 @@
+//! Profiling helper: renders N frames of a reading trajectory and writes the
+//! raw yuv420p stream to a file (default /tmp/frames.yuv) for timing x264
+//! settings by hand: `dump [FRAMES] [OUT.yuv]`.
 use eyereplay_render::*;
 use std::io::Write;
 struct F(std::fs::File);

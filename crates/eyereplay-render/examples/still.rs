@@ -1,3 +1,5 @@
+//! Renders one still for looking at the model: `still SEED YAW_DEG PITCH_DEG
+//! CLOSURE OUT.png [X,Y,W,H crop]` (seed 0 is the reference face).
 use eyereplay_render::*;
 fn main() {
     let args: Vec<String> = std::env::args().collect();

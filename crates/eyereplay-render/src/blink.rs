@@ -30,8 +30,8 @@ pub fn closure_at(t_s: f64, onset_s: f64, hold_s: f64) -> f64 {
 /// Per-frame lid closure in [0, 1].
 ///
 /// `flags` marks frames where the source saw a blink: each run of flagged
-/// frames becomes one blink that starts closing at the run's first frame and
-/// stays closed for the rest of the run. With `natural_rate_per_min`, blinks
+/// frames becomes one blink, fully closed on every flagged frame (closing
+/// starts 80 ms before the run, opening after it). With `natural_rate_per_min`, blinks
 /// are also placed at random (seeded, at least 1.5 s apart) where none are
 /// flagged.
 pub fn closure_track(
@@ -50,8 +50,14 @@ pub fn closure_track(
                 while i < f.len().min(frames) && f[i] {
                     i += 1;
                 }
-                let run_s = (i - start) as f64 / fps;
-                events.push((start as f64 / fps, (run_s - CLOSE_S).max(0.0)));
+                // The source saw closed eyes on the flagged frames: start
+                // closing just before the first so the lids are shut on
+                // every flagged frame, and open after the last.
+                let first_s = start as f64 / fps;
+                let last_s = (i - 1) as f64 / fps;
+                // Half a frame of slack keeps the last flagged frame fully
+                // closed despite rounding.
+                events.push((first_s - CLOSE_S, last_s - first_s + 0.5 / fps));
             } else {
                 i += 1;
             }
@@ -104,10 +110,12 @@ mod tests {
             *f = true;
         }
         let c = closure_track(50, 25.0, Some(&flags), None, 1);
-        assert_eq!(c[9], 0.0);
-        assert_eq!(c[12], 1.0);
-        assert_eq!(c[13], 1.0);
-        assert!(c[15] > 0.0 && c[15] < 1.0);
+        assert_eq!(c[7], 0.0);
+        // Half closed 40 ms before the run (halfway through the 80 ms close).
+        assert!((c[9] - 0.5).abs() < 1e-6, "{}", c[9]);
+        assert!(c[10..14].iter().all(|&v| v == 1.0), "{:?}", &c[9..16]);
+        // 60 ms into the 200 ms opening: (1 - 0.3)^2 closed.
+        assert!((c[15] - 0.49).abs() < 1e-6, "{}", c[15]);
         assert_eq!(c[30], 0.0);
         // 10 minutes at 15 blinks/min: expect about 150 closed frames groups.
         let c = closure_track(25 * 600, 25.0, None, Some(15.0), 7);

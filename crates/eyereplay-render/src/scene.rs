@@ -827,8 +827,8 @@ impl Scene {
             let mut e = self.shade_eyeball(ef, px, py);
             // Upper-lid and lash shadow on the eye, a softer one from the lower lid.
             let sh = 1.0
-                - 0.6 * fast_exp(-du.max(0.0) * ef.inv_shadow_px)
-                - 0.2 * fast_exp(-dl.max(0.0) * 2.0 * ef.inv_shadow_px);
+                - 0.6 * soft_falloff(du.max(0.0) * ef.inv_shadow_px)
+                - 0.2 * soft_falloff(dl.max(0.0) * 2.0 * ef.inv_shadow_px);
             // Caruncle and corner shadow (per column, see `eye_frame`).
             let (corner, car) = ef.corner_col[x];
             e = e * (sh * corner);
@@ -1072,6 +1072,32 @@ impl Scene {
                     .collect()
             })
             .collect();
+        // Fine lines under each eye: curves following the lower lid, a few
+        // millimetres below it, each fading out at its ends.
+        let mut wr = SplitMix64::new(id.seed ^ 0x3A1);
+        let under_lines: Vec<(Vec<(f64, f64)>, f32)> = eyes
+            .iter()
+            .zip(&open)
+            .flat_map(|(m, l)| {
+                let depth = [wr.range(2.2, 3.2), wr.range(4.0, 5.5)];
+                let strength = [wr.range(0.1, 0.2) as f32, wr.range(0.06, 0.14) as f32];
+                (0..2)
+                    .map(|j| {
+                        let pts = (0..=64)
+                            .map(|i| {
+                                let s = 0.15 + 0.8 * i as f64 / 64.0;
+                                let p = m.lid_point(s, l, false);
+                                (
+                                    p.x,
+                                    p.y + depth[j] * (0.6 + 0.4 * (std::f64::consts::PI * s).sin()),
+                                )
+                            })
+                            .collect();
+                        (pts, strength[j])
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect();
         (0..w * h)
             .into_par_iter()
             .map(|i| {
@@ -1120,6 +1146,23 @@ impl Scene {
                         crease += fade
                             * ((-(dy / 0.7).powi(2)).exp() * 0.32
                                 + (-(dy / 2.2).powi(2)).exp() * if dy < 0.0 { 0.2 } else { -0.1 });
+                    }
+                }
+                for (c, strength) in &under_lines {
+                    let (xa, xb) = (c[0].0.min(c[64].0), c[0].0.max(c[64].0));
+                    if x > xa && x < xb {
+                        let f = ((x - c[0].0) / (c[64].0 - c[0].0) * 64.0).clamp(0.0, 63.999);
+                        let j = f as usize;
+                        let cy = c[j].1 + (c[j + 1].1 - c[j].1) * (f - j as f64);
+                        let dy = (y - cy) as f32;
+                        if dy.abs() < 1.0 {
+                            let fade = (std::f32::consts::PI * (f / 64.0) as f32).sin();
+                            // A thin dark fold with a faint lit edge below it.
+                            crease += strength
+                                * fade
+                                * ((-(dy / 0.13).powi(2)).exp()
+                                    - 0.4 * (-((dy - 0.25) / 0.15).powi(2)).exp());
+                        }
                     }
                 }
                 let crease = crease.clamp(-0.3, 0.8);
@@ -1397,6 +1440,14 @@ fn draw_strand(
             }
         }
     }
+}
+
+/// A smooth falloff from 1 at 0 toward 0, close to exp(-u) for small u
+/// (the reciprocal of exp's Taylor series to third order): one division
+/// instead of an exponential for the per-pixel lid shadows.
+#[inline]
+fn soft_falloff(u: f32) -> f32 {
+    1.0 / (1.0 + u * (1.0 + u * (0.5 + u * (1.0 / 6.0))))
 }
 
 /// exp(x) for x <= 0 to about 1e-4 relative accuracy; the shading only

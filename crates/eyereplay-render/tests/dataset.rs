@@ -123,3 +123,30 @@ fn a_bad_session_fails_alone() {
         .to_string();
     assert!(e.contains("labels.csv") && !e.contains('\n'), "{e}");
 }
+
+#[test]
+fn session_blink_column_closes_the_lids() {
+    let dir = tempfile::tempdir().unwrap();
+    make_dataset(dir.path());
+    let sweep = reading_trajectory(20, 1280.0, 720.0);
+    let mut blinks = vec![false; 20];
+    blinks[8..12].iter_mut().for_each(|b| *b = true);
+    eyereplay_core::write_session_csv_with_blinks(
+        &dir.path().join("reading/reading_0000.csv"),
+        &sweep,
+        &blinks,
+    )
+    .unwrap();
+    let s = render_dataset(dir.path(), &opts(), &|_, _| {}).unwrap();
+    assert_eq!(s.rendered, 2, "{s:?}");
+    let truth = std::fs::read_to_string(dir.path().join("reading/reading_0000_truth.csv")).unwrap();
+    let blink_col: Vec<&str> = truth
+        .lines()
+        .skip(1)
+        .map(|l| l.rsplit(',').next().unwrap())
+        .collect();
+    // Closed on every flagged frame, open well before and after the run.
+    assert_eq!(blink_col[6], "0");
+    assert!(blink_col[8..12].iter().all(|b| *b == "1"), "{blink_col:?}");
+    assert_eq!(blink_col[14], "0");
+}

@@ -1,6 +1,6 @@
 use anyhow::{bail, Context};
 use eyereplay_core::{read_session_csv, CanvasPos};
-use eyereplay_eval::dataset::read_truth_norm;
+use eyereplay_eval::dataset::{read_blink_column, read_truth_norm};
 use eyereplay_eval::{
     compare_visual, dataset::session_calibrations, evaluate_dataset, read_calibration,
     rendered_video_path, truth_csv_path, write_report, EvalConfig, Evaluation, IvtThresholds,
@@ -233,6 +233,26 @@ for per-source calibrations compare a dataset session (--visual-session)"
         .zip(&cals)
         .map(|(c, cal)| cal.to_norm([c.x_px, c.y_px]))
         .collect();
+    // Frames where the eyes are closed (the session's or the render's blink
+    // column) carry no iris position to compare.
+    let mut closed = vec![false; input.len()];
+    for p in [Some(trajectory.clone()), truth.clone()]
+        .into_iter()
+        .flatten()
+    {
+        if let Some(b) = read_blink_column(&p)? {
+            for (c, b) in closed.iter_mut().zip(b) {
+                *c |= b;
+            }
+        }
+    }
+    // Lids are part-closed just before and after a flagged blink too.
+    let flagged = closed.clone();
+    for (i, _) in flagged.iter().enumerate().filter(|(_, &b)| b) {
+        for c in &mut closed[i.saturating_sub(2)..(i + 3).min(flagged.len())] {
+            *c = true;
+        }
+    }
     if let Some(p) = truth {
         // The renderer's own iris positions against the source: the
         // simulator's mapping without the extractor.
@@ -245,7 +265,12 @@ for per-source calibrations compare a dataset session (--visual-session)"
             input.len()
         );
         let n = ((args.visual_seconds * ev.fps).round() as usize).min(input.len());
-        let cmp = compare_visual(&source_all[..n], &t[..n], None)
+        let t: Vec<[f64; 2]> = t[..n]
+            .iter()
+            .zip(&closed)
+            .map(|(r, &c)| if c { [f64::NAN, f64::NAN] } else { *r })
+            .collect();
+        let cmp = compare_visual(&source_all[..n], &t, None)
             .with_context(|| format!("{}: comparing with the source", p.display()))?;
         ev.render_truth = Some((shown(&args.dataset_dir, &p), cmp));
     }
@@ -302,7 +327,11 @@ because the face detector found the face in {} of the compared frames",
     };
     let n = n.min(rendered_n.len());
     anyhow::ensure!(n >= 2, "{}: only {n} frame(s) decoded", video.display());
-    let rendered_n = rendered_n[..n].to_vec();
+    let rendered_n: Vec<[f64; 2]> = rendered_n[..n]
+        .iter()
+        .zip(&closed)
+        .map(|(r, &c)| if c { [f64::NAN, f64::NAN] } else { *r })
+        .collect();
     let input = &input[..n];
     let source_n = source_all[..n].to_vec();
     let fidelity = compare_visual(&source_n, &rendered_n, Some((input, ev.canvas)))

@@ -61,6 +61,10 @@ pub struct Args {
     /// (scripts/dev/mediapipe_ref.sh) and print both frame rates and their ratio.
     #[arg(long)]
     pub bench_mediapipe: bool,
+    /// With --bench-mediapipe: alternate MediaPipe and eyereplay this many times and
+    /// also print the median ratios (steadier when the machine's load varies).
+    #[arg(long, default_value_t = 1)]
+    pub bench_rounds: usize,
     /// No progress bars.
     #[arg(short, long)]
     pub quiet: bool,
@@ -201,6 +205,33 @@ pub fn run(a: Args) -> Result<()> {
         Some(p) => Some(ex::Series::read_reference(p)?),
         None => None,
     };
+    // Extra benchmark rounds before the real one: (fps ratio, CPU ratio).
+    let mut rounds: Vec<(f64, Option<f64>)> = vec![];
+    if a.bench_mediapipe {
+        for k in 1..a.bench_rounds.max(1) {
+            let mp = mediapipe_fps(&a.videos[0], a.max_seconds)?;
+            let c0 = cpu_seconds().map(|c| c.0);
+            let t0 = std::time::Instant::now();
+            let x = ex::extract_many(&a.videos, &opts, &ex::NoProgress)
+                .pop()
+                .expect("one video")?;
+            let fps = x.rows.len() as f64 / t0.elapsed().as_secs_f64();
+            let cpu = c0
+                .zip(cpu_seconds().map(|c| c.0))
+                .map(|(a, b)| (b - a) / x.rows.len() as f64);
+            let cpu_ratio = cpu.zip(mp.cpu_per_frame_s).map(|(o, t)| t / o);
+            println!(
+                "round {k}: eyereplay {fps:.1} frames/s, MediaPipe {:.1} frames/s, ratio {:.2}x, \
+                 CPU-per-frame ratio {}",
+                mp.fps,
+                fps / mp.fps,
+                cpu_ratio
+                    .map(|r| format!("{r:.2}x"))
+                    .unwrap_or_else(|| "n/a".into())
+            );
+            rounds.push((fps / mp.fps, cpu_ratio));
+        }
+    }
     let mp_fps: Option<MediapipeRun> = if a.bench_mediapipe {
         Some(mediapipe_fps(&a.videos[0], a.max_seconds)?)
     } else {
@@ -315,14 +346,34 @@ pub fn run(a: Args) -> Result<()> {
                 "speed ratio eyereplay / MediaPipe (frames/s, same run): {:.2}x",
                 fps / mp.fps
             );
+            let mut cpu_ratio = None;
             if let (Some(ours), Some(theirs)) = (cpu_used_s, mp.cpu_per_frame_s) {
                 let ours = ours / x.rows.len() as f64;
+                cpu_ratio = Some(theirs / ours);
                 println!(
                     "CPU per frame: eyereplay {:.2} ms, MediaPipe {:.2} ms (ratio {:.2}x; the fair \
                      comparison when other processes load the machine)",
                     1e3 * ours,
                     1e3 * theirs,
                     theirs / ours
+                );
+            }
+            if !rounds.is_empty() {
+                rounds.push((fps / mp.fps, cpu_ratio));
+                let median = |mut v: Vec<f64>| {
+                    v.sort_by(f64::total_cmp);
+                    v[v.len() / 2]
+                };
+                let cpu: Vec<f64> = rounds.iter().filter_map(|r| r.1).collect();
+                println!(
+                    "median over {} rounds: ratio {:.2}x, CPU-per-frame ratio {}",
+                    rounds.len(),
+                    median(rounds.iter().map(|r| r.0).collect()),
+                    if cpu.is_empty() {
+                        "n/a".to_string()
+                    } else {
+                        format!("{:.2}x", median(cpu))
+                    }
                 );
             }
         }
