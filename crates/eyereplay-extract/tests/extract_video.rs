@@ -1,6 +1,6 @@
 //! End-to-end tests on real video with the real models.
 //!
-//! They need `scripts/setup-extract.sh` (videos in .cache/data, models in
+//! They need `scripts/setup.sh` (videos in .cache/data, models in
 //! .cache/models) and the ffmpeg CLI for the generated fixtures. Without
 //! them a test prints why and passes, unless CI is set: then it fails.
 
@@ -14,9 +14,9 @@ fn root() -> PathBuf {
 
 fn skip_or_fail(what: &str) -> Option<PathBuf> {
     if std::env::var_os("CI").is_some() {
-        panic!("{what} is missing; run scripts/setup-extract.sh");
+        panic!("{what} is missing; run scripts/setup.sh");
     }
-    eprintln!("SKIPPED: {what} is missing; run scripts/setup-extract.sh");
+    eprintln!("SKIPPED: {what} is missing; run scripts/setup.sh");
     None
 }
 
