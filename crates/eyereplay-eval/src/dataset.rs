@@ -30,6 +30,10 @@ pub struct ClassData {
     pub sessions: Vec<Session>,
     /// The concatenated source pool, split where the source changes.
     pub pool: Vec<Segment>,
+    /// How the class's sources were recorded (`metadata.json`
+    /// `sources[].kind`: video, eye_tracker, fixation_report) and how many
+    /// sources of each kind; empty when the metadata does not say.
+    pub source_kinds: std::collections::BTreeMap<String, usize>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -85,6 +89,30 @@ pub fn read_metadata(dir: &Path) -> Result<(f64, Canvas, usize), EvalError> {
         },
         frames as usize,
     ))
+}
+
+/// Counts of the class's sources by recording kind, from `metadata.json`.
+fn source_kinds(
+    dir: &Path,
+    class: GazeClass,
+) -> Result<std::collections::BTreeMap<String, usize>, EvalError> {
+    let path = dir.join("metadata.json");
+    let meta: serde_json::Value = serde_json::from_str(&read_text(&path)?)
+        .map_err(|e| EvalError::dataset(&path, format!("not valid JSON: {e}")))?;
+    let mut out = std::collections::BTreeMap::new();
+    for s in meta
+        .get("sources")
+        .and_then(|v| v.as_array())
+        .into_iter()
+        .flatten()
+    {
+        if s.get("class").and_then(|c| c.as_str()) == Some(class.name()) {
+            if let Some(kind) = s.get("kind").and_then(|k| k.as_str()) {
+                *out.entry(kind.to_string()).or_insert(0) += 1;
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// `(file, class)` rows of labels.csv, checked for a consistent label.
@@ -237,6 +265,7 @@ pub fn load_dataset(dir: &Path) -> Result<Dataset, EvalError> {
             class,
             sessions,
             pool,
+            source_kinds: source_kinds(dir, class)?,
         });
     }
     Ok(Dataset {

@@ -48,6 +48,8 @@ pub struct Evaluation {
     pub classes: Vec<ClassEvaluation>,
     pub pool_frames: Vec<usize>,
     pub pool_segments: Vec<usize>,
+    /// Per class: sources by recording kind (see [`crate::dataset::ClassData`]).
+    pub source_kinds: Vec<std::collections::BTreeMap<String, usize>>,
     pub visual: VisualSection,
     /// The renderer's ground truth (`<stem>_truth.csv`) of a rendered
     /// session against its source, without the extractor: (truth CSV,
@@ -84,6 +86,7 @@ pub fn evaluate_loaded(ds: &Dataset, cfg: &EvalConfig) -> Evaluation {
             .map(|c| c.pool.iter().map(|s| s.points.len()).sum())
             .collect(),
         pool_segments: ds.classes.iter().map(|c| c.pool.len()).collect(),
+        source_kinds: ds.classes.iter().map(|c| c.source_kinds.clone()).collect(),
         visual: VisualSection::NotComputed {
             reason: VISUAL_NOT_WIRED.to_string(),
         },
@@ -325,6 +328,36 @@ fn verdict(ok: bool) -> &'static str {
 }
 
 /// The self-contained HTML report.
+/// A warning when the classes come from different kinds of recording: a
+/// classifier could then learn the recording type (landmark jitter of webcam
+/// video versus a tracker's clean signal) instead of the behaviour.
+fn recording_kind_note(ev: &Evaluation) -> String {
+    let kinds: Vec<Vec<&String>> = ev.source_kinds.iter().map(|k| k.keys().collect()).collect();
+    if kinds.len() < 2
+        || kinds.iter().any(|k| k.is_empty())
+        || kinds.windows(2).all(|w| w[0] == w[1])
+    {
+        return String::new();
+    }
+    let per_class: Vec<String> = ev
+        .classes
+        .iter()
+        .zip(&kinds)
+        .map(|(c, k)| {
+            let names: Vec<String> = k.iter().map(|s| s.replace('_', " ")).collect();
+            format!("{} from {}", c.class, names.join(" and "))
+        })
+        .collect();
+    format!(
+        "<p class=\"note\">The classes come from different kinds of recording ({}). A classifier \
+trained on this data could learn the recording type instead of the behaviour. eyereplay brings \
+their noise levels together (EdgeGauss smoothing of video landmarks, fixational drift in \
+fixation reports); compare the low end of the speed Q-Q plots and the fixation dispersion below \
+before relying on it, and prefer sources of one kind per dataset where you can.</p>\n",
+        per_class.join("; ")
+    )
+}
+
 pub fn report_html(ev: &Evaluation, figs: &[Figure]) -> String {
     let fig = |name: &str| figs.iter().find(|f| f.name == name);
     let c = &ev.config;
@@ -365,7 +398,22 @@ table.kv td{text-align:left}\n\
             ev.pool_segments[i]
         );
     }
+    for (i, ce) in ev.classes.iter().enumerate() {
+        if let Some(kinds) = ev.source_kinds.get(i).filter(|k| !k.is_empty()) {
+            let list: Vec<String> = kinds
+                .iter()
+                .map(|(k, n)| format!("{n} {}", k.replace('_', " ")))
+                .collect();
+            let _ = writeln!(
+                h,
+                "<tr><td>{} sources</td><td>{}</td></tr>",
+                ce.class,
+                list.join(", ")
+            );
+        }
+    }
     h.push_str("</table>\n");
+    h.push_str(&recording_kind_note(ev));
     // Parameters
     h.push_str(
         "<h2>Parameters</h2>\n<table class=\"kv\"><tr><th>parameter</th><th>value</th></tr>\n",

@@ -373,3 +373,30 @@ fn blink_column_becomes_blink_events_and_a_rate() {
         "{e}"
     );
 }
+
+#[test]
+fn report_says_when_classes_come_from_different_kinds_of_recording() {
+    let tmp = tempfile::tempdir().unwrap();
+    tiny_dataset(tmp.path());
+    let meta = |kinds: [&str; 2]| {
+        format!(
+            r#"{{"fps": 25, "canvas": {{"width_px": 1280, "height_px": 720}}, "session_frames": 5,
+  "sources": [{{"class": "reading", "kind": "{}"}}, {{"class": "reading", "kind": "{}"}},
+              {{"class": "conversation", "kind": "video"}}]}}"#,
+            kinds[0], kinds[1]
+        )
+    };
+    let html_for = |m: String| {
+        std::fs::write(tmp.path().join("metadata.json"), m).unwrap();
+        let ev = evaluate_dataset(tmp.path(), &EvalConfig::default()).unwrap();
+        let (paths, _) = write_report(tmp.path(), &ev).unwrap();
+        std::fs::read_to_string(&paths.html).unwrap()
+    };
+    let mixed = html_for(meta(["fixation_report", "fixation_report"]));
+    assert!(mixed.contains("<td>reading sources</td><td>2 fixation report</td>"));
+    assert!(mixed.contains(
+        "different kinds of recording (reading from fixation report; conversation from video)"
+    ));
+    let same = html_for(meta(["video", "video"]));
+    assert!(!same.contains("different kinds of recording"));
+}
