@@ -7,6 +7,7 @@
 //! generic over the position type, so a normalized trajectory can never be fed
 //! where canvas pixels are expected.
 
+mod calibration;
 mod class;
 mod error;
 mod fsio;
@@ -14,6 +15,7 @@ mod position;
 mod session_csv;
 mod trajectory;
 
+pub use calibration::Calibration;
 pub use class::GazeClass;
 pub use error::CoreError;
 pub use fsio::{atomic_write, atomic_write_with, sha256_file, sha256_hex, stale_temp_files};

@@ -32,6 +32,7 @@ mod compare;
 mod decode;
 mod detect;
 mod error;
+mod eyecrop;
 mod geom;
 mod image;
 mod models;
@@ -44,6 +45,9 @@ pub use compare::{compare, pearson, percentile, Agreement, Series};
 pub use decode::{probe, Decoder, VideoInfo};
 pub use detect::{anchors, decode as decode_detections, weighted_nms, Detection};
 pub use error::{ExtractError, Result};
+pub use eyecrop::{
+    eye_crop_roi, order_eye_corners, EyeCorners, EyeCropTracker, EYE_CROP_SCALE,
+};
 pub use geom::{Pt, Roi};
 pub use image::{Border, ImageView, Planes, Rotation, YuvMatrix};
 pub use models::{check as check_models, default_models_dir, init_runtime, missing_files, Models};

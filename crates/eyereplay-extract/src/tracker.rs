@@ -11,13 +11,13 @@ use crate::models::Models;
 use std::time::Instant;
 
 const MESH_INPUT: usize = 192;
-const IRIS_INPUT: usize = 64;
+pub(crate) const IRIS_INPUT: usize = 64;
 /// MediaPipe's `min_tracking_confidence` / presence threshold.
 const FACE_SCORE_MIN: f32 = 0.5;
 
 /// Mesh indices of the eye corners that place the eye crops: the eye
 /// around points 33/133 is fed as is, the one around 362/263 mirrored.
-const EYE_CORNERS: [(usize, usize, bool); 2] = [(33, 133, false), (362, 263, true)];
+pub(crate) const EYE_CORNERS: [(usize, usize, bool); 2] = [(33, 133, false), (362, 263, true)];
 
 /// Indices into the iris model's 71-point eye contour. Its first 16 points
 /// follow the mesh's eye contour (33, 7, 163, 144, 145, 153, 154, 155, 133,
@@ -303,50 +303,13 @@ impl Tracker {
         rois: [Roi; 2],
         base: Option<([Roi; 2], Pt)>,
     ) -> Result<[Eye; 2]> {
-        let t0 = Instant::now();
-        let plane = 3 * IRIS_INPUT * IRIS_INPUT;
-        for (k, roi) in rois.iter().enumerate() {
-            img.crop_nchw(
-                roi,
-                IRIS_INPUT,
-                EYE_CORNERS[k].2,
-                Border::Replicate,
-                1.0 / 255.0,
-                0.0,
-                &mut self.iris_in[k * plane..(k + 1) * plane],
-            );
-        }
-        let t1 = Instant::now();
-        let outs = self.models.iris(&self.iris_in)?;
-        self.times.iris_crop_s += (t1 - t0).as_secs_f64();
-        self.times.iris_s += t1.elapsed().as_secs_f64();
-        let s = IRIS_INPUT as f32;
-        let mut corners = [(Pt::default(), Pt::default()); 2];
-        let mut eyes: Vec<Eye> = Vec::with_capacity(2);
-        for (k, (contour, iris)) in outs.iter().enumerate() {
-            let (roi, mirror) = (rois[k], EYE_CORNERS[k].2);
-            let map = |p: &[f32]| {
-                let u = if mirror { 1.0 - p[0] / s } else { p[0] / s };
-                roi.to_image(u, p[1] / s)
-            };
-            let contour: Vec<Pt> = contour.chunks_exact(3).map(map).collect();
-            let rim: Vec<Pt> = iris.chunks_exact(3).map(map).collect();
-            let (a, b) = (contour[CONTOUR_CORNER_A], contour[CONTOUR_CORNER_B]);
-            // Contour point 0 is the corner that sits on the crop's left in
-            // the model's view: mesh 33 for the first eye, 263 (mirrored) for
-            // the second; the crop axis runs 33->133 and 362->263.
-            corners[k] = if mirror { (b, a) } else { (a, b) };
-            let (corner_left, corner_right) = if a.x <= b.x { (a, b) } else { (b, a) };
-            eyes.push(Eye {
-                iris: rim[0],
-                corner_left,
-                corner_right,
-                upper_lid: contour[CONTOUR_UPPER_LID],
-                lower_lid: contour[CONTOUR_LOWER_LID],
-                iris_rim: [rim[0], rim[1], rim[2], rim[3], rim[4]],
-                contour,
-            });
-        }
+        let (eyes, corners) = iris_step(
+            &mut self.models,
+            &mut self.iris_in,
+            img,
+            &rois,
+            &mut self.times,
+        )?;
         let mid = Pt::new(
             (corners[0].0.x + corners[0].1.x + corners[1].0.x + corners[1].1.x) / 4.0,
             (corners[0].0.y + corners[0].1.y + corners[1].0.y + corners[1].1.y) / 4.0,
@@ -359,15 +322,75 @@ impl Tracker {
             base_mid,
             score: self.last_score,
         });
-        // Image-left eye first, whatever the head's roll or a mirrored video.
-        let mid_x = |e: &Eye| e.corner_left.x + e.corner_right.x;
-        if mid_x(&eyes[1]) < mid_x(&eyes[0]) {
-            eyes.swap(0, 1);
-        }
-        let e1 = eyes.pop().expect("two eyes");
-        let e0 = eyes.pop().expect("two eyes");
-        Ok([e0, e1])
+        Ok(eyes)
     }
+}
+
+/// The iris model on two eye crops: `rois[0]` is the eye of mesh points
+/// 33/133 (fed as is), `rois[1]` the one of 362/263 (fed mirrored), each
+/// crop's x axis running from the image-left corner to the image-right one.
+/// Returns the eyes image-left first, and the contour corners in model order
+/// (crop-axis start, end) for placing later crops. `iris_in` is the
+/// 2x3x64x64 input buffer.
+pub(crate) fn iris_step(
+    models: &mut Models,
+    iris_in: &mut [f32],
+    img: &ImageView,
+    rois: &[Roi; 2],
+    times: &mut StageTimes,
+) -> Result<([Eye; 2], [(Pt, Pt); 2])> {
+    let t0 = Instant::now();
+    let plane = 3 * IRIS_INPUT * IRIS_INPUT;
+    for (k, roi) in rois.iter().enumerate() {
+        img.crop_nchw(
+            roi,
+            IRIS_INPUT,
+            EYE_CORNERS[k].2,
+            Border::Replicate,
+            1.0 / 255.0,
+            0.0,
+            &mut iris_in[k * plane..(k + 1) * plane],
+        );
+    }
+    let t1 = Instant::now();
+    let outs = models.iris(iris_in)?;
+    times.iris_crop_s += (t1 - t0).as_secs_f64();
+    times.iris_s += t1.elapsed().as_secs_f64();
+    let s = IRIS_INPUT as f32;
+    let mut corners = [(Pt::default(), Pt::default()); 2];
+    let mut eyes: Vec<Eye> = Vec::with_capacity(2);
+    for (k, (contour, iris)) in outs.iter().enumerate() {
+        let (roi, mirror) = (rois[k], EYE_CORNERS[k].2);
+        let map = |p: &[f32]| {
+            let u = if mirror { 1.0 - p[0] / s } else { p[0] / s };
+            roi.to_image(u, p[1] / s)
+        };
+        let contour: Vec<Pt> = contour.chunks_exact(3).map(map).collect();
+        let rim: Vec<Pt> = iris.chunks_exact(3).map(map).collect();
+        let (a, b) = (contour[CONTOUR_CORNER_A], contour[CONTOUR_CORNER_B]);
+        // Contour point 0 is the corner that sits on the crop's left in
+        // the model's view: mesh 33 for the first eye, 263 (mirrored) for
+        // the second; the crop axis runs 33->133 and 362->263.
+        corners[k] = if mirror { (b, a) } else { (a, b) };
+        let (corner_left, corner_right) = if a.x <= b.x { (a, b) } else { (b, a) };
+        eyes.push(Eye {
+            iris: rim[0],
+            corner_left,
+            corner_right,
+            upper_lid: contour[CONTOUR_UPPER_LID],
+            lower_lid: contour[CONTOUR_LOWER_LID],
+            iris_rim: [rim[0], rim[1], rim[2], rim[3], rim[4]],
+            contour,
+        });
+    }
+    // Image-left eye first, whatever the head's roll or a mirrored video.
+    let mid_x = |e: &Eye| e.corner_left.x + e.corner_right.x;
+    if mid_x(&eyes[1]) < mid_x(&eyes[0]) {
+        eyes.swap(0, 1);
+    }
+    let e1 = eyes.pop().expect("two eyes");
+    let e0 = eyes.pop().expect("two eyes");
+    Ok(([e0, e1], corners))
 }
 
 /// Eye corners of the last frame, in model order, to place the next eye

@@ -2,83 +2,56 @@
 //! eq. 2) and blink filtering (3 x IQR rule, forward fill).
 
 use crate::config::{BlinkFilterConfig, CalibrationConfig, CalibrationMode};
-use eyereplay_core::{Canvas, CanvasPos, NormPos, Sample, Trajectory};
+use eyereplay_core::{Canvas, NormPos, Sample, Trajectory};
 use eyereplay_signal::{percentile, quartiles};
 use serde::{Deserialize, Serialize};
 
-/// Linear map from normalized iris position to canvas pixels.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Calibration {
-    pub s_x: f64,
-    pub s_y: f64,
-    pub mu_x: f64,
-    pub mu_y: f64,
+pub use eyereplay_core::Calibration;
+
+/// Auto-scale: the [low, high] percentile range of each axis maps to
+/// `fill_fraction` of the canvas extent, centred on the canvas. `None`
+/// when an axis has no spread (the scale would be infinite).
+pub fn auto_calibration(
+    samples: &[NormPos],
+    cfg: &CalibrationConfig,
+    canvas: Canvas,
+) -> Option<(Calibration, [[f64; 2]; 2])> {
+    let xs: Vec<f64> = samples.iter().map(|p| p.nx).collect();
+    let ys: Vec<f64> = samples.iter().map(|p| p.ny).collect();
+    let [w, h] = canvas.extent();
+    let axis = |v: &[f64], extent: f64| -> Option<(f64, f64, f64, f64)> {
+        let lo = percentile(v, cfg.low_percentile)?;
+        let hi = percentile(v, cfg.high_percentile)?;
+        if (hi - lo).is_nan() || hi - lo <= 1e-12 {
+            return None;
+        }
+        let s = cfg.fill_fraction * extent / (hi - lo);
+        // Centre: the middle of the percentile range lands mid-canvas.
+        let mu = extent / 2.0 - s * ((lo + hi) / 2.0 - 0.5);
+        Some((s, mu, lo, hi))
+    };
+    let (s_x, mu_x, lx, hx) = axis(&xs, w)?;
+    let (s_y, mu_y, ly, hy) = axis(&ys, h)?;
+    Some((
+        Calibration {
+            s_x,
+            s_y,
+            mu_x,
+            mu_y,
+        },
+        [[lx, hx], [ly, hy]],
+    ))
 }
 
-impl Calibration {
-    #[inline]
-    pub fn apply(&self, n: NormPos) -> CanvasPos {
-        CanvasPos {
-            x_px: self.s_x * (n.nx - 0.5) + self.mu_x,
-            y_px: self.s_y * (n.ny - 0.5) + self.mu_y,
-        }
-    }
-
-    /// The inverse map, for a renderer that reproduces the source's
-    /// normalized amplitude.
-    #[inline]
-    pub fn invert(&self, c: CanvasPos) -> NormPos {
-        NormPos {
-            nx: (c.x_px - self.mu_x) / self.s_x + 0.5,
-            ny: (c.y_px - self.mu_y) / self.s_y + 0.5,
-        }
-    }
-
-    /// Auto-scale: the [low, high] percentile range of each axis maps to
-    /// `fill_fraction` of the canvas extent, centred on the canvas. `None`
-    /// when an axis has no spread (the scale would be infinite).
-    pub fn auto(
-        samples: &[NormPos],
-        cfg: &CalibrationConfig,
-        canvas: Canvas,
-    ) -> Option<(Self, [[f64; 2]; 2])> {
-        let xs: Vec<f64> = samples.iter().map(|p| p.nx).collect();
-        let ys: Vec<f64> = samples.iter().map(|p| p.ny).collect();
-        let [w, h] = canvas.extent();
-        let axis = |v: &[f64], extent: f64| -> Option<(f64, f64, f64, f64)> {
-            let lo = percentile(v, cfg.low_percentile)?;
-            let hi = percentile(v, cfg.high_percentile)?;
-            if (hi - lo).is_nan() || hi - lo <= 1e-12 {
-                return None;
-            }
-            let s = cfg.fill_fraction * extent / (hi - lo);
-            // Centre: the middle of the percentile range lands mid-canvas.
-            let mu = extent / 2.0 - s * ((lo + hi) / 2.0 - 0.5);
-            Some((s, mu, lo, hi))
-        };
-        let (s_x, mu_x, lx, hx) = axis(&xs, w)?;
-        let (s_y, mu_y, ly, hy) = axis(&ys, h)?;
-        Some((
-            Calibration {
-                s_x,
-                s_y,
-                mu_x,
-                mu_y,
-            },
-            [[lx, hx], [ly, hy]],
-        ))
-    }
-
-    pub fn manual(cfg: &CalibrationConfig) -> Option<Self> {
-        match cfg.mode {
-            CalibrationMode::Manual => Some(Calibration {
-                s_x: cfg.s_x?,
-                s_y: cfg.s_y?,
-                mu_x: cfg.mu_x?,
-                mu_y: cfg.mu_y?,
-            }),
-            CalibrationMode::Auto => None,
-        }
+pub fn manual_calibration(cfg: &CalibrationConfig) -> Option<Calibration> {
+    match cfg.mode {
+        CalibrationMode::Manual => Some(Calibration {
+            s_x: cfg.s_x?,
+            s_y: cfg.s_y?,
+            mu_x: cfg.mu_x?,
+            mu_y: cfg.mu_y?,
+        }),
+        CalibrationMode::Auto => None,
     }
 }
 
@@ -172,20 +145,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn calibration_formula_by_hand() {
-        let c = Calibration {
-            s_x: 1000.0,
-            s_y: 500.0,
-            mu_x: 640.0,
-            mu_y: 360.0,
-        };
-        let p = c.apply(NormPos { nx: 0.55, ny: 0.4 });
-        assert!((p.x_px - 690.0).abs() < 1e-9 && (p.y_px - 310.0).abs() < 1e-9);
-        let back = c.invert(p);
-        assert!((back.nx - 0.55).abs() < 1e-12 && (back.ny - 0.4).abs() < 1e-12);
-    }
-
-    #[test]
     fn auto_scale_maps_percentiles_to_80_percent_centred() {
         // nx uniform on 0.40..0.60 in 101 steps: p5 = 0.41, p95 = 0.59.
         let pts: Vec<NormPos> = (0..=100)
@@ -195,15 +154,15 @@ mod tests {
             })
             .collect();
         let (c, ranges) =
-            Calibration::auto(&pts, &CalibrationConfig::default(), Canvas::default()).unwrap();
+            auto_calibration(&pts, &CalibrationConfig::default(), Canvas::default()).unwrap();
         assert!((ranges[0][0] - 0.41).abs() < 1e-12 && (ranges[0][1] - 0.59).abs() < 1e-12);
         // s_x = 0.8 * 1280 / 0.18
         assert!((c.s_x - 0.8 * 1280.0 / 0.18).abs() < 1e-6);
-        let lo = c.apply(NormPos {
+        let lo = c.norm_to_canvas(NormPos {
             nx: 0.41,
             ny: 0.305,
         });
-        let hi = c.apply(NormPos {
+        let hi = c.norm_to_canvas(NormPos {
             nx: 0.59,
             ny: 0.395,
         });

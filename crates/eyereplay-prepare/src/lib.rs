@@ -21,7 +21,7 @@ mod load;
 mod resample;
 mod slice;
 
-pub use calibrate::{blink_filter, Calibration, FillCounts};
+pub use calibrate::{auto_calibration, blink_filter, manual_calibration, Calibration, FillCounts};
 pub use config::{
     describe_toml_error, AppliesTo, BlinkFilterConfig, CalibrationConfig, CalibrationMode,
     CalibrationScope, ClassConfig, DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod,
@@ -138,7 +138,7 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
     // contributes about one sample per target frame, so a 500 Hz tracker does
     // not outweigh a 25 fps video twenty times over.
     let calib_for = |idx: usize| -> Result<(Calibration, Option<PercentileRanges>), PrepareError> {
-        if let Some(c) = Calibration::manual(&cfg.calibration) {
+        if let Some(c) = manual_calibration(&cfg.calibration) {
             return Ok((c, None));
         }
         let pick: Vec<usize> = match cfg.calibration.scope {
@@ -155,7 +155,7 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
                     .flat_map(|s| s.positions().step_by(step)),
             );
         }
-        Calibration::auto(&pts, &cfg.calibration, cfg.canvas)
+        auto_calibration(&pts, &cfg.calibration, cfg.canvas)
             .map(|(c, r)| (c, Some(r)))
             .ok_or_else(|| PrepareError::Source {
                 id: inputs[idx].recording.id.clone(),
@@ -177,8 +177,10 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
                 None => calib_for(i)?.0,
             };
             let (segs, filled) = &filtered[i];
-            let mut canvas: Vec<Trajectory<CanvasPos>> =
-                segs.iter().map(|t| t.map(|n| calib.apply(n))).collect();
+            let mut canvas: Vec<Trajectory<CanvasPos>> = segs
+                .iter()
+                .map(|t| t.map(|n| calib.norm_to_canvas(n)))
+                .collect();
             let smooth = cfg.smoothing.method == SmoothingMethod::EdgeGauss
                 && (cfg.smoothing.apply_to == AppliesTo::All
                     || s.recording.kind == RecordingKind::Video);

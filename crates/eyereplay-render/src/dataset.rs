@@ -78,12 +78,14 @@ pub fn read_dataset_info(dir: &Path) -> Result<DatasetInfo, RenderError> {
 
 /// Seed of a session's identity: a hash of the dataset seed and the
 /// session's file name, so re-rendering one session gives the same face.
+/// Kept below 2^53 so JSON readers that parse numbers as doubles keep it
+/// exact.
 pub fn session_seed(dataset_seed: u64, file: &str) -> u64 {
     let mut h = mix64(dataset_seed ^ 0xD5E7);
     for b in file.bytes() {
         h = mix64(h ^ b as u64);
     }
-    h
+    h & ((1 << 53) - 1)
 }
 
 /// Lists the sessions of `labels.csv` (column `file`).

@@ -144,7 +144,7 @@ impl Encoder {
             }
         };
         let stdin = child.stdin.take();
-        if let (Some(pipe), false) = (&stdin, std::env::var("AB_NOGROW").is_ok()) {
+        if let Some(pipe) = &stdin {
             grow_pipe(pipe, width * height * 3 / 2);
         }
         Ok(Encoder {

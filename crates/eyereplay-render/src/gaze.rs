@@ -22,41 +22,20 @@
 use eyereplay_core::{Canvas, CanvasPos, NormPos};
 use serde::{Deserialize, Serialize};
 
-/// The `prepare` calibration: canvas = s * (n - 0.5) + mu, per axis.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Calibration {
-    pub s_x: f64,
-    pub s_y: f64,
-    pub mu_x: f64,
-    pub mu_y: f64,
-}
+/// The `prepare` calibration (canvas = s * (n - 0.5) + mu), shared with
+/// the other stages.
+pub use eyereplay_core::Calibration;
 
-impl Calibration {
-    /// Used when no dataset metadata is at hand: the canvas centre is the
-    /// eye's centre, the full canvas width spans 0.5 of the eye width in `n`
-    /// and the full height 0.3 of the lid opening (vertical iris motion
-    /// within the lids is smaller because the lids follow the eye).
-    pub fn default_for(canvas: Canvas) -> Calibration {
-        Calibration {
-            s_x: canvas.width_px as f64 / 0.5,
-            s_y: canvas.height_px as f64 / 0.3,
-            mu_x: canvas.width_px as f64 / 2.0,
-            mu_y: canvas.height_px as f64 / 2.0,
-        }
-    }
-
-    pub fn canvas_to_norm(&self, c: CanvasPos) -> NormPos {
-        NormPos {
-            nx: (c.x_px - self.mu_x) / self.s_x + 0.5,
-            ny: (c.y_px - self.mu_y) / self.s_y + 0.5,
-        }
-    }
-
-    pub fn norm_to_canvas(&self, n: NormPos) -> CanvasPos {
-        CanvasPos {
-            x_px: self.s_x * (n.nx - 0.5) + self.mu_x,
-            y_px: self.s_y * (n.ny - 0.5) + self.mu_y,
-        }
+/// Used when no dataset metadata is at hand: the canvas centre is the eye's
+/// centre, the full canvas width spans 0.5 of the eye width in `n` and the
+/// full height 0.3 of the lid opening (vertical iris motion within the lids
+/// is smaller because the lids follow the eye).
+pub fn default_calibration(canvas: Canvas) -> Calibration {
+    Calibration {
+        s_x: canvas.width_px as f64 / 0.5,
+        s_y: canvas.height_px as f64 / 0.3,
+        mu_x: canvas.width_px as f64 / 2.0,
+        mu_y: canvas.height_px as f64 / 2.0,
     }
 }
 
@@ -74,7 +53,7 @@ impl GazeMapping {
     pub fn new(canvas: Canvas) -> GazeMapping {
         GazeMapping {
             canvas,
-            calibration: Calibration::default_for(canvas),
+            calibration: default_calibration(canvas),
             gain: 1.0,
             viewing_distance_mm: 600.0,
         }

@@ -66,7 +66,7 @@ pub use dataset::{
 };
 pub use encode::{ffprobe_for, probe_video, Codec, Encoder, EncoderSettings, VideoInfo};
 pub use error::RenderError;
-pub use gaze::{Calibration, GazeMapping};
+pub use gaze::{default_calibration, Calibration, GazeMapping};
 pub use identity::{CameraPose, EyeShape, Identity, IrisStyle, Lighting};
 pub use scene::{rgb_to_yuv420, EyeGeometry, EyePose, EyeTruth, Scene, Side};
 pub use session::{

@@ -718,6 +718,20 @@ impl Scene {
         }
         let cam = &self.camera;
         let waterline_px = (0.9 * self.px_per_mm) as f32;
+        // The eye darkens into both corners and into a narrow slit (the
+        // lids shade it: no bright sclera line in a closing blink); the
+        // pink caruncle fills the inner corner.
+        let corner_col: Vec<(f32, f32)> = s_col
+            .iter()
+            .zip(up.iter().zip(&lo))
+            .map(|(&s, (&u, &l))| {
+                let slit = smoothstep(0.0, 0.6 * self.px_per_mm as f32, l - u);
+                (
+                    (0.55 + 0.45 * smoothstep(0.0, 0.22, s.min(1.0 - s))) * slit,
+                    smoothstep(0.10, 0.02, s) * 0.85,
+                )
+            })
+            .collect();
         let sk = self.identity.skin_rgb;
         let skin = f3(sk[0], sk[1], sk[2]);
         EyeFrame {
@@ -741,17 +755,7 @@ impl Scene {
             pupil_mm: (self.identity.eye.pupil_radius_mm * pupil_scale) as f32,
             up,
             lo,
-            // The eye darkens into both corners; the pink caruncle fills the
-            // inner one.
-            corner_col: s_col
-                .iter()
-                .map(|&s| {
-                    (
-                        0.55 + 0.45 * smoothstep(0.0, 0.22, s.min(1.0 - s)),
-                        smoothstep(0.10, 0.02, s) * 0.85,
-                    )
-                })
-                .collect(),
+            corner_col,
             origin_skip_mm: ((cam.pos - m.centre).len() - 30.0) as f32,
             waterline_px,
             inv_shadow_px: 1.0 / (1.6 * self.px_per_mm) as f32,

@@ -1,0 +1,135 @@
+//! The iris model on eyes whose place is known in advance, without the face
+//! detector and face mesh.
+//!
+//! A rendered eye close-up (eyereplay's own simulator, or another one) often
+//! shows no whole face, so the face detector finds nothing; but the renderer
+//! knows where each eye's corners are. [`EyeCropTracker`] places the iris
+//! model's two eye crops from such corner pairs exactly as [`Tracker`] places
+//! them from the face mesh's corner landmarks (square crop, side 2.3 x the
+//! corner pair's extent, rotated along the corner axis, the image-right eye
+//! fed mirrored) and reads the eyes the same way (iris centre, contour
+//! corners and lids), so an [`Eye::measure`] from it means what one from the
+//! full pipeline means.
+//!
+//! [`Tracker`]: crate::Tracker
+
+use crate::decode::Decoder;
+use crate::error::Result;
+use crate::geom::{Pt, Roi};
+use crate::image::ImageView;
+use crate::models::Models;
+use crate::tracker::{iris_step, Eye, StageTimes, IRIS_INPUT};
+use std::ops::ControlFlow;
+use std::path::Path;
+
+/// MediaPipe's eye crop: side = this x the larger extent of the corner pair
+/// (`iris_landmark_landmarks_to_roi`: `scale_x/scale_y: 2.3`).
+pub const EYE_CROP_SCALE: f32 = 2.3;
+
+/// The two eyes' corners in upright image pixels: the image-left eye first,
+/// each pair ordered (image-left corner, image-right corner).
+pub type EyeCorners = [(Pt, Pt); 2];
+
+/// Orders any two corner pairs into [`EyeCorners`]' convention.
+pub fn order_eye_corners(pairs: [(Pt, Pt); 2]) -> EyeCorners {
+    let mut p = pairs.map(|(a, b)| if a.x <= b.x { (a, b) } else { (b, a) });
+    if p[1].0.x + p[1].1.x < p[0].0.x + p[0].1.x {
+        p.swap(0, 1);
+    }
+    p
+}
+
+/// The iris model's crop for one eye from its two corners (image-left
+/// first), as MediaPipe places it from mesh landmarks 33/133 or 362/263.
+pub fn eye_crop_roi(corners: (Pt, Pt)) -> Roi {
+    Roi::from_two_points(corners.0, corners.1, EYE_CROP_SCALE)
+}
+
+/// The iris model alone, on eye crops placed from given eye corners.
+pub struct EyeCropTracker {
+    models: Models,
+    iris_in: Vec<f32>,
+    /// CPU time of the crop and iris stages.
+    pub times: StageTimes,
+}
+
+impl EyeCropTracker {
+    pub fn new(models: Models) -> EyeCropTracker {
+        EyeCropTracker {
+            models,
+            iris_in: vec![0.0; 2 * 3 * IRIS_INPUT * IRIS_INPUT],
+            times: StageTimes::default(),
+        }
+    }
+
+    /// Measures both eyes of `img` with crops placed from `corners` (see
+    /// [`EyeCorners`]; use [`order_eye_corners`] if unsure). Image-left eye
+    /// first.
+    pub fn measure(&mut self, img: &ImageView, corners: &EyeCorners) -> Result<[Eye; 2]> {
+        let rois = corners.map(eye_crop_roi);
+        self.measure_rois(img, &rois)
+    }
+
+    /// Measures both eyes in explicitly given crops: `rois[0]` the
+    /// image-left eye (fed as is), `rois[1]` the image-right one (fed
+    /// mirrored), each crop's x axis pointing to the image's right.
+    pub fn measure_rois(&mut self, img: &ImageView, rois: &[Roi; 2]) -> Result<[Eye; 2]> {
+        let (eyes, _) = iris_step(
+            &mut self.models,
+            &mut self.iris_in,
+            img,
+            rois,
+            &mut self.times,
+        )?;
+        Ok(eyes)
+    }
+
+    /// Decodes `video` and measures the eyes of its first `max_frames`
+    /// frames (all with `None`) at fixed `corners` (a camera and head that
+    /// do not move, as in a render). One entry per decoded frame.
+    pub fn measure_video(
+        &mut self,
+        video: &Path,
+        corners: &EyeCorners,
+        max_frames: Option<usize>,
+    ) -> Result<Vec<[Eye; 2]>> {
+        let max = max_frames.unwrap_or(usize::MAX);
+        let mut out = Vec::new();
+        if max == 0 {
+            return Ok(out);
+        }
+        let mut dec = Decoder::open(video)?;
+        dec.frames(|_t, img| {
+            out.push(self.measure(img, corners)?);
+            Ok(if out.len() >= max {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            })
+        })?;
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn corners_are_ordered_image_left_eye_first_left_corner_first() {
+        let c = order_eye_corners([
+            (Pt::new(1094.0, 383.0), Pt::new(811.0, 403.0)),
+            (Pt::new(186.0, 383.0), Pt::new(469.0, 403.0)),
+        ]);
+        assert_eq!((c[0].0.x, c[0].1.x), (186.0, 469.0));
+        assert_eq!((c[1].0.x, c[1].1.x), (811.0, 1094.0));
+    }
+
+    #[test]
+    fn crop_is_mediapipes_2_3_eye_widths_centred_between_the_corners() {
+        let r = eye_crop_roi((Pt::new(100.0, 50.0), Pt::new(200.0, 60.0)));
+        assert_eq!((r.cx, r.cy), (150.0, 55.0));
+        assert!((r.w - 230.0).abs() < 1e-3 && (r.h - 230.0).abs() < 1e-3);
+        assert!((r.angle_rad - (10.0f32).atan2(100.0)).abs() < 1e-6);
+    }
+}
