@@ -146,7 +146,10 @@ fn generate_is_deterministic_resumable_and_shardable() {
     // is complete (its truth CSV, written after the frames, is there too).
     for p in walk_files(&k) {
         let name = p.file_name().unwrap().to_string_lossy().into_owned();
-        assert!(!name.ends_with(".tmp") && !name.ends_with(".part") || name.starts_with('.'), "{name}");
+        assert!(
+            !name.ends_with(".tmp") && !name.ends_with(".part") || name.starts_with('.'),
+            "{name}"
+        );
     }
     ok(&generate(&k, &[]));
     assert_eq!(hashes(&k), ha);

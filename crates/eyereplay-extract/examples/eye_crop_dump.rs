@@ -7,7 +7,8 @@
 //! The eight numbers are the image-left eye's corners then the image-right
 //! eye's. Crop knobs (environment, for experiments): SCALE (crop side over
 //! the corner extent, default 2.3), DX, DY (crop centre shift, in eye
-//! widths along the corner axis and across it).
+//! widths along the corner axis and across it), AREA (sub-samples per crop
+//! pixel and axis; default automatic, 1 = MediaPipe's single sample).
 use eyereplay_extract::*;
 use std::path::Path;
 
@@ -31,6 +32,7 @@ fn main() -> Result<()> {
         roi
     });
     let mut t = EyeCropTracker::new(Models::load(Path::new(&a[1]))?);
+    t.area_samples = std::env::var("AREA").ok().map(|v| v.parse().expect("AREA"));
     let mut dec = Decoder::open(Path::new(&a[0]))?;
     let mut head = String::from("frame");
     for e in ["l", "r"] {

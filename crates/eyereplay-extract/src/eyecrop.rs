@@ -49,8 +49,19 @@ pub fn eye_crop_roi(corners: (Pt, Pt)) -> Roi {
 pub struct EyeCropTracker {
     models: Models,
     iris_in: Vec<f32>,
+    /// Sub-samples per crop pixel and axis; `None` (the default) picks about
+    /// one per image pixel ([`area_samples`]), `Some(1)` samples the crop
+    /// as MediaPipe does (one bilinear sample per crop pixel).
+    pub area_samples: Option<usize>,
     /// CPU time of the crop and iris stages.
     pub times: StageTimes,
+}
+
+/// Sub-samples per crop pixel and axis so that they land about one image
+/// pixel apart (the bilinear samples then cover the whole footprint): a
+/// crop of `side_px` image pixels into the iris model's 64 pixels.
+pub fn area_samples(side_px: f32) -> usize {
+    ((side_px / IRIS_INPUT as f32).round() as usize).clamp(1, 16)
 }
 
 impl EyeCropTracker {
@@ -58,6 +69,7 @@ impl EyeCropTracker {
         EyeCropTracker {
             models,
             iris_in: vec![0.0; 2 * 3 * IRIS_INPUT * IRIS_INPUT],
+            area_samples: None,
             times: StageTimes::default(),
         }
     }
@@ -79,6 +91,7 @@ impl EyeCropTracker {
             &mut self.iris_in,
             img,
             rois,
+            rois.map(|r| self.area_samples.unwrap_or_else(|| area_samples(r.w.max(r.h)))),
             &mut self.times,
         )?;
         Ok(eyes)

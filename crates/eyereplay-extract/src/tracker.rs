@@ -308,6 +308,7 @@ impl Tracker {
             &mut self.iris_in,
             img,
             &rois,
+            [1, 1],
             &mut self.times,
         )?;
         let mid = Pt::new(
@@ -331,26 +332,35 @@ impl Tracker {
 /// crop's x axis running from the image-left corner to the image-right one.
 /// Returns the eyes image-left first, and the contour corners in model order
 /// (crop-axis start, end) for placing later crops. `iris_in` is the
-/// 2x3x64x64 input buffer.
+/// 2x3x64x64 input buffer; `area_samples[k]` > 1 box-filters crop `k`
+/// ([`ImageView::crop_nchw_area`]), 1 samples it as MediaPipe does.
 pub(crate) fn iris_step(
     models: &mut Models,
     iris_in: &mut [f32],
     img: &ImageView,
     rois: &[Roi; 2],
+    area_samples: [usize; 2],
     times: &mut StageTimes,
 ) -> Result<([Eye; 2], [(Pt, Pt); 2])> {
     let t0 = Instant::now();
     let plane = 3 * IRIS_INPUT * IRIS_INPUT;
     for (k, roi) in rois.iter().enumerate() {
-        img.crop_nchw(
-            roi,
-            IRIS_INPUT,
-            EYE_CORNERS[k].2,
-            Border::Replicate,
-            1.0 / 255.0,
-            0.0,
-            &mut iris_in[k * plane..(k + 1) * plane],
-        );
+        let out = &mut iris_in[k * plane..(k + 1) * plane];
+        let mirror = EYE_CORNERS[k].2;
+        if area_samples[k] > 1 {
+            let n = area_samples[k];
+            img.crop_nchw_area(roi, IRIS_INPUT, n, mirror, 1.0 / 255.0, 0.0, out);
+        } else {
+            img.crop_nchw(
+                roi,
+                IRIS_INPUT,
+                mirror,
+                Border::Replicate,
+                1.0 / 255.0,
+                0.0,
+                out,
+            );
+        }
     }
     let t1 = Instant::now();
     let outs = models.iris(iris_in)?;

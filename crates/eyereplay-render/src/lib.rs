@@ -64,7 +64,9 @@ pub use dataset::{
     is_complete, list_sessions, read_blink_column, read_dataset_info, render_dataset, session_seed,
     DatasetInfo, DatasetOptions, DatasetSummary, SessionJob, SessionOutcome,
 };
-pub use encode::{ffprobe_for, probe_video, Codec, Encoder, EncoderSettings, VideoInfo};
+pub use encode::{
+    ffprobe_for, probe_video, Codec, Encoder, EncoderSettings, VideoInfo, DEFAULT_X264_PARAMS,
+};
 pub use error::RenderError;
 pub use gaze::{default_calibration, Calibration, GazeMapping};
 pub use identity::{CameraPose, EyeShape, Identity, IrisStyle, Lighting};

@@ -313,7 +313,10 @@ fn render(
 
 fn remove_stale_temp_files(out: &Path, seed: u64, shard: Option<Shard>) -> Result<()> {
     let mut removed = 0;
-    for (i, job) in eyereplay_render::list_sessions(out, seed)?.iter().enumerate() {
+    for (i, job) in eyereplay_render::list_sessions(out, seed)?
+        .iter()
+        .enumerate()
+    {
         if shard.is_some_and(|s| !s.contains(i)) {
             continue;
         }

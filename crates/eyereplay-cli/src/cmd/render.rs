@@ -78,7 +78,7 @@ pub struct Args {
     #[arg(long, default_value = "veryfast")]
     pub preset: String,
     /// Extra x264 options, as for ffmpeg's -x264-params ('' for none).
-    #[arg(long, default_value = "rc-lookahead=5:bframes=2:subme=1")]
+    #[arg(long, default_value = eyereplay_render::DEFAULT_X264_PARAMS)]
     pub x264_params: String,
     /// Also write the identity and eye geometry as JSON here.
     #[arg(long, value_name = "PATH")]
