@@ -46,7 +46,8 @@ pub use decode::{probe, Decoder, VideoInfo};
 pub use detect::{anchors, decode as decode_detections, weighted_nms, Detection};
 pub use error::{ExtractError, Result};
 pub use eyecrop::{
-    area_samples, eye_crop_roi, order_eye_corners, EyeCorners, EyeCropTracker, EYE_CROP_SCALE,
+    area_samples, eye_crop_roi, order_eye_corners, CornerReference, EyeCorners, EyeCropTracker,
+    EYE_CROP_SCALE,
 };
 pub use geom::{Pt, Roi};
 pub use image::{Border, ImageView, Planes, Rotation, YuvMatrix};

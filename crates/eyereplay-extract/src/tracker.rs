@@ -55,8 +55,17 @@ pub struct EyeMeasure {
 }
 
 impl Eye {
+    /// The paper's normalization against the iris model's own contour
+    /// corners and lids.
     pub fn measure(&self) -> EyeMeasure {
-        let (cl, cr) = (self.corner_left, self.corner_right);
+        self.measure_against(self.corner_left, self.corner_right)
+    }
+
+    /// `nx` (and the aperture's width) against given corners `cl`, `cr`
+    /// (image-left first) instead of the model's, `ny` against the model's
+    /// lids. For a camera and head that do not move (a render), the true
+    /// corners are constant while the model's drift with the gaze.
+    pub fn measure_against(&self, cl: Pt, cr: Pt) -> EyeMeasure {
         let (top, bot) = (self.upper_lid, self.lower_lid);
         let nx = (self.iris.x - cl.x) as f64 / (cr.x - cl.x) as f64;
         let ny = (self.iris.y - top.y) as f64 / (bot.y - top.y) as f64;

@@ -219,6 +219,8 @@ pub struct ResampleConfig {
     /// Sources faster than this multiple of the target rate are low-pass
     /// filtered and decimated instead of linearly interpolated.
     pub linear_max_ratio: f64,
+    /// Gain of that low-pass at the target's Nyquist frequency.
+    pub antialias_stop_gain: f64,
 }
 
 impl Default for ResampleConfig {
@@ -226,6 +228,7 @@ impl Default for ResampleConfig {
         ResampleConfig {
             speed_correction: SpeedCorrection::Auto,
             linear_max_ratio: 2.0,
+            antialias_stop_gain: eyereplay_signal::ANTIALIAS_STOP_GAIN,
         }
     }
 }

@@ -16,7 +16,7 @@
 use crate::config::{ResampleConfig, SpeedCorrection};
 use eyereplay_core::{path_length, CanvasPos, Trajectory};
 use eyereplay_signal::{
-    antialias_sigma_s, gaussian_resample, linear_resample, resample_times, Point,
+    antialias_sigma_for_gain_s, gaussian_resample, linear_resample, resample_times, Point,
 };
 use serde::{Deserialize, Serialize};
 
@@ -53,7 +53,7 @@ pub fn resample_recording(
     } else {
         ResampleMethod::AntiAliasDecimate
     };
-    let sigma = antialias_sigma_s(fps);
+    let sigma = antialias_sigma_for_gain_s(fps, cfg.antialias_stop_gain);
     let mut out: Vec<CanvasPos> = Vec::new();
     let mut blinks: Vec<bool> = Vec::new();
     let (mut l_orig, mut l_res) = (0.0, 0.0);

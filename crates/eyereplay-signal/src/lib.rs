@@ -10,7 +10,7 @@ mod stats;
 
 pub use edge_gauss::{edge_gauss, EdgeGaussParams, EdgeGaussReport};
 pub use resample::{
-    antialias_sigma_s, gaussian_resample, linear_resample, resample_times, ANTIALIAS_STOP_GAIN,
+    antialias_sigma_for_gain_s, antialias_sigma_s, gaussian_resample, linear_resample, resample_times, ANTIALIAS_STOP_GAIN,
 };
 pub use stats::{median, percentile, quartiles};
 
