@@ -36,25 +36,8 @@ pub fn std_pop(v: &[f64]) -> Option<f64> {
     Some((v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / v.len() as f64).sqrt())
 }
 
-/// Pearson correlation; `None` when lengths differ, n < 2 or a series is
-/// constant.
-pub fn pearson(a: &[f64], b: &[f64]) -> Option<f64> {
-    if a.len() != b.len() || a.len() < 2 {
-        return None;
-    }
-    let (ma, mb) = (mean(a)?, mean(b)?);
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    for (x, y) in a.iter().zip(b) {
-        let (dx, dy) = (x - ma, y - mb);
-        sab += dx * dy;
-        saa += dx * dx;
-        sbb += dy * dy;
-    }
-    if saa == 0.0 || sbb == 0.0 {
-        return None;
-    }
-    Some((sab / (saa.sqrt() * sbb.sqrt())).clamp(-1.0, 1.0))
-}
+/// Pearson correlation (shared with the other stages).
+pub use eyereplay_signal::pearson;
 
 /// Least-squares line `y = slope * x + intercept`; `None` if x is constant.
 pub fn linear_fit(x: &[f64], y: &[f64]) -> Option<(f64, f64)> {

@@ -123,19 +123,7 @@ pub struct Agreement {
 }
 
 pub fn pearson(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len()) as f64;
-    if n < 2.0 {
-        return f64::NAN;
-    }
-    let ma = a.iter().sum::<f64>() / n;
-    let mb = b.iter().sum::<f64>() / n;
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    for (x, y) in a.iter().zip(b) {
-        sab += (x - ma) * (y - mb);
-        saa += (x - ma).powi(2);
-        sbb += (y - mb).powi(2);
-    }
-    sab / (saa * sbb).sqrt()
+    eyereplay_signal::pearson(a, b).unwrap_or(f64::NAN)
 }
 
 /// Linear-interpolated percentile (`q` in 0..=1) of unsorted values.

@@ -10,9 +10,10 @@ mod stats;
 
 pub use edge_gauss::{edge_gauss, EdgeGaussParams, EdgeGaussReport};
 pub use resample::{
-    antialias_sigma_for_gain_s, antialias_sigma_s, gaussian_resample, linear_resample, resample_times, ANTIALIAS_STOP_GAIN,
+    antialias_sigma_for_gain_s, antialias_sigma_s, gaussian_resample, linear_resample,
+    resample_times, ANTIALIAS_STOP_GAIN,
 };
-pub use stats::{median, percentile, quartiles};
+pub use stats::{median, pearson, percentile, quartiles};
 
 /// A 2-D point; x and y are in whatever unit the caller's stage uses.
 pub type Point = [f64; 2];

@@ -35,6 +35,27 @@ pub fn median(values: &[f64]) -> Option<f64> {
     percentile(values, 50.0)
 }
 
+/// Pearson correlation; `None` when lengths differ, n < 2 or a series is
+/// constant.
+pub fn pearson(a: &[f64], b: &[f64]) -> Option<f64> {
+    if a.len() != b.len() || a.len() < 2 {
+        return None;
+    }
+    let n = a.len() as f64;
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        let (dx, dy) = (x - ma, y - mb);
+        sab += dx * dy;
+        saa += dx * dx;
+        sbb += dy * dy;
+    }
+    if saa == 0.0 || sbb == 0.0 {
+        return None;
+    }
+    Some((sab / (saa.sqrt() * sbb.sqrt())).clamp(-1.0, 1.0))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -49,5 +70,15 @@ mod tests {
         assert!((percentile(&v, 95.0).unwrap() - 8.8).abs() < 1e-12);
         assert_eq!(quartiles(&v).unwrap(), (2.0, 4.0));
         assert!(percentile(&[], 50.0).is_none());
+    }
+
+    #[test]
+    fn pearson_by_hand() {
+        let a = [1.0, 2.0, 3.0, 4.0];
+        // cov = 1.0, var_a = 1.25, var_b = 1.25 -> r = 0.8
+        assert!((pearson(&a, &[1.0, 3.0, 2.0, 4.0]).unwrap() - 0.8).abs() < 1e-12);
+        assert!((pearson(&a, &[8.0, 6.0, 4.0, 2.0]).unwrap() + 1.0).abs() < 1e-15);
+        assert_eq!(pearson(&a, &[1.0; 4]), None);
+        assert_eq!(pearson(&a, &[1.0, 2.0]), None);
     }
 }
