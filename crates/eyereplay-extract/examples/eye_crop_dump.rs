@@ -14,8 +14,14 @@ use std::path::Path;
 
 fn main() -> Result<()> {
     let a: Vec<String> = std::env::args().skip(1).collect();
-    assert!(a.len() >= 10, "usage: VIDEO MODELS x0 y0 x1 y1 x2 y2 x3 y3 [FRAMES]");
-    let f: Vec<f32> = a[2..10].iter().map(|s| s.parse().expect("number")).collect();
+    assert!(
+        a.len() >= 10,
+        "usage: VIDEO MODELS x0 y0 x1 y1 x2 y2 x3 y3 [FRAMES]"
+    );
+    let f: Vec<f32> = a[2..10]
+        .iter()
+        .map(|s| s.parse().expect("number"))
+        .collect();
     let corners = order_eye_corners([
         (Pt::new(f[0], f[1]), Pt::new(f[2], f[3])),
         (Pt::new(f[4], f[5]), Pt::new(f[6], f[7])),
@@ -56,7 +62,13 @@ fn main() -> Result<()> {
         let mut line = n.to_string();
         for e in &eyes {
             let m = e.measure();
-            for p in [e.iris, e.corner_left, e.corner_right, e.upper_lid, e.lower_lid] {
+            for p in [
+                e.iris,
+                e.corner_left,
+                e.corner_right,
+                e.upper_lid,
+                e.lower_lid,
+            ] {
                 line += &format!(",{:.3},{:.3}", p.x, p.y);
             }
             line += &format!(",{:.5},{:.5},{:.5}", m.nx, m.ny, m.aperture);

@@ -240,6 +240,7 @@ impl<'a> ImageView<'a> {
     /// lashes and the limbus alias, and the crop's content jitters with the
     /// iris's sub-pixel position. `n` = 1 is exactly `crop_nchw` (Replicate
     /// border).
+    #[allow(clippy::too_many_arguments)]
     pub fn crop_nchw_area(
         &self,
         roi: &Roi,
@@ -272,10 +273,8 @@ impl<'a> ImageView<'a> {
                     for i in c * n..(c + 1) * n {
                         let x = p00.x + i as f32 * du.x + j as f32 * dv.x;
                         let y = p00.y + i as f32 * du.y + j as f32 * dv.y;
-                        let rgb = self.sample_raw(
-                            o[0] + x * ax[0] + y * ay[0],
-                            o[1] + x * ax[1] + y * ay[1],
-                        );
+                        let rgb = self
+                            .sample_raw(o[0] + x * ax[0] + y * ay[0], o[1] + x * ax[1] + y * ay[1]);
                         acc[0] += rgb[0];
                         acc[1] += rgb[1];
                         acc[2] += rgb[2];
@@ -445,6 +444,51 @@ mod tests {
         img.crop_nchw(&big, 4, false, Border::Black, 1.0 / 127.5, -1.0, &mut out);
         assert_eq!(out[0], -1.0);
         assert!((out[5] - (5.0 / 127.5 - 1.0)).abs() < 1e-6, "{}", out[5]);
+    }
+
+    #[test]
+    fn area_crop_averages_the_footprint_and_one_sample_is_the_plain_crop() {
+        // Vertical stripes one pixel wide, 0 and 200 in red: a crop of 40 px
+        // into 4 (10 px per crop pixel) should read their mean, 100, where a
+        // single bilinear sample at a pixel centre reads 0 or 200.
+        let (w, h) = (40, 40);
+        let mut data = vec![0u8; w * h * 3];
+        for y in 0..h {
+            for x in (1..w).step_by(2) {
+                data[(y * w + x) * 3] = 200;
+            }
+        }
+        let img = ImageView {
+            planes: Planes::Rgb24 {
+                data: &data,
+                stride: w * 3,
+            },
+            raw_w: w,
+            raw_h: h,
+            rotation: Rotation::None,
+        };
+        let roi = Roi {
+            cx: 20.5,
+            cy: 20.0,
+            w: 40.0,
+            h: 40.0,
+            angle_rad: 0.0,
+        };
+        let mut plain = vec![0.0; 48];
+        img.crop_nchw(&roi, 4, false, Border::Replicate, 1.0, 0.0, &mut plain);
+        // Crop pixel centres at x = 5.5, 15.5, ...: centres of odd columns.
+        assert_eq!(plain[..4], [200.0; 4]);
+        let mut area = vec![0.0; 48];
+        // 4 sub-samples 2.5 px apart (x = 1.75, 4.25, 6.75, 9.25 in the
+        // first crop pixel) read 150, 50, 50, 150.
+        img.crop_nchw_area(&roi, 4, 4, false, 1.0, 0.0, &mut area);
+        for v in &area[..16] {
+            assert!((v - 100.0).abs() < 1e-3, "{v}");
+        }
+        img.crop_nchw_area(&roi, 4, 1, true, 1.0, 0.0, &mut area);
+        let mut mirrored = vec![0.0; 48];
+        img.crop_nchw(&roi, 4, true, Border::Replicate, 1.0, 0.0, &mut mirrored);
+        assert_eq!(area, mirrored);
     }
 
     #[test]

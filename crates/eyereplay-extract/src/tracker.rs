@@ -336,6 +336,9 @@ impl Tracker {
     }
 }
 
+/// Contour corners per eye in model order (crop-axis start, end).
+pub(crate) type ModelCorners = [(Pt, Pt); 2];
+
 /// The iris model on two eye crops: `rois[0]` is the eye of mesh points
 /// 33/133 (fed as is), `rois[1]` the one of 362/263 (fed mirrored), each
 /// crop's x axis running from the image-left corner to the image-right one.
@@ -350,7 +353,7 @@ pub(crate) fn iris_step(
     rois: &[Roi; 2],
     area_samples: [usize; 2],
     times: &mut StageTimes,
-) -> Result<([Eye; 2], [(Pt, Pt); 2])> {
+) -> Result<([Eye; 2], ModelCorners)> {
     let t0 = Instant::now();
     let plane = 3 * IRIS_INPUT * IRIS_INPUT;
     for (k, roi) in rois.iter().enumerate() {

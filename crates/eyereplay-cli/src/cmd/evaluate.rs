@@ -314,7 +314,8 @@ for per-source calibrations compare a dataset session (--visual-session)"
             (
                 r,
                 format!(
-                    "iris model on eye crops placed from the render's known geometry ({}), \
+                    "iris model on eye crops placed from the render's known geometry ({}; \
+nx against its fixed eye corners, ny against the model's lids), \
 because the face detector found the face in {} of the compared frames",
                     shown(dir, &geometry),
                     match &first {
@@ -395,12 +396,10 @@ fn render_geometry_path(video: &Path) -> PathBuf {
     video.with_file_name(format!("{stem}_identity.json"))
 }
 
-type Corners = [(eyereplay_extract::Pt, eyereplay_extract::Pt); 2];
-
 /// Eye corners in image px from the render geometry JSON (`eyes[k].
 /// inner_corner_px / outer_corner_px`): image-left eye first, each pair
 /// ordered left to right in the image.
-fn render_eye_corners(path: &Path) -> anyhow::Result<Corners> {
+fn render_eye_corners(path: &Path) -> anyhow::Result<eyereplay_extract::EyeCorners> {
     use eyereplay_extract::Pt;
     let text =
         std::fs::read_to_string(path).with_context(|| format!("{}: reading", path.display()))?;
@@ -418,82 +417,44 @@ fn render_eye_corners(path: &Path) -> anyhow::Result<Corners> {
             .with_context(|| format!("{}: eyes[].{k} must be [x, y]", path.display()))?;
         Ok(v)
     };
-    let mut pairs = Vec::new();
-    for e in eyes {
-        let (a, b) = (pt(e, "inner_corner_px")?, pt(e, "outer_corner_px")?);
-        pairs.push(if a.x <= b.x { (a, b) } else { (b, a) });
-    }
-    pairs.sort_by(|p, q| (p.0.x + p.1.x).total_cmp(&(q.0.x + q.1.x)));
-    Ok([pairs[0], pairs[1]])
+    let pair = |e: &serde_json::Value| -> anyhow::Result<_> {
+        Ok((pt(e, "inner_corner_px")?, pt(e, "outer_corner_px")?))
+    };
+    Ok(eyereplay_extract::order_eye_corners([
+        pair(&eyes[0])?,
+        pair(&eyes[1])?,
+    ]))
 }
 
-/// The extractor's iris step without face detection: for every frame, the
-/// iris model on two eye crops placed at known corners (crop side 2.3 x the
-/// corner distance, the image-right eye fed mirrored, as MediaPipe does);
-/// corners and lids from the model's eye contour, as in eyereplay-extract.
+/// The extractor's iris step without face detection
+/// ([`eyereplay_extract::EyeCropTracker`]): the iris model on eye crops
+/// placed at the render's known corners as MediaPipe places them, box-filtered
+/// down to the model's input; `nx` against those fixed corners (camera and
+/// head do not move in a render), `ny` against the model's lids; blinks by
+/// the extractor's aperture rule are NaN.
 fn extract_at_corners(
     video: &Path,
     models: &Path,
-    corners: Corners,
+    corners: eyereplay_extract::EyeCorners,
     n_max: usize,
 ) -> anyhow::Result<Vec<[f64; 2]>> {
-    use eyereplay_extract::{Border, Eye, Pt, Roi};
-    use std::ops::ControlFlow;
-    const SIZE: usize = 64;
-    let mut m = eyereplay_extract::Models::load(models)?;
-    let rois = corners.map(|(a, b)| Roi::from_two_points(a, b, 2.3));
-    let mirror = [false, true];
-    let plane = 3 * SIZE * SIZE;
-    let mut input = vec![0f32; 2 * plane];
-    let mut out: Vec<[f64; 2]> = Vec::with_capacity(n_max);
-    let mut dec = eyereplay_extract::Decoder::open(video)
-        .with_context(|| format!("{}: opening", video.display()))?;
-    dec.frames(|_t, img| {
-        for k in 0..2 {
-            img.crop_nchw(
-                &rois[k],
-                SIZE,
-                mirror[k],
-                Border::Replicate,
-                1.0 / 255.0,
-                0.0,
-                &mut input[k * plane..(k + 1) * plane],
-            );
-        }
-        let outs = m.iris(&input)?;
-        let mut n = [0.0f64; 2];
-        for (k, (contour, iris)) in outs.iter().enumerate() {
-            let s = SIZE as f32;
-            let map = |p: &[f32]| {
-                let u = if mirror[k] { 1.0 - p[0] / s } else { p[0] / s };
-                rois[k].to_image(u, p[1] / s)
-            };
-            let c: Vec<Pt> = contour.chunks_exact(3).map(map).collect();
-            let centre = map(&iris[0..3]);
-            let (a, b) = (c[0], c[8]);
-            let (corner_left, corner_right) = if a.x <= b.x { (a, b) } else { (b, a) };
-            let eye = Eye {
-                iris: centre,
-                corner_left,
-                corner_right,
-                upper_lid: c[12],
-                lower_lid: c[4],
-                contour: Vec::new(),
-                iris_rim: [centre; 5],
-            };
-            let me = eye.measure();
-            n[0] += me.nx / 2.0;
-            n[1] += me.ny / 2.0;
-        }
-        out.push(n);
-        Ok(if out.len() >= n_max {
-            ControlFlow::Break(())
-        } else {
-            ControlFlow::Continue(())
+    let m = eyereplay_extract::Models::load(models)?;
+    let rows = eyereplay_extract::EyeCropTracker::new(m)
+        .measure_video_rows(
+            video,
+            &corners,
+            eyereplay_extract::CornerReference::Fixed,
+            Some(n_max),
+            eyereplay_extract::DEFAULT_BLINK_RATIO,
+        )
+        .with_context(|| format!("{}: measuring the eyes", video.display()))?;
+    Ok(rows
+        .iter()
+        .map(|r| match r.mean_n() {
+            Some((x, y)) if r.valid() => [x, y],
+            _ => [f64::NAN, f64::NAN],
         })
-    })
-    .with_context(|| format!("{}: decoding", video.display()))?;
-    Ok(out)
+        .collect())
 }
 
 /// A video whose frame count differs from its trajectory is bad input.
