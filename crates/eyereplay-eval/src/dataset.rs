@@ -278,24 +278,7 @@ pub fn load_dataset(dir: &Path) -> Result<Dataset, EvalError> {
 }
 
 /// The linear calibration of metadata.json (paper eq. `c = s (n - 0.5) + mu`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Calibration {
-    pub s_x: f64,
-    pub s_y: f64,
-    pub mu_x: f64,
-    pub mu_y: f64,
-}
-
-impl Calibration {
-    /// Canvas px back to the normalized iris position that produced them:
-    /// `n = (c - mu) / s + 0.5`.
-    pub fn to_norm(&self, c: [f64; 2]) -> [f64; 2] {
-        [
-            (c[0] - self.mu_x) / self.s_x + 0.5,
-            (c[1] - self.mu_y) / self.s_y + 0.5,
-        ]
-    }
-}
+pub use eyereplay_core::Calibration;
 
 /// `calibration.{s_x,s_y,mu_x,mu_y}` of `<dir>/metadata.json`.
 pub fn read_calibration(dir: &Path) -> Result<Calibration, EvalError> {

@@ -324,7 +324,11 @@ fn per_source_calibrations_follow_the_pool() {
     let sx: Vec<f64> = c.iter().map(|c| c.s_x).collect();
     assert_eq!(sx, vec![200.0, 200.0, 100.0, 100.0, 100.0]);
     // n = (c - mu) / s + 0.5: canvas (700, 380) with source 1 -> (1.0, 1.5).
-    assert_eq!(c[0].to_norm([700.0, 380.0]), [1.0, 1.5]);
+    let n = c[0].canvas_to_norm(eyereplay_core::CanvasPos {
+        x_px: 700.0,
+        y_px: 380.0,
+    });
+    assert_eq!([n.nx, n.ny], [1.0, 1.5]);
     let e = session_calibrations(d, "reading/nope.csv", 5)
         .unwrap_err()
         .to_string();

@@ -231,7 +231,10 @@ for per-source calibrations compare a dataset session (--visual-session)"
     let source_all: Vec<[f64; 2]> = input
         .iter()
         .zip(&cals)
-        .map(|(c, cal)| cal.to_norm([c.x_px, c.y_px]))
+        .map(|(c, cal)| {
+            let n = cal.canvas_to_norm(*c);
+            [n.nx, n.ny]
+        })
         .collect();
     // Frames where the eyes are closed (the session's or the render's blink
     // column) carry no iris position to compare.
