@@ -162,42 +162,73 @@ pub fn read_labels(dir: &Path) -> Result<Vec<(String, GazeClass)>, EvalError> {
     Ok(out)
 }
 
-/// Reads `pool/<class>.csv` (`frame,x,y,source`), split into segments where
-/// `source` changes.
-pub fn read_pool(path: &Path) -> Result<Vec<Segment>, EvalError> {
-    let text = read_text(path)?;
-    let mut rdr = csv::ReaderBuilder::new().from_reader(text.as_bytes());
-    let headers = rdr
-        .headers()
-        .map_err(|e| EvalError::dataset(path, e.to_string()))?
-        .clone();
-    let col = |name: &str| -> Result<usize, EvalError> {
-        headers
+/// A CSV file's header and records with their line numbers, and the column
+/// and number look-ups that name the file and line when they fail.
+struct Table<'a> {
+    path: &'a Path,
+    headers: csv::StringRecord,
+    records: Vec<(usize, csv::StringRecord)>,
+}
+
+impl<'a> Table<'a> {
+    fn read(path: &'a Path) -> Result<Self, EvalError> {
+        let text = read_text(path)?;
+        let mut rdr = csv::ReaderBuilder::new().from_reader(text.as_bytes());
+        let headers = rdr
+            .headers()
+            .map_err(|e| EvalError::dataset(path, e.to_string()))?
+            .clone();
+        let mut records = Vec::new();
+        for (i, rec) in rdr.records().enumerate() {
+            let line = i + 2;
+            records.push((
+                line,
+                rec.map_err(|e| EvalError::dataset(path, format!("line {line}: {e}")))?,
+            ));
+        }
+        Ok(Table {
+            path,
+            headers,
+            records,
+        })
+    }
+
+    fn col(&self, name: &str, expected: &str) -> Result<usize, EvalError> {
+        self.headers
             .iter()
             .position(|h| h.trim() == name)
             .ok_or_else(|| {
+                EvalError::dataset(self.path, format!("missing column '{name}'{expected}"))
+            })
+    }
+
+    fn number(&self, rec: &csv::StringRecord, line: usize, c: usize) -> Result<f64, EvalError> {
+        rec.get(c)
+            .and_then(|s| s.trim().parse::<f64>().ok())
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| {
                 EvalError::dataset(
-                    path,
-                    format!("missing column '{name}' (expected frame,x,y,source)"),
+                    self.path,
+                    format!("line {line}: column {} is not a finite number", c + 1),
                 )
             })
-    };
-    let (cx, cy, cs) = (col("x")?, col("y")?, col("source")?);
+    }
+}
+
+/// Reads `pool/<class>.csv` (`frame,x,y,source`), split into segments where
+/// `source` changes.
+pub fn read_pool(path: &Path) -> Result<Vec<Segment>, EvalError> {
+    let t = Table::read(path)?;
+    let expected = " (expected frame,x,y,source)";
+    let (cx, cy, cs) = (
+        t.col("x", expected)?,
+        t.col("y", expected)?,
+        t.col("source", expected)?,
+    );
     let mut segs: Vec<Segment> = Vec::new();
-    for (i, rec) in rdr.records().enumerate() {
-        let line = i + 2;
-        let rec = rec.map_err(|e| EvalError::dataset(path, format!("line {line}: {e}")))?;
-        let f = |c: usize| -> Result<f64, EvalError> {
-            rec.get(c)
-                .and_then(|s| s.trim().parse::<f64>().ok())
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    EvalError::dataset(
-                        path,
-                        format!("line {line}: column {} is not a finite number", c + 1),
-                    )
-                })
-        };
+    for (line, rec) in &t.records {
+        let line = *line;
+        let f = |c: usize| t.number(rec, line, c);
         let (x, y) = (f(cx)?, f(cy)?);
         let src = f(cs)?;
         if src.fract() != 0.0 {
@@ -326,39 +357,18 @@ pub fn truth_csv_path(dir: &Path, session_rel: &str) -> PathBuf {
 /// Mean of both eyes' `(nx, ny)` per frame from a renderer truth CSV
 /// (columns `left_nx,left_ny,right_nx,right_ny`).
 pub fn read_truth_norm(path: &Path) -> Result<Vec<[f64; 2]>, EvalError> {
-    let text = read_text(path)?;
-    let mut rdr = csv::ReaderBuilder::new().from_reader(text.as_bytes());
-    let headers = rdr
-        .headers()
-        .map_err(|e| EvalError::dataset(path, e.to_string()))?
-        .clone();
-    let col = |name: &str| -> Result<usize, EvalError> {
-        headers
-            .iter()
-            .position(|h| h.trim() == name)
-            .ok_or_else(|| EvalError::dataset(path, format!("missing column '{name}'")))
-    };
+    let t = Table::read(path)?;
     let cols = [
-        col("left_nx")?,
-        col("left_ny")?,
-        col("right_nx")?,
-        col("right_ny")?,
+        t.col("left_nx", "")?,
+        t.col("left_ny", "")?,
+        t.col("right_nx", "")?,
+        t.col("right_ny", "")?,
     ];
-    let mut out = Vec::new();
-    for (i, rec) in rdr.records().enumerate() {
-        let line = i + 2;
-        let rec = rec.map_err(|e| EvalError::dataset(path, format!("line {line}: {e}")))?;
+    let mut out = Vec::with_capacity(t.records.len());
+    for (line, rec) in &t.records {
         let mut v = [0.0; 4];
         for (k, c) in cols.iter().enumerate() {
-            v[k] = rec
-                .get(*c)
-                .and_then(|s| s.trim().parse::<f64>().ok())
-                .ok_or_else(|| {
-                    EvalError::dataset(
-                        path,
-                        format!("line {line}: column {} is not a number", c + 1),
-                    )
-                })?;
+            v[k] = t.number(rec, *line, *c)?;
         }
         out.push([(v[0] + v[2]) / 2.0, (v[1] + v[3]) / 2.0]);
     }
