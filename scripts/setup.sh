@@ -16,7 +16,7 @@ set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 
 pkgs=(ffmpeg pkg-config clang libclang-dev libavcodec-dev libavformat-dev libavutil-dev
-      libswscale-dev libswresample-dev libavfilter-dev libavdevice-dev python3-venv)
+      libswscale-dev libswresample-dev libavfilter-dev libavdevice-dev python3-venv time)
 command -v npm >/dev/null 2>&1 || pkgs+=(npm)
 python3 -m pip --version >/dev/null 2>&1 || pkgs+=(python3-pip)
 missing=()
