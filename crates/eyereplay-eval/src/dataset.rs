@@ -71,16 +71,28 @@ fn num(meta: &serde_json::Value, key: &str, path: &Path) -> Result<f64, EvalErro
         .ok_or_else(|| EvalError::dataset(path, format!("'{key}' must be a positive number")))
 }
 
+/// `<dir>/metadata.json`, parsed, with its path for error messages.
+fn read_meta_json(dir: &Path) -> Result<(std::path::PathBuf, serde_json::Value), EvalError> {
+    let path = dir.join("metadata.json");
+    let meta = serde_json::from_str(&read_text(&path)?)
+        .map_err(|e| EvalError::dataset(&path, format!("not valid JSON: {e}")))?;
+    Ok((path, meta))
+}
+
 /// The parts of metadata.json evaluation needs.
 pub fn read_metadata(dir: &Path) -> Result<(f64, Canvas, usize), EvalError> {
-    let path = dir.join("metadata.json");
-    let text = read_text(&path)?;
-    let meta: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| EvalError::dataset(&path, format!("not valid JSON: {e}")))?;
-    let fps = num(&meta, "fps", &path)?;
-    let w = num(&meta, "canvas.width_px", &path)?;
-    let h = num(&meta, "canvas.height_px", &path)?;
-    let frames = num(&meta, "session_frames", &path)?;
+    let (path, meta) = read_meta_json(dir)?;
+    metadata_fields(&meta, &path)
+}
+
+fn metadata_fields(
+    meta: &serde_json::Value,
+    path: &Path,
+) -> Result<(f64, Canvas, usize), EvalError> {
+    let fps = num(meta, "fps", path)?;
+    let w = num(meta, "canvas.width_px", path)?;
+    let h = num(meta, "canvas.height_px", path)?;
+    let frames = num(meta, "session_frames", path)?;
     Ok((
         fps,
         Canvas {
@@ -93,12 +105,9 @@ pub fn read_metadata(dir: &Path) -> Result<(f64, Canvas, usize), EvalError> {
 
 /// Counts of the class's sources by recording kind, from `metadata.json`.
 fn source_kinds(
-    dir: &Path,
+    meta: &serde_json::Value,
     class: GazeClass,
-) -> Result<std::collections::BTreeMap<String, usize>, EvalError> {
-    let path = dir.join("metadata.json");
-    let meta: serde_json::Value = serde_json::from_str(&read_text(&path)?)
-        .map_err(|e| EvalError::dataset(&path, format!("not valid JSON: {e}")))?;
+) -> std::collections::BTreeMap<String, usize> {
     let mut out = std::collections::BTreeMap::new();
     for s in meta
         .get("sources")
@@ -112,7 +121,7 @@ fn source_kinds(
             }
         }
     }
-    Ok(out)
+    out
 }
 
 /// `(file, class)` rows of labels.csv, checked for a consistent label.
@@ -258,7 +267,8 @@ pub fn load_dataset(dir: &Path) -> Result<Dataset, EvalError> {
         return Err(EvalError::dataset(dir, "not a folder"));
     }
     let labels = read_labels(dir)?;
-    let (fps, canvas, session_frames) = read_metadata(dir)?;
+    let (meta_path, meta) = read_meta_json(dir)?;
+    let (fps, canvas, session_frames) = metadata_fields(&meta, &meta_path)?;
     let mut classes = Vec::new();
     for class in GazeClass::ALL {
         let files: Vec<&String> = labels
@@ -296,7 +306,7 @@ pub fn load_dataset(dir: &Path) -> Result<Dataset, EvalError> {
             class,
             sessions,
             pool,
-            source_kinds: source_kinds(dir, class)?,
+            source_kinds: source_kinds(&meta, class),
         });
     }
     Ok(Dataset {

@@ -603,16 +603,10 @@ table.kv td{text-align:left}\n\
     if let Some((file, t)) = &ev.render_truth {
         let _ = writeln!(
             h,
-            "<h3>Renderer ground truth against the source</h3>\n<p>The renderer's own per-frame iris position (<code>{}</code>, mean of both eyes) against the source, without the extractor, {} frames: r x {} / y {}, amplitude ratio x {} / y {}, error mean {:.4}, median {:.4}, p95 {:.4}. This isolates the simulator's mapping from extraction error.</p>",
+            "<h3>Renderer ground truth against the source</h3>\n<p>The renderer's own per-frame iris position (<code>{}</code>, mean of both eyes) against the source, without the extractor, {} frames: {}. This isolates the simulator's mapping from extraction error.</p>",
             esc(file),
             t.n_frames,
-            f3(t.x.r),
-            f3(t.y.r),
-            f3(t.x.amplitude_ratio),
-            f3(t.y.amplitude_ratio),
-            t.error.mean,
-            t.error.median,
-            t.error.p95
+            t.summary()
         );
     }
     h.push_str("</body></html>\n");

@@ -68,6 +68,22 @@ impl VisualFidelity {
     pub fn meets_targets(&self) -> bool {
         self.x.meets_targets() && self.y.meets_targets()
     }
+
+    /// `r x .. y .., amplitude ratio x .. y .., error mean .. median .. p95 ..`,
+    /// as the command line and the report print it.
+    pub fn summary(&self) -> String {
+        let f = |o: Option<f64>| o.map_or("n/a".to_string(), |x| format!("{x:.3}"));
+        format!(
+            "r x {} y {}, amplitude ratio x {} y {}, error mean {:.4} median {:.4} p95 {:.4}",
+            f(self.x.r),
+            f(self.y.r),
+            f(self.x.amplitude_ratio),
+            f(self.y.amplitude_ratio),
+            self.error.mean,
+            self.error.median,
+            self.error.p95
+        )
+    }
 }
 
 fn axis(src: &[f64], ren: &[f64]) -> AxisFidelity {

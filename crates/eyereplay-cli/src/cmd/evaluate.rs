@@ -125,19 +125,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     match &ev.visual {
         VisualSection::NotComputed { reason } => eprintln!("visual fidelity: {reason}"),
         VisualSection::Computed(run) => {
-            let v = &run.fidelity;
-            let f = |o: Option<f64>| o.map_or("n/a".to_string(), |x| format!("{x:.3}"));
             eprintln!(
-                "visual fidelity ({}, {} frames): r x {} y {}, amplitude ratio x {} y {}, error mean {:.4} median {:.4} p95 {:.4}",
+                "visual fidelity ({}, {} frames): {}",
                 run.video,
-                v.n_frames,
-                f(v.x.r),
-                f(v.y.r),
-                f(v.x.amplitude_ratio),
-                f(v.y.amplitude_ratio),
-                v.error.mean,
-                v.error.median,
-                v.error.p95
+                run.fidelity.n_frames,
+                run.fidelity.summary()
             );
         }
     }
