@@ -219,6 +219,14 @@ pub fn render_dataset(
         jobs.par_iter()
             .map(|job| {
                 let outcome = (|| -> Result<SessionOutcome, RenderError> {
+                    // Leftovers of an interrupted render of this session (a
+                    // killed run's `.NAME.mp4.PID.part`, temp CSV/JSON). Only
+                    // this job's files: other shards may be writing theirs.
+                    for target in [&job.mp4, &job.truth, &job.identity_json] {
+                        for p in eyereplay_core::stale_temp_files(target) {
+                            std::fs::remove_file(&p).map_err(|e| RenderError::io(&p, e))?;
+                        }
+                    }
                     let traj = read_session_csv(&job.csv)?;
                     let blinks = read_blink_column(&job.csv)?;
                     if job.mp4.exists() && is_complete(job, traj.len(), &ffprobe) {

@@ -89,10 +89,17 @@ fn renders_every_session_then_skips_complete_ones() {
         .unwrap();
     assert_eq!(before, after);
 
-    // A truncated video (wrong frame count) is rendered again.
+    // A truncated video (wrong frame count) is rendered again, and what an
+    // interrupted run left behind is removed; another session's name is kept.
     std::fs::write(r.join("reading_0000.mp4"), b"not a video").unwrap();
+    std::fs::write(r.join(".reading_0000.mp4.4242.part"), b"half").unwrap();
+    std::fs::write(r.join(".reading_0000_truth.csv.x1y2.tmp"), b"half").unwrap();
+    std::fs::write(r.join(".reading_0009.mp4.1.part"), b"other").unwrap();
     let s = render_dataset(dir.path(), &opts(), &|_, _| {}).unwrap();
     assert_eq!((s.rendered, s.skipped), (1, 1));
+    assert!(!r.join(".reading_0000.mp4.4242.part").exists());
+    assert!(!r.join(".reading_0000_truth.csv.x1y2.tmp").exists());
+    assert!(r.join(".reading_0009.mp4.1.part").exists());
 }
 
 #[test]

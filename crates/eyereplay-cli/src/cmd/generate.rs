@@ -226,11 +226,9 @@ pub fn run(args: Args) -> Result<()> {
     )?;
     log.stage("prepare", t);
 
-    // 4. Render this shard's sessions, after removing what a killed run of
-    // this shard left half-written (other shards' files are not touched:
-    // they may be writing them right now).
+    // 4. Render this shard's sessions (the renderer first removes what a
+    // killed run left half-written of each of them).
     let t = Instant::now();
-    remove_stale_temp_files(&args.out, cfg.seed, shard)?;
     render(&args.out, &cfg, &settings, params, shard, my_sessions)?;
     log.stage("render", t);
 
@@ -307,28 +305,6 @@ fn render(
             summary.failed.len(),
             summary.failed.join("; ")
         );
-    }
-    Ok(())
-}
-
-fn remove_stale_temp_files(out: &Path, seed: u64, shard: Option<Shard>) -> Result<()> {
-    let mut removed = 0;
-    for (i, job) in eyereplay_render::list_sessions(out, seed)?
-        .iter()
-        .enumerate()
-    {
-        if shard.is_some_and(|s| !s.contains(i)) {
-            continue;
-        }
-        for target in [&job.mp4, &job.truth, &job.identity_json] {
-            for p in eyereplay_core::stale_temp_files(target) {
-                std::fs::remove_file(&p).with_context(|| p.display().to_string())?;
-                removed += 1;
-            }
-        }
-    }
-    if removed > 0 {
-        println!("removed {removed} temporary file(s) left by an interrupted run");
     }
     Ok(())
 }
