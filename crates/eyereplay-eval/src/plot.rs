@@ -6,6 +6,7 @@
 use crate::distribution::{ClassEvaluation, Metric};
 use crate::visual::VisualFidelity;
 use crate::EvalError;
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -257,26 +258,45 @@ fn draw_series_panel<DB: DrawingBackend>(
         .light_line_style(WHITE)
         .draw()
         .map_err(s)?;
-    for (axis, color, name) in [(0usize, X_COLOR, "x"), (1, Y_COLOR, "y")] {
+    time_lines(
+        &mut chart,
+        &[(pts, 0, X_COLOR, "x"), (pts, 1, Y_COLOR, "y")],
+        fps,
+        13,
+        SeriesLabelPosition::UpperRight,
+    )
+}
+
+/// One line per `(points, axis, colour, label)` against time (frame / fps),
+/// skipping non-finite values, then the legend.
+fn time_lines<'a, DB: DrawingBackend + 'a>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    lines: &[(&[[f64; 2]], usize, RGBColor, &str)],
+    fps: f64,
+    legend_font_px: u32,
+    legend_at: SeriesLabelPosition,
+) -> DrawResult {
+    for &(pts, axis, color, label) in lines {
         chart
             .draw_series(LineSeries::new(
                 pts.iter()
                     .enumerate()
+                    .filter(|(_, p)| p[axis].is_finite())
                     .map(|(i, p)| (i as f64 / fps, p[axis])),
                 color.stroke_width(1),
             ))
             .map_err(s)?
-            .label(name)
+            .label(label)
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
             });
     }
     chart
         .configure_series_labels()
-        .label_font((FONT, 13))
+        .label_font((FONT, legend_font_px))
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
+        .position(legend_at)
         .draw()
         .map_err(s)?;
     Ok(())
@@ -463,31 +483,16 @@ fn draw_visual<DB: DrawingBackend>(
             .light_line_style(WHITE)
             .draw()
             .map_err(s)?;
-        for (sig, color, label) in [
-            (source_n, SRC_COLOR, "source"),
-            (rendered_n, GEN_COLOR, "rendered"),
-        ] {
-            chart
-                .draw_series(LineSeries::new(
-                    sig.iter()
-                        .enumerate()
-                        .filter(|(_, p)| p[axis].is_finite())
-                        .map(|(i, p)| (i as f64 / fps, p[axis])),
-                    color.stroke_width(1),
-                ))
-                .map_err(s)?
-                .label(label)
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-                });
-        }
-        chart
-            .configure_series_labels()
-            .label_font((FONT, 12))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(s)?;
+        time_lines(
+            &mut chart,
+            &[
+                (source_n, axis, SRC_COLOR, "source"),
+                (rendered_n, axis, GEN_COLOR, "rendered"),
+            ],
+            fps,
+            12,
+            SeriesLabelPosition::MiddleRight,
+        )?;
     }
     // Error histogram.
     let bins = 40usize;
