@@ -145,9 +145,10 @@ pub enum SourceSpec {
     },
 }
 
-impl SourceSpec {
-    pub fn path(&self) -> &Path {
-        match self {
+/// The `path` field of any variant, by reference or by mutable reference.
+macro_rules! spec_path {
+    ($spec:expr) => {
+        match $spec {
             SourceSpec::Extract { path }
             | SourceSpec::Video { path }
             | SourceSpec::Csv { path, .. }
@@ -155,17 +156,16 @@ impl SourceSpec {
             | SourceSpec::Bids { path, .. }
             | SourceSpec::Fixations { path, .. } => path,
         }
+    };
+}
+
+impl SourceSpec {
+    pub fn path(&self) -> &Path {
+        spec_path!(self)
     }
 
     pub fn path_mut(&mut self) -> &mut PathBuf {
-        match self {
-            SourceSpec::Extract { path }
-            | SourceSpec::Video { path }
-            | SourceSpec::Csv { path, .. }
-            | SourceSpec::Eyelink { path, .. }
-            | SourceSpec::Bids { path, .. }
-            | SourceSpec::Fixations { path, .. } => path,
-        }
+        spec_path!(self)
     }
 
     pub fn format_name(&self) -> &'static str {
