@@ -14,11 +14,11 @@ pub const fn v3(x: f64, y: f64, z: f64) -> V3 {
 }
 
 impl V3 {
-    #[inline]
+    #[inline(always)]
     pub fn dot(self, o: V3) -> f64 {
         self.x * o.x + self.y * o.y + self.z * o.z
     }
-    #[inline]
+    #[inline(always)]
     pub fn cross(self, o: V3) -> V3 {
         v3(
             self.y * o.z - self.z * o.y,
@@ -26,11 +26,11 @@ impl V3 {
             self.x * o.y - self.y * o.x,
         )
     }
-    #[inline]
+    #[inline(always)]
     pub fn len(self) -> f64 {
         self.dot(self).sqrt()
     }
-    #[inline]
+    #[inline(always)]
     pub fn norm(self) -> V3 {
         self * (1.0 / self.len())
     }
@@ -44,28 +44,28 @@ impl V3 {
 }
 impl Add for V3 {
     type Output = V3;
-    #[inline]
+    #[inline(always)]
     fn add(self, o: V3) -> V3 {
         v3(self.x + o.x, self.y + o.y, self.z + o.z)
     }
 }
 impl Sub for V3 {
     type Output = V3;
-    #[inline]
+    #[inline(always)]
     fn sub(self, o: V3) -> V3 {
         v3(self.x - o.x, self.y - o.y, self.z - o.z)
     }
 }
 impl Mul<f64> for V3 {
     type Output = V3;
-    #[inline]
+    #[inline(always)]
     fn mul(self, s: f64) -> V3 {
         v3(self.x * s, self.y * s, self.z * s)
     }
 }
 impl Neg for V3 {
     type Output = V3;
-    #[inline]
+    #[inline(always)]
     fn neg(self) -> V3 {
         v3(-self.x, -self.y, -self.z)
     }
@@ -86,7 +86,7 @@ impl Basis {
         z: v3(0.0, 0.0, 1.0),
     };
     /// World -> local.
-    #[inline]
+    #[inline(always)]
     pub fn to_local(self, w: V3) -> V3 {
         v3(w.dot(self.x), w.dot(self.y), w.dot(self.z))
     }
@@ -130,49 +130,49 @@ pub struct F3 {
     pub z: f32,
 }
 
-#[inline]
+#[inline(always)]
 pub const fn f3(x: f32, y: f32, z: f32) -> F3 {
     F3 { x, y, z }
 }
 
 impl F3 {
-    #[inline]
+    #[inline(always)]
     pub fn dot(self, o: F3) -> f32 {
         self.x * o.x + self.y * o.y + self.z * o.z
     }
-    #[inline]
+    #[inline(always)]
     pub fn lerp(self, o: F3, t: f32) -> F3 {
         self + (o - self) * t
     }
-    #[inline]
+    #[inline(always)]
     pub fn mulv(self, o: F3) -> F3 {
         f3(self.x * o.x, self.y * o.y, self.z * o.z)
     }
 }
 impl Neg for F3 {
     type Output = F3;
-    #[inline]
+    #[inline(always)]
     fn neg(self) -> F3 {
         f3(-self.x, -self.y, -self.z)
     }
 }
 impl Add for F3 {
     type Output = F3;
-    #[inline]
+    #[inline(always)]
     fn add(self, o: F3) -> F3 {
         f3(self.x + o.x, self.y + o.y, self.z + o.z)
     }
 }
 impl Sub for F3 {
     type Output = F3;
-    #[inline]
+    #[inline(always)]
     fn sub(self, o: F3) -> F3 {
         f3(self.x - o.x, self.y - o.y, self.z - o.z)
     }
 }
 impl Mul<f32> for F3 {
     type Output = F3;
-    #[inline]
+    #[inline(always)]
     fn mul(self, s: f32) -> F3 {
         f3(self.x * s, self.y * s, self.z * s)
     }
@@ -197,7 +197,7 @@ pub fn floor_fast(x: f32) -> f32 {
     }
 }
 
-#[inline]
+#[inline(always)]
 pub fn clamp01(x: f32) -> f32 {
     x.clamp(0.0, 1.0)
 }
@@ -234,7 +234,7 @@ impl SrgbLut {
             .collect();
         SrgbLut { table }
     }
-    #[inline]
+    #[inline(always)]
     #[allow(clippy::manual_clamp)] // clamp would keep NaN; max(0.0) maps it to 0
     pub fn encode(&self, l: f32) -> u8 {
         // Adding 2^23 leaves round(l * (N - 1)) in the low mantissa bits: a
@@ -244,7 +244,7 @@ impl SrgbLut {
         let v = l.max(0.0).min(1.0) * (Self::N - 1) as f32 + 8_388_608.0;
         self.table[(v.to_bits() & (Self::N as u32 - 1)) as usize]
     }
-    #[inline]
+    #[inline(always)]
     pub fn rgb(&self, c: F3) -> [u8; 3] {
         [self.encode(c.x), self.encode(c.y), self.encode(c.z)]
     }
