@@ -1533,6 +1533,15 @@ impl EyeRaster {
     }
 }
 
+/// Which build of the per-pixel shading this CPU runs (benchmark reports).
+pub fn shading_isa() -> &'static str {
+    #[cfg(target_arch = "x86_64")]
+    if cpu_has_x86_64_v3() {
+        return "x86-64-v3 (AVX2)";
+    }
+    "baseline"
+}
+
 /// Whether the CPU runs code compiled for x86-64-v3 (std caches the check).
 #[cfg(target_arch = "x86_64")]
 fn cpu_has_x86_64_v3() -> bool {
