@@ -36,8 +36,6 @@ pub struct BenchReport {
     /// nothing else runs: cores * 1000 / end_to_end_cpu_ms.
     pub cpu_bound_fps: Option<f64>,
     pub cores: usize,
-    /// Which build of the per-pixel shading ran ([`crate::shading_isa`]).
-    pub shading_isa: String,
 }
 
 impl std::fmt::Display for BenchReport {
@@ -52,11 +50,7 @@ impl std::fmt::Display for BenchReport {
             "scene setup      {:8.3} s (once per session)",
             self.scene_setup_s
         )?;
-        writeln!(
-            f,
-            "render only      {:8.1} frames/s (shading: {})",
-            self.render_fps, self.shading_isa
-        )?;
+        writeln!(f, "render only      {:8.1} frames/s", self.render_fps)?;
         writeln!(f, "encode only      {:8.1} frames/s", self.encode_fps)?;
         writeln!(f, "end to end       {:8.1} frames/s", self.end_to_end_fps)?;
         writeln!(f, "real-time factor {:8.2} x", self.realtime_factor)?;
@@ -231,7 +225,6 @@ pub fn run_bench(params: &RenderParams, frames: usize) -> Result<BenchReport, Re
         end_to_end_cpu_ms,
         cpu_bound_fps: end_to_end_cpu_ms.map(|m| cores as f64 * 1000.0 / m),
         cores,
-        shading_isa: crate::shading_isa().to_string(),
     })
 }
 

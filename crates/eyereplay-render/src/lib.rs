@@ -47,9 +47,7 @@
 //! meets the sclera and how that point is lit never change: they are
 //! computed once per session, and per frame a sclera pixel costs a rotation
 //! and a texture fetch; only rays that can meet the corneal cap are traced.
-//! The per-pixel code is compiled twice, for baseline x86-64 and for
-//! x86-64-v3 (AVX2), and the CPU picks at run time; both give the same
-//! bytes. Whole frames render in parallel on worker threads while the
+//! Whole frames render in parallel on worker threads while the
 //! calling thread feeds ffmpeg. `eyereplay render --bench` measures it.
 
 mod bench;
@@ -76,7 +74,7 @@ pub use encode::{
 pub use error::RenderError;
 pub use gaze::{default_calibration, Calibration, GazeMapping};
 pub use identity::{CameraPose, EyeShape, Identity, IrisStyle, Lighting};
-pub use scene::{rgb_to_yuv420, shading_isa, EyeGeometry, EyePose, EyeTruth, Scene, Side};
+pub use scene::{rgb_to_yuv420, EyeGeometry, EyePose, EyeTruth, Scene, Side};
 pub use session::{
     check_trajectory, render_frames, render_session, render_session_pngs, solve_truth,
     write_truth_csv, FrameSink, FrameTruth, RenderParams, RenderStats, TRUTH_HEADER,

@@ -702,29 +702,6 @@ impl Scene {
     /// background, then only 2x2 blocks that the lids, lashes or eye can
     /// reach this frame are shaded.
     fn render_box_yuv_with(&self, ef: &EyeFrame, yuv: &mut [u8], parallel: bool) {
-        #[cfg(target_arch = "x86_64")]
-        if !parallel && cpu_has_x86_64_v3() {
-            // SAFETY: the CPU has every feature the function is compiled for.
-            unsafe { self.render_box_yuv_x86_64_v3(ef, yuv) };
-            return;
-        }
-        self.render_box_yuv_impl(ef, yuv, parallel)
-    }
-
-    /// The per-pixel shading compiled for x86-64-v3 (AVX2, BMI2, FMA): the
-    /// same code, about 25 % faster with the wider instruction set (VEX
-    /// three-operand forms, fewer moves), chosen at run time so the binary
-    /// still runs on older CPUs. Frames are bit-identical either way: Rust
-    /// never fuses a multiply and an add on its own, and nothing here asks
-    /// for `mul_add`.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,avx2,bmi1,bmi2,fma,lzcnt,movbe,popcnt")]
-    unsafe fn render_box_yuv_x86_64_v3(&self, ef: &EyeFrame, yuv: &mut [u8]) {
-        self.render_box_yuv_impl(ef, yuv, false)
-    }
-
-    #[inline(always)]
-    fn render_box_yuv_impl(&self, ef: &EyeFrame, yuv: &mut [u8], parallel: bool) {
         let r = ef.r;
         let (w, h) = (self.width, self.height);
         let cw = w / 2;
@@ -751,8 +728,9 @@ impl Scene {
                     self.shade_row_pair(ef, &ranges, pair, yrows, urow, vrow)
                 });
         } else {
-            // Plain loops, no closure: everything inlines into the caller,
-            // which may be compiled for a wider instruction set.
+            // Plain loops and `inline(always)` down to the pixel: with the
+            // row body in a closure and the shading only hinted `inline`,
+            // calls were left in the per-pixel path (3.3 vs 2.2 ms a frame).
             for (pair, ((yrows, urow), vrow)) in ys
                 .chunks_mut(2 * w)
                 .zip(us.chunks_mut(cw))
@@ -1531,27 +1509,6 @@ impl EyeRaster {
             ball: Vec::new(),
         }
     }
-}
-
-/// Which build of the per-pixel shading this CPU runs (benchmark reports).
-pub fn shading_isa() -> &'static str {
-    #[cfg(target_arch = "x86_64")]
-    if cpu_has_x86_64_v3() {
-        return "x86-64-v3 (AVX2)";
-    }
-    "baseline"
-}
-
-/// Whether the CPU runs code compiled for x86-64-v3 (std caches the check).
-#[cfg(target_arch = "x86_64")]
-fn cpu_has_x86_64_v3() -> bool {
-    std::is_x86_feature_detected!("avx2")
-        && std::is_x86_feature_detected!("bmi1")
-        && std::is_x86_feature_detected!("bmi2")
-        && std::is_x86_feature_detected!("fma")
-        && std::is_x86_feature_detected!("lzcnt")
-        && std::is_x86_feature_detected!("movbe")
-        && std::is_x86_feature_detected!("popcnt")
 }
 
 /// Linear interpolation of a projected curve (points with parameter s) at
