@@ -632,6 +632,28 @@ impl Scene {
         self.measure(k, pose, closure)
     }
 
+    /// The upper and lower lid margins of eye `k` for a pose and lid
+    /// closure, in image pixels from the inner corner to the outer one
+    /// (`n + 1` points each): where a landmark model should find the lids.
+    pub fn lid_margins_px(
+        &self,
+        k: usize,
+        pose: EyePose,
+        closure: f64,
+        n: usize,
+    ) -> [Vec<[f64; 2]>; 2] {
+        let m = &self.eyes[k].model;
+        let lids = m.lids(&self.identity.eye, pose.pitch_rad, closure);
+        [true, false].map(|upper| {
+            (0..=n)
+                .map(|i| {
+                    let s = i as f64 / n.max(1) as f64;
+                    self.camera.project(m.lid_point(s, &lids, upper))
+                })
+                .collect()
+        })
+    }
+
     /// Renders both eye regions for one frame into `rgb` (full frame, sRGB,
     /// must start as a copy of the background) and/or `yuv` (full frame
     /// yuv420p, must start as a copy of the background yuv). Only the eye
