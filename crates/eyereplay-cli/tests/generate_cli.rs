@@ -186,46 +186,28 @@ fn walk_count(dir: &Path, ext: &str) -> usize {
 fn bad_inputs_stop_before_work() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = dir.path().join("c.toml");
-    std::fs::write(&cfg, "[render]\nwidht = 3\n[classes.reading]\nsources = [{ format = \"extract\", path = \"x.csv\" }]\n").unwrap();
     let out = dir.path().join("out");
-    let o = eyereplay(&[
-        "generate",
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        !o.status.success() && e.contains("did you mean 'width'"),
-        "{e}"
+    // `eyereplay generate` on `config`, plus extra arguments: its stderr.
+    let generate = |config: &str, extra: &[&str]| {
+        std::fs::write(&cfg, config).unwrap();
+        let (c, o) = (cfg.to_str().unwrap(), out.to_str().unwrap());
+        let args = [&["generate", "--config", c, "--out", o][..], extra].concat();
+        let o = eyereplay(&args);
+        assert!(!o.status.success());
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let e = generate(
+        "[render]\nwidht = 3\n[classes.reading]\nsources = [{ format = \"extract\", path = \"x.csv\" }]\n",
+        &[],
     );
+    assert!(e.contains("did you mean 'width'"), "{e}");
     assert_eq!(e.trim_end().lines().count(), 1, "{e}");
 
-    std::fs::write(
-        &cfg,
-        "[classes.reading]\nsources = [{ format = \"video\", path = \"missing.mp4\" }]\n",
-    )
-    .unwrap();
-    let o = eyereplay(&[
-        "generate",
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && e.contains("missing.mp4"), "{e}");
+    let missing = "[classes.reading]\nsources = [{ format = \"video\", path = \"missing.mp4\" }]\n";
+    let e = generate(missing, &[]);
+    assert!(e.contains("missing.mp4"), "{e}");
     assert!(!out.join("metadata.json").exists());
 
-    let o = eyereplay(&[
-        "generate",
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--shard",
-        "3/3",
-    ]);
-    assert!(String::from_utf8_lossy(&o.stderr).contains("0-based"));
+    let e = generate(missing, &["--shard", "3/3"]);
+    assert!(e.contains("0-based"), "{e}");
 }

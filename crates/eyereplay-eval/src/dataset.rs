@@ -103,18 +103,21 @@ fn metadata_fields(
     ))
 }
 
+/// The `sources` array of `metadata.json` (empty when absent).
+fn meta_sources(meta: &serde_json::Value) -> impl Iterator<Item = &serde_json::Value> {
+    meta.get("sources")
+        .and_then(|v| v.as_array())
+        .into_iter()
+        .flatten()
+}
+
 /// Counts of the class's sources by recording kind, from `metadata.json`.
 fn source_kinds(
     meta: &serde_json::Value,
     class: GazeClass,
 ) -> std::collections::BTreeMap<String, usize> {
     let mut out = std::collections::BTreeMap::new();
-    for s in meta
-        .get("sources")
-        .and_then(|v| v.as_array())
-        .into_iter()
-        .flatten()
-    {
+    for s in meta_sources(meta) {
         if s.get("class").and_then(|c| c.as_str()) == Some(class.name()) {
             if let Some(kind) = s.get("kind").and_then(|k| k.as_str()) {
                 *out.entry(kind.to_string()).or_insert(0) += 1;
@@ -414,12 +417,7 @@ pub fn session_calibrations(
         (c.s_x != 0.0 && c.s_y != 0.0).then_some(c)
     };
     let mut by_index = std::collections::BTreeMap::new();
-    for s in meta
-        .get("sources")
-        .and_then(|v| v.as_array())
-        .into_iter()
-        .flatten()
-    {
+    for s in meta_sources(&meta) {
         if let (Some(i), Some(c)) = (
             s.get("index").and_then(|v| v.as_i64()),
             s.get("calibration").and_then(cal_of),

@@ -383,19 +383,24 @@ mod tests {
         d
     }
 
-    #[test]
-    fn rotation_90_shows_the_stored_left_column_at_the_top() {
-        let (w, h) = (4, 3);
-        let data = rgb_image(w, h);
-        let img = ImageView {
+    /// A tightly packed RGB24 image stored `w` x `h`, shown turned `rotation`.
+    fn rgb_view(data: &[u8], w: usize, h: usize, rotation: Rotation) -> ImageView<'_> {
+        ImageView {
             planes: Planes::Rgb24 {
-                data: &data,
+                data,
                 stride: w * 3,
             },
             raw_w: w,
             raw_h: h,
-            rotation: Rotation::Cw90,
-        };
+            rotation,
+        }
+    }
+
+    #[test]
+    fn rotation_90_shows_the_stored_left_column_at_the_top() {
+        let (w, h) = (4, 3);
+        let data = rgb_image(w, h);
+        let img = rgb_view(&data, w, h, Rotation::Cw90);
         assert_eq!(img.size(), (3, 4));
         // Turned clockwise, the stored bottom-left pixel (x=0, y=2) is
         // shown at the top-left.
@@ -413,15 +418,7 @@ mod tests {
     fn identity_crop_reproduces_pixels_and_mirror_flips_them() {
         let (w, h) = (4, 4);
         let data = rgb_image(w, h);
-        let img = ImageView {
-            planes: Planes::Rgb24 {
-                data: &data,
-                stride: w * 3,
-            },
-            raw_w: w,
-            raw_h: h,
-            rotation: Rotation::None,
-        };
+        let img = rgb_view(&data, w, h, Rotation::None);
         let roi = Roi {
             cx: 2.0,
             cy: 2.0,
@@ -458,15 +455,7 @@ mod tests {
                 data[(y * w + x) * 3] = 200;
             }
         }
-        let img = ImageView {
-            planes: Planes::Rgb24 {
-                data: &data,
-                stride: w * 3,
-            },
-            raw_w: w,
-            raw_h: h,
-            rotation: Rotation::None,
-        };
+        let img = rgb_view(&data, w, h, Rotation::None);
         let roi = Roi {
             cx: 20.5,
             cy: 20.0,

@@ -38,6 +38,13 @@ fn models() -> Option<PathBuf> {
     }
 }
 
+/// franck.mp4, the models and the ffmpeg command, which the tests that
+/// re-encode the sample video need (skipped or failed as [`skip_or_fail`]).
+fn franck_models_and_ffmpeg() -> Option<(PathBuf, PathBuf)> {
+    let (v, m) = (video("franck.mp4")?, models()?);
+    ffmpeg().then_some((v, m))
+}
+
 fn ffmpeg() -> bool {
     let ok = Command::new("ffmpeg")
         .arg("-version")
@@ -145,12 +152,9 @@ fn cap12_agrees_with_mediapipe_python() {
 /// time, as ffprobe reports it, not frame / fps.
 #[test]
 fn variable_frame_rate_keeps_each_frames_timestamp() {
-    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else {
+    let Some((v, m)) = franck_models_and_ffmpeg() else {
         return;
     };
-    if !ffmpeg() {
-        return;
-    }
     let dir = tempfile::tempdir().unwrap();
     let vfr = dir.path().join("vfr.mp4");
     // First 24 frames 1/24 s apart, then 0.1 s apart; B-frames on.
@@ -208,12 +212,9 @@ fn variable_frame_rate_keeps_each_frames_timestamp() {
 /// face, the same image size and the same iris coordinates.
 #[test]
 fn rotation_metadata_is_honoured() {
-    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else {
+    let Some((v, m)) = franck_models_and_ffmpeg() else {
         return;
     };
-    if !ffmpeg() {
-        return;
-    }
     let dir = tempfile::tempdir().unwrap();
     let plain = dir.path().join("plain.mp4");
     let rotated = dir.path().join("rotated.mp4");
@@ -368,12 +369,9 @@ fn models_check_reports_pinned_sources_and_runs_each_model() {
 /// copy of the same 3 s.
 #[test]
 fn containers_and_codecs_give_the_same_positions() {
-    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else {
+    let Some((v, m)) = franck_models_and_ffmpeg() else {
         return;
     };
-    if !ffmpeg() {
-        return;
-    }
     let dir = tempfile::tempdir().unwrap();
     let src = v.to_str().unwrap();
     let o = opts(m);
@@ -441,12 +439,9 @@ fn containers_and_codecs_give_the_same_positions() {
 /// one keyframe in 12.5 s) and open-GOP H.264 with B-frames.
 #[test]
 fn parallel_segments_cover_every_frame_exactly_once() {
-    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else {
+    let Some((v, m)) = franck_models_and_ffmpeg() else {
         return;
     };
-    if !ffmpeg() {
-        return;
-    }
     let dir = tempfile::tempdir().unwrap();
     let src = v.to_str().unwrap();
     let webm = dir.path().join("sparse.webm");

@@ -413,12 +413,10 @@ impl Scene {
         let r = &self.eyes[k];
         let o = cam.pos - r.model.centre;
         let radius = r.model.radius_mm;
-        let light = self.light;
-        let lc = self.light_rgb;
-        let amb = self.ambient;
-        let white = f3(1.0, 1.0, 1.0);
+        let light = self.light.f();
         // Beside the ball: flesh-tinted sclera curving into the canthus.
-        let beside = f3(0.85, 0.62, 0.58).mulv(lc * 0.45 + white * amb);
+        let beside =
+            f3(0.85, 0.62, 0.58).mulv(self.light_rgb * 0.45 + f3(1.0, 1.0, 1.0) * self.ambient);
         let mut ball = Vec::with_capacity(r.w * r.h);
         for y in 0..r.h {
             let py = (r.y0 + y) as f64 + 0.5;
@@ -431,18 +429,9 @@ impl Scene {
                 let b = o.dot(d);
                 let disc = b * b - (o.dot(o) - radius * radius);
                 ball.push(if disc > 0.0 {
-                    let n = (o + d * (-b - disc.sqrt())) * (1.0 / radius);
-                    let ndl = n.dot(light);
-                    let ndv = -n.dot(d);
-                    let diffuse = amb + (0.8 * ((ndl + 0.25) / 1.25).max(0.0)) as f32;
-                    let rim = (0.45 + 0.55 * ndv.max(0.0)) as f32;
-                    let refl = d + n * (2.0 * ndv);
-                    let spec = smoothstep(0.992, 0.998, refl.dot(light) as f32) * 0.6;
-                    BallPx {
-                        n: n.f(),
-                        mul: (lc * diffuse + white * (amb * 0.3)) * rim,
-                        add: lc * spec,
-                    }
+                    let n = ((o + d * (-b - disc.sqrt())) * (1.0 / radius)).f();
+                    let (mul, add) = self.sclera_light(n, d.f(), light);
+                    BallPx { n, mul, add }
                 } else {
                     BallPx {
                         n: (o - d * b).norm().f(),
@@ -752,7 +741,8 @@ impl Scene {
         } else {
             // Plain loops and `inline(always)` down to the pixel: with the
             // row body in a closure and the shading only hinted `inline`,
-            // calls were left in the per-pixel path (3.3 vs 2.2 ms a frame).
+            // calls were left in the per-pixel path (a third of the render
+            // CPU time that `eyereplay render --bench` prints).
             for (pair, ((yrows, urow), vrow)) in ys
                 .chunks_mut(2 * w)
                 .zip(us.chunks_mut(cw))
@@ -869,11 +859,12 @@ impl Scene {
             .collect();
         let sk = self.identity.skin_rgb;
         let skin = f3(sk[0], sk[1], sk[2]);
-        // A sphere about the limbus plane's centre holding the corneal cap
-        // (radius out to the limbus, height up to the apex), with a margin
-        // for single precision in the per-pixel test.
-        let apex_mm = m.cornea_centre_z_mm + CORNEA_RADIUS_MM - m.limbus_z_mm;
-        let cap_r = m.iris_radius_mm.hypot(apex_mm) + 0.2;
+        // A sphere about the limbus plane's centre holding the corneal cap.
+        // The cornea's centre lies behind that plane, so along the cap the
+        // distance from the plane's centre falls from the limbus rim to the
+        // apex: the iris radius bounds it (plus a margin for the per-pixel
+        // test's single precision).
+        let cap_r = m.iris_radius_mm + 0.2;
         let cap_q = (m.centre + rot.z * m.limbus_z_mm) - cam.pos;
         EyeFrame {
             r,
@@ -1022,10 +1013,7 @@ impl Scene {
     /// from the pixel's precomputed [`BallPx`].
     #[inline(always)]
     fn shade_eyeball(&self, ef: &EyeFrame, x: usize, y: usize, px: f32, py: f32) -> F3 {
-        let d = ef.ray_fwd + ef.ray_right * (px - ef.cx) + ef.ray_down * (py - ef.cy);
-        let qd = ef.cap_q.dot(d);
-        // Squared distance of the cap's centre from the ray below r_bound^2.
-        if qd * qd > ef.cap_qq_minus_r2 * d.dot(d) {
+        if may_meet_cornea(ef, px, py) {
             if let Some(c) = self.shade_cornea(ef, px, py) {
                 return c;
             }
@@ -1109,14 +1097,26 @@ impl Scene {
     fn sclera_color(&self, ef: &EyeFrame, p: F3, d: F3) -> F3 {
         let n = p * (1.0 / ef.geo.radius);
         let tex = sample_nearest(&self.tex.sclera, SCLERA_TEX, n.x, n.y);
-        let ndl = n.dot(ef.light);
+        let (mul, add) = self.sclera_light(n, d, ef.light);
+        tex.mulv(mul) + add
+    }
+
+    /// Lighting of the sclera at unit normal `n` seen along `d`: colour =
+    /// texel * `mul` + `add`. Only dot products of `n`, `d` and `light`
+    /// enter, so any common frame works (eye frame per pixel at the limbus,
+    /// head frame once per session in [`BallPx`]).
+    #[inline(always)]
+    fn sclera_light(&self, n: F3, d: F3, light: F3) -> (F3, F3) {
+        let ndl = n.dot(light);
         let ndv = -n.dot(d);
         let diffuse = self.ambient + 0.8 * ((ndl + 0.25) / 1.25).max(0.0);
         let rim = 0.45 + 0.55 * ndv.max(0.0);
         let refl = d + n * (2.0 * ndv);
-        let spec = smoothstep(0.992, 0.998, refl.dot(ef.light)) * 0.6;
-        tex.mulv(self.light_rgb * diffuse + f3(1.0, 1.0, 1.0) * (self.ambient * 0.3)) * rim
-            + self.light_rgb * spec
+        let spec = smoothstep(0.992, 0.998, refl.dot(light)) * 0.6;
+        (
+            (self.light_rgb * diffuse + f3(1.0, 1.0, 1.0) * (self.ambient * 0.3)) * rim,
+            self.light_rgb * spec,
+        )
     }
 
     /// The static face: skin with shading of the orbits, brows, lid creases
@@ -1293,14 +1293,9 @@ impl Scene {
                 // Lid crease: a soft dark fold with a lighter lid below it.
                 let mut crease = 0.0f32;
                 for c in &creases {
-                    let (xa, xb) = (c[0].0.min(c[64].0), c[0].0.max(c[64].0));
-                    if x > xa && x < xb {
-                        let f = ((x - c[0].0) / (c[64].0 - c[0].0) * 64.0).clamp(0.0, 63.999);
-                        let j = f as usize;
-                        let cy = c[j].1 + (c[j + 1].1 - c[j].1) * (f - j as f64);
+                    if let Some((sx, cy)) = curve_at(c, x) {
                         let dy = (y - cy) as f32;
                         // The fold fades out toward the corners.
-                        let sx = (f / 64.0) as f32;
                         let fade = (std::f32::consts::PI * sx).sin().max(0.0).powf(1.5);
                         // Dark fold, shadow above it (the brow's overhang), a
                         // lighter convex lid below.
@@ -1310,14 +1305,10 @@ impl Scene {
                     }
                 }
                 for (c, strength) in &under_lines {
-                    let (xa, xb) = (c[0].0.min(c[64].0), c[0].0.max(c[64].0));
-                    if x > xa && x < xb {
-                        let f = ((x - c[0].0) / (c[64].0 - c[0].0) * 64.0).clamp(0.0, 63.999);
-                        let j = f as usize;
-                        let cy = c[j].1 + (c[j + 1].1 - c[j].1) * (f - j as f64);
+                    if let Some((sx, cy)) = curve_at(c, x) {
                         let dy = (y - cy) as f32;
                         if dy.abs() < 1.0 {
-                            let fade = (std::f32::consts::PI * (f / 64.0) as f32).sin();
+                            let fade = (std::f32::consts::PI * sx).sin();
                             // A thin dark fold with a faint lit edge below it.
                             crease += strength
                                 * fade
@@ -1531,6 +1522,32 @@ impl EyeRaster {
             ball: Vec::new(),
         }
     }
+}
+
+/// A skin curve sampled at points evenly spaced in x (image px): where column
+/// `x` falls along it (0..1) and the curve's y there; `None` outside it.
+fn curve_at(c: &[(f64, f64)], x: f64) -> Option<(f32, f64)> {
+    let n = (c.len() - 1) as f64;
+    let (first, last) = (c[0].0, c[c.len() - 1].0);
+    if x <= first.min(last) || x >= first.max(last) {
+        return None;
+    }
+    let f = ((x - first) / (last - first) * n).clamp(0.0, n - 0.001);
+    let j = f as usize;
+    Some((
+        (f / n) as f32,
+        c[j].1 + (c[j + 1].1 - c[j].1) * (f - j as f64),
+    ))
+}
+
+/// Whether the ray of image point (px, py) passes within the sphere that
+/// bounds the corneal cap: its squared distance from the sphere's centre,
+/// `|q|^2 - (q.d)^2 / |d|^2`, below `r_bound^2`, without a root or division.
+#[inline(always)]
+fn may_meet_cornea(ef: &EyeFrame, px: f32, py: f32) -> bool {
+    let d = ef.ray_fwd + ef.ray_right * (px - ef.cx) + ef.ray_down * (py - ef.cy);
+    let qd = ef.cap_q.dot(d);
+    qd * qd > ef.cap_qq_minus_r2 * d.dot(d)
 }
 
 /// Linear interpolation of a projected curve (points with parameter s) at
@@ -1786,6 +1803,59 @@ pub fn rgb_to_yuv420(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The per-pixel bound that skips the cornea ray tracer must never skip
+    /// a pixel where the cornea is actually hit, at any pose the gaze solver
+    /// can produce, for either eye and several identities.
+    #[test]
+    fn cornea_bound_contains_every_cornea_pixel() {
+        for seed in [0, 3, 9] {
+            let id = if seed == 0 {
+                Identity::reference()
+            } else {
+                Identity::sample(seed)
+            };
+            let scene = Scene::new(&id, 640, 360);
+            for k in 0..2 {
+                for (yaw, pitch) in [
+                    (0.0, 0.0),
+                    (YAW_LIMIT_RAD, 0.0),
+                    (-YAW_LIMIT_RAD, PITCH_LIMIT_RAD),
+                    (0.3, -PITCH_LIMIT_RAD),
+                ] {
+                    let pose = EyePose {
+                        yaw_rad: yaw,
+                        pitch_rad: pitch,
+                    };
+                    let ef = scene.eye_frame(k, pose, 0.0, 1.0);
+                    let (mut hits, mut inside) = (0, 0);
+                    for y in 0..ef.r.h {
+                        for x in 0..ef.r.w {
+                            let px = (ef.r.x0 + x) as f32 + 0.5;
+                            let py = (ef.r.y0 + y) as f32 + 0.5;
+                            let bound = may_meet_cornea(&ef, px, py);
+                            inside += usize::from(bound);
+                            if scene.shade_cornea(&ef, px, py).is_some() {
+                                hits += 1;
+                                assert!(bound, "seed {seed} eye {k} pose {pose:?} at ({px}, {py})");
+                            }
+                        }
+                    }
+                    assert!(
+                        hits > 0,
+                        "seed {seed} eye {k} pose {pose:?}: no cornea seen"
+                    );
+                    // Tight enough to be worth it: the skipped work is most
+                    // of the box.
+                    assert!(
+                        inside < ef.r.w * ef.r.h / 2,
+                        "{inside} of {}",
+                        ef.r.w * ef.r.h
+                    );
+                }
+            }
+        }
+    }
     #[test]
     fn bt709_white_black_and_red() {
         assert_eq!(yuv_of(255, 255, 255).0, 235);

@@ -16,6 +16,26 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+/// Two numbers joined by one of `seps`, as in `--shard 0/4` or `--size
+/// 1280x720`; errors name the flag, the value and the expected form.
+pub fn parse_usize_pair(
+    flag: &str,
+    s: &str,
+    seps: &[char],
+    form: &str,
+    names: [&str; 2],
+) -> Result<(usize, usize)> {
+    let (a, b) = s
+        .split_once(seps)
+        .with_context(|| format!("{flag} '{s}': expected {form}"))?;
+    let num = |v: &str, name: &str| -> Result<usize> {
+        v.trim()
+            .parse()
+            .with_context(|| format!("{flag} '{s}': {name} is not a number"))
+    };
+    Ok((num(a, names[0])?, num(b, names[1])?))
+}
+
 /// Resolved paths of the config's video sources, in config order.
 pub fn video_sources(cfg: &DatasetConfig) -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = cfg

@@ -1,4 +1,4 @@
-use anyhow::{bail, Context};
+use anyhow::bail;
 use eyereplay_core::{read_session_csv, Canvas};
 use eyereplay_render::{
     read_blink_column, read_dataset_info, render_dataset, render_session, render_session_pngs,
@@ -86,18 +86,13 @@ pub struct Args {
 }
 
 fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .with_context(|| format!("--size '{s}': expected WIDTHxHEIGHT, e.g. 1280x720"))?;
-    let w: usize = w
-        .trim()
-        .parse()
-        .with_context(|| format!("--size '{s}': bad width"))?;
-    let h: usize = h
-        .trim()
-        .parse()
-        .with_context(|| format!("--size '{s}': bad height"))?;
-    Ok((w, h))
+    super::parse_usize_pair(
+        "--size",
+        s,
+        &['x', 'X'],
+        "WIDTHxHEIGHT, e.g. 1280x720",
+        ["width", "height"],
+    )
 }
 
 fn params(args: &Args) -> anyhow::Result<RenderParams> {

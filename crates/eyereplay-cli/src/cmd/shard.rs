@@ -26,17 +26,7 @@ impl Shard {
 
     /// `K/N`.
     pub fn parse(s: &str) -> Result<Self> {
-        let (k, n) = s
-            .split_once('/')
-            .with_context(|| format!("--shard '{s}': expected K/N, e.g. 0/4"))?;
-        let k: usize = k
-            .trim()
-            .parse()
-            .with_context(|| format!("--shard '{s}': K is not a number"))?;
-        let n: usize = n
-            .trim()
-            .parse()
-            .with_context(|| format!("--shard '{s}': N is not a number"))?;
+        let (k, n) = super::parse_usize_pair("--shard", s, &['/'], "K/N, e.g. 0/4", ["K", "N"])?;
         Shard::new(k, n)
     }
 
