@@ -15,6 +15,8 @@ pub enum EvalError {
     Dataset { path: PathBuf, message: String },
     #[error(transparent)]
     Core(#[from] eyereplay_core::CoreError),
+    #[error(transparent)]
+    Format(#[from] eyereplay_dataset::DatasetError),
     /// Inputs to a statistic are unusable (empty sample, NaN, length mismatch).
     #[error("{0}")]
     Stats(String),

@@ -23,7 +23,7 @@ pub use metrics::{
 pub use visual::{compare_visual, VisualFidelity};
 pub mod plot;
 pub mod report;
-pub use dataset::{read_calibration, rendered_video_path, truth_csv_path, Calibration};
+pub use eyereplay_core::Calibration;
 pub use report::{
     evaluate_dataset, metrics_json, write_report, Evaluation, VisualRun, VisualSection,
 };

@@ -126,16 +126,10 @@ pub fn pearson(a: &[f64], b: &[f64]) -> f64 {
     eyereplay_signal::pearson(a, b).unwrap_or(f64::NAN)
 }
 
-/// Linear-interpolated percentile (`q` in 0..=1) of unsorted values.
+/// Quantile `q` in [0, 1] of unsorted values (numpy's linear method, the
+/// one convention of [`eyereplay_signal::stats`]); NaN when empty.
 pub fn percentile(v: &[f64], q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let pos = q * (s.len() - 1) as f64;
-    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
-    s[lo] + (s[hi] - s[lo]) * (pos - lo as f64)
+    eyereplay_signal::quantile(v, q).unwrap_or(f64::NAN)
 }
 
 /// Compares `ours` with `reference` frame by frame (paired by index).

@@ -119,7 +119,7 @@ pub const DEFAULT_BLINK_RATIO: f64 = 0.6;
 /// there and ny swings far outside [0, 1]. Returns the number of blinks
 /// (runs of flagged frames).
 pub fn flag_blinks(rows: &mut [Row], ratio: f64) -> usize {
-    let mut aps: Vec<f64> = rows
+    let aps: Vec<f64> = rows
         .iter()
         .filter_map(|r| r.aperture())
         .filter(|a| a.is_finite())
@@ -127,8 +127,7 @@ pub fn flag_blinks(rows: &mut [Row], ratio: f64) -> usize {
     if aps.is_empty() {
         return 0;
     }
-    aps.sort_by(f64::total_cmp);
-    let median = aps[aps.len() / 2];
+    let median = eyereplay_signal::stats::upper_median(&aps).expect("not empty");
     let threshold = ratio * median;
     let closed: Vec<bool> = rows
         .iter()

@@ -3,7 +3,7 @@
 
 use crate::config::{BlinkFilterConfig, CalibrationConfig, CalibrationMode};
 use eyereplay_core::{Canvas, NormPos, Sample, Trajectory};
-use eyereplay_signal::{percentile, quartiles};
+use eyereplay_signal::{quantile, quartiles};
 use serde::{Deserialize, Serialize};
 
 pub use eyereplay_core::Calibration;
@@ -20,8 +20,8 @@ pub fn auto_calibration(
     let ys: Vec<f64> = samples.iter().map(|p| p.ny).collect();
     let [w, h] = canvas.extent();
     let axis = |v: &[f64], extent: f64| -> Option<(f64, f64, f64, f64)> {
-        let lo = percentile(v, cfg.low_percentile)?;
-        let hi = percentile(v, cfg.high_percentile)?;
+        let lo = quantile(v, cfg.low_percentile / 100.0)?;
+        let hi = quantile(v, cfg.high_percentile / 100.0)?;
         if (hi - lo).is_nan() || hi - lo <= 1e-12 {
             return None;
         }

@@ -15,7 +15,6 @@
 
 mod calibrate;
 mod config;
-mod dataset;
 mod error;
 mod load;
 mod resample;
@@ -26,9 +25,6 @@ pub use config::{
     describe_toml_error, AppliesTo, BlinkFilterConfig, CalibrationConfig, CalibrationMode,
     CalibrationScope, ClassConfig, DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod,
     SpeedCorrection,
-};
-pub use dataset::{
-    write_dataset, DatasetMetadata, FileDigest, SessionEntry, ToolInfo, WriteSummary,
 };
 pub use error::PrepareError;
 pub use load::{check_source_files, load_sources};

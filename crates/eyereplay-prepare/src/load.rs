@@ -64,7 +64,7 @@ where
                 .map(|mut r| {
                     // Ids name the configured file, also for extracted videos.
                     if let SourceSpec::Video { path } = spec {
-                        r.id = crate::dataset::display_name(path);
+                        r.id = display_name(path);
                         r.path = path.clone();
                     }
                     SourceInput {
@@ -83,4 +83,11 @@ where
         out.extend(l?);
     }
     Ok(out)
+}
+
+/// File name of a path, for ids and labels.
+fn display_name(path: &Path) -> String {
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
 }

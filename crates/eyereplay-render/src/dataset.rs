@@ -4,13 +4,14 @@
 
 use crate::encode::{ffprobe_for, probe_video};
 use crate::rng::mix64;
-use crate::scene::EyeGeometry;
 use crate::session::{render_session, RenderParams};
 use crate::{Calibration, GazeMapping, Identity, RenderError};
 use eyereplay_core::{read_session_csv, Canvas};
+use eyereplay_dataset::{
+    read_blink_column, read_labels, read_metadata, session_paths_of, SessionIdentity, SessionPaths,
+};
 use rayon::prelude::*;
-use serde::Serialize;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// What the dataset's metadata says about rendering.
@@ -18,61 +19,28 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 pub struct DatasetInfo {
     pub canvas: Canvas,
     pub fps: f64,
-    /// `None` when metadata.json has no calibration (the default is used).
+    /// `None` when the dataset has per-source calibrations only (the
+    /// default mapping is used).
     pub calibration: Option<Calibration>,
 }
 
 /// One session to render.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SessionJob {
-    /// Path of the CSV relative to the dataset folder, as in labels.csv.
-    pub file: String,
-    pub csv: PathBuf,
-    pub mp4: PathBuf,
-    pub truth: PathBuf,
-    pub identity_json: PathBuf,
+    /// The session's files (`paths.file` is the CSV relative to the dataset
+    /// folder, as in labels.csv).
+    pub paths: SessionPaths,
     /// Seed of this session's identity.
     pub seed: u64,
 }
 
-fn ds_err(path: &Path, message: impl Into<String>) -> RenderError {
-    RenderError::Dataset {
-        path: path.into(),
-        message: message.into(),
-    }
-}
-
 /// Reads `metadata.json` (canvas, fps, calibration).
 pub fn read_dataset_info(dir: &Path) -> Result<DatasetInfo, RenderError> {
-    let path = dir.join("metadata.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| RenderError::io(&path, e))?;
-    let v: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| ds_err(&path, format!("not JSON: {e}")))?;
-    let num = |v: &serde_json::Value, k: &str| v.get(k).and_then(|x| x.as_f64());
-    let canvas = match v.get("canvas") {
-        Some(c) => Canvas {
-            width_px: num(c, "width_px").ok_or_else(|| ds_err(&path, "canvas.width_px missing"))?
-                as u32,
-            height_px: num(c, "height_px")
-                .ok_or_else(|| ds_err(&path, "canvas.height_px missing"))?
-                as u32,
-        },
-        None => Canvas::default(),
-    };
-    let fps = num(&v, "fps").unwrap_or(25.0);
-    let calibration = match v.get("calibration") {
-        Some(c) if !c.is_null() => Some(Calibration {
-            s_x: num(c, "s_x").ok_or_else(|| ds_err(&path, "calibration.s_x missing"))?,
-            s_y: num(c, "s_y").ok_or_else(|| ds_err(&path, "calibration.s_y missing"))?,
-            mu_x: num(c, "mu_x").ok_or_else(|| ds_err(&path, "calibration.mu_x missing"))?,
-            mu_y: num(c, "mu_y").ok_or_else(|| ds_err(&path, "calibration.mu_y missing"))?,
-        }),
-        _ => None,
-    };
+    let meta = read_metadata(dir)?.dataset;
     Ok(DatasetInfo {
-        canvas,
-        fps,
-        calibration,
+        canvas: meta.canvas,
+        fps: meta.fps,
+        calibration: meta.calibration,
     })
 }
 
@@ -88,46 +56,16 @@ pub fn session_seed(dataset_seed: u64, file: &str) -> u64 {
     h & ((1 << 53) - 1)
 }
 
-/// Lists the sessions of `labels.csv` (column `file`).
+/// Lists the sessions of `labels.csv`, in its order.
 pub fn list_sessions(dir: &Path, dataset_seed: u64) -> Result<Vec<SessionJob>, RenderError> {
-    let path = dir.join("labels.csv");
-    let mut rdr = csv::Reader::from_path(&path).map_err(|e| ds_err(&path, e.to_string()))?;
-    let headers = rdr
-        .headers()
-        .map_err(|e| ds_err(&path, e.to_string()))?
-        .clone();
-    let col = headers
-        .iter()
-        .position(|h| h.trim() == "file")
-        .ok_or_else(|| {
-            ds_err(
-                &path,
-                "missing column 'file' (expected file,label,class,sources)",
-            )
-        })?;
-    let mut jobs = Vec::new();
-    for (i, rec) in rdr.records().enumerate() {
-        let rec = rec.map_err(|e| ds_err(&path, format!("line {}: {e}", i + 2)))?;
-        let file = rec.get(col).unwrap_or("").trim().to_string();
-        if file.is_empty() || Path::new(&file).is_absolute() || file.contains("..") {
-            return Err(ds_err(&path, format!("line {}: bad file '{file}'", i + 2)));
-        }
-        let csv = dir.join(&file);
-        let stem = csv
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let parent = csv.parent().unwrap_or(dir).to_path_buf();
-        jobs.push(SessionJob {
-            seed: session_seed(dataset_seed, &file),
-            mp4: parent.join(format!("{stem}.mp4")),
-            truth: parent.join(format!("{stem}_truth.csv")),
-            identity_json: parent.join(format!("{stem}_identity.json")),
-            csv,
-            file,
-        });
-    }
-    Ok(jobs)
+    let labels = read_labels(dir)?;
+    Ok(session_paths_of(dir, &labels)
+        .into_iter()
+        .map(|paths| SessionJob {
+            seed: session_seed(dataset_seed, &paths.file),
+            paths,
+        })
+        .collect())
 }
 
 #[derive(Clone, Debug)]
@@ -154,7 +92,7 @@ pub enum SessionOutcome {
     Failed(String),
 }
 
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct DatasetSummary {
     pub sessions: usize,
     pub rendered: usize,
@@ -164,25 +102,13 @@ pub struct DatasetSummary {
     pub clamped_points: usize,
 }
 
-/// Metadata written beside each video.
-#[derive(Serialize)]
-struct SessionMeta<'a> {
-    file: &'a str,
-    seed: u64,
-    identity: &'a Identity,
-    mapping: &'a GazeMapping,
-    width: usize,
-    height: usize,
-    fps: f64,
-    eyes: [EyeGeometry; 2],
-}
-
 /// True when the session's video exists, has as many frames as its CSV
 /// rows, and the ground truth is there.
 pub fn is_complete(job: &SessionJob, frames: usize, ffprobe: &Path) -> bool {
-    job.truth.exists()
-        && job.identity_json.exists()
-        && probe_video(&job.mp4, ffprobe)
+    let p = &job.paths;
+    p.truth.exists()
+        && p.identity_json.exists()
+        && probe_video(&p.mp4, ffprobe)
             .map(|i| i.frames as usize == frames)
             .unwrap_or(false)
 }
@@ -222,14 +148,15 @@ pub fn render_dataset(
                     // Leftovers of an interrupted render of this session (a
                     // killed run's `.NAME.mp4.PID.part`, temp CSV/JSON). Only
                     // this job's files: other shards may be writing theirs.
-                    for target in [&job.mp4, &job.truth, &job.identity_json] {
+                    let files = &job.paths;
+                    for target in files.outputs() {
                         for p in eyereplay_core::stale_temp_files(target) {
                             std::fs::remove_file(&p).map_err(|e| RenderError::io(&p, e))?;
                         }
                     }
-                    let traj = read_session_csv(&job.csv)?;
-                    let blinks = read_blink_column(&job.csv)?;
-                    if job.mp4.exists() && is_complete(job, traj.len(), &ffprobe) {
+                    let traj = read_session_csv(&files.csv)?;
+                    let blinks = read_blink_column(&files.csv)?;
+                    if files.mp4.exists() && is_complete(job, traj.len(), &ffprobe) {
                         return Ok(SessionOutcome::Skipped);
                     }
                     let mut params = opts.params.clone();
@@ -237,10 +164,15 @@ pub fn render_dataset(
                     params.mapping = mapping;
                     params.fps = info.fps;
                     params.natural_blinks = opts.natural_blinks;
-                    let stats =
-                        render_session(&traj, blinks.as_deref(), &params, &job.mp4, &job.truth)?;
-                    let meta = SessionMeta {
-                        file: &job.file,
+                    let stats = render_session(
+                        &traj,
+                        blinks.as_deref(),
+                        &params,
+                        &files.mp4,
+                        &files.truth,
+                    )?;
+                    SessionIdentity {
+                        file: files.file.clone(),
                         seed: job.seed,
                         identity: &params.identity,
                         mapping: &params.mapping,
@@ -248,10 +180,8 @@ pub fn render_dataset(
                         height: params.height,
                         fps: params.fps,
                         eyes: stats.eyes.clone().expect("render_session reports geometry"),
-                    };
-                    let json = serde_json::to_vec_pretty(&meta)
-                        .map_err(|e| RenderError::Params(e.to_string()))?;
-                    eyereplay_core::atomic_write(&job.identity_json, &json)?;
+                    }
+                    .write(&files.identity_json)?;
                     frames.fetch_add(stats.frames, Ordering::Relaxed);
                     clamped.fetch_add(stats.clamped_points, Ordering::Relaxed);
                     Ok(SessionOutcome::Rendered {
@@ -259,7 +189,7 @@ pub fn render_dataset(
                         clamped_points: stats.clamped_points,
                     })
                 })()
-                .unwrap_or_else(|e| SessionOutcome::Failed(format!("{}: {e}", job.file)));
+                .unwrap_or_else(|e| SessionOutcome::Failed(format!("{}: {e}", job.paths.file)));
                 progress(job, &outcome);
                 outcome
             })
@@ -279,32 +209,4 @@ pub fn render_dataset(
         }
     }
     Ok(s)
-}
-
-/// Reads an optional `blink` column (0/1 or true/false) of a session CSV.
-pub fn read_blink_column(path: &Path) -> Result<Option<Vec<bool>>, RenderError> {
-    let mut rdr = csv::Reader::from_path(path).map_err(|e| ds_err(path, e.to_string()))?;
-    let headers = rdr
-        .headers()
-        .map_err(|e| ds_err(path, e.to_string()))?
-        .clone();
-    let Some(col) = headers.iter().position(|h| h.trim() == "blink") else {
-        return Ok(None);
-    };
-    let mut out = Vec::new();
-    for (i, rec) in rdr.records().enumerate() {
-        let rec = rec.map_err(|e| ds_err(path, format!("line {}: {e}", i + 2)))?;
-        let v = match rec.get(col).unwrap_or("").trim() {
-            "1" | "true" | "True" => true,
-            "0" | "false" | "False" | "" => false,
-            other => {
-                return Err(ds_err(
-                    path,
-                    format!("line {}: blink must be 0 or 1, got '{other}'", i + 2),
-                ))
-            }
-        };
-        out.push(v);
-    }
-    Ok(Some(out))
 }

@@ -20,8 +20,8 @@ pub enum RenderError {
     Input(String),
     #[error("invalid render parameters: {0}")]
     Params(String),
-    #[error("{path}: {message}")]
-    Dataset { path: PathBuf, message: String },
+    #[error(transparent)]
+    Dataset(#[from] eyereplay_dataset::DatasetError),
     #[error(transparent)]
     Core(#[from] eyereplay_core::CoreError),
 }

@@ -65,19 +65,20 @@ mod session;
 pub use bench::{conversation_trajectory, cpu_times, reading_trajectory, run_bench, BenchReport};
 pub use blink::{closure_at, closure_track};
 pub use dataset::{
-    is_complete, list_sessions, read_blink_column, read_dataset_info, render_dataset, session_seed,
-    DatasetInfo, DatasetOptions, DatasetSummary, SessionJob, SessionOutcome,
+    is_complete, list_sessions, read_dataset_info, render_dataset, session_seed, DatasetInfo,
+    DatasetOptions, DatasetSummary, SessionJob, SessionOutcome,
 };
 pub use encode::{
     ffprobe_for, probe_video, Codec, Encoder, EncoderSettings, VideoInfo, DEFAULT_X264_PARAMS,
 };
 pub use error::RenderError;
+pub use eyereplay_dataset::{read_blink_column, TRUTH_HEADER};
 pub use gaze::{default_calibration, Calibration, GazeMapping};
 pub use identity::{CameraPose, EyeShape, Identity, IrisStyle, Lighting};
 pub use scene::{rgb_to_yuv420, EyeGeometry, EyePose, EyeTruth, Scene, Side};
 pub use session::{
     check_trajectory, render_frames, render_session, render_session_pngs, solve_truth,
-    write_truth_csv, FrameSink, FrameTruth, RenderParams, RenderStats, TRUTH_HEADER,
+    write_truth_csv, FrameSink, FrameTruth, RenderParams, RenderStats,
 };
 
 /// Writes an sRGB frame as PNG.

@@ -37,13 +37,9 @@ const SCLERA_TEX: usize = 128;
 /// Lash texture rows below the lid margin (lash roots overlap the eye).
 const LASH_ROOT_PX: usize = 3;
 
-/// Which eye, by its side in the image (the image-left eye is the subject's
-/// right eye).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Side {
-    Left,
-    Right,
-}
+/// Which eye, by its side in the image; the on-disk type of the dataset
+/// format, so identity files and the renderer agree.
+pub use eyereplay_dataset::Side;
 
 /// Pinhole camera; pixel centres are at integer + 0.5.
 #[derive(Clone, Copy, Debug)]
@@ -143,21 +139,9 @@ impl EyeModel {
     }
 }
 
-/// Where things are in the image for one eye (pixels).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct EyeGeometry {
-    pub side: Side,
-    /// Image position of the inner (nasal) and outer (temporal) eye corner.
-    pub inner_corner_px: [f64; 2],
-    pub outer_corner_px: [f64; 2],
-    /// Projection of the eyeball centre.
-    pub centre_px: [f64; 2],
-    /// Region redrawn per frame: x0, y0, x1, y1 (exclusive); everything
-    /// outside it is the static face background.
-    pub box_px: [u32; 4],
-    /// Pixels per millimetre at the eye's depth.
-    pub px_per_mm: f64,
-}
+/// Where things are in the image for one eye: written to each session's
+/// identity file, so the type is the dataset format's.
+pub use eyereplay_dataset::EyeGeometry;
 
 /// One frame's pose of both eyes, as solved from the trajectory.
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]

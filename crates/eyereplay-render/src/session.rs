@@ -4,6 +4,7 @@ use crate::encode::{Encoder, EncoderSettings};
 use crate::scene::{EyePose, EyeTruth, Scene};
 use crate::{closure_track, GazeMapping, Identity, RenderError};
 use eyereplay_core::{Canvas, CanvasPos};
+use eyereplay_dataset::{EyeTruthRow, TruthRow};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -179,43 +180,32 @@ pub fn solve_truth(
         .collect()
 }
 
-pub const TRUTH_HEADER: &str =
-    "frame,x,y,left_yaw_deg,left_pitch_deg,right_yaw_deg,right_pitch_deg,\
-left_iris_x_px,left_iris_y_px,right_iris_x_px,right_iris_y_px,left_nx,left_ny,right_nx,right_ny,\
-left_aperture,right_aperture,lid_closure,blink";
-
-/// Writes the ground-truth CSV atomically. `left` is the image-left eye
-/// (the subject's right eye). Fixed decimals keep it byte-identical.
-pub fn write_truth_csv(path: &Path, truth: &[FrameTruth]) -> Result<(), RenderError> {
-    eyereplay_core::atomic_write_with(path, |w| {
-        writeln!(w, "{TRUTH_HEADER}")?;
-        for (i, t) in truth.iter().enumerate() {
-            let [l, r] = &t.eyes;
-            writeln!(
-                w,
-                "{i},{:.3},{:.3},{:.4},{:.4},{:.4},{:.4},{:.3},{:.3},{:.3},{:.3},{:.5},{:.5},{:.5},{:.5},{:.4},{:.4},{:.3},{}",
-                t.input.x_px,
-                t.input.y_px,
-                l.pose.yaw_rad.to_degrees(),
-                l.pose.pitch_rad.to_degrees(),
-                r.pose.yaw_rad.to_degrees(),
-                r.pose.pitch_rad.to_degrees(),
-                l.iris_px[0],
-                l.iris_px[1],
-                r.iris_px[0],
-                r.iris_px[1],
-                l.norm.nx,
-                l.norm.ny,
-                r.norm.nx,
-                r.norm.ny,
-                l.aperture,
-                r.aperture,
-                t.closure,
-                t.blink() as u8
-            )?;
+/// The truth CSV row of a rendered frame.
+impl FrameTruth {
+    pub fn row(&self, frame: usize) -> TruthRow {
+        let eye = |e: &EyeTruth| EyeTruthRow {
+            yaw_deg: e.pose.yaw_rad.to_degrees(),
+            pitch_deg: e.pose.pitch_rad.to_degrees(),
+            iris_px: e.iris_px,
+            nx: e.norm.nx,
+            ny: e.norm.ny,
+            aperture: e.aperture,
+        };
+        TruthRow {
+            frame: frame as u64,
+            x_px: self.input.x_px,
+            y_px: self.input.y_px,
+            eyes: [eye(&self.eyes[0]), eye(&self.eyes[1])],
+            lid_closure: self.closure,
+            blink: self.blink(),
         }
-        Ok(())
-    })?;
+    }
+}
+
+/// Writes the ground-truth CSV atomically (layout: [`eyereplay_dataset::TRUTH_HEADER`]).
+pub fn write_truth_csv(path: &Path, truth: &[FrameTruth]) -> Result<(), RenderError> {
+    let rows: Vec<TruthRow> = truth.iter().enumerate().map(|(i, t)| t.row(i)).collect();
+    eyereplay_dataset::write_truth_csv(path, &rows)?;
     Ok(())
 }
 

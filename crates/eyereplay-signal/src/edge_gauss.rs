@@ -136,9 +136,8 @@ pub fn edge_gauss(
 }
 
 fn median_dt(times: &[f64]) -> f64 {
-    let mut dt: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
-    let mid = dt.len() / 2;
-    *dt.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
+    let dt: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
+    crate::stats::upper_median(&dt).expect("callers pass at least two times")
 }
 
 fn smooth_segment(times: &[f64], values: &[Point], sigma_s: f64, out: &mut Vec<Point>) {

@@ -6,14 +6,14 @@
 
 mod edge_gauss;
 mod resample;
-mod stats;
+pub mod stats;
 
 pub use edge_gauss::{edge_gauss, EdgeGaussParams, EdgeGaussReport};
 pub use resample::{
     antialias_sigma_for_gain_s, antialias_sigma_s, gaussian_resample, linear_resample,
     resample_times, ANTIALIAS_STOP_GAIN,
 };
-pub use stats::{median, pearson, percentile, quartiles};
+pub use stats::{median, pearson, quantile, quartiles};
 
 /// A 2-D point; x and y are in whatever unit the caller's stage uses.
 pub type Point = [f64; 2];

@@ -1,8 +1,8 @@
 //! `eyereplay prepare`: paper stages 2-5, config in, trajectory dataset out.
 
-use anyhow::{Context, Result};
-use eyereplay_prepare::{load_sources, prepare, write_dataset, DatasetConfig, Prepared, ToolInfo};
-use std::path::{Path, PathBuf};
+use anyhow::Result;
+use eyereplay::{DatasetConfig, Prepared};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// Stages 2-5: calibrate, filter blinks, resample, normalize, slice into sessions.
@@ -39,23 +39,12 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let started = Instant::now();
     let cfg = DatasetConfig::load(&args.config)?;
-    // Video sources: extracted once, cached by content (see `eyereplay generate --help`).
-    let extracted = if crate::cmd::video_sources(&cfg).is_empty() {
-        Default::default()
-    } else {
-        crate::cmd::check_models()?;
-        crate::cmd::extract_videos_cached(&cfg, &crate::cmd::cache_dir(args.cache.as_deref()))?
-    };
-    let inputs = load_sources(&cfg, |video| {
-        crate::cmd::lookup_extracted(&extracted, video)
-    })?;
-    let prepared = prepare(&cfg, &inputs)?;
-    print_summary(&cfg, &prepared);
-    for w in &prepared.warnings {
-        eprintln!("warning: {w}");
-    }
-    let plan = prepared.plan(&cfg);
-    if args.dry_run {
+    let cache = eyereplay::cache_dir(args.cache.as_deref());
+    let bars = super::Bars::default();
+    let Some(out) = args.out.filter(|_| !args.dry_run) else {
+        let prepared = eyereplay::prepare_only(&cfg, &cache, &bars)?;
+        print_summary(&cfg, &prepared);
+        let plan = prepared.plan(&cfg);
         println!(
             "dry run: would write {} sessions of {} frames ({:.2} h of video at {} fps); nothing written",
             plan.classes.values().map(|c| c.sessions).sum::<usize>(),
@@ -64,35 +53,18 @@ pub fn run(args: Args) -> Result<()> {
             cfg.fps
         );
         return Ok(());
-    }
-    let out = args.out.expect("clap requires --out without --dry-run");
-    remove_stale_sessions(&out, &prepared).with_context(|| out.display().to_string())?;
-    let (_, summary) = write_dataset(&out, &cfg, &prepared, tool_info(&cfg)?)?;
+    };
+    let ds = eyereplay::prepare_dataset(&cfg, &out, &cache, &bars)?;
+    print_summary(&cfg, &ds.prepared);
     println!(
         "wrote {} files ({:.1} MB, {:.2} h of sessions) to {} in {:.2} s",
-        summary.files,
-        summary.bytes as f64 / 1e6,
-        plan.video_hours,
+        ds.files,
+        ds.bytes as f64 / 1e6,
+        ds.prepared.plan(&cfg).video_hours,
         out.display(),
         started.elapsed().as_secs_f64()
     );
     Ok(())
-}
-
-/// The tool's provenance; with video sources, the sha256 of every model
-/// file that extracted them.
-pub fn tool_info(cfg: &DatasetConfig) -> Result<ToolInfo> {
-    let models = if crate::cmd::video_sources(cfg).is_empty() {
-        Vec::new()
-    } else {
-        crate::cmd::model_digests()?
-    };
-    Ok(ToolInfo {
-        name: "eyereplay".into(),
-        version: env!("CARGO_PKG_VERSION").into(),
-        git_revision: option_env!("EYEREPLAY_GIT_REVISION").map(str::to_string),
-        models,
-    })
 }
 
 fn print_summary(cfg: &DatasetConfig, p: &Prepared) {
@@ -161,29 +133,4 @@ fn truncate(s: &str, n: usize) -> String {
             .collect();
         format!("…{tail}")
     }
-}
-
-/// Session CSVs left by an earlier run with more sessions would be mistaken
-/// for part of this dataset; remove those beyond the new count.
-fn remove_stale_sessions(out: &Path, p: &Prepared) -> std::io::Result<()> {
-    for c in &p.classes {
-        let dir = out.join(c.class.name());
-        let Ok(entries) = std::fs::read_dir(&dir) else {
-            continue;
-        };
-        let prefix = format!("{}_", c.class.name());
-        for e in entries.flatten() {
-            let name = e.file_name().to_string_lossy().into_owned();
-            let Some(num) = name
-                .strip_prefix(&prefix)
-                .and_then(|r| r.strip_suffix(".csv"))
-            else {
-                continue;
-            };
-            if num.len() == 4 && num.parse::<usize>().is_ok_and(|i| i >= c.sessions.len()) {
-                std::fs::remove_file(e.path())?;
-            }
-        }
-    }
-    Ok(())
 }

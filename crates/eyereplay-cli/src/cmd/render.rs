@@ -154,13 +154,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| traj_path.with_extension("mp4"));
-    let truth = args.truth.clone().unwrap_or_else(|| {
-        let stem = out
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        out.with_file_name(format!("{stem}_truth.csv"))
-    });
+    let truth = args
+        .truth
+        .clone()
+        .unwrap_or_else(|| eyereplay_dataset::SessionPaths::beside_video(&out).truth);
     let stats = if let Some(dir) = &args.png_frames {
         render_session_pngs(&traj, blinks.as_deref(), &p, dir, &truth)?
     } else {
@@ -219,11 +216,11 @@ fn run_dataset(dir: &std::path::Path, args: &Args, p: RenderParams) -> anyhow::R
                 frames,
             } if *clamped_points > 0 => bar.println(format!(
                 "warning: {}: {clamped_points} of {frames} points off the canvas were clamped",
-                job.file
+                job.paths.file
             )),
             _ => {}
         }
-        bar.set_message(job.file.clone());
+        bar.set_message(job.paths.file.clone());
         bar.inc(1);
     })?;
     bar.finish_and_clear();

@@ -4,7 +4,7 @@
 //! `i mod N`. Round-robin rather than contiguous blocks, so every shard gets
 //! both classes and about the same work.
 
-use anyhow::{bail, Context, Result};
+use crate::{Error, Result};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Shard {
@@ -16,17 +16,19 @@ pub struct Shard {
 impl Shard {
     pub fn new(index: usize, count: usize) -> Result<Self> {
         if count == 0 {
-            bail!("shard count must be at least 1");
+            return Err(Error::Setting("shard count must be at least 1".into()));
         }
         if index >= count {
-            bail!("shard index {index} is out of range for {count} shards (indices are 0-based)");
+            return Err(Error::Setting(format!(
+                "shard index {index} is out of range for {count} shards (indices are 0-based)"
+            )));
         }
         Ok(Shard { index, count })
     }
 
     /// `K/N`.
     pub fn parse(s: &str) -> Result<Self> {
-        let (k, n) = super::parse_usize_pair("--shard", s, &['/'], "K/N, e.g. 0/4", ["K", "N"])?;
+        let (k, n) = crate::parse_usize_pair("--shard", s, &['/'], "K/N, e.g. 0/4", ["K", "N"])?;
         Shard::new(k, n)
     }
 
@@ -51,23 +53,29 @@ impl Shard {
                     .trim()
                     .parse()
                     .map(Some)
-                    .with_context(|| format!("{k}='{v}' is not a number")),
+                    .map_err(|_| Error::Setting(format!("{k}='{v}' is not a number"))),
             }
         };
         if let Some(k) = num("SLURM_ARRAY_TASK_ID")? {
-            let n = num("SLURM_ARRAY_TASK_COUNT")?
-                .context("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not")?;
+            let n = num("SLURM_ARRAY_TASK_COUNT")?.ok_or_else(|| {
+                Error::Setting(
+                    "SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not".into(),
+                )
+            })?;
             // Arrays may start at a nonzero id (--array=1-4).
             let min = num("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
             return Shard::new(
-                k.checked_sub(min)
-                    .context("SLURM_ARRAY_TASK_ID below SLURM_ARRAY_TASK_MIN")?,
+                k.checked_sub(min).ok_or_else(|| {
+                    Error::Setting("SLURM_ARRAY_TASK_ID below SLURM_ARRAY_TASK_MIN".into())
+                })?,
                 n,
             )
             .map(Some);
         }
         if let Some(k) = num("JOB_COMPLETION_INDEX")? {
-            let n = shards.context("JOB_COMPLETION_INDEX is set: give the shard count with --shards N or EYEREPLAY_SHARDS")?;
+            let n = shards.ok_or_else(|| {
+                Error::Setting("JOB_COMPLETION_INDEX is set: give the shard count with --shards N or EYEREPLAY_SHARDS".into())
+            })?;
             return Shard::new(k, n).map(Some);
         }
         Ok(None)

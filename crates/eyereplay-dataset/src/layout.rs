@@ -1,0 +1,124 @@
+//! Where every file of a dataset lives. The only place that spells the
+//! dataset's file names.
+//!
+//! ```text
+//! DIR/
+//!   labels.csv, metadata.json
+//!   pool/<class>.csv
+//!   <class>/<class>_NNNN.csv              the session trajectory
+//!   <class>/<class>_NNNN.mp4              its rendered video
+//!   <class>/<class>_NNNN_truth.csv        the renderer's per-frame ground truth
+//!   <class>/<class>_NNNN_identity.json    the rendered identity and eye geometry
+//!   report/index.html, report/metrics.json
+//! ```
+
+use crate::DatasetError;
+use eyereplay_core::GazeClass;
+use std::path::{Path, PathBuf};
+
+pub const LABELS_FILE: &str = "labels.csv";
+pub const METADATA_FILE: &str = "metadata.json";
+pub const REPORT_DIR: &str = "report";
+
+/// `<class>/<class>_NNNN.csv`, relative to the dataset folder.
+pub fn session_file(class: GazeClass, index: usize) -> String {
+    format!("{}/{}_{:04}.csv", class.name(), class.name(), index)
+}
+
+/// `pool/<class>.csv`, relative to the dataset folder.
+pub fn pool_file(class: GazeClass) -> String {
+    format!("pool/{}.csv", class.name())
+}
+
+/// The files of one session, from its CSV path relative to the dataset
+/// folder (as in labels.csv).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SessionPaths {
+    /// Relative path as in labels.csv, e.g. `reading/reading_0003.csv`.
+    pub file: String,
+    pub csv: PathBuf,
+    pub mp4: PathBuf,
+    pub truth: PathBuf,
+    pub identity_json: PathBuf,
+}
+
+impl SessionPaths {
+    /// Paths of session `file` (relative) in dataset `dir`. The relative
+    /// path must stay inside the dataset: no absolute paths, no `..`.
+    pub fn new(dir: &Path, file: &str) -> Result<Self, String> {
+        if file.is_empty() || Path::new(file).is_absolute() || file.contains("..") {
+            return Err(format!("bad session file '{file}'"));
+        }
+        Ok(Self::of_csv(&dir.join(file), file))
+    }
+
+    /// Paths beside any session-like CSV (e.g. one a user passes by hand).
+    pub fn beside(csv: &Path) -> Self {
+        Self::of_csv(csv, &csv.display().to_string())
+    }
+
+    /// Paths beside a video (`X.mp4` -> `X.csv`, `X_truth.csv`,
+    /// `X_identity.json`).
+    pub fn beside_video(mp4: &Path) -> Self {
+        Self::beside(&mp4.with_extension("csv"))
+    }
+
+    fn of_csv(csv: &Path, file: &str) -> Self {
+        let stem = csv
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let parent = csv.parent().unwrap_or(Path::new("")).to_path_buf();
+        SessionPaths {
+            file: file.to_string(),
+            mp4: parent.join(format!("{stem}.mp4")),
+            truth: parent.join(format!("{stem}_truth.csv")),
+            identity_json: parent.join(format!("{stem}_identity.json")),
+            csv: csv.to_path_buf(),
+        }
+    }
+
+    /// The session's own files (what an interrupted render may have left
+    /// half-written).
+    pub fn outputs(&self) -> [&Path; 3] {
+        [&self.mp4, &self.truth, &self.identity_json]
+    }
+}
+
+/// Checks a labels.csv path cell, naming the labels file on error.
+pub(crate) fn session_paths(
+    dir: &Path,
+    file: &str,
+    line: usize,
+) -> Result<SessionPaths, DatasetError> {
+    SessionPaths::new(dir, file)
+        .map_err(|m| DatasetError::invalid(dir.join(LABELS_FILE), format!("line {line}: {m}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_follow_the_documented_layout() {
+        assert_eq!(
+            session_file(GazeClass::Reading, 3),
+            "reading/reading_0003.csv"
+        );
+        assert_eq!(pool_file(GazeClass::Conversation), "pool/conversation.csv");
+        let p = SessionPaths::new(Path::new("/d"), "reading/reading_0003.csv").unwrap();
+        assert_eq!(p.mp4, PathBuf::from("/d/reading/reading_0003.mp4"));
+        assert_eq!(p.truth, PathBuf::from("/d/reading/reading_0003_truth.csv"));
+        assert_eq!(
+            p.identity_json,
+            PathBuf::from("/d/reading/reading_0003_identity.json")
+        );
+        assert_eq!(
+            SessionPaths::beside_video(Path::new("x/s.mp4")).identity_json,
+            PathBuf::from("x/s_identity.json")
+        );
+        for bad in ["", "/etc/passwd", "../x.csv", "a/../../b.csv"] {
+            assert!(SessionPaths::new(Path::new("/d"), bad).is_err(), "{bad}");
+        }
+    }
+}

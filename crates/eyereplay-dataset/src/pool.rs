@@ -1,0 +1,82 @@
+//! `pool/<class>.csv`: `frame,x,y,source`, the class's concatenated,
+//! normalized source pool (evaluation's reference), with the index of the
+//! source each frame came from.
+
+use crate::error::read_text;
+use crate::table::Table;
+use crate::DatasetError;
+use eyereplay_core::{atomic_write_with, push_point_row, push_u64, CanvasPos};
+use std::path::Path;
+
+pub const POOL_HEADER: &str = "frame,x,y,source";
+
+/// A continuous stretch of the source pool: one source recording.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Segment {
+    /// Index into metadata's sources.
+    pub source: u32,
+    pub points: Vec<[f64; 2]>,
+}
+
+/// Per-frame source index of a pool (segments flattened).
+pub fn frame_sources(pool: &[Segment]) -> Vec<u32> {
+    pool.iter()
+        .flat_map(|s| std::iter::repeat_n(s.source, s.points.len()))
+        .collect()
+}
+
+/// Writes a pool CSV atomically.
+pub fn write_pool(path: &Path, points: &[CanvasPos], sources: &[u32]) -> Result<(), DatasetError> {
+    atomic_write_with(path, |w| {
+        w.write_all(POOL_HEADER.as_bytes())?;
+        w.write_all(b"\n")?;
+        let mut line = Vec::with_capacity(48);
+        for (i, (p, s)) in points.iter().zip(sources).enumerate() {
+            line.clear();
+            push_point_row(&mut line, i as u64, *p);
+            line.push(b',');
+            push_u64(&mut line, *s as u64);
+            line.push(b'\n');
+            w.write_all(&line)?;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
+/// Reads a pool CSV, split into segments where `source` changes.
+pub fn read_pool(path: &Path) -> Result<Vec<Segment>, DatasetError> {
+    let text = read_text(path)?;
+    let t = Table::parse(&text, path)?;
+    let expected = format!(" (expected {POOL_HEADER})");
+    let (cx, cy, cs) = (
+        t.col("x", &expected)?,
+        t.col("y", &expected)?,
+        t.col("source", &expected)?,
+    );
+    let mut segs: Vec<Segment> = Vec::new();
+    for (line, rec) in &t.records {
+        let line = *line;
+        let f = |c: usize| t.number(rec, line, c);
+        let (x, y) = (f(cx)?, f(cy)?);
+        let src = f(cs)?;
+        if src.fract() != 0.0 || !(0.0..=u32::MAX as f64).contains(&src) {
+            return Err(DatasetError::invalid(
+                path,
+                format!("line {line}: source must be a non-negative integer index"),
+            ));
+        }
+        let src = src as u32;
+        match segs.last_mut() {
+            Some(s) if s.source == src => s.points.push([x, y]),
+            _ => segs.push(Segment {
+                source: src,
+                points: vec![[x, y]],
+            }),
+        }
+    }
+    if segs.is_empty() {
+        return Err(DatasetError::invalid(path, "source pool has no frames"));
+    }
+    Ok(segs)
+}

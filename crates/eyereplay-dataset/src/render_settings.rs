@@ -1,0 +1,114 @@
+//! The `[render]` table of a dataset config, typed once at load time.
+//!
+//! The config keeps the table as the user wrote it (so `metadata.json`
+//! records exactly that); [`RenderSettings::from_config`] turns it into this
+//! struct with defaults filled in, and rejects unknown keys and wrong types
+//! with the config file's name and the key.
+
+use crate::DatasetError;
+use eyereplay_prepare::DatasetConfig;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The `[render]` table of a dataset config.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RenderSettings {
+    /// Video width in px; default: the canvas width.
+    pub width: Option<usize>,
+    /// Video height in px; default: the canvas height.
+    pub height: Option<usize>,
+    /// Amplification of the iris excursion (1 = the source's amplitude).
+    pub gain: f64,
+    /// Distance from the eyes to the screen, for vergence (mm).
+    pub viewing_distance_mm: f64,
+    /// Blink at a natural rate (besides the sources' own blinks).
+    pub natural_blinks: bool,
+    /// x264 preset.
+    pub preset: String,
+    /// x264 constant rate factor.
+    pub crf: u32,
+    /// Sessions rendered at once; 0 = one per core.
+    pub jobs: usize,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            width: None,
+            height: None,
+            gain: 1.0,
+            viewing_distance_mm: 600.0,
+            natural_blinks: true,
+            preset: "veryfast".into(),
+            crf: 18,
+            jobs: 0,
+        }
+    }
+}
+
+impl RenderSettings {
+    /// The config's `[render]` table, typed (defaults where it is absent).
+    /// `path` names the config in errors.
+    pub fn from_config(cfg: &DatasetConfig, path: &Path) -> Result<Self, DatasetError> {
+        match &cfg.render {
+            None => Ok(RenderSettings::default()),
+            Some(table) => toml::Value::Table(table.clone())
+                .try_into::<RenderSettings>()
+                .map_err(|e| {
+                    DatasetError::invalid(
+                        path,
+                        format!(
+                            "[render]: {}",
+                            eyereplay_prepare::describe_toml_error("", &e)
+                        ),
+                    )
+                }),
+        }
+    }
+
+    /// Sessions to render at once: `jobs`, or one per core.
+    pub fn jobs(&self) -> usize {
+        if self.jobs > 0 {
+            self.jobs
+        } else {
+            std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(1)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg(render: &str) -> DatasetConfig {
+        DatasetConfig::parse(&format!(
+            "[classes.reading]\nsources = [{{ format = \"csv\", path = \"a.csv\" }}]\n{render}"
+        ))
+        .unwrap()
+    }
+
+    #[test]
+    fn typed_with_defaults_and_real_errors() {
+        let p = Path::new("data.toml");
+        assert_eq!(
+            RenderSettings::from_config(&cfg(""), p).unwrap(),
+            RenderSettings::default()
+        );
+        let s = RenderSettings::from_config(&cfg("[render]\ngain = 2.0\njobs = 3"), p).unwrap();
+        assert_eq!((s.gain, s.jobs, s.crf), (2.0, 3, 18));
+        let e = RenderSettings::from_config(&cfg("[render]\ngian = 2.0"), p)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("data.toml: [render]:") && e.contains("gian"),
+            "{e}"
+        );
+        let e = RenderSettings::from_config(&cfg("[render]\ncrf = \"high\""), p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("data.toml") && e.contains("crf"), "{e}");
+    }
+}

@@ -1,0 +1,44 @@
+use std::path::PathBuf;
+
+/// Everything that can go wrong in the pipeline, by layer. Each message is
+/// one line that names the file or setting at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error(transparent)]
+    Core(#[from] eyereplay_core::CoreError),
+    #[error(transparent)]
+    Source(#[from] eyereplay_sources::SourceError),
+    #[error(transparent)]
+    Prepare(#[from] eyereplay_prepare::PrepareError),
+    #[error(transparent)]
+    Dataset(#[from] eyereplay_dataset::DatasetError),
+    #[error(transparent)]
+    Extract(#[from] eyereplay_extract::ExtractError),
+    #[error(transparent)]
+    Render(#[from] eyereplay_render::RenderError),
+    #[error(transparent)]
+    Eval(#[from] eyereplay_eval::EvalError),
+    /// A file or folder the job needs is missing or unusable.
+    #[error("{path}: {message}")]
+    Input { path: PathBuf, message: String },
+    /// An option or setting out of range.
+    #[error("{0}")]
+    Setting(String),
+    /// Some sessions failed; the others were written. Rerun to retry.
+    #[error("{} session(s) failed (rerun the same command to retry): {}", .0.len(), .0.join("; "))]
+    SessionsFailed(Vec<String>),
+}
+
+impl Error {
+    pub fn input(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        Error::Input {
+            path: path.into(),
+            message: message.into(),
+        }
+    }
+    pub(crate) fn io(path: &std::path::Path, e: std::io::Error) -> Self {
+        Error::input(path, e.to_string())
+    }
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,490 @@
+//! Stage 8: a dataset's fidelity, distributional and visual, written as
+//! `report/index.html` and `report/metrics.json`.
+//!
+//! Distributional fidelity is [`eyereplay_eval`]'s. Visual fidelity needs the
+//! extractor too, so it is put together here: one rendered video is read
+//! back with the extractor and its iris compared frame by frame with the
+//! trajectory that drove it.
+
+use crate::{Error, Result};
+use eyereplay_core::{read_session_csv, CanvasPos};
+use eyereplay_dataset::{
+    read_blink_column, read_metadata, read_truth_csv, session_calibrations, SessionIdentity,
+    SessionPaths,
+};
+use eyereplay_eval::{
+    compare_visual, evaluate_dataset, write_report, EvalConfig, Evaluation, VisualRun,
+    VisualSection,
+};
+use std::path::{Path, PathBuf};
+
+/// Which video the visual-fidelity section compares.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum VisualChoice {
+    /// The first rendered reading session, if any (else the section says why not).
+    #[default]
+    Auto,
+    /// Skip the section.
+    Skip,
+    /// This session (path relative to the dataset, as in labels.csv).
+    Session(String),
+    /// Any rendered video and the `frame,x,y` canvas trajectory that drove
+    /// it (e.g. another simulator's), mapped back with the dataset's pooled
+    /// calibration.
+    Video { video: PathBuf, trajectory: PathBuf },
+}
+
+/// Options of [`evaluate`]; the defaults are the report's.
+#[derive(Clone, Debug)]
+pub struct EvaluateOptions {
+    pub config: EvalConfig,
+    pub visual: VisualChoice,
+    /// Compare only the first this many seconds of the video (the paper: 120).
+    pub visual_seconds: f64,
+    /// Folder of the iris models (default: the extractor's default folder).
+    pub models: Option<PathBuf>,
+}
+
+impl Default for EvaluateOptions {
+    fn default() -> Self {
+        EvaluateOptions {
+            config: EvalConfig::default(),
+            visual: VisualChoice::Auto,
+            visual_seconds: 120.0,
+            models: None,
+        }
+    }
+}
+
+/// What [`evaluate`] measured and where it wrote it.
+pub struct EvaluateOutcome {
+    pub evaluation: Evaluation,
+    pub html: PathBuf,
+    pub metrics_path: PathBuf,
+    /// The metrics.json text.
+    pub metrics_json: String,
+}
+
+/// Measures a dataset's fidelity and writes its report.
+pub fn evaluate(dir: &Path, opts: &EvaluateOptions) -> Result<EvaluateOutcome> {
+    check_options(opts)?;
+    let mut ev = evaluate_dataset(dir, &opts.config)?;
+    ev.visual = match &opts.visual {
+        VisualChoice::Skip => VisualSection::NotComputed {
+            reason: "not computed: skipped with --no-visual".into(),
+        },
+        choice => visual_section(dir, choice, opts, &mut ev)?,
+    };
+    let (paths, metrics_json) = write_report(dir, &ev)?;
+    Ok(EvaluateOutcome {
+        evaluation: ev,
+        html: paths.html,
+        metrics_path: paths.metrics,
+        metrics_json,
+    })
+}
+
+fn check_options(o: &EvaluateOptions) -> Result<()> {
+    let t = &o.config.thresholds;
+    let bad = |m: String| Err(Error::Setting(m));
+    if !(t.fixation_below_px_per_frame > 0.0
+        && t.saccade_above_px_per_frame >= t.fixation_below_px_per_frame)
+    {
+        return bad(format!(
+            "thresholds: need 0 < --fixation-below <= --saccade-above (got {} and {})",
+            t.fixation_below_px_per_frame, t.saccade_above_px_per_frame
+        ));
+    }
+    if !(o.config.window_s > 0.0) {
+        return bad("--window-s must be positive".into());
+    }
+    if !(o.visual_seconds > 0.0) {
+        return bad("--visual-seconds must be positive".into());
+    }
+    Ok(())
+}
+
+/// The video to compare, its driving trajectory, and the dataset session it
+/// belongs to (if any).
+struct VisualTarget {
+    video: PathBuf,
+    trajectory: PathBuf,
+    truth: Option<PathBuf>,
+    session: Option<String>,
+}
+
+/// Picks the video and trajectory to compare. An explicit choice must
+/// work; the automatic one returns why it could not run.
+fn visual_target(
+    dir: &Path,
+    choice: &VisualChoice,
+    ev: &Evaluation,
+) -> Result<std::result::Result<VisualTarget, String>> {
+    let session = match choice {
+        VisualChoice::Video { video, trajectory } => {
+            if !video.is_file() {
+                return Err(Error::input(video, "not found"));
+            }
+            return Ok(Ok(VisualTarget {
+                video: video.clone(),
+                trajectory: trajectory.clone(),
+                truth: None,
+                session: None,
+            }));
+        }
+        VisualChoice::Session(s) => s.clone(),
+        VisualChoice::Auto | VisualChoice::Skip => {
+            let first = ev
+                .classes
+                .iter()
+                .flat_map(|c| c.events.iter().map(|(f, _)| f.clone()))
+                .find(|f| SessionPaths::new(dir, f).is_ok_and(|p| p.mp4.is_file()));
+            match first {
+                Some(f) => f,
+                None => {
+                    return Ok(Err(
+                        "not computed: no rendered session found (a video <class>/<stem>.mp4 \
+beside a session CSV); run 'eyereplay render' first, or pass --video and --trajectory"
+                            .into(),
+                    ))
+                }
+            }
+        }
+    };
+    let paths = SessionPaths::new(dir, &session).map_err(Error::Setting)?;
+    if !paths.mp4.is_file() {
+        return Err(Error::input(
+            &paths.mp4,
+            format!("not found (the rendered video of {session})"),
+        ));
+    }
+    Ok(Ok(VisualTarget {
+        truth: paths.truth.is_file().then(|| paths.truth.clone()),
+        video: paths.mp4,
+        trajectory: paths.csv,
+        session: Some(session),
+    }))
+}
+
+/// Canvas px back to normalized iris units, with the calibration that
+/// produced each frame (pooled, or per source for a dataset session).
+fn source_norm(dir: &Path, target: &VisualTarget, input: &[CanvasPos]) -> Result<Vec<[f64; 2]>> {
+    let meta = read_metadata(dir)?.dataset;
+    let cals = match &target.session {
+        Some(rel) => session_calibrations(dir, &meta, rel, input.len())?,
+        None => vec![
+            meta.calibration.ok_or_else(|| Error::input(
+                dir.join(eyereplay_dataset::layout::METADATA_FILE),
+                "--trajectory needs the dataset's pooled calibration; \
+for per-source calibrations compare a dataset session (--visual-session)",
+            ))?;
+            input.len()
+        ],
+    };
+    Ok(input
+        .iter()
+        .zip(&cals)
+        .map(|(c, cal)| {
+            let n = cal.canvas_to_norm(*c);
+            [n.nx, n.ny]
+        })
+        .collect())
+}
+
+/// Frames where the eyes are closed (the session's or the render's blink
+/// column, widened by two frames each side, since lids are part-closed just
+/// before and after a flagged blink): they carry no iris position.
+fn closed_frames(target: &VisualTarget, frames: usize) -> Result<Vec<bool>> {
+    let mut closed = vec![false; frames];
+    let files = std::iter::once(&target.trajectory).chain(target.truth.as_ref());
+    for p in files {
+        if let Some(b) = read_blink_column(p)? {
+            for (c, b) in closed.iter_mut().zip(b) {
+                *c |= b;
+            }
+        }
+    }
+    let flagged = closed.clone();
+    for (i, _) in flagged.iter().enumerate().filter(|(_, &b)| b) {
+        for c in &mut closed[i.saturating_sub(2)..(i + 3).min(frames)] {
+            *c = true;
+        }
+    }
+    Ok(closed)
+}
+
+fn masked(n: &[[f64; 2]], closed: &[bool]) -> Vec<[f64; 2]> {
+    n.iter()
+        .zip(closed)
+        .map(|(r, &c)| if c { [f64::NAN, f64::NAN] } else { *r })
+        .collect()
+}
+
+fn visual_section(
+    dir: &Path,
+    choice: &VisualChoice,
+    opts: &EvaluateOptions,
+    ev: &mut Evaluation,
+) -> Result<VisualSection> {
+    let explicit = !matches!(choice, VisualChoice::Auto);
+    let not_computed = |reason: String| -> Result<VisualSection> {
+        if explicit {
+            Err(Error::Setting(reason))
+        } else {
+            Ok(VisualSection::NotComputed { reason })
+        }
+    };
+    let target = match visual_target(dir, choice, ev)? {
+        Ok(t) => t,
+        Err(reason) => return Ok(VisualSection::NotComputed { reason }),
+    };
+    let models = opts
+        .models
+        .clone()
+        .unwrap_or_else(eyereplay_extract::default_models_dir);
+    let missing = eyereplay_extract::missing_files(&models);
+    if !missing.is_empty() {
+        return not_computed(format!(
+            "not computed: iris models missing in {} ({}); run 'eyereplay models fetch'",
+            models.display(),
+            missing.join(", ")
+        ));
+    }
+    let input: Vec<CanvasPos> = read_session_csv(&target.trajectory)?;
+    check_frame_count(&target.video, input.len())?;
+    let source_all = source_norm(dir, &target, &input)?;
+    let closed = closed_frames(&target, input.len())?;
+    let n = ((opts.visual_seconds * ev.fps).round() as usize).min(input.len());
+    if let Some(p) = &target.truth {
+        ev.render_truth = Some(render_truth(dir, p, &source_all, &closed, n)?);
+    }
+    let geometry = SessionPaths::beside_video(&target.video).identity_json;
+    let (rendered_n, locator) = match read_back(dir, &target.video, &models, n, ev.fps, &geometry)?
+    {
+        Ok(r) => r,
+        Err(reason) => return not_computed(reason),
+    };
+    let n = n.min(rendered_n.len());
+    if n < 2 {
+        return Err(Error::input(
+            &target.video,
+            format!("only {n} frame(s) decoded"),
+        ));
+    }
+    let rendered_n = masked(&rendered_n[..n], &closed);
+    let source_n = source_all[..n].to_vec();
+    let fidelity = compare_visual(&source_n, &rendered_n, Some((&input[..n], ev.canvas)))
+        .map_err(|e| Error::input(&target.video, format!("visual comparison: {e}")))?;
+    Ok(VisualSection::Computed(Box::new(VisualRun {
+        fidelity,
+        detection_rate: detection_rate(&rendered_n),
+        source_n,
+        rendered_n,
+        video: shown(dir, &target.video),
+        eye_locator: locator,
+    })))
+}
+
+/// The renderer's own iris positions against the source: the simulator's
+/// mapping without the extractor.
+fn render_truth(
+    dir: &Path,
+    truth: &Path,
+    source: &[[f64; 2]],
+    closed: &[bool],
+    n: usize,
+) -> Result<(String, eyereplay_eval::VisualFidelity)> {
+    let rows = read_truth_csv(truth)?;
+    if rows.len() != source.len() {
+        return Err(Error::input(
+            truth,
+            format!(
+                "{} frames, but its trajectory has {}",
+                rows.len(),
+                source.len()
+            ),
+        ));
+    }
+    let t: Vec<[f64; 2]> = rows[..n].iter().map(|r| r.mean_norm()).collect();
+    let cmp = compare_visual(&source[..n], &masked(&t, closed), None)
+        .map_err(|e| Error::input(truth, format!("comparing with the source: {e}")))?;
+    Ok((shown(dir, truth), cmp))
+}
+
+/// The iris read back from the video: the extractor's own pipeline (face
+/// detector -> mesh -> iris); for a close-up whose face the detector does
+/// not see, the iris model on eye crops placed at the render's known eye
+/// corners. `Err(reason)` when neither can run.
+fn read_back(
+    dir: &Path,
+    video: &Path,
+    models: &Path,
+    n: usize,
+    fps: f64,
+    geometry: &Path,
+) -> Result<std::result::Result<(Vec<[f64; 2]>, String), String>> {
+    // When the render's geometry is at hand, a 4-s trial decides first
+    // whether the detector sees a face at all, so a close-up does not cost
+    // a full detector pass.
+    let trial = (4.0 * fps).round() as usize;
+    let detected = if geometry.is_file() && n > trial {
+        match extract_with_detector(video, models, trial, fps) {
+            Ok(r) if detection_rate(&r) < 0.5 => Ok(r),
+            _ => extract_with_detector(video, models, n, fps),
+        }
+    } else {
+        extract_with_detector(video, models, n, fps)
+    };
+    match detected {
+        Ok(r) if detection_rate(&r) >= 0.5 || !geometry.is_file() => Ok(Ok((
+            r,
+            "face detector, face mesh and iris model (eyereplay-extract)".to_string(),
+        ))),
+        first => {
+            if !geometry.is_file() {
+                let e = first.expect_err("handled above");
+                return Ok(Err(format!(
+                    "not computed: {e}; no render geometry ({}) to place the eye crops",
+                    shown(dir, geometry)
+                )));
+            }
+            let corners = SessionIdentity::read(geometry)?.corner_pairs_px();
+            let r = extract_at_corners(video, models, corners, n)?;
+            let seen = match &first {
+                Ok(r) => format!("{:.0} %", 100.0 * detection_rate(r)),
+                Err(_) => "none".to_string(),
+            };
+            Ok(Ok((
+                r,
+                format!(
+                    "iris model on eye crops placed from the render's known geometry ({}; \
+nx against its fixed eye corners, ny against the model's lids), \
+because the face detector found the face in {seen} of the compared frames",
+                    shown(dir, geometry)
+                ),
+            )))
+        }
+    }
+}
+
+fn detection_rate(n: &[[f64; 2]]) -> f64 {
+    n.iter()
+        .filter(|p| p[0].is_finite() && p[1].is_finite())
+        .count() as f64
+        / n.len().max(1) as f64
+}
+
+/// Mean `(nx, ny)` of both eyes per frame for the first `n_max` frames by
+/// the extractor's full pipeline; NaN where it found no open eyes.
+fn extract_with_detector(
+    video: &Path,
+    models: &Path,
+    n_max: usize,
+    fps: f64,
+) -> Result<Vec<[f64; 2]>> {
+    let opts = eyereplay_extract::ExtractOptions {
+        models_dir: models.to_path_buf(),
+        max_duration_s: Some(n_max as f64 / fps),
+        ..Default::default()
+    };
+    let ext = eyereplay_extract::extract_many(
+        &[video.to_path_buf()],
+        &opts,
+        &eyereplay_extract::NoProgress,
+    )
+    .pop()
+    .expect("one result per video")
+    .map_err(|e| Error::input(video, format!("extracting the iris: {e}")))?;
+    Ok(ext.rows.iter().take(n_max).map(row_norm).collect())
+}
+
+fn row_norm(r: &eyereplay_extract::Row) -> [f64; 2] {
+    match r.mean_n() {
+        Some((x, y)) if r.valid() => [x, y],
+        _ => [f64::NAN, f64::NAN],
+    }
+}
+
+/// The extractor's iris step without face detection
+/// ([`eyereplay_extract::EyeCropTracker`]): the iris model on eye crops
+/// placed at the render's known corners as MediaPipe places them; `nx`
+/// against those fixed corners (camera and head do not move in a close-up
+/// render), `ny` against the model's lids; blinks by the extractor's
+/// aperture rule are NaN.
+fn extract_at_corners(
+    video: &Path,
+    models: &Path,
+    corners: [([f64; 2], [f64; 2]); 2],
+    n_max: usize,
+) -> Result<Vec<[f64; 2]>> {
+    use eyereplay_extract::Pt;
+    let pt = |p: [f64; 2]| Pt::new(p[0] as f32, p[1] as f32);
+    // Image-left eye first, each pair left to right, as the crops expect.
+    let corners = eyereplay_extract::order_eye_corners(corners.map(|(a, b)| (pt(a), pt(b))));
+    let m = eyereplay_extract::Models::load(models)?;
+    let rows = eyereplay_extract::EyeCropTracker::new(m)
+        .measure_video_rows(
+            video,
+            &corners,
+            eyereplay_extract::CornerReference::Fixed,
+            Some(n_max),
+            eyereplay_extract::DEFAULT_BLINK_RATIO,
+        )
+        .map_err(|e| Error::input(video, format!("measuring the eyes: {e}")))?;
+    Ok(rows.iter().map(row_norm).collect())
+}
+
+/// A video whose frame count differs from its trajectory is bad input.
+fn check_frame_count(video: &Path, trajectory_frames: usize) -> Result<()> {
+    let info = eyereplay_extract::probe(video)
+        .map_err(|e| Error::input(video, format!("reading the video: {e}")))?;
+    if let Some(f) = info.frames_estimate {
+        if f as usize != trajectory_frames {
+            return Err(Error::input(
+                video,
+                format!("{f} video frames, but its trajectory has {trajectory_frames}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A path as shown in the report: relative to the dataset folder when it is
+/// inside it (so reports do not depend on where the dataset lives).
+fn shown(dir: &Path, p: &Path) -> String {
+    p.strip_prefix(dir).unwrap_or(p).display().to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shown_paths_are_relative_inside_the_dataset() {
+        assert_eq!(
+            shown(Path::new("/data"), Path::new("/data/reading/r.mp4")),
+            "reading/r.mp4"
+        );
+        assert_eq!(shown(Path::new("/data"), Path::new("/x/r.mp4")), "/x/r.mp4");
+    }
+
+    #[test]
+    fn blinks_widen_by_two_frames_each_side() {
+        let dir = tempfile::tempdir().unwrap();
+        let traj = dir.path().join("s.csv");
+        let mut text = String::from("frame,x,y,blink\n");
+        for i in 0..10 {
+            text.push_str(&format!("{i},1,1,{}\n", (i == 5) as u8));
+        }
+        std::fs::write(&traj, text).unwrap();
+        let t = VisualTarget {
+            video: dir.path().join("s.mp4"),
+            trajectory: traj,
+            truth: None,
+            session: None,
+        };
+        let c = closed_frames(&t, 10).unwrap();
+        let want: Vec<bool> = (0..10).map(|i| (3..=7).contains(&i)).collect();
+        assert_eq!(c, want);
+    }
+}

@@ -1,0 +1,192 @@
+//! The whole job: validate every input, extract (cached), prepare, render,
+//! finalize and evaluate. Resumable and shardable.
+
+use crate::evaluate::EvaluateOptions;
+use crate::inputs::{cache_dir, check_ffmpeg, check_models, free_bytes, video_sources};
+use crate::progress::Progress;
+use crate::render::{render_params, render_sessions, RenderSummary};
+use crate::shard::Shard;
+use crate::{prepare_dataset, Error, PreparedDataset, Result};
+use eyereplay_dataset::RenderSettings;
+use eyereplay_prepare::DatasetConfig;
+use eyereplay_render::RenderParams;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What [`generate`] and [`plan`] need besides the config.
+#[derive(Clone, Debug, Default)]
+pub struct GenerateOptions {
+    /// Output dataset folder.
+    pub out: PathBuf,
+    /// Render only this shard's sessions (finish with [`crate::finalize`]).
+    pub shard: Option<Shard>,
+    /// Extraction cache (default: [`cache_dir`]`(None)`).
+    pub cache: Option<PathBuf>,
+    /// Evaluation of the finished dataset; `None` skips the report.
+    pub evaluate: Option<EvaluateOptions>,
+}
+
+/// A validated job: everything checked, nothing written yet.
+pub struct Job {
+    pub config_path: PathBuf,
+    pub config: DatasetConfig,
+    pub settings: RenderSettings,
+    pub params: RenderParams,
+    pub shard: Option<Shard>,
+    /// Sessions this process renders.
+    pub sessions: usize,
+    /// Projected size of the videos (bytes).
+    pub video_bytes: u64,
+}
+
+impl Job {
+    /// Frames this process renders.
+    pub fn frames(&self) -> usize {
+        self.sessions * self.config.session_frames
+    }
+}
+
+/// Loads the config and checks every input before hours of work start:
+/// source files, render settings, models (with video sources), ffmpeg.
+pub fn plan(config_path: &Path, shard: Option<Shard>) -> Result<Job> {
+    let config = DatasetConfig::load(config_path)?;
+    let settings = RenderSettings::from_config(&config, config_path)?;
+    let params =
+        render_params(&settings, &config).map_err(|e| Error::input(config_path, e.to_string()))?;
+    eyereplay_prepare::check_source_files(&config)?;
+    if !video_sources(&config).is_empty() {
+        check_models()?;
+    }
+    check_ffmpeg(&params.encoder.ffmpeg)?;
+    let total: usize = config.classes.values().map(|c| c.sessions).sum();
+    let sessions = shard.map_or(total, |s| s.count_of(total));
+    let video_bytes = (sessions * config.session_frames) as u64
+        * estimate_bytes_per_frame(params.width, params.height);
+    Ok(Job {
+        config_path: config_path.to_path_buf(),
+        config,
+        settings,
+        params,
+        shard,
+        sessions,
+        video_bytes,
+    })
+}
+
+/// MP4 bytes per rendered frame at x264 veryfast, CRF 18, from measured
+/// 1280x720 sessions (about 4 KB), scaled by pixel count, with a margin.
+pub fn estimate_bytes_per_frame(width: usize, height: usize) -> u64 {
+    let px = (width * height) as f64 / (1280.0 * 720.0);
+    (6_000.0 * px).ceil() as u64
+}
+
+/// What [`generate`] did, stage by stage.
+#[derive(Clone, Debug, Default)]
+pub struct GenerateSummary {
+    pub render: RenderSummary,
+    /// `(stage, seconds)` in order.
+    pub stage_s: Vec<(&'static str, f64)>,
+    /// Set when the dataset was finished and evaluated here (no shard).
+    pub report: Option<PathBuf>,
+}
+
+/// Runs a validated [`Job`] into `opts.out`. Kill it at any moment and run
+/// it again: finished sessions are verified and skipped.
+pub fn generate(
+    job: &Job,
+    opts: &GenerateOptions,
+    progress: &dyn Progress,
+) -> Result<GenerateSummary> {
+    let out = &opts.out;
+    std::fs::create_dir_all(out).map_err(|e| Error::input(out, format!("cannot create: {e}")))?;
+    if let Some(free) = free_bytes(out) {
+        if free < job.video_bytes {
+            return Err(Error::input(
+                out,
+                format!(
+                    "{:.1} GB free, the videos need about {:.1} GB ({} frames)",
+                    free as f64 / 1e9,
+                    job.video_bytes as f64 / 1e9,
+                    job.frames()
+                ),
+            ));
+        }
+    }
+    let mut log = RunLog::open(out)?;
+    let mut summary = GenerateSummary::default();
+    let mut stage = |name: &'static str, t: Instant, log: &mut RunLog| {
+        let s = t.elapsed().as_secs_f64();
+        log.stage(name, s);
+        summary.stage_s.push((name, s));
+    };
+
+    // Extract (cached) and prepare: every shard writes identical files.
+    let t = Instant::now();
+    let cache = opts.cache.clone().unwrap_or_else(|| cache_dir(None));
+    let prepared = prepare_dataset(&job.config, out, &cache, progress)?;
+    stage("extract+prepare", t, &mut log);
+
+    // Render this shard's sessions (the renderer first removes what a
+    // killed run left half-written of each of them).
+    let t = Instant::now();
+    let PreparedDataset { metadata, .. } = prepared;
+    let render = render_sessions(
+        out,
+        metadata.seed,
+        &job.settings,
+        job.params.clone(),
+        metadata.session_frames,
+        job.shard,
+        progress,
+    )?;
+    stage("render", t, &mut log);
+
+    // Finish (a sharded run leaves it to 'eyereplay merge').
+    let mut report = None;
+    if job.shard.is_none() {
+        let t = Instant::now();
+        if let Some(ev) = crate::finalize(out, opts.evaluate.as_ref())? {
+            report = Some(ev.html);
+        }
+        stage("merge+evaluate", t, &mut log);
+    }
+    summary.render = render;
+    summary.report = report;
+    Ok(summary)
+}
+
+/// Per-stage timings, appended to `<out>/run.log` (not to metadata.json,
+/// which must come out identical on a rerun).
+struct RunLog {
+    file: std::fs::File,
+}
+
+impl RunLog {
+    fn open(out: &Path) -> Result<Self> {
+        let path = out.join("run.log");
+        let mut file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&path)
+            .map_err(|e| Error::io(&path, e))?;
+        let argv: Vec<String> = std::env::args().collect();
+        let now_s = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_secs())
+            .unwrap_or(0);
+        writeln!(
+            file,
+            "run {now_s} (pid {}): {}",
+            std::process::id(),
+            argv.join(" ")
+        )
+        .map_err(|e| Error::io(&path, e))?;
+        Ok(RunLog { file })
+    }
+
+    fn stage(&mut self, name: &str, seconds: f64) {
+        // Timing is informative only: a full disk must not fail the job here.
+        let _ = writeln!(self.file, "  {name}: {seconds:.2} s");
+    }
+}
