@@ -133,8 +133,8 @@ fn golden(id: Identity) -> Golden {
     }
     for t in truth.iter().step_by(3) {
         for side in [Side::Left, Side::Right] {
-            let e = &t.eyes[side as usize];
-            let [up, lo] = scene.lid_margins_px(side as usize, e.pose, t.closure, 24);
+            let e = &t.eyes[side.index()];
+            let [up, lo] = scene.lid_margins_px(side, e.pose, t.closure, 24);
             margins.f64s(up.iter().chain(&lo).flatten().copied());
         }
     }
