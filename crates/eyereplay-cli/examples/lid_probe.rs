@@ -14,7 +14,7 @@ use eyereplay_core::NormPos;
 use eyereplay_extract::{
     order_eye_corners, EyeCropTracker, ImageView, Models, Planes, Pt, Rotation,
 };
-use eyereplay_render::{write_png, EyePose, Identity, Scene};
+use eyereplay_render::{write_png, EyePose, Identity, Scene, Side};
 use std::path::PathBuf;
 
 const W: usize = 1280;
@@ -139,7 +139,7 @@ fn main() {
         for (ix, &nx) in nxs.iter().enumerate() {
             for (iy, &ny) in nys.iter().enumerate() {
                 let target = NormPos { nx, ny };
-                let poses: [EyePose; 2] = [0, 1].map(|k| scene.solve_pose(k, target));
+                let poses: [EyePose; 2] = Side::BOTH.map(|side| scene.solve_pose(side, target));
                 let mut rgb = scene.background_rgb().to_vec();
                 scene.render_eyes(poses, 0.0, 1.0, Some(&mut rgb), None, &mut Vec::new());
                 let img = ImageView {
@@ -153,11 +153,11 @@ fn main() {
                 };
                 let eyes = tracker.measure(&img, &corners).unwrap();
                 let save = png_dir.is_some() && ix == 1 && (iy == 0 || iy == 4);
-                for k in 0..2 {
+                for (k, side) in Side::BOTH.into_iter().enumerate() {
                     // Image-left eye first in both.
                     let e = &eyes[k];
-                    let t = scene.truth(k, poses[k], 0.0);
-                    let [up, lo] = scene.lid_margins_px(k, poses[k], 0.0, 96);
+                    let t = scene.truth(side, poses[k], 0.0);
+                    let [up, lo] = scene.lid_margins_px(side, poses[k], 0.0, 96);
                     let a = &mut acc[k];
                     a.t_up.push(y_at(&up, e.upper_lid.x as f64));
                     a.m_up.push(e.upper_lid.y as f64);

@@ -36,8 +36,8 @@ fn main() {
     } else {
         write_png(std::path::Path::new(&out), &rgb, 1280, 720).unwrap();
     }
-    for k in 0..2 {
-        eprintln!("{:?}", scene.truth(k, p, closure));
+    for side in Side::BOTH {
+        eprintln!("{:?}", scene.truth(side, p, closure));
     }
     eprintln!("{:?}", scene.geometry());
 }

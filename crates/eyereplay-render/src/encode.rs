@@ -7,6 +7,11 @@
 //! error the temporary file is removed, so no half-written video is ever
 //! visible under the target name.
 
+mod colour;
+
+pub use colour::rgb_to_yuv420;
+pub(crate) use colour::{chroma, yuv_of};
+
 use crate::RenderError;
 use std::io::Write;
 use std::path::{Path, PathBuf};

@@ -69,13 +69,14 @@ pub use dataset::{
     DatasetOptions, DatasetSummary, SessionJob, SessionOutcome,
 };
 pub use encode::{
-    ffprobe_for, probe_video, Codec, Encoder, EncoderSettings, VideoInfo, DEFAULT_X264_PARAMS,
+    ffprobe_for, probe_video, rgb_to_yuv420, Codec, Encoder, EncoderSettings, VideoInfo,
+    DEFAULT_X264_PARAMS,
 };
 pub use error::RenderError;
 pub use eyereplay_dataset::{read_blink_column, TRUTH_HEADER};
 pub use gaze::{default_calibration, Calibration, GazeMapping};
 pub use identity::{CameraPose, EyeShape, Identity, IrisStyle, Lighting};
-pub use scene::{rgb_to_yuv420, EyeGeometry, EyePose, EyeTruth, Scene, Side};
+pub use scene::{EyeGeometry, EyePose, EyeTruth, Scene, Side};
 pub use session::{
     check_trajectory, render_frames, render_session, render_session_pngs, solve_truth,
     write_truth_csv, FrameSink, FrameTruth, RenderParams, RenderStats,

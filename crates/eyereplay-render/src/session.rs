@@ -1,7 +1,7 @@
 //! Rendering one session: trajectory in, MP4 and ground-truth CSV out.
 
 use crate::encode::{Encoder, EncoderSettings};
-use crate::scene::{EyePose, EyeTruth, Scene};
+use crate::scene::{EyePose, EyeTruth, Scene, Side};
 use crate::{closure_track, GazeMapping, Identity, RenderError};
 use eyereplay_core::{Canvas, CanvasPos};
 use eyereplay_dataset::{EyeTruthRow, TruthRow};
@@ -158,10 +158,10 @@ pub fn solve_truth(
         .enumerate()
         .map(|(i, &c)| {
             let target = params.mapping.target_norm(c);
-            let eyes = [0usize, 1].map(|k| {
-                let mut pose = scene.solve_pose(k, target);
+            let eyes = Side::BOTH.map(|side| {
+                let mut pose = scene.solve_pose(side, target);
                 // Converge: the image-left eye turns right (+yaw), the other left.
-                pose.yaw_rad += if k == 0 { verg } else { -verg };
+                pose.yaw_rad += if side == Side::Left { verg } else { -verg };
                 EyePose { ..pose }
             });
             let t = i as f64 / params.fps;
@@ -172,7 +172,7 @@ pub fn solve_truth(
                         + 0.4 * (std::f64::consts::TAU * 0.23 * t + ph2).sin());
             FrameTruth {
                 input: c,
-                eyes: [0, 1].map(|k| scene.truth(k, eyes[k], closure[i])),
+                eyes: Side::BOTH.map(|side| scene.truth(side, eyes[side.index()], closure[i])),
                 closure: closure[i],
                 pupil_scale,
             }
