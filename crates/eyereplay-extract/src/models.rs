@@ -284,7 +284,19 @@ impl Models {
         Ok((lm.to_vec(), sc[0]))
     }
 
-    /// Iris model on both eyes at once (a 2x3x64x64 batch in [0, 1]).
+    /// Iris model on one eye (a 1x3x64x64 input in [0, 1]). The pipeline
+    /// batches both eyes ([`Models::iris`]); this is the unbatched
+    /// reference the batch must equal.
+    pub fn iris_single(&mut self, input: &[f32]) -> Result<IrisOut> {
+        let t = TensorRef::from_array_view(([1usize, 3, 64, 64], input))?;
+        let out = self.iris.run(ort::inputs!["input" => t])?;
+        let (_, contour) = out["output_eyes_contours_and_brows"].try_extract_tensor::<f32>()?;
+        let (_, iris) = out["output_iris"].try_extract_tensor::<f32>()?;
+        Ok((contour.to_vec(), iris.to_vec()))
+    }
+
+    /// Iris model on both eyes at once (a 2x3x64x64 batch in [0, 1]): one
+    /// inference instead of two halves the per-run overhead of ONNX Runtime.
     pub fn iris(&mut self, input: &[f32]) -> Result<[IrisOut; 2]> {
         let t = TensorRef::from_array_view(([2usize, 3, 64, 64], input))?;
         let out = self.iris.run(ort::inputs!["input" => t])?;
