@@ -127,7 +127,18 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
         out[0].0.len() / 3,
         out[0].1.len() / 3
     ));
-    lines.push(format!("{ORT_LIB}: loaded"));
+    let cuda = CUDAExecutionProvider::default()
+        .is_available()
+        .unwrap_or(false);
+    lines.push(format!(
+        "{}: loaded ({})",
+        runtime_library(dir).display(),
+        if cuda {
+            "CUDA execution provider available"
+        } else {
+            "CPU only"
+        }
+    ));
     Ok(lines)
 }
 
