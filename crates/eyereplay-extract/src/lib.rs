@@ -57,7 +57,10 @@ pub use models::{
     Device, Models,
 };
 pub use output::{flag_blinks, save_csv, write_csv, EyeRow, Row, CSV_HEADER, DEFAULT_BLINK_RATIO};
-pub use profile::{children_cpu_s, process_cpu_s, thread_cpu_s, Stage, StageClock, StageTimes};
+pub use profile::{
+    children_cpu_s, children_major_faults, process_cpu_s, thread_cpu_s, Stage, StageClock,
+    StageTimes,
+};
 pub use run::{
     extract_many, extract_video_to_csv, ExtractOptions, Extraction, NoProgress, Progress,
     DEFAULT_MESH_EVERY,

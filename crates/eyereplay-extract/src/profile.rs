@@ -131,14 +131,26 @@ pub fn process_cpu_s() -> f64 {
 /// and of their waited-for descendants, in seconds (for whole-process
 /// benchmarks of child commands).
 pub fn children_cpu_s() -> f64 {
+    let ru = children_rusage();
+    let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    tv(ru.ru_utime) + tv(ru.ru_stime)
+}
+
+/// Major page faults (pages read back from disk) of the waited-for
+/// children: many of them mean the machine was short of memory during a
+/// benchmark, which inflates CPU time.
+pub fn children_major_faults() -> u64 {
+    children_rusage().ru_majflt.max(0) as u64
+}
+
+fn children_rusage() -> libc::rusage {
     // SAFETY: an all-zero rusage is a valid value to be overwritten.
     let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
     // SAFETY: `ru` is a valid, writable rusage; RUSAGE_CHILDREN always exists.
     unsafe {
         libc::getrusage(libc::RUSAGE_CHILDREN, &mut ru);
     }
-    let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
-    tv(ru.ru_utime) + tv(ru.ru_stime)
+    ru
 }
 
 fn clock_s(clock: libc::clockid_t) -> f64 {

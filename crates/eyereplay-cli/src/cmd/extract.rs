@@ -145,6 +145,7 @@ struct ProcessRun {
     cpu_s: f64,
     wall_s: f64,
     frames: f64,
+    major_faults: u64,
 }
 
 impl ProcessRun {
@@ -162,6 +163,7 @@ fn measure_process(
     frames: impl FnOnce(&str) -> Option<f64>,
 ) -> Result<ProcessRun> {
     let cpu0 = ex::children_cpu_s();
+    let faults0 = ex::children_major_faults();
     let t0 = std::time::Instant::now();
     let out = cmd
         .stderr(std::process::Stdio::piped())
@@ -169,6 +171,7 @@ fn measure_process(
         .with_context(|| format!("starting {what}"))?;
     let wall_s = t0.elapsed().as_secs_f64();
     let cpu_s = ex::children_cpu_s() - cpu0;
+    let major_faults = ex::children_major_faults().saturating_sub(faults0);
     let text = String::from_utf8_lossy(&out.stdout);
     if !out.status.success() {
         let err = String::from_utf8_lossy(&out.stderr);
@@ -181,6 +184,7 @@ fn measure_process(
         cpu_s,
         wall_s,
         frames,
+        major_faults,
     })
 }
 
@@ -276,6 +280,17 @@ fn bench_mediapipe(a: &Args, opts: &ex::ExtractOptions) -> Result<()> {
             ours.wall_s,
             ratio
         );
+        for (who, run) in [("MediaPipe", &mp), ("eyereplay", &ours)] {
+            // A few hundred come from loading libraries; thousands mean the
+            // machine was swapping out pages, which inflates CPU time.
+            if run.major_faults > 2000 {
+                println!(
+                    "  warning: {who} had {} major page faults (memory pressure on the machine); \
+                     this round's CPU time is suspect",
+                    run.major_faults
+                );
+            }
+        }
         mp_ms.push(mp.cpu_ms_per_frame());
         our_ms.push(ours.cpu_ms_per_frame());
         ratios.push(ratio);
