@@ -33,7 +33,7 @@ fn main() -> Result<()> {
         ex.segments,
         ex.blinks
     );
-    println!("{:?}", ex.stage_times);
+    println!("{:?} (on CUDA: {})", ex.stage_times, ex.on_cuda);
     if let Some(out) = args.get(3) {
         save_csv(std::path::Path::new(out), &ex.rows)?;
     }

@@ -32,7 +32,8 @@ use crate::geom::{Pt, Roi};
 use crate::image::ImageView;
 use crate::models::Models;
 use crate::output::{flag_blinks, EyeRow, Row};
-use crate::tracker::{iris_step, Eye, StageTimes, IRIS_INPUT};
+use crate::profile::StageClock;
+use crate::tracker::{iris_step, Eye, IRIS_INPUT};
 use std::ops::ControlFlow;
 use std::path::Path;
 
@@ -80,8 +81,8 @@ pub struct EyeCropTracker {
     /// about every two image pixels ([`area_samples`]), `Some(1)` samples the crop
     /// as MediaPipe does (one bilinear sample per crop pixel).
     pub area_samples: Option<usize>,
-    /// CPU time of the crop and iris stages.
-    pub times: StageTimes,
+    /// CPU time of the crop and iris stages (off unless enabled).
+    pub clock: StageClock,
 }
 
 /// Sub-samples per crop pixel and axis for a crop of `side_px` image pixels
@@ -100,7 +101,7 @@ impl EyeCropTracker {
             models,
             iris_in: vec![0.0; 2 * 3 * IRIS_INPUT * IRIS_INPUT],
             area_samples: None,
-            times: StageTimes::default(),
+            clock: StageClock::new(false),
         }
     }
 
@@ -125,7 +126,7 @@ impl EyeCropTracker {
                 self.area_samples
                     .unwrap_or_else(|| area_samples(r.w.max(r.h)))
             }),
-            &mut self.times,
+            &mut self.clock,
         )?;
         Ok(eyes)
     }

@@ -38,6 +38,7 @@ mod image;
 mod models;
 mod output;
 mod preview;
+mod profile;
 mod run;
 mod tracker;
 
@@ -51,13 +52,20 @@ pub use eyecrop::{
 };
 pub use geom::{Pt, Roi};
 pub use image::{Border, ImageView, Planes, Rotation, YuvMatrix};
-pub use models::{check as check_models, default_models_dir, init_runtime, missing_files, Models};
+pub use models::{
+    check as check_models, default_models_dir, init_runtime, missing_files, runtime_library,
+    Device, Models,
+};
 pub use output::{flag_blinks, save_csv, write_csv, EyeRow, Row, CSV_HEADER, DEFAULT_BLINK_RATIO};
+pub use profile::{
+    children_cpu_s, children_major_faults, process_cpu_s, thread_cpu_s, Stage, StageClock,
+    StageTimes,
+};
 pub use run::{
     extract_many, extract_video_to_csv, ExtractOptions, Extraction, NoProgress, Progress,
     DEFAULT_MESH_EVERY,
 };
-pub use tracker::{Eye, EyeMeasure, Face, StageTimes, Tracker};
+pub use tracker::{Eye, EyeMeasure, Face, Tracker};
 
 /// The fetch script, embedded so that `eyereplay models fetch` works from
 /// an installed binary too.

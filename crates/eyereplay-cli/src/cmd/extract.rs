@@ -22,7 +22,8 @@ eyereplay extract interview.mp4 --out interview.csv\n  \
 eyereplay extract a.mp4 b.webm c.mov --out iris/            # several videos in parallel\n  \
 eyereplay extract clip.mp4 --out iris/ --preview previews/  # annotated PNGs every 5 s\n  \
 eyereplay extract franck.mp4 --out /tmp/f.csv --compare crates/eyereplay-extract/tests/data/franck_mediapipe.csv\n  \
-eyereplay extract franck.mp4 --out /tmp/f.csv --bench-mediapipe   # speed vs MediaPipe Python, same run"
+eyereplay extract franck.mp4 --out /tmp/f.csv --profile           # CPU time per frame by stage\n  \
+eyereplay extract franck.mp4 --out /tmp/f.csv --bench-mediapipe   # CPU per frame vs MediaPipe Python, A B A B"
 )]
 pub struct Args {
     /// Video files (mp4, mov, webm, mkv, avi, ...).
@@ -57,17 +58,50 @@ pub struct Args {
     /// detection rate, Pearson r per axis and |difference| (one video only).
     #[arg(long)]
     pub compare: Option<PathBuf>,
-    /// Benchmark: run MediaPipe Python's face mesh on the same video in this same run
-    /// (scripts/dev/mediapipe_ref.sh) and print both frame rates and their ratio.
+    /// Where the networks run: auto (CUDA when the ONNX Runtime library has it, else
+    /// CPU), cpu, or cuda (falls back to the CPU with a warning).
+    #[arg(long, value_enum, default_value_t = DeviceArg::Auto)]
+    pub device: DeviceArg,
+    /// Print the CPU time per frame of each stage (decode, crops, each network,
+    /// post-processing, CSV writing, set-up), summing to the process's CPU time.
+    #[arg(long)]
+    pub profile: bool,
+    /// Benchmark against MediaPipe Python's face mesh (scripts/dev/mediapipe_ref.py):
+    /// whole processes, alternating MediaPipe and eyereplay --bench-rounds times, and
+    /// print each one's CPU seconds per frame and the ratio (medians over the rounds).
+    /// --out gets the last eyereplay round's CSV.
     #[arg(long)]
     pub bench_mediapipe: bool,
-    /// With --bench-mediapipe: alternate MediaPipe and eyereplay this many times and
-    /// also print the median ratios (steadier when the machine's load varies).
-    #[arg(long, default_value_t = 1)]
+    /// With --bench-mediapipe: how many A B rounds.
+    #[arg(long, default_value_t = 3)]
     pub bench_rounds: usize,
     /// No progress bars.
     #[arg(short, long)]
     pub quiet: bool,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DeviceArg {
+    Auto,
+    Cpu,
+    Cuda,
+}
+
+impl DeviceArg {
+    fn device(self) -> ex::Device {
+        match self {
+            DeviceArg::Auto => ex::Device::Auto,
+            DeviceArg::Cpu => ex::Device::Cpu,
+            DeviceArg::Cuda => ex::Device::Cuda,
+        }
+    }
+    fn name(self) -> &'static str {
+        match self {
+            DeviceArg::Auto => "auto",
+            DeviceArg::Cpu => "cpu",
+            DeviceArg::Cuda => "cuda",
+        }
+    }
 }
 
 struct Bars {
@@ -105,68 +139,218 @@ fn find_upwards(rel: &str) -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
-/// CPU seconds (user + system) of this process and of its waited-for
-/// children, from /proc/self/stat (Linux; clock ticks are USER_HZ = 100).
-fn cpu_seconds() -> Option<(f64, f64)> {
-    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the parenthesised command name; utime is field 14.
-    let rest = &s[s.rfind(')')? + 2..];
-    let f: Vec<f64> = rest
-        .split_whitespace()
-        .filter_map(|v| v.parse().ok())
-        .collect();
-    // rest starts at field 3 (state, not numeric, so filtered out): field n
-    // is at index n - 4.
-    let tick = 100.0;
-    Some(((f[10] + f[11]) / tick, (f[12] + f[13]) / tick))
+/// One whole process of a benchmark: CPU seconds (user + system, all its
+/// threads and children), wall seconds and frames.
+struct ProcessRun {
+    cpu_s: f64,
+    wall_s: f64,
+    frames: f64,
+    major_faults: u64,
 }
 
-/// MediaPipe's run: frames/s (wall) and CPU seconds per frame.
-struct MediapipeRun {
-    fps: f64,
-    cpu_per_frame_s: Option<f64>,
-}
-
-/// Runs the MediaPipe reference on `video` and measures it.
-fn mediapipe_fps(video: &Path, max_seconds: Option<f64>) -> Result<MediapipeRun> {
-    if max_seconds.is_some() {
-        bail!("--bench-mediapipe compares whole videos; drop --max-seconds");
+impl ProcessRun {
+    fn cpu_ms_per_frame(&self) -> f64 {
+        1e3 * self.cpu_s / self.frames.max(1.0)
     }
-    let script = find_upwards("scripts/dev/mediapipe_ref.sh")
-        .context("scripts/dev/mediapipe_ref.sh not found (run from the eyereplay checkout or set EYEREPLAY_ROOT)")?;
-    eprintln!(
-        "running MediaPipe Python face mesh on {} ...",
-        video.display()
-    );
-    let children_before = cpu_seconds().map(|c| c.1);
-    let out = std::process::Command::new("bash")
-        .arg(&script)
-        .arg(video)
-        .stderr(std::process::Stdio::null())
+}
+
+/// Runs `cmd` to completion and measures it as a whole process (start-up,
+/// imports and model loading included). `frames` reads the frame count from
+/// its standard output.
+fn measure_process(
+    cmd: &mut std::process::Command,
+    what: &str,
+    frames: impl FnOnce(&str) -> Option<f64>,
+) -> Result<ProcessRun> {
+    let cpu0 = ex::children_cpu_s();
+    let faults0 = ex::children_major_faults();
+    let t0 = std::time::Instant::now();
+    let out = cmd
+        .stderr(std::process::Stdio::piped())
         .output()
-        .with_context(|| format!("running {}", script.display()))?;
+        .with_context(|| format!("starting {what}"))?;
+    let wall_s = t0.elapsed().as_secs_f64();
+    let cpu_s = ex::children_cpu_s() - cpu0;
+    let major_faults = ex::children_major_faults().saturating_sub(faults0);
     let text = String::from_utf8_lossy(&out.stdout);
     if !out.status.success() {
-        bail!("{} failed: {}", script.display(), text.trim());
+        let err = String::from_utf8_lossy(&out.stderr);
+        let last = err.lines().last().unwrap_or("").trim().to_string();
+        bail!("{what} failed: {last}");
     }
-    let field = |key: &str| {
-        text.split_whitespace()
-            .find_map(|w| w.strip_prefix(key))
-            .and_then(|v| v.parse::<f64>().ok())
-    };
-    let fps = field("fps=")
-        .with_context(|| format!("no fps= in the MediaPipe script's output: {}", text.trim()))?;
-    let frames = field("frames=").unwrap_or(0.0);
-    // Includes the interpreter's start-up and model loading, which its own
-    // fps leaves out: a slight handicap for MediaPipe in the CPU ratio.
-    let cpu_per_frame_s = children_before
-        .zip(cpu_seconds().map(|c| c.1))
-        .filter(|_| frames > 0.0)
-        .map(|(a, b)| (b - a) / frames);
-    Ok(MediapipeRun {
-        fps,
-        cpu_per_frame_s,
+    let frames = frames(&text)
+        .with_context(|| format!("no frame count in {what}'s output: {}", text.trim()))?;
+    Ok(ProcessRun {
+        cpu_s,
+        wall_s,
+        frames,
+        major_faults,
     })
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// `--bench-mediapipe`: MediaPipe Python (A) and this same binary (B) on the
+/// same video, whole processes, A B A B, so that a change in the machine's
+/// load hits both; prints CPU seconds per frame and the frames-per-CPU-second
+/// ratio per round and their medians.
+fn bench_mediapipe(a: &Args, opts: &ex::ExtractOptions) -> Result<()> {
+    if a.max_seconds.is_some() || a.compare.is_some() || a.profile || a.preview.is_some() {
+        bail!("--bench-mediapipe runs whole videos alone; drop --max-seconds, --compare, --profile and --preview");
+    }
+    let video = &a.videos[0];
+    let venv_script = find_upwards("scripts/dev/mediapipe-venv.sh").context(
+        "scripts/dev/mediapipe-venv.sh not found (run from the eyereplay checkout or set EYEREPLAY_ROOT)",
+    )?;
+    let dev = venv_script.parent().expect("a file has a folder");
+    let root = dev.join("../..");
+    let cache = std::env::var_os("EYEREPLAY_CACHE")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root.join(".cache"));
+    // Set-up once, untimed: the venv check imports mediapipe.
+    let st = std::process::Command::new("bash")
+        .arg(&venv_script)
+        .stdout(std::process::Stdio::null())
+        .status()
+        .with_context(|| format!("running {}", venv_script.display()))?;
+    if !st.success() {
+        bail!("{} failed", venv_script.display());
+    }
+    let python = cache.join("venv-mediapipe/bin/python");
+    let me = std::env::current_exe().context("locating the eyereplay binary")?;
+    // Each eyereplay round writes --out itself (atomically), as a user's run would.
+    let ours_csv = csv_path(a, video);
+    let rounds = a.bench_rounds.max(1);
+    eprintln!(
+        "benchmark: {} rounds of MediaPipe Python then eyereplay on {}, whole processes",
+        rounds,
+        video.display()
+    );
+    let mut ratios = vec![];
+    let (mut mp_ms, mut our_ms) = (vec![], vec![]);
+    for k in 1..=rounds {
+        let mp = measure_process(
+            std::process::Command::new(&python)
+                .arg(dev.join("mediapipe_ref.py"))
+                .arg(video),
+            "MediaPipe Python (mediapipe_ref.py)",
+            |out| {
+                out.split_whitespace()
+                    .find_map(|w| w.strip_prefix("frames="))
+                    .and_then(|v| v.parse().ok())
+            },
+        )?;
+        let mut cmd = std::process::Command::new(&me);
+        cmd.arg("extract")
+            .arg(video)
+            .arg("--out")
+            .arg(&a.out)
+            .arg("--quiet")
+            .args(["--threads", &opts.threads.to_string()])
+            .args(["--mesh-every", &opts.mesh_every.to_string()])
+            .args(["--device", a.device.name()])
+            .args(["--blink-ratio", &opts.blink_ratio.to_string()])
+            .arg("--models")
+            .arg(&opts.models_dir);
+        let ours = measure_process(&mut cmd, "eyereplay extract", |_| {
+            let text = std::fs::read_to_string(&ours_csv).ok()?;
+            Some(text.lines().count().saturating_sub(1) as f64)
+        })?;
+        // Frames per CPU-second, eyereplay over MediaPipe.
+        let ratio = mp.cpu_ms_per_frame() / ours.cpu_ms_per_frame();
+        println!(
+            "round {k}: MediaPipe {:.2} CPU-s / {:.0} frames = {:.3} ms/frame (wall {:.1} s); \
+             eyereplay {:.2} CPU-s / {:.0} frames = {:.3} ms/frame (wall {:.1} s); \
+             frames per CPU-second ratio {:.2}x",
+            mp.cpu_s,
+            mp.frames,
+            mp.cpu_ms_per_frame(),
+            mp.wall_s,
+            ours.cpu_s,
+            ours.frames,
+            ours.cpu_ms_per_frame(),
+            ours.wall_s,
+            ratio
+        );
+        for (who, run) in [("MediaPipe", &mp), ("eyereplay", &ours)] {
+            // A few hundred come from loading libraries; thousands mean the
+            // machine was swapping out pages, which inflates CPU time.
+            if run.major_faults > 2000 {
+                println!(
+                    "  warning: {who} had {} major page faults (memory pressure on the machine); \
+                     this round's CPU time is suspect",
+                    run.major_faults
+                );
+            }
+        }
+        mp_ms.push(mp.cpu_ms_per_frame());
+        our_ms.push(ours.cpu_ms_per_frame());
+        ratios.push(ratio);
+    }
+    println!(
+        "median over {rounds} rounds: MediaPipe {:.3} CPU-ms/frame, eyereplay {:.3} CPU-ms/frame; \
+         eyereplay / MediaPipe frames per CPU-second: {:.2}x (range {:.2}-{:.2}x)",
+        median(mp_ms),
+        median(our_ms),
+        median(ratios.clone()),
+        ratios.iter().cloned().fold(f64::INFINITY, f64::min),
+        ratios.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+    );
+    println!("last eyereplay round's CSV -> {}", ours_csv.display());
+    Ok(())
+}
+
+/// Where the CSV of `video` goes: --out itself when it names a .csv file,
+/// else `<out>/<video stem>.csv`.
+fn csv_path(a: &Args, video: &Path) -> PathBuf {
+    if a.out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
+    {
+        a.out.clone()
+    } else {
+        let stem = video
+            .file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_else(|| "video".into());
+        a.out.join(format!("{stem}.csv"))
+    }
+}
+
+/// `--profile`: CPU time per frame of each stage; the rows sum to the
+/// process's CPU time.
+fn print_profile(stages: &ex::StageTimes, csv_s: f64, frames: usize, workers: usize, cuda: bool) {
+    let frames = frames.max(1) as f64;
+    let total_s = ex::process_cpu_s();
+    let measured = stages.total_s() + csv_s;
+    let setup_s = (total_s - measured).max(0.0);
+    println!(
+        "CPU time by stage ({frames:.0} frames, {workers} workers, networks on {}; thread CPU clocks):",
+        if cuda { "CUDA" } else { "CPU" }
+    );
+    println!("  {:<42} {:>9} {:>7}", "stage", "ms/frame", "share");
+    let row = |label: &str, s: f64| {
+        println!(
+            "  {:<42} {:>9.3} {:>6.1}%",
+            label,
+            1e3 * s / frames,
+            100.0 * s / total_s.max(1e-12)
+        );
+    };
+    for st in ex::Stage::ALL {
+        row(st.label(), stages.get(st));
+    }
+    row("CSV writing", csv_s);
+    row("set-up (probe, model loading, threads)", setup_s);
+    row("total = process CPU time (user + sys)", setup_s + measured);
 }
 
 /// Peak resident memory of this process (Linux), in MiB.
@@ -200,42 +384,15 @@ pub fn run(a: Args) -> Result<()> {
         preview_dir: a.preview.clone(),
         preview_every_s: a.preview_every,
         mesh_every: a.mesh_every,
+        profile: a.profile,
+        device: a.device.device(),
     };
+    if a.bench_mediapipe {
+        return bench_mediapipe(&a, &opts);
+    }
     let reference = match &a.compare {
         Some(p) => Some(ex::Series::read_reference(p)?),
         None => None,
-    };
-    // Extra benchmark rounds before the real one: (fps ratio, CPU ratio).
-    let mut rounds: Vec<(f64, Option<f64>)> = vec![];
-    if a.bench_mediapipe {
-        for k in 1..a.bench_rounds.max(1) {
-            let mp = mediapipe_fps(&a.videos[0], a.max_seconds)?;
-            let c0 = cpu_seconds().map(|c| c.0);
-            let t0 = std::time::Instant::now();
-            let x = ex::extract_many(&a.videos, &opts, &ex::NoProgress)
-                .pop()
-                .expect("one video")?;
-            let fps = x.rows.len() as f64 / t0.elapsed().as_secs_f64();
-            let cpu = c0
-                .zip(cpu_seconds().map(|c| c.0))
-                .map(|(a, b)| (b - a) / x.rows.len() as f64);
-            let cpu_ratio = cpu.zip(mp.cpu_per_frame_s).map(|(o, t)| t / o);
-            println!(
-                "round {k}: eyereplay {fps:.1} frames/s, MediaPipe {:.1} frames/s, ratio {:.2}x, \
-                 CPU-per-frame ratio {}",
-                mp.fps,
-                fps / mp.fps,
-                cpu_ratio
-                    .map(|r| format!("{r:.2}x"))
-                    .unwrap_or_else(|| "n/a".into())
-            );
-            rounds.push((fps / mp.fps, cpu_ratio));
-        }
-    }
-    let mp_fps: Option<MediapipeRun> = if a.bench_mediapipe {
-        Some(mediapipe_fps(&a.videos[0], a.max_seconds)?)
-    } else {
-        None
     };
 
     let multi = MultiProgress::with_draw_target(if a.quiet {
@@ -264,16 +421,14 @@ pub fn run(a: Args) -> Result<()> {
             })
             .collect(),
     };
-    let cpu_before = cpu_seconds().map(|c| c.0);
     let results = ex::extract_many(&a.videos, &opts, &bars);
-    let cpu_used_s = cpu_before
-        .zip(cpu_seconds().map(|c| c.0))
-        .map(|(a, b)| b - a);
     for b in &bars.bars {
         b.finish_and_clear();
     }
 
     let mut failed = vec![];
+    let mut total_stages = ex::StageTimes::default();
+    let (mut total_frames, mut csv_s, mut on_cuda) = (0usize, 0.0, false);
     for (video, res) in a.videos.iter().zip(results) {
         let x = match res {
             Ok(x) => x,
@@ -282,17 +437,10 @@ pub fn run(a: Args) -> Result<()> {
                 continue;
             }
         };
-        let out = if single_file {
-            a.out.clone()
-        } else {
-            let stem = video
-                .file_stem()
-                .map(|s| s.to_string_lossy().to_string())
-                .unwrap_or_else(|| "video".into());
-            a.out.join(format!("{stem}.csv"))
-        };
+        let out = csv_path(&a, video);
+        let csv_t0 = ex::thread_cpu_s();
         ex::save_csv(&out, &x.rows)?;
-        let fps = x.rows.len() as f64 / x.elapsed_s.max(1e-9);
+        csv_s += ex::thread_cpu_s() - csv_t0;
         println!(
             "{}: {} frames ({}x{}, {}), face in {:.1}%, {} valid, {} blinks -> {}",
             video.display(),
@@ -321,65 +469,19 @@ pub fn run(a: Args) -> Result<()> {
                 println!("  {line}");
             }
         }
-        if a.bench_mediapipe || a.verbose_timing() {
-            let t = x.stage_times;
-            println!(
-                "eyereplay: {:.1} frames/s ({} workers, {} segments, decoding included); \
-                 stage seconds summed over workers: detect {:.2}, mesh crop {:.2}, mesh {:.2}, \
-                 iris crops {:.2}, iris {:.2}",
-                fps,
-                opts.worker_count(),
-                x.segments,
-                t.detect_s,
-                t.mesh_crop_s,
-                t.mesh_s,
-                t.iris_crop_s,
-                t.iris_s
-            );
-        }
-        if let Some(mp) = &mp_fps {
-            println!(
-                "MediaPipe Python face mesh: {:.1} frames/s (decoding included)",
-                mp.fps
-            );
-            println!(
-                "speed ratio eyereplay / MediaPipe (frames/s, same run): {:.2}x",
-                fps / mp.fps
-            );
-            let mut cpu_ratio = None;
-            if let (Some(ours), Some(theirs)) = (cpu_used_s, mp.cpu_per_frame_s) {
-                let ours = ours / x.rows.len() as f64;
-                cpu_ratio = Some(theirs / ours);
-                println!(
-                    "CPU per frame: eyereplay {:.2} ms, MediaPipe {:.2} ms (ratio {:.2}x; the fair \
-                     comparison when other processes load the machine)",
-                    1e3 * ours,
-                    1e3 * theirs,
-                    theirs / ours
-                );
-            }
-            if !rounds.is_empty() {
-                rounds.push((fps / mp.fps, cpu_ratio));
-                let median = |mut v: Vec<f64>| {
-                    v.sort_by(f64::total_cmp);
-                    v[v.len() / 2]
-                };
-                let cpu: Vec<f64> = rounds.iter().filter_map(|r| r.1).collect();
-                println!(
-                    "median over {} rounds: ratio {:.2}x, CPU-per-frame ratio {}",
-                    rounds.len(),
-                    median(rounds.iter().map(|r| r.0).collect()),
-                    if cpu.is_empty() {
-                        "n/a".to_string()
-                    } else {
-                        format!("{:.2}x", median(cpu))
-                    }
-                );
-            }
-        }
+        total_stages.add(&x.stage_times);
+        total_frames += x.rows.len();
+        on_cuda |= x.on_cuda;
     }
-    if let Some(mib) = peak_rss_mib() {
-        if a.bench_mediapipe {
+    if a.profile {
+        print_profile(
+            &total_stages,
+            csv_s,
+            total_frames,
+            opts.worker_count(),
+            on_cuda,
+        );
+        if let Some(mib) = peak_rss_mib() {
             println!("peak RSS: {mib:.0} MiB");
         }
     }
@@ -391,11 +493,5 @@ pub fn run(a: Args) -> Result<()> {
             a.videos.len(),
             failed.join("; ")
         ),
-    }
-}
-
-impl Args {
-    fn verbose_timing(&self) -> bool {
-        std::env::var_os("EYEREPLAY_TIMING").is_some()
     }
 }

@@ -1,0 +1,244 @@
+//! Where the CPU time of an extraction goes, stage by stage
+//! (`eyereplay extract --profile`).
+//!
+//! Every worker thread owns a [`StageClock`]: at each stage boundary it reads
+//! the thread's own CPU clock (`CLOCK_THREAD_CPUTIME_ID`) and charges the
+//! time since the previous boundary to the stage that just ended. The
+//! stages therefore partition the worker's CPU time with no gap and no
+//! overlap, so they sum to the total exactly, and other processes on the
+//! machine do not inflate them the way wall time would be inflated. With
+//! profiling off the clock is never read.
+
+/// A stage of the per-frame pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Demuxing and decoding the next frame (libavcodec), and the RGB
+    /// conversion of pixel formats other than 8-bit 4:2:0.
+    Decode,
+    /// Colour conversion and resampling of the detector, mesh and eye crops
+    /// straight from the decoded planes.
+    Crop,
+    /// The face detector network.
+    Detector,
+    /// The face mesh network.
+    Mesh,
+    /// The iris network (both eyes in one batch).
+    Iris,
+    /// Everything else per frame: decoding detections, mapping landmarks
+    /// back to the image, tracking, per-frame rows, blink flagging.
+    Post,
+}
+
+impl Stage {
+    pub const ALL: [Stage; 6] = [
+        Stage::Decode,
+        Stage::Crop,
+        Stage::Detector,
+        Stage::Mesh,
+        Stage::Iris,
+        Stage::Post,
+    ];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            Stage::Decode => "decode (demux + video decoder)",
+            Stage::Crop => "colour conversion + crops",
+            Stage::Detector => "face detector network",
+            Stage::Mesh => "face mesh network",
+            Stage::Iris => "iris network (2 eyes, 1 batch)",
+            Stage::Post => "post-processing + tracking",
+        }
+    }
+}
+
+/// CPU seconds per [`Stage`], summed over the threads that ran them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StageTimes {
+    cpu_s: [f64; 6],
+}
+
+impl StageTimes {
+    pub fn get(&self, stage: Stage) -> f64 {
+        self.cpu_s[stage as usize]
+    }
+    pub fn charge(&mut self, stage: Stage, cpu_s: f64) {
+        self.cpu_s[stage as usize] += cpu_s;
+    }
+    pub fn add(&mut self, other: &StageTimes) {
+        for (a, b) in self.cpu_s.iter_mut().zip(other.cpu_s) {
+            *a += b;
+        }
+    }
+    /// The sum over all stages.
+    pub fn total_s(&self) -> f64 {
+        self.cpu_s.iter().sum()
+    }
+}
+
+/// A per-thread lap clock over [`Stage`]s (see the module docs).
+#[derive(Clone, Debug)]
+pub struct StageClock {
+    enabled: bool,
+    last_s: f64,
+    pub times: StageTimes,
+}
+
+impl StageClock {
+    /// A clock that measures when `enabled`, and otherwise costs nothing.
+    pub fn new(enabled: bool) -> StageClock {
+        StageClock {
+            enabled,
+            last_s: 0.0,
+            times: StageTimes::default(),
+        }
+    }
+
+    pub fn enabled(&self) -> bool {
+        self.enabled
+    }
+
+    /// Starts timing on the calling thread (the time before is charged to
+    /// nothing).
+    pub fn start(&mut self) {
+        if self.enabled {
+            self.last_s = thread_cpu_s();
+        }
+    }
+
+    /// Charges the calling thread's CPU time since the last lap (or
+    /// [`StageClock::start`]) to `stage`.
+    #[inline]
+    pub fn lap(&mut self, stage: Stage) {
+        if self.enabled {
+            let now = thread_cpu_s();
+            self.times.charge(stage, now - self.last_s);
+            self.last_s = now;
+        }
+    }
+}
+
+/// CPU time (user + system) of the calling thread, in seconds.
+pub fn thread_cpu_s() -> f64 {
+    clock_s(libc::CLOCK_THREAD_CPUTIME_ID)
+}
+
+/// CPU time (user + system) of the whole process, all threads, in seconds.
+pub fn process_cpu_s() -> f64 {
+    clock_s(libc::CLOCK_PROCESS_CPUTIME_ID)
+}
+
+/// CPU time (user + system) of the children this process has waited for,
+/// and of their waited-for descendants, in seconds (for whole-process
+/// benchmarks of child commands).
+pub fn children_cpu_s() -> f64 {
+    let ru = children_rusage();
+    let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    tv(ru.ru_utime) + tv(ru.ru_stime)
+}
+
+/// Major page faults (pages read back from disk) of the waited-for
+/// children: many of them mean the machine was short of memory during a
+/// benchmark, which inflates CPU time.
+pub fn children_major_faults() -> u64 {
+    children_rusage().ru_majflt.max(0) as u64
+}
+
+fn children_rusage() -> libc::rusage {
+    // SAFETY: an all-zero rusage is a valid value to be overwritten.
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: `ru` is a valid, writable rusage; RUSAGE_CHILDREN always exists.
+    unsafe {
+        libc::getrusage(libc::RUSAGE_CHILDREN, &mut ru);
+    }
+    ru
+}
+
+fn clock_s(clock: libc::clockid_t) -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec; both clock ids exist on
+    // every Linux since 2.6.12, and on failure `ts` stays zero.
+    unsafe {
+        libc::clock_gettime(clock, &mut ts);
+    }
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Burns CPU on this thread until its CPU clock has advanced `s`.
+    fn spin(s: f64) -> u64 {
+        let t0 = thread_cpu_s();
+        let mut x = 0u64;
+        while thread_cpu_s() - t0 < s {
+            for i in 0..1000u64 {
+                x = x.wrapping_mul(6364136223846793005).wrapping_add(i);
+            }
+        }
+        x
+    }
+
+    #[test]
+    fn laps_partition_the_thread_time_so_stages_sum_to_the_total() {
+        let mut clock = StageClock::new(true);
+        clock.start();
+        let started_s = clock.last_s;
+        let mut sink = 0;
+        for (k, stage) in Stage::ALL.iter().enumerate() {
+            sink ^= spin(0.002 * (k + 1) as f64);
+            clock.lap(*stage);
+        }
+        std::hint::black_box(sink);
+        // Each stage got at least the CPU time it spun for.
+        for (k, stage) in Stage::ALL.iter().enumerate() {
+            assert!(clock.times.get(*stage) >= 0.002 * (k + 1) as f64);
+        }
+        // The laps telescope: the stages sum to the thread's CPU time from
+        // start to the last lap, nothing lost or counted twice.
+        let total = clock.times.total_s();
+        assert!((total - (clock.last_s - started_s)).abs() < 1e-9, "{total}");
+        assert!(total >= 0.002 * 21.0);
+    }
+
+    #[test]
+    fn children_cpu_time_counts_a_busy_child() {
+        let before = children_cpu_s();
+        // A child that burns about 0.2 s of CPU (a shell loop).
+        let ok = std::process::Command::new("sh")
+            .args(["-c", "i=0; while [ $i -lt 200000 ]; do i=$((i+1)); done"])
+            .status()
+            .map(|s| s.success())
+            .unwrap_or(false);
+        if ok {
+            assert!(children_cpu_s() > before);
+        }
+    }
+
+    #[test]
+    fn a_disabled_clock_charges_nothing() {
+        let mut clock = StageClock::new(false);
+        clock.start();
+        std::hint::black_box(spin(0.002));
+        clock.lap(Stage::Iris);
+        assert_eq!(clock.times, StageTimes::default());
+    }
+
+    #[test]
+    fn times_add_stage_by_stage() {
+        let mut a = StageTimes::default();
+        a.charge(Stage::Mesh, 1.5);
+        a.charge(Stage::Decode, 0.25);
+        let mut b = StageTimes::default();
+        b.charge(Stage::Mesh, 0.5);
+        b.charge(Stage::Post, 2.0);
+        a.add(&b);
+        assert_eq!(a.get(Stage::Mesh), 2.0);
+        assert_eq!(a.get(Stage::Decode), 0.25);
+        assert_eq!(a.get(Stage::Post), 2.0);
+        assert_eq!(a.total_s(), 4.25);
+    }
+}
