@@ -168,10 +168,7 @@ impl CanonicalMesh {
             let mut lp = vec![start];
             seen.insert(start);
             let mut cur = start;
-            loop {
-                let Some(&n) = next[&cur].iter().find(|n| !seen.contains(n)) else {
-                    break;
-                };
+            while let Some(&n) = next[&cur].iter().find(|n| !seen.contains(n)) {
                 seen.insert(n);
                 lp.push(n);
                 cur = n;

@@ -1,0 +1,1 @@
+//! Eye-head coordination (to come).
