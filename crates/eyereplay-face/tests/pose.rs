@@ -71,3 +71,75 @@ fn check(got: &HeadPose, want: &HeadPose, tol_deg: f64, tol_cm: f64) {
         );
     }
 }
+
+/// Head pose solved from the landmarks our extractor finds in renders of a
+/// real-photo identity, against the pose it was rendered with (the issue's
+/// proof "head yaw solved from the extracted landmarks: r >= 0.9"). Two
+/// models: the identity's own shape, and the canonical mesh (what a source
+/// video of an unknown person gets).
+#[test]
+fn yaw_from_extracted_landmarks_of_renders() {
+    let (Some(mesh), Some(models)) = (common::mesh(), common::models()) else {
+        return;
+    };
+    let Some(photo) = common::faces_file("psychopy_face.jpg") else {
+        return;
+    };
+    let mut fitter = eyereplay_face::PhotoFitter::new(&models, mesh.clone()).unwrap();
+    let id = fitter.fit(&photo).unwrap();
+    let cam = Camera::from_vfov(640, 480, 45.0);
+    let dist = cam.focal_px * 17.66 / (0.45 * 480.0);
+    let tm = id.textured_mesh(&mesh, false);
+    let mut r = eyereplay_face::Rasterizer::new(640, 480);
+    let basis: Vec<usize> = mesh.procrustes.iter().map(|p| p.0 as usize).collect();
+    let w: Vec<f64> = mesh.procrustes.iter().map(|p| p.1 as f64).collect();
+    let to_v = |p: [f32; 3]| Vector3::from(p.map(f64::from));
+    let own: Vec<Vector3<f64>> = basis.iter().map(|&i| to_v(id.shape_cm[i])).collect();
+    let canon: Vec<Vector3<f64>> = basis.iter().map(|&i| to_v(mesh.positions_cm[i])).collect();
+    let (mut truth, mut got_own, mut got_canon) = (vec![], vec![], vec![]);
+    for k in 0..13 {
+        let yaw = -30.0 + 5.0 * k as f64;
+        let pose = HeadPose {
+            yaw_deg: yaw,
+            pitch_deg: [-8.0, 0.0, 8.0][k % 3],
+            roll_deg: [4.0, -4.0][k % 2],
+            translation_cm: [2.0, -1.0, dist],
+        };
+        let mut frame = eyereplay_face::RgbImage::filled(640, 480, [118, 124, 132]);
+        r.draw(&mut frame, &cam, &pose, &tm, &id.texture);
+        let face = fitter.landmarks(&frame).unwrap().expect("face found");
+        let obs: Vec<[f64; 2]> = basis
+            .iter()
+            .map(|&i| [face.mesh[i].x as f64, face.mesh[i].y as f64])
+            .collect();
+        truth.push(yaw);
+        got_own.push(solve_pose(&cam, &own, &obs, &w, 20).yaw_deg);
+        got_canon.push(solve_pose(&cam, &canon, &obs, &w, 20).yaw_deg);
+    }
+    let r_own = pearson(&truth, &got_own);
+    let r_canon = pearson(&truth, &got_canon);
+    let mae = |g: &[f64]| {
+        g.iter()
+            .zip(&truth)
+            .map(|(a, b)| (a - b).abs())
+            .sum::<f64>()
+            / 13.0
+    };
+    eprintln!(
+        "yaw from extracted landmarks: r {r_own:.4} (own shape, MAE {:.2} deg), r {r_canon:.4} (canonical, MAE {:.2} deg)",
+        mae(&got_own),
+        mae(&got_canon)
+    );
+    eprintln!("truth {truth:?}\nown {got_own:.1?}\ncanonical {got_canon:.1?}");
+    assert!(r_own >= 0.99, "{r_own}");
+    assert!(r_canon >= 0.95, "{r_canon}");
+}
+
+fn pearson(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len() as f64;
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let cov: f64 = a.iter().zip(b).map(|(x, y)| (x - ma) * (y - mb)).sum();
+    let va: f64 = a.iter().map(|x| (x - ma).powi(2)).sum();
+    let vb: f64 = b.iter().map(|y| (y - mb).powi(2)).sum();
+    cov / (va * vb).sqrt()
+}
