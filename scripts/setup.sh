@@ -35,5 +35,6 @@ fi
 
 "$here/fetch-data.sh"
 "$here/models.sh"
+"$here/face-assets.sh"
 "$here/test-cluster.sh" --setup
 echo "setup: done"

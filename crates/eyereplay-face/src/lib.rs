@@ -1,0 +1,63 @@
+//! Full-face render mode (issue 12): foundations.
+//!
+//! Today's renderer (eyereplay-render) shows two ray-traced eyes in close-up
+//! on a still, procedural face. This crate builds what a whole-face webcam
+//! video needs, from real photos:
+//!
+//! - [`CanonicalMesh`]: MediaPipe's canonical face mesh (468 vertices in cm
+//!   with UVs, 898 triangles, the Procrustes basis), read from the
+//!   `binarypb` that `scripts/face-assets.sh` cuts out of the npm package
+//!   @mediapipe/face_mesh. Its eye openings are filled by 14 triangles each
+//!   ([`CanonicalMesh::eye_fill_triangles`]).
+//! - [`PhotoFitter`] / [`PhotoIdentity`]: our own extractor runs on a
+//!   frontal photo (detection, 468 landmarks, iris); the photo's head pose
+//!   is solved against the canonical mesh, and each vertex takes its
+//!   landmark's line of sight at the posed canonical depth. The photo is
+//!   the texture, its landmarks the texture coordinates, and the iris
+//!   colour is sampled from its irises.
+//! - [`Rasterizer`]: a perspective-correct, z-buffered, bilinearly textured
+//!   triangle rasterizer on the CPU (f32, rayon over row bands) that draws
+//!   the textured mesh under a [`HeadPose`] seen by a pinhole [`Camera`].
+//! - [`solve_pose`]: the head pose from 468 landmarks (weighted Procrustes
+//!   in Lu-Hager-Mjolsness orthogonal iteration), used for the photo fit and
+//!   meant for solving a source video's head pose and checking renders.
+//! - [`coordination`]: the eye-head coordination model that splits a gaze
+//!   shift between eye and head, plus slow head drift and sway.
+//!
+//! # How the eyes will be composited
+//!
+//! A frame is drawn back to front into one RGB buffer: the background
+//! first, then the existing ray-traced eyeballs of eyereplay-render placed
+//! at each eye's position in the posed head (the eyeball centre sits behind
+//! the lid contour of [`PhotoIdentity::eyes`]), then the face mesh with its
+//! 28 eye-opening triangles dropped ([`PhotoIdentity::textured_mesh`] with
+//! `open_eyes`). The face's triangles overwrite everything they cover, so
+//! the eyeballs show exactly through the photo's own lid contour; lids that
+//! follow vertical gaze and blink move the contour vertices (the upper and
+//! lower lid rows of the contour) before drawing. The photo's own irises
+//! and sclera are never shown: they lie inside the dropped triangles.
+//!
+//! # Frames and angles
+//!
+//! See [`pose`](HeadPose): head frame +x subject's left, +y up, +z out of
+//! the face (cm); camera frame +x right, +y down, +z depth; yaw > 0 turns
+//! the nose image-right, pitch > 0 lifts it, roll > 0 is counterclockwise
+//! as the camera sees it.
+
+pub mod coordination;
+mod error;
+mod mesh;
+mod photo;
+mod pose;
+mod raster;
+
+pub use error::{FaceError, Result};
+pub use mesh::{
+    default_faces_dir, lm, parse as parse_mesh, CanonicalMesh, INNER_LIPS, LEFT_EYE_CONTOUR,
+    MESH_FILE, MESH_VERTICES, RIGHT_EYE_CONTOUR,
+};
+pub use photo::{
+    fit_shape, read_image, PhotoEye, PhotoFitter, PhotoIdentity, MIN_FACE_HEIGHT_PX, PHOTO_VFOV_DEG,
+};
+pub use pose::{solve_pose, weighted_procrustes, Camera, HeadPose, Similarity};
+pub use raster::{DrawStats, Rasterizer, RgbImage, TexturedMesh};
