@@ -149,12 +149,24 @@ fn write_dataset(dir: &Path, frames: usize) {
         writeln!(labels, "{rel},{label},{class},{label}").unwrap();
     }
     std::fs::write(dir.join("labels.csv"), labels).unwrap();
-    let meta = format!(
-        "{{\"fps\": 25.0, \"canvas\": {{\"width_px\": 1280, \"height_px\": 720}}, \"session_frames\": {frames}, \
-\"calibration\": {{\"s_x\": {}, \"s_y\": {}, \"mu_x\": {}, \"mu_y\": {}}}}}\n",
-        CAL[0], CAL[1], CAL[2], CAL[3]
+    let cal = eyereplay_core::Calibration {
+        s_x: CAL[0],
+        s_y: CAL[1],
+        mu_x: CAL[2],
+        mu_y: CAL[3],
+    };
+    let classes = [
+        (eyereplay_core::GazeClass::Reading, 1, frames),
+        (eyereplay_core::GazeClass::Conversation, 1, frames),
+    ];
+    let meta = eyereplay_dataset::DatasetMetadata::assembled(
+        25.0,
+        frames,
+        eyereplay_core::Canvas::default(),
+        Some(cal),
+        &classes,
     );
-    std::fs::write(dir.join("metadata.json"), meta).unwrap();
+    eyereplay_dataset::write_metadata(dir, &meta).unwrap();
 }
 
 /// Visual fidelity of one rendered reading session: `[r x, r y, ratio x,

@@ -51,11 +51,26 @@ fn tiny_dataset(dir: &Path) {
         }
     }
     std::fs::write(dir.join("labels.csv"), labels).unwrap();
-    std::fs::write(
-        dir.join("metadata.json"),
-        r#"{"fps": 25, "canvas": {"width_px": 1280, "height_px": 720}, "session_frames": 5}"#,
-    )
-    .unwrap();
+    write_tiny_meta(dir, None, Vec::new());
+}
+
+/// metadata.json of [`tiny_dataset`]: 25 fps, 5-frame sessions, two
+/// sessions per class over a 13-frame pool (8 frames of source 0, then 5 of
+/// source 1).
+fn write_tiny_meta(
+    dir: &Path,
+    calibration: Option<[f64; 4]>,
+    sources: Vec<eyereplay_prepare::SourceReport>,
+) {
+    use eyereplay_core::GazeClass::{Conversation, Reading};
+    common::write_meta(
+        dir,
+        25.0,
+        5,
+        calibration,
+        &[(Reading, 2, 13), (Conversation, 2, 13)],
+        sources,
+    );
 }
 
 fn num(j: &Json, path: &str) -> f64 {
@@ -295,41 +310,36 @@ fn computed_visual_section_reaches_html_and_json() {
 
 #[test]
 fn per_source_calibrations_follow_the_pool() {
-    use eyereplay_eval::dataset::session_calibrations;
-    use eyereplay_eval::read_calibration;
+    use eyereplay_dataset::{read_metadata, session_calibrations};
     let tmp = tempfile::tempdir().unwrap();
     let d = tmp.path();
     tiny_dataset(d);
     // No pooled calibration; two sources with their own. The pool is 8
-    // frames of source 0 then 5 of source 1 (13 in all); a session starting
-    // at pool frame 6 covers pool frames 6..=10: sources 0,0,1,1,1; one
-    // starting at 11 wraps: 11, 12, 0, 1, 2 -> 1,1,0,0,0.
-    std::fs::write(
-        d.join("metadata.json"),
-        r#"{"fps": 25, "canvas": {"width_px": 1280, "height_px": 720}, "session_frames": 5,
-            "calibration": null,
-            "sources": [
-              {"index": 0, "calibration": {"s_x": 100.0, "s_y": 50.0, "mu_x": 640.0, "mu_y": 360.0}},
-              {"index": 1, "calibration": {"s_x": 200.0, "s_y": 80.0, "mu_x": 600.0, "mu_y": 300.0}}],
-            "sessions": [
-              {"file": "reading/reading_0000.csv", "class": "reading", "pool_start": 6},
-              {"file": "reading/reading_0001.csv", "class": "reading", "pool_start": 11}]}"#,
-    )
-    .unwrap();
-    assert!(read_calibration(d).is_err());
-    let c = session_calibrations(d, "reading/reading_0000.csv", 5).unwrap();
+    // frames of source 0 then 5 of source 1 (13 in all); with 2 sessions the
+    // stride is floor(13 / 2) = 6, so session 1 covers pool frames 6..=10:
+    // sources 0,0,1,1,1; session 0 covers 0..=4, all source 0.
+    write_tiny_meta(
+        d,
+        None,
+        vec![
+            common::source(0, "reading", "fixation_report", [100.0, 50.0, 640.0, 360.0]),
+            common::source(1, "reading", "fixation_report", [200.0, 80.0, 600.0, 300.0]),
+        ],
+    );
+    let meta = read_metadata(d).unwrap().dataset;
+    assert!(meta.calibration.is_none());
+    let c = session_calibrations(d, &meta, "reading/reading_0001.csv", 5).unwrap();
     let sx: Vec<f64> = c.iter().map(|c| c.s_x).collect();
     assert_eq!(sx, vec![100.0, 100.0, 200.0, 200.0, 200.0]);
-    let c = session_calibrations(d, "reading/reading_0001.csv", 5).unwrap();
-    let sx: Vec<f64> = c.iter().map(|c| c.s_x).collect();
-    assert_eq!(sx, vec![200.0, 200.0, 100.0, 100.0, 100.0]);
+    let c0 = session_calibrations(d, &meta, "reading/reading_0000.csv", 5).unwrap();
+    assert!(c0.iter().all(|c| c.s_x == 100.0));
     // n = (c - mu) / s + 0.5: canvas (700, 380) with source 1 -> (1.0, 1.5).
-    let n = c[0].canvas_to_norm(eyereplay_core::CanvasPos {
+    let n = c[4].canvas_to_norm(eyereplay_core::CanvasPos {
         x_px: 700.0,
         y_px: 380.0,
     });
     assert_eq!([n.nx, n.ny], [1.0, 1.5]);
-    let e = session_calibrations(d, "reading/nope.csv", 5)
+    let e = session_calibrations(d, &meta, "reading/nope.csv", 5)
         .unwrap_err()
         .to_string();
     assert!(e.contains("metadata.json") && e.contains("nope.csv"), "{e}");
@@ -382,25 +392,26 @@ fn blink_column_becomes_blink_events_and_a_rate() {
 fn report_says_when_classes_come_from_different_kinds_of_recording() {
     let tmp = tempfile::tempdir().unwrap();
     tiny_dataset(tmp.path());
-    let meta = |kinds: [&str; 2]| {
-        format!(
-            r#"{{"fps": 25, "canvas": {{"width_px": 1280, "height_px": 720}}, "session_frames": 5,
-  "sources": [{{"class": "reading", "kind": "{}"}}, {{"class": "reading", "kind": "{}"}},
-              {{"class": "conversation", "kind": "video"}}]}}"#,
-            kinds[0], kinds[1]
-        )
-    };
-    let html_for = |m: String| {
-        std::fs::write(tmp.path().join("metadata.json"), m).unwrap();
+    let html_for = |kinds: [&str; 2]| {
+        let cal = [100.0, 50.0, 640.0, 360.0];
+        write_tiny_meta(
+            tmp.path(),
+            Some(cal),
+            vec![
+                common::source(0, "reading", kinds[0], cal),
+                common::source(1, "reading", kinds[1], cal),
+                common::source(2, "conversation", "video", cal),
+            ],
+        );
         let ev = evaluate_dataset(tmp.path(), &EvalConfig::default()).unwrap();
         let (paths, _) = write_report(tmp.path(), &ev).unwrap();
         std::fs::read_to_string(&paths.html).unwrap()
     };
-    let mixed = html_for(meta(["fixation_report", "fixation_report"]));
+    let mixed = html_for(["fixation_report", "fixation_report"]);
     assert!(mixed.contains("<td>reading sources</td><td>2 fixation report</td>"));
     assert!(mixed.contains(
         "different kinds of recording (reading from fixation report; conversation from video)"
     ));
-    let same = html_for(meta(["video", "video"]));
+    let same = html_for(["video", "video"]);
     assert!(!same.contains("different kinds of recording"));
 }

@@ -8,7 +8,8 @@
 //! Run: `cargo bench -p eyereplay-prepare --bench prepare`
 
 use eyereplay_core::{GazeClass, NormPos, Sample, Trajectory};
-use eyereplay_prepare::{prepare, write_dataset, DatasetConfig, SourceInput, ToolInfo};
+use eyereplay_dataset::{write_dataset, ToolInfo};
+use eyereplay_prepare::{prepare, DatasetConfig, SourceInput};
 use eyereplay_sources::{Recording, RecordingKind};
 use std::time::Instant;
 

@@ -2,9 +2,8 @@
 //! EyeLink and BIDS samples) and on hand-built webcam-like CSVs.
 
 use eyereplay_core::{read_session_csv, CanvasPos, GazeClass};
-use eyereplay_prepare::{
-    load_sources, prepare, write_dataset, DatasetConfig, PrepareError, ToolInfo,
-};
+use eyereplay_dataset::{write_dataset, ToolInfo};
+use eyereplay_prepare::{load_sources, prepare, DatasetConfig, PrepareError};
 use std::path::{Path, PathBuf};
 
 fn cache() -> Option<PathBuf> {

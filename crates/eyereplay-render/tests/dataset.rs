@@ -15,12 +15,24 @@ fn make_dataset(dir: &Path) {
         "file,label,class,sources\nreading/reading_0000.csv,1,reading,a\nconversation/conversation_0000.csv,0,conversation,b\n",
     )
     .unwrap();
-    std::fs::write(
-        dir.join("metadata.json"),
-        r#"{"canvas": {"width_px": 1280, "height_px": 720}, "fps": 25.0,
-            "calibration": {"s_x": 5120.0, "s_y": 3000.0, "mu_x": 640.0, "mu_y": 360.0}}"#,
-    )
-    .unwrap();
+    let cal = eyereplay_core::Calibration {
+        s_x: 5120.0,
+        s_y: 3000.0,
+        mu_x: 640.0,
+        mu_y: 360.0,
+    };
+    let classes = [
+        (eyereplay_core::GazeClass::Reading, 1, 20),
+        (eyereplay_core::GazeClass::Conversation, 1, 15),
+    ];
+    let meta = eyereplay_dataset::DatasetMetadata::assembled(
+        25.0,
+        20,
+        eyereplay_core::Canvas::default(),
+        Some(cal),
+        &classes,
+    );
+    eyereplay_dataset::write_metadata(dir, &meta).unwrap();
 }
 
 fn opts() -> DatasetOptions {
@@ -44,7 +56,7 @@ fn renders_every_session_then_skips_complete_ones() {
     let s = render_dataset(dir.path(), &opts(), &|job, o| {
         seen.lock()
             .unwrap()
-            .push((job.file.clone(), format!("{o:?}")));
+            .push((job.paths.file.clone(), format!("{o:?}")));
     })
     .unwrap();
     assert_eq!(

@@ -170,12 +170,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &args.identity_out {
-        let json = serde_json::json!({
-            "identity": p.identity,
-            "mapping": p.mapping,
-            "eyes": stats.eyes,
-        });
-        eyereplay_core::atomic_write(path, serde_json::to_string_pretty(&json)?.as_bytes())?;
+        let eyes = stats
+            .eyes
+            .clone()
+            .ok_or_else(|| anyhow::anyhow!("the renderer reported no eye geometry"))?;
+        eyereplay_dataset::SessionIdentity {
+            file: traj_path.display().to_string(),
+            seed: args.seed,
+            identity: &p.identity,
+            mapping: &p.mapping,
+            width: p.width,
+            height: p.height,
+            fps: p.fps,
+            eyes,
+        }
+        .write(path)?;
     }
     let target = args.png_frames.as_ref().unwrap_or(&out);
     eprintln!(

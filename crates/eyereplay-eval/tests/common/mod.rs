@@ -5,8 +5,51 @@
 //! with occasional large gaze shifts and held-position runs (blinks).
 #![allow(dead_code)]
 
+use eyereplay_core::{Calibration, Canvas, GazeClass};
+use eyereplay_dataset::{write_metadata, DatasetMetadata};
+use eyereplay_prepare::SourceReport;
 use std::fmt::Write;
 use std::path::Path;
+
+/// A source entry of metadata.json with the given index, class, recording
+/// kind and calibration `[s_x, s_y, mu_x, mu_y]` (the rest as `prepare`
+/// writes it for a fixation report).
+pub fn source(index: usize, class: &str, kind: &str, cal: [f64; 4]) -> SourceReport {
+    serde_json::from_value(serde_json::json!({
+        "index": index, "id": format!("s{index}"), "class": class, "file": "s.csv",
+        "format": "fixations", "sha256": "0", "kind": kind, "rate_hz": 1000.0,
+        "samples": 100, "segments": 1, "duration_s": 0.1, "frames": 3, "px_per_deg": null,
+        "filled": {"invalid_or_blink": 0, "outlier_x": 0, "outlier_y": 0, "total": 0, "samples": 100},
+        "calibration": {"s_x": cal[0], "s_y": cal[1], "mu_x": cal[2], "mu_y": cal[3]},
+        "smoothing": null,
+        "speed_correction": {"method": "linear", "applied": false, "alpha": 1.0,
+            "path_length_orig_px": 1.0, "path_length_resampled_px": 1.0},
+        "normalization_shift_px": [0.0, 0.0]
+    }))
+    .expect("a source report")
+}
+
+/// metadata.json for a hand-assembled dataset: 1280x720 canvas, the given
+/// rate, session length, pooled calibration, `(class, sessions,
+/// pool_frames)` and sources.
+pub fn write_meta(
+    dir: &Path,
+    fps: f64,
+    session_frames: usize,
+    calibration: Option<[f64; 4]>,
+    classes: &[(GazeClass, usize, usize)],
+    sources: Vec<SourceReport>,
+) {
+    let cal = calibration.map(|c| Calibration {
+        s_x: c[0],
+        s_y: c[1],
+        mu_x: c[2],
+        mu_y: c[3],
+    });
+    let mut m = DatasetMetadata::assembled(fps, session_frames, Canvas::default(), cal, classes);
+    m.sources = sources;
+    write_metadata(dir, &m).unwrap();
+}
 
 pub struct Rng(u64);
 
@@ -152,9 +195,20 @@ pub fn write_dataset(dir: &Path, spec: &Spec) {
         }
     }
     std::fs::write(dir.join("labels.csv"), labels).unwrap();
-    let meta = format!(
-        "{{\n  \"fps\": {},\n  \"canvas\": {{\"width_px\": 1280, \"height_px\": 720}},\n  \"session_frames\": {},\n  \"calibration\": {{\"s_x\": 1000.0, \"s_y\": 600.0, \"mu_x\": 640.0, \"mu_y\": 360.0}}\n}}\n",
-        spec.fps, spec.session_frames
+    let pool_frames = spec.sources_per_class * spec.source_frames;
+    write_meta(
+        dir,
+        spec.fps,
+        spec.session_frames,
+        Some([1000.0, 600.0, 640.0, 360.0]),
+        &[
+            (GazeClass::Reading, spec.sessions_per_class, pool_frames),
+            (
+                GazeClass::Conversation,
+                spec.sessions_per_class,
+                pool_frames,
+            ),
+        ],
+        Vec::new(),
     );
-    std::fs::write(dir.join("metadata.json"), meta).unwrap();
 }
