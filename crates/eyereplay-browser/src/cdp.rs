@@ -227,7 +227,11 @@ impl Cdp {
             "Page.frameNavigated" if self.watch_navigation => {
                 let frame = &params["frame"];
                 if frame.get("parentId").is_none() {
-                    let url = frame["url"].as_str().unwrap_or("?").to_string();
+                    let url = format!(
+                        "{}{}",
+                        frame["url"].as_str().unwrap_or("?"),
+                        frame["urlFragment"].as_str().unwrap_or("")
+                    );
                     self.set_fatal(FatalKind::Navigation, url);
                 }
             }

@@ -258,6 +258,12 @@ fn render_inner(
         })
         .map_err(|e| BrowserError::io(out_mp4, e))?;
 
+    // Object.entries keeps the page's key order (serde_json's map sorts).
+    let truth_expr = settings.truth_js.as_ref().map(|js| {
+        format!(
+            "(() => {{ const o = ({js}); return (o && typeof o === 'object' && !Array.isArray(o)) ? Object.entries(o) : o; }})()"
+        )
+    });
     let t_capture = Instant::now();
     let mut truth_cols: Option<Vec<String>> = None;
     let mut truth_rows: Vec<Vec<f64>> = Vec::new();
@@ -269,7 +275,7 @@ fn render_inner(
                 e => e,
             })?;
             unchanged += (!shot.fresh) as usize;
-            if let Some(js) = &settings.truth_js {
+            if let Some(js) = &truth_expr {
                 let v = cap.eval(js)?;
                 truth_rows.push(truth_row(&v, i, &mut truth_cols)?);
             }
@@ -321,17 +327,31 @@ fn render_inner(
     })
 }
 
-/// One row of `truth_js` values; the first frame fixes the columns.
+/// One row of `truth_js` values, given as `[key, value]` pairs in the
+/// page's key order; the first frame fixes the columns.
 fn truth_row(
     v: &Value,
     frame: usize,
     cols: &mut Option<Vec<String>>,
 ) -> Result<Vec<f64>, BrowserError> {
     let bad = |message: String| BrowserError::Truth { frame, message };
-    let obj = v
-        .as_object()
-        .ok_or_else(|| bad(format!("expected an object of numbers, got {v}")))?;
-    let keys: Vec<String> = obj.keys().cloned().collect();
+    let not_object = || bad(format!("expected an object of numbers, got {v}"));
+    let pairs = v.as_array().ok_or_else(not_object)?;
+    let mut keys = Vec::with_capacity(pairs.len());
+    let mut values = Vec::with_capacity(pairs.len());
+    for p in pairs {
+        let (Some(k), Some(val)) = (p.get(0).and_then(Value::as_str), p.get(1)) else {
+            return Err(not_object());
+        };
+        keys.push(k.to_string());
+        values.push(match val {
+            Value::Number(n) => n
+                .as_f64()
+                .ok_or_else(|| bad(format!("{k} is not a number")))?,
+            Value::Bool(b) => *b as u8 as f64,
+            other => return Err(bad(format!("{k} is {other}, not a number"))),
+        });
+    }
     match cols {
         None => {
             if let Some(k) = keys.iter().find(|k| {
@@ -341,7 +361,7 @@ fn truth_row(
             }) {
                 return Err(bad(format!("column name {k:?} is not allowed")));
             }
-            *cols = Some(keys.clone());
+            *cols = Some(keys);
         }
         Some(c) if *c != keys => {
             return Err(bad(format!(
@@ -350,15 +370,7 @@ fn truth_row(
         }
         Some(_) => {}
     }
-    keys.iter()
-        .map(|k| match &obj[k] {
-            Value::Number(n) => n
-                .as_f64()
-                .ok_or_else(|| bad(format!("{k} is not a number"))),
-            Value::Bool(b) => Ok(*b as u8 as f64),
-            other => Err(bad(format!("{k} is {other}, not a number"))),
-        })
-        .collect()
+    Ok(values)
 }
 
 /// Writes the truth CSV atomically. Page columns keep 6 decimals (whole
@@ -489,14 +501,17 @@ mod tests {
 
     #[test]
     fn truth_rows_keep_their_columns() {
+        use serde_json::json;
         let mut cols = None;
-        let r = truth_row(&serde_json::json!({"a": 1.5, "b": true}), 0, &mut cols).unwrap();
+        let r = truth_row(&json!([["b", 1.5], ["a", true]]), 0, &mut cols).unwrap();
         assert_eq!(r, vec![1.5, 1.0]);
-        let e = truth_row(&serde_json::json!({"b": 1, "a": 2}), 1, &mut cols).unwrap_err();
+        assert_eq!(cols, Some(vec!["b".to_string(), "a".to_string()]));
+        let e = truth_row(&json!([["a", 1], ["b", 2]]), 1, &mut cols).unwrap_err();
         assert!(e.to_string().contains("frame 1"), "{e}");
-        assert!(truth_row(&serde_json::json!(null), 2, &mut cols).is_err());
+        assert!(truth_row(&json!(null), 2, &mut cols).is_err());
+        assert!(truth_row(&json!([["b", "x"], ["a", 1]]), 2, &mut cols).is_err());
         let mut cols = None;
-        assert!(truth_row(&serde_json::json!({"x": 1}), 0, &mut cols).is_err());
+        assert!(truth_row(&json!([["x", 1]]), 0, &mut cols).is_err());
     }
 
     #[test]

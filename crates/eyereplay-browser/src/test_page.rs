@@ -94,8 +94,11 @@ pub struct TestEye {
     pub pitch_rad: f64,
     /// Centre of the limbus circle, projected (orthographic view).
     pub iris_px: [f64; 2],
-    /// Centre of the pupil disc as seen (the gaze axis meets the sphere).
+    /// Centre of the pupil's outline (the cap's rim circle, projected): the
+    /// centroid of the black pupil pixels when the lids do not cover it.
     pub pupil_px: [f64; 2],
+    /// Semi-major axis of the pupil's outline, px.
+    pub pupil_radius_px: f64,
     pub nx: f64,
     pub ny: f64,
     pub aperture: f64,
@@ -126,6 +129,18 @@ pub fn closure(t_ms: f64) -> f64 {
     }
 }
 
+/// Upper and lower lid of an eye at horizontal offset `dx_px` from its
+/// centre (page y, px) for a lid closure.
+pub fn lids_at(centre_px: [f64; 2], dx_px: f64, closure: f64) -> Option<[f64; 2]> {
+    let s = dx_px / HALF_WIDTH_PX;
+    if s.abs() >= 1.0 {
+        return None;
+    }
+    let w = 1.0 - s * s;
+    let upper = UPPER_LID_PX * (1.0 - closure) - LOWER_LID_PX * closure;
+    Some([centre_px[1] - upper * w, centre_px[1] + LOWER_LID_PX * w])
+}
+
 /// Both eyes for a mouse position (page px; `None`: no mouse yet, the eyes
 /// look straight ahead) at page time `t_ms`.
 pub fn test_eyes(mouse_px: Option<[f64; 2]>, t_ms: f64, viewport_px: [u32; 2]) -> [TestEye; 2] {
@@ -142,6 +157,7 @@ pub fn test_eyes(mouse_px: Option<[f64; 2]>, t_ms: f64, viewport_px: [u32; 2]) -
             yaw.cos() * pitch.cos(),
         ];
         let k = EYE_RADIUS_PX * IRIS_ANGLE_RAD.cos();
+        let kp = EYE_RADIUS_PX * PUPIL_ANGLE_RAD.cos();
         let iris = [c[0] + k * g[0], c[1] - k * g[1]];
         let (top, top_open, bot) = (c[1] - upper, c[1] - UPPER_LID_PX, c[1] + LOWER_LID_PX);
         TestEye {
@@ -149,7 +165,8 @@ pub fn test_eyes(mouse_px: Option<[f64; 2]>, t_ms: f64, viewport_px: [u32; 2]) -
             yaw_rad: yaw,
             pitch_rad: pitch,
             iris_px: iris,
-            pupil_px: [c[0] + EYE_RADIUS_PX * g[0], c[1] - EYE_RADIUS_PX * g[1]],
+            pupil_px: [c[0] + kp * g[0], c[1] - kp * g[1]],
+            pupil_radius_px: EYE_RADIUS_PX * PUPIL_ANGLE_RAD.sin(),
             nx: (iris[0] - (c[0] - HALF_WIDTH_PX)) / (2.0 * HALF_WIDTH_PX),
             ny: (iris[1] - top_open) / (bot - top_open),
             aperture: (bot - top).max(0.0) / (2.0 * HALF_WIDTH_PX),
@@ -186,11 +203,14 @@ mod tests {
         assert_eq!(c.frame, 1234);
         assert_eq!(c.mouse_px(), Some([640.5, 360.0]));
         assert_eq!((c.moves, c.time_ms), (77, 40_000));
-        // Flip one bit of the frame field: the checksum catches it.
-        let x = (24 + 23) * 8 + 4;
+        // Flip one bit of the frame field (its last cell): the checksum
+        // catches it.
         for y in 0..8 {
-            let i = (y * 1280 + x) * 3;
-            rgb[i..i + 3].fill(255 - rgb[i]);
+            for x in (24 + 23) * 8..(24 + 24) * 8 {
+                let i = (y * 1280 + x) * 3;
+                let v = 255 - rgb[i];
+                rgb[i..i + 3].fill(v);
+            }
         }
         assert!(decode_codes(&rgb, 1280, 32)
             .unwrap_err()
