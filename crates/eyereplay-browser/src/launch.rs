@@ -220,12 +220,12 @@ impl Browser {
                     return Ok(browser);
                 }
                 Err(mpsc::RecvTimeoutError::Timeout) => {
-                    if let Some(status) = browser.child.as_mut().and_then(|c| c.try_wait().ok()) {
-                        if let Some(status) = status {
-                            // Let the reader thread collect the last lines.
-                            std::thread::sleep(Duration::from_millis(50));
-                            return Err(browser.launch_error(format!("exited ({status})")));
-                        }
+                    if let Some(Some(status)) =
+                        browser.child.as_mut().and_then(|c| c.try_wait().ok())
+                    {
+                        // Let the reader thread collect the last lines.
+                        std::thread::sleep(Duration::from_millis(50));
+                        return Err(browser.launch_error(format!("exited ({status})")));
                     }
                     if Instant::now() > deadline {
                         return Err(browser.launch_error(format!(

@@ -527,13 +527,15 @@ mod tests {
         s.validate().unwrap();
         let e = serde_json::from_str::<BrowserSettings>(r#"{"urll": "x"}"#).unwrap_err();
         assert!(e.to_string().contains("unknown field"), "{e}");
-        let mut s = BrowserSettings::default();
-        s.crop = Some(crate::CropPx {
-            x: 1000,
-            y: 0,
-            width: 640,
-            height: 360,
-        });
+        let s = BrowserSettings {
+            crop: Some(crate::CropPx {
+                x: 1000,
+                y: 0,
+                width: 640,
+                height: 360,
+            }),
+            ..Default::default()
+        };
         assert!(s.validate().is_err());
     }
 }

@@ -10,7 +10,7 @@
 use eyereplay_browser::test_page::{self, decode_codes, lids_at, test_eyes};
 use eyereplay_browser::{
     render_session_browser, render_sessions, BrowserError, BrowserJob, BrowserSettings, Capture,
-    CropPx, ImageFormat,
+    CropPx, ImageFormat, PageMapping, ReadySettings,
 };
 use eyereplay_core::CanvasPos;
 use eyereplay_render::{probe_video, EncoderSettings, TRUTH_HEADER};
@@ -135,8 +135,10 @@ fn every_frame_is_exact_and_the_truth_matches_the_picture() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let mut settings = BrowserSettings::default();
-    settings.truth_js = Some("eyereplayTruth()".into());
+    let settings = BrowserSettings {
+        truth_js: Some("eyereplayTruth()".into()),
+        ..Default::default()
+    };
     let traj = random_walk(500, 7);
     let (mp4, csv) = (
         dir.path().join("walk.mp4"),
@@ -265,9 +267,11 @@ fn reruns_are_bit_identical() {
     }
     // 30 fps: a frame interval that is not a whole number of ms.
     let dir = tempfile::tempdir().unwrap();
-    let mut settings = BrowserSettings::default();
-    settings.truth_js = Some("eyereplayTruth()".into());
-    settings.format = ImageFormat::Png;
+    let settings = BrowserSettings {
+        truth_js: Some("eyereplayTruth()".into()),
+        format: ImageFormat::Png,
+        ..Default::default()
+    };
     let traj = random_walk(260, 11);
     let page: Vec<[f64; 2]> = traj.iter().map(|p| [p.x_px, p.y_px]).collect();
     let mut outputs = Vec::new();
@@ -370,14 +374,24 @@ fn a_page_that_never_becomes_ready_fails_cleanly() {
     if !have_browser() {
         return;
     }
-    let mut s = BrowserSettings::default();
-    s.ready.selector = Some("#never".into());
-    s.ready.timeout_s = 1.5;
+    let mut s = BrowserSettings {
+        ready: ReadySettings {
+            selector: Some("#never".into()),
+            js: None,
+            timeout_s: 1.5,
+        },
+        ..Default::default()
+    };
     let e = fails_cleanly(&mut s, 20, "not ready after");
     assert!(e.to_string().contains("selector \"#never\""), "{e}");
-    let mut s = BrowserSettings::default();
-    s.ready.js = Some("window.noSuchThing.ready".into());
-    s.ready.timeout_s = 1.0;
+    let mut s = BrowserSettings {
+        ready: ReadySettings {
+            selector: None,
+            js: Some("window.noSuchThing.ready".into()),
+            timeout_s: 1.0,
+        },
+        ..Default::default()
+    };
     let e = fails_cleanly(&mut s, 20, "not ready after");
     assert!(e.to_string().contains("TypeError"), "{e}");
 }
@@ -396,8 +410,10 @@ fn a_page_that_navigates_away_fails_cleanly() {
          setTimeout(() => { location.href = 'about:blank#gone'; }, 400);</script>",
     )
     .unwrap();
-    let mut s = BrowserSettings::default();
-    s.url = page.display().to_string();
+    let mut s = BrowserSettings {
+        url: page.display().to_string(),
+        ..Default::default()
+    };
     fails_cleanly(&mut s, 200, "navigated away to about:blank#gone");
 }
 
@@ -407,9 +423,11 @@ fn a_browser_that_dies_mid_session_is_an_error_and_leaves_nothing() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let mut s = BrowserSettings::default();
-    s.temp_dir = Some(dir.path().to_path_buf());
-    s.command_timeout_s = 5.0;
+    let s = BrowserSettings {
+        temp_dir: Some(dir.path().to_path_buf()),
+        command_timeout_s: 5.0,
+        ..Default::default()
+    };
     let mut cap = Capture::open(&s, 25.0).unwrap();
     cap.frame([100.0, 100.0]).unwrap();
     // SAFETY: kills the browser this test started (its process group).
@@ -434,8 +452,10 @@ fn a_browser_that_dies_mid_session_is_an_error_and_leaves_nothing() {
 #[test]
 fn a_missing_browser_is_a_one_line_error_naming_the_package() {
     let dir = tempfile::tempdir().unwrap();
-    let mut s = BrowserSettings::default();
-    s.browser = Some(dir.path().join("chromium-headless-shell"));
+    let s = BrowserSettings {
+        browser: Some(dir.path().join("chromium-headless-shell")),
+        ..Default::default()
+    };
     let traj = random_walk(10, 1);
     let e = render_session_browser(
         &s,
@@ -465,19 +485,24 @@ fn parallel_sessions_with_crop_and_mirrored_mapping() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let mut s = BrowserSettings::default();
-    // Canvas 640x360 -> page: mirrored in x, scaled by 2, shifted down 8 px.
-    s.mapping.canvas_px = [640, 360];
-    s.mapping.mirror_x = true;
-    s.mapping.scale = [2.0, 2.0];
-    s.mapping.offset_px = [0.0, 8.0];
-    // The left 1024 columns and the top 480 rows, where the codes are.
-    s.crop = Some(CropPx {
-        x: 0,
-        y: 0,
-        width: 1024,
-        height: 480,
-    });
+    let s = BrowserSettings {
+        // Canvas 640x360 -> page: mirrored in x, scaled by 2, shifted down 8 px.
+        mapping: PageMapping {
+            canvas_px: [640, 360],
+            offset_px: [0.0, 8.0],
+            scale: [2.0, 2.0],
+            mirror_x: true,
+            mirror_y: false,
+        },
+        // The left 1024 columns and the top 480 rows, where the codes are.
+        crop: Some(CropPx {
+            x: 0,
+            y: 0,
+            width: 1024,
+            height: 480,
+        }),
+        ..Default::default()
+    };
     let jobs: Vec<BrowserJob> = (0..3)
         .map(|k| BrowserJob {
             trajectory: random_walk(60, 20 + k)
