@@ -61,8 +61,10 @@ impl std::fmt::Display for BrowserBenchReport {
         )?;
         writeln!(
             f,
-            "  browser + encode      {:8.1} frames/s  ({:.2} x the encoder alone)",
-            self.end_to_end_fps, self.ratio_to_encoder
+            "  browser + encode      {:8.1} frames/s  ({:.2} x the encoder alone, {:.2} x real time)",
+            self.end_to_end_fps,
+            self.ratio_to_encoder,
+            self.end_to_end_fps / self.fps
         )?;
         if self.checked_frames > 0 {
             writeln!(

@@ -208,20 +208,29 @@ impl Capture {
             check += &format!("if (!({js})) return false; ");
         }
         check += "return true; })()";
+        let not_ready = |me: &Self, detail: String| BrowserError::NotReady {
+            url: me.url.clone(),
+            waited_s: start.elapsed().as_secs_f64(),
+            condition: me.settings.ready_condition(),
+            detail,
+        };
         loop {
             if start.elapsed() > limit {
-                return Err(BrowserError::NotReady {
-                    url: self.url.clone(),
-                    waited_s: start.elapsed().as_secs_f64(),
-                    condition: self.settings.ready_condition(),
-                    detail: if last_error.is_empty() {
-                        String::new()
-                    } else {
-                        format!("; last error: {last_error}")
-                    },
-                });
+                let detail = if last_error.is_empty() {
+                    String::new()
+                } else {
+                    format!("; last error: {last_error}")
+                };
+                return Err(not_ready(self, detail));
             }
-            self.advance_bounded(start + limit)?;
+            match self.advance_bounded(start + limit) {
+                Err(BrowserError::Timeout { .. }) => {
+                    // Virtual time waits for pending fetches.
+                    let detail = "; page time stood still (a network fetch never finished)";
+                    return Err(not_ready(self, detail.into()));
+                }
+                r => r?,
+            }
             self.begin_frame(false)?;
             if !navigated {
                 if let Some(r) = self.cdp.take_response(nav_id) {

@@ -396,6 +396,49 @@ fn a_page_that_never_becomes_ready_fails_cleanly() {
     assert!(e.to_string().contains("TypeError"), "{e}");
 }
 
+/// Serves `page` to every request for `/`, and never answers any other
+/// request (a stalled server); returns the base URL.
+fn stalling_server(page: &'static str) -> String {
+    use std::io::{BufRead, BufReader, Write};
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let url = format!("http://{}/", listener.local_addr().unwrap());
+    std::thread::spawn(move || {
+        let mut held = Vec::new();
+        for mut conn in listener.incoming().flatten() {
+            let mut line = String::new();
+            let _ = BufReader::new(&conn).read_line(&mut line);
+            if line.starts_with("GET / ") {
+                let _ = write!(
+                    conn,
+                    "HTTP/1.1 200 OK\r\nContent-Type: text/html\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{page}",
+                    page.len()
+                );
+            } else {
+                held.push(conn);
+            }
+        }
+    });
+    url
+}
+
+#[test]
+fn a_page_whose_script_never_arrives_is_not_ready() {
+    if !have_browser() {
+        return;
+    }
+    let url = stalling_server("<!doctype html><script src=\"/app.js\"></script>");
+    let mut s = BrowserSettings {
+        url,
+        ready: ReadySettings {
+            timeout_s: 2.0,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let e = fails_cleanly(&mut s, 20, "not ready after");
+    assert!(e.to_string().contains("network fetch"), "{e}");
+}
+
 #[test]
 fn a_page_that_navigates_away_fails_cleanly() {
     if !have_browser() {
