@@ -5,7 +5,7 @@ use crate::capture::Capture;
 use crate::session::{decode_image, render_session_browser};
 use crate::settings::{BrowserSettings, TEST_PAGE_URL};
 use crate::{test_page, BrowserError};
-use eyereplay_render::{reading_trajectory, rgb_to_yuv420, Encoder, EncoderSettings};
+use eyereplay_render::{cpu_times, reading_trajectory, rgb_to_yuv420, Encoder, EncoderSettings};
 use std::time::Instant;
 
 /// What [`run_bench`] measured.
@@ -34,6 +34,14 @@ pub struct BrowserBenchReport {
     /// that showed a wrong frame number or cursor (late or repeated).
     pub checked_frames: usize,
     pub wrong_frames: usize,
+    /// CPU time per frame, ms: the browser's processes during capture
+    /// (start-up included), decoding, and ffmpeg encoding. Unlike frames/s
+    /// it does not depend on what else runs on the machine.
+    pub cpu_ms_per_frame: Option<f64>,
+    /// The browser's part of it, ms.
+    pub browser_cpu_ms_per_frame: Option<f64>,
+    /// Frames per second the machine's cores could sustain at that CPU cost.
+    pub cpu_bound_fps: Option<f64>,
 }
 
 impl std::fmt::Display for BrowserBenchReport {
@@ -66,6 +74,14 @@ impl std::fmt::Display for BrowserBenchReport {
             self.ratio_to_encoder,
             self.end_to_end_fps / self.fps
         )?;
+        if let (Some(ms), Some(lim)) = (self.cpu_ms_per_frame, self.cpu_bound_fps) {
+            writeln!(
+                f,
+                "  CPU per frame         {ms:8.1} ms ({:.1} ms browser) -> CPU-bound limit {lim:.1} frames/s on {} cores",
+                self.browser_cpu_ms_per_frame.unwrap_or(f64::NAN),
+                cores()
+            )?;
+        }
         if self.checked_frames > 0 {
             writeln!(
                 f,
@@ -103,6 +119,7 @@ pub fn run_bench(
     }
     let capture_s = t.elapsed().as_secs_f64();
     let browser_version = cap.browser_version.clone();
+    let browser_cpu_s = group_cpu_s(cap.browser_pid());
     cap.close();
 
     // 2. Decode (and check the test page's codes, untimed).
@@ -135,6 +152,7 @@ pub fn run_bench(
     drop(shots);
 
     // 3. Encoder alone.
+    let cpu_enc0 = cpu_times();
     let t = Instant::now();
     let mut enc = Encoder::start(&dir.path().join("encode_only.mp4"), w, h, fps, encoder)?;
     for y in &yuvs {
@@ -142,6 +160,7 @@ pub fn run_bench(
     }
     enc.finish()?;
     let encode_s = t.elapsed().as_secs_f64();
+    let encoder_cpu_s = cpu_enc0.zip(cpu_times()).map(|((_, c0), (_, c1))| c1 - c0);
     drop(yuvs);
 
     // 4. The real thing.
@@ -154,6 +173,11 @@ pub fn run_bench(
         &dir.path().join("bench_truth.csv"),
     )?;
     let n = traj.len() as f64;
+    // Decoding runs on one thread, so its wall time is its CPU time.
+    let browser_cpu_ms_per_frame = browser_cpu_s.map(|s| s * 1000.0 / n);
+    let cpu_ms_per_frame = browser_cpu_s
+        .zip(encoder_cpu_s)
+        .map(|(b, e)| (b + e + decode_s) * 1000.0 / n);
     let encode_fps = n / encode_s.max(1e-9);
     let end_to_end_fps = stats.capture_fps();
     Ok(BrowserBenchReport {
@@ -170,5 +194,33 @@ pub fn run_bench(
         ratio_to_encoder: end_to_end_fps / encode_fps,
         checked_frames: checked,
         wrong_frames: wrong,
+        cpu_ms_per_frame,
+        browser_cpu_ms_per_frame,
+        cpu_bound_fps: cpu_ms_per_frame.map(|ms| cores() as f64 * 1000.0 / ms.max(1e-9)),
     })
+}
+
+/// CPU seconds used so far by the live processes of process group `pgid`
+/// (the browser and its helpers), from /proc. `None` off Linux.
+fn group_cpu_s(pgid: i32) -> Option<f64> {
+    let mut total = 0.0;
+    for e in std::fs::read_dir("/proc").ok()?.flatten() {
+        let Ok(stat) = std::fs::read_to_string(e.path().join("stat")) else {
+            continue;
+        };
+        let Some(rest) = stat.rfind(')').map(|i| &stat[i + 2..]) else {
+            continue;
+        };
+        let f: Vec<&str> = rest.split_whitespace().collect();
+        // After the command name: state, ppid, pgrp, ..., utime (11), stime (12).
+        if f.get(2).and_then(|v| v.parse::<i32>().ok()) == Some(pgid) {
+            let n = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+            total += (n(11) + n(12)) / 100.0;
+        }
+    }
+    Some(total)
+}
+
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
 }

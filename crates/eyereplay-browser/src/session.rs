@@ -276,7 +276,13 @@ fn render_inner(
             })?;
             unchanged += (!shot.fresh) as usize;
             if let Some(js) = &truth_expr {
-                let v = cap.eval(js)?;
+                let v = cap.eval(js).map_err(|e| match e {
+                    BrowserError::Protocol { message, .. } => BrowserError::Truth {
+                        frame: i,
+                        message: format!("threw {message}"),
+                    },
+                    e => e,
+                })?;
                 truth_rows.push(truth_row(&v, i, &mut truth_cols)?);
             }
             if tx.send((i, shot.image)).is_err() {
