@@ -95,10 +95,10 @@ fn check_options(o: &EvaluateOptions) -> Result<()> {
             t.fixation_below_px_per_frame, t.saccade_above_px_per_frame
         ));
     }
-    if !(o.config.window_s > 0.0) {
+    if o.config.window_s.is_nan() || o.config.window_s <= 0.0 {
         return bad("--window-s must be positive".into());
     }
-    if !(o.visual_seconds > 0.0) {
+    if o.visual_seconds.is_nan() || o.visual_seconds <= 0.0 {
         return bad("--visual-seconds must be positive".into());
     }
     Ok(())
@@ -322,7 +322,7 @@ fn read_back(
     n: usize,
     fps: f64,
     geometry: &Path,
-) -> Result<std::result::Result<(Vec<[f64; 2]>, String), String>> {
+) -> Result<std::result::Result<ReadBack, String>> {
     // When the render's geometry is at hand, a 4-s trial decides first
     // whether the detector sees a face at all, so a close-up does not cost
     // a full detector pass.
@@ -366,6 +366,9 @@ because the face detector found the face in {seen} of the compared frames",
         }
     }
 }
+
+/// Per-frame `(nx, ny)` read back from a video, and how the eyes were found.
+type ReadBack = (Vec<[f64; 2]>, String);
 
 fn detection_rate(n: &[[f64; 2]]) -> f64 {
     n.iter()
