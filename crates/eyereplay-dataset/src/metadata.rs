@@ -112,8 +112,35 @@ pub struct Metadata {
 pub struct RenderMetadata {
     /// Per session: seed, identity (iris, skin, eye shape, lighting,
     /// camera), gaze mapping, video size and eye geometry, as written beside
-    /// each video.
+    /// each video; keys sorted, as metadata.json has always had them here.
+    #[serde(serialize_with = "keys_sorted")]
     pub sessions: Vec<SessionIdentity>,
+}
+
+/// Serializes through serde's value tree, whose objects are sorted maps.
+fn keys_sorted<S: serde::Serializer>(v: &[SessionIdentity], s: S) -> Result<S::Ok, S::Error> {
+    let tree = serde_json::to_value(v).map_err(serde::ser::Error::custom)?;
+    sort_value(tree).serialize(s)
+}
+
+/// Rebuilds every object with its keys in sorted order (serde_json keeps
+/// insertion order when another crate enables `preserve_order`).
+fn sort_value(v: serde_json::Value) -> SortedValue {
+    match v {
+        serde_json::Value::Object(m) => {
+            SortedValue::Object(m.into_iter().map(|(k, v)| (k, sort_value(v))).collect())
+        }
+        serde_json::Value::Array(a) => SortedValue::Array(a.into_iter().map(sort_value).collect()),
+        other => SortedValue::Leaf(other),
+    }
+}
+
+#[derive(Serialize)]
+#[serde(untagged)]
+enum SortedValue {
+    Object(std::collections::BTreeMap<String, SortedValue>),
+    Array(Vec<SortedValue>),
+    Leaf(serde_json::Value),
 }
 
 impl DatasetMetadata {

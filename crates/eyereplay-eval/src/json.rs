@@ -176,6 +176,26 @@ pub fn fmt_float(v: f64) -> String {
     }
 }
 
+/// serde's value tree in this format: objects sorted by key, integers kept
+/// as integers, non-finite numbers (which serde writes as null) as null.
+impl From<serde_json::Value> for Json {
+    fn from(v: serde_json::Value) -> Self {
+        use serde_json::Value as V;
+        match v {
+            V::Null => Json::Null,
+            V::Bool(b) => Json::Bool(b),
+            V::Number(n) => match (n.as_i64(), n.as_u64()) {
+                (Some(i), _) => Json::Int(i),
+                (None, Some(u)) => Json::Int(u as i64),
+                _ => n.as_f64().map_or(Json::Null, Json::from),
+            },
+            V::String(s) => Json::Str(s),
+            V::Array(a) => Json::Arr(a.into_iter().map(Json::from).collect()),
+            V::Object(m) => Json::Obj(m.into_iter().map(|(k, v)| (k, Json::from(v))).collect()),
+        }
+    }
+}
+
 impl From<f64> for Json {
     fn from(v: f64) -> Self {
         if v.is_finite() {

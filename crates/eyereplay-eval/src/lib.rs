@@ -10,6 +10,7 @@ mod error;
 pub mod json;
 pub mod ks;
 pub mod metrics;
+mod metrics_doc;
 pub mod stats;
 pub mod visual;
 

@@ -4,8 +4,7 @@
 //! and `report/events/<class>/<stem>.csv` (pymovements' events layout).
 
 use crate::dataset::{load_dataset, Dataset};
-use crate::distribution::{evaluate_class, ClassEvaluation, EvalConfig, Extras, Metric};
-use crate::json::Json;
+use crate::distribution::{evaluate_class, ClassEvaluation, EvalConfig, Metric};
 use crate::metrics::events_csv;
 use crate::plot::{main_sequence_figure, qq_figure, visual_figure, windows_figure, Figure};
 use crate::visual::{VisualFidelity, TARGET_AMPLITUDE_RATIO, TARGET_R_MIN};
@@ -94,178 +93,7 @@ pub fn evaluate_loaded(ds: &Dataset, cfg: &EvalConfig) -> Evaluation {
     }
 }
 
-fn extras_json(e: &Extras) -> Json {
-    let mut j = Json::obj();
-    j.set("n_frames", e.n_frames);
-    j.set("n_segments", e.n_segments);
-    j.set("duration_s", e.duration_s);
-    j.set("n_fixations", e.n_fixations);
-    j.set("n_saccades", e.n_saccades);
-    j.set("fixation_rate_per_s", e.fixation_rate_per_s);
-    j.set("saccade_rate_per_s", e.saccade_rate_per_s);
-    j.set("blink_rate_per_min", e.blink_rate_per_min);
-    j.set("blink_column_rate_per_min", e.blink_column_rate_per_min);
-    j.set("fixation_duration_median_ms", e.fixation_duration_median_ms);
-    j.set("saccade_amplitude_median_px", e.saccade_amplitude_median_px);
-    j.set(
-        "saccade_amplitude_median_deg",
-        e.saccade_amplitude_median_deg,
-    );
-    j.set(
-        "fixation_dispersion_median_px",
-        e.fixation_dispersion_median_px,
-    );
-    j.set("speed_median_px_per_s", e.speed_median_px_per_s);
-    j.set("main_sequence.exponent", e.main_sequence_exponent);
-    j.set(
-        "main_sequence.coefficient_px_per_s",
-        e.main_sequence_coefficient,
-    );
-    j
-}
-
-/// The metrics.json tree. Keys at least
-/// `distribution.<class>.<metric>.{ks_d,ks_p,n_source,n_generated}`,
-/// `visual.{x,y}.{r,amplitude_ratio}`, `visual.error.{mean,median,p95}`.
-pub fn metrics_json(ev: &Evaluation) -> Json {
-    let mut j = Json::obj();
-    j.set("tool_version", eyereplay_core::TOOL_VERSION);
-    j.set("dataset.fps", ev.fps);
-    j.set("dataset.canvas.width_px", ev.canvas.width_px);
-    j.set("dataset.canvas.height_px", ev.canvas.height_px);
-    j.set("dataset.session_frames", ev.session_frames);
-    let c = &ev.config;
-    j.set(
-        "parameters.fixation_below_px_per_frame",
-        c.thresholds.fixation_below_px_per_frame,
-    );
-    j.set(
-        "parameters.saccade_above_px_per_frame",
-        c.thresholds.saccade_above_px_per_frame,
-    );
-    j.set(
-        "parameters.blink_hold_min_frames",
-        c.thresholds.hold_min_frames,
-    );
-    j.set("parameters.window_s", c.window_s);
-    j.set("parameters.qq_points", c.qq_points);
-    j.set("parameters.ks_d_max", c.d_max);
-    j.set("parameters.px_per_deg", c.px_per_deg);
-    j.set(
-        "parameters.ks_test",
-        "two-sided two-sample KS as scipy.stats.ks_2samp(method='auto'): exact p if max(n1, n2) <= 10000, else asymptotic",
-    );
-    j.set(
-        "parameters.segments",
-        "source pool metrics are computed within each source recording (column 'source'); each generated session is one segment",
-    );
-    for (i, ce) in ev.classes.iter().enumerate() {
-        let cls = ce.class.name();
-        j.set(&format!("dataset.classes.{cls}.n_sessions"), ce.n_sessions);
-        j.set(
-            &format!("dataset.classes.{cls}.pool_frames"),
-            ev.pool_frames[i],
-        );
-        j.set(
-            &format!("dataset.classes.{cls}.pool_segments"),
-            ev.pool_segments[i],
-        );
-        for cmp in &ce.comparisons {
-            let base = format!("distribution.{cls}.{}", cmp.metric.key());
-            j.set(&format!("{base}.ks_d"), cmp.ks.map(|k| k.d));
-            j.set(&format!("{base}.ks_p"), cmp.ks.map(|k| k.p));
-            j.set(
-                &format!("{base}.ks_method"),
-                cmp.ks.map(|k| format!("{:?}", k.method).to_lowercase()),
-            );
-            j.set(&format!("{base}.n_source"), cmp.n_source);
-            j.set(&format!("{base}.n_generated"), cmp.n_generated);
-            j.set(&format!("{base}.median_source"), cmp.median_source);
-            j.set(&format!("{base}.median_generated"), cmp.median_generated);
-            j.set(&format!("{base}.unit"), cmp.metric.unit());
-            j.set(&format!("{base}.paper_ks_d"), cmp.metric.paper_d(ce.class));
-            j.set(
-                &format!("{base}.passes_d_max"),
-                cmp.ks.map(|k| k.d <= c.d_max),
-            );
-        }
-        j.set(
-            &format!("extras.{cls}.source"),
-            extras_json(&ce.extras_source),
-        );
-        j.set(
-            &format!("extras.{cls}.generated"),
-            extras_json(&ce.extras_generated),
-        );
-    }
-    j.set("events.layout", "name,onset,offset");
-    j.set("events.time_unit", "ms");
-    j.set("events.dir", "report/events");
-    j.set("visual.target.r_min", TARGET_R_MIN);
-    j.set(
-        "visual.target.amplitude_ratio_min",
-        TARGET_AMPLITUDE_RATIO.0,
-    );
-    j.set(
-        "visual.target.amplitude_ratio_max",
-        TARGET_AMPLITUDE_RATIO.1,
-    );
-    match &ev.visual {
-        VisualSection::NotComputed { reason } => {
-            j.set("visual.computed", false);
-            j.set("visual.reason", reason.as_str());
-            for ax in ["x", "y"] {
-                j.set(&format!("visual.{ax}.r"), Json::Null);
-                j.set(&format!("visual.{ax}.amplitude_ratio"), Json::Null);
-            }
-            for k in ["mean", "median", "p95"] {
-                j.set(&format!("visual.error.{k}"), Json::Null);
-            }
-        }
-        VisualSection::Computed(run) => {
-            let v = &run.fidelity;
-            j.set("visual.computed", true);
-            j.set("visual.video", run.video.as_str());
-            j.set("visual.eye_locator", run.eye_locator.as_str());
-            j.set("visual.n_frames", v.n_frames);
-            for (ax, a) in [("x", &v.x), ("y", &v.y)] {
-                j.set(&format!("visual.{ax}.r"), a.r);
-                j.set(&format!("visual.{ax}.amplitude_ratio"), a.amplitude_ratio);
-                j.set(&format!("visual.{ax}.std_source"), a.std_source);
-                j.set(&format!("visual.{ax}.std_rendered"), a.std_rendered);
-                j.set(&format!("visual.{ax}.meets_targets"), a.meets_targets());
-            }
-            j.set("visual.error.mean", v.error.mean);
-            j.set("visual.error.median", v.error.median);
-            j.set("visual.error.p95", v.error.p95);
-            if let Some(inp) = &v.input {
-                j.set("visual.input.range_x_px", inp.range_px[0]);
-                j.set("visual.input.range_y_px", inp.range_px[1]);
-                j.set("visual.input.range_x_pct_canvas", inp.range_pct_canvas[0]);
-                j.set("visual.input.range_y_pct_canvas", inp.range_pct_canvas[1]);
-                j.set("visual.input.p5_p95_x_px", inp.p5_p95_px[0]);
-                j.set("visual.input.p5_p95_y_px", inp.p5_p95_px[1]);
-            }
-            j.set("visual.meets_targets", v.meets_targets());
-            j.set("visual.detection_rate", run.detection_rate);
-        }
-    }
-    if let Some((file, t)) = &ev.render_truth {
-        j.set("visual.render_truth.file", file.as_str());
-        j.set("visual.render_truth.n_frames", t.n_frames);
-        for (ax, a) in [("x", &t.x), ("y", &t.y)] {
-            j.set(&format!("visual.render_truth.{ax}.r"), a.r);
-            j.set(
-                &format!("visual.render_truth.{ax}.amplitude_ratio"),
-                a.amplitude_ratio,
-            );
-        }
-        j.set("visual.render_truth.error.mean", t.error.mean);
-        j.set("visual.render_truth.error.median", t.error.median);
-        j.set("visual.render_truth.error.p95", t.error.p95);
-    }
-    j
-}
+pub use crate::metrics_doc::metrics_json;
 
 /// All figures of an evaluation.
 pub fn figures(ev: &Evaluation) -> Result<Vec<Figure>, EvalError> {
@@ -359,9 +187,19 @@ before relying on it, and prefer sources of one kind per dataset where you can.<
 }
 
 pub fn report_html(ev: &Evaluation, figs: &[Figure]) -> String {
-    let fig = |name: &str| figs.iter().find(|f| f.name == name);
-    let c = &ev.config;
     let mut h = String::new();
+    html_head(&mut h, ev);
+    dataset_section(&mut h, ev);
+    parameters_section(&mut h, ev);
+    distribution_section(&mut h, ev, figs);
+    extras_section(&mut h, ev, figs);
+    visual_html(&mut h, ev, figs);
+    h.push_str("</body></html>\n");
+    h
+}
+
+/// Document head and style.
+fn html_head(h: &mut String, _ev: &Evaluation) {
     h.push_str(
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>eyereplay evaluation</title>\n<style>\n\
 body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;max-width:1440px;margin:2em auto;padding:0 1em;color:#222}\n\
@@ -373,7 +211,10 @@ table.kv td{text-align:left}\n\
 .note{background:#fff8e1;border-left:4px solid #f0b400;padding:0.6em 1em}code{background:#f3f3f3;padding:0 3px}\n\
 </style></head><body>\n<h1>eyereplay evaluation</h1>\n",
     );
-    // Dataset
+}
+
+/// Dataset: rate, canvas, session length, pools and source kinds.
+fn dataset_section(h: &mut String, ev: &Evaluation) {
     h.push_str("<h2>Dataset</h2>\n<table class=\"kv\"><tr><th>property</th><th>value</th></tr>\n");
     let _ = writeln!(h, "<tr><td>frame rate</td><td>{} fps</td></tr>", ev.fps);
     let _ = writeln!(
@@ -414,7 +255,11 @@ table.kv td{text-align:left}\n\
     }
     h.push_str("</table>\n");
     h.push_str(&recording_kind_note(ev));
-    // Parameters
+}
+
+/// Parameters: the metric definitions and thresholds used.
+fn parameters_section(h: &mut String, ev: &Evaluation) {
+    let c = &ev.config;
     h.push_str(
         "<h2>Parameters</h2>\n<table class=\"kv\"><tr><th>parameter</th><th>value</th></tr>\n",
     );
@@ -438,7 +283,12 @@ table.kv td{text-align:left}\n\
             .map_or("not given (no degrees)".into(), |k| format!("{k} px per degree"))
     );
     h.push_str("</table>\n<p>Source pool metrics are computed within each source recording, so the jump where two recordings were concatenated is not counted; each generated session is measured as a whole, as it would be rendered. Sessions overlap (circular slicing), so they are not independent draws.</p>\n");
-    // Distribution
+}
+
+/// Distributional fidelity: KS per class and metric, Q-Q and time-series figures.
+fn distribution_section(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
+    let fig = |name: &str| figs.iter().find(|f| f.name == name);
+    let c = &ev.config;
     h.push_str("<h2>Distributional fidelity</h2>\n<table><tr><th>class</th><th>metric</th><th>KS D</th><th>p</th><th>p method</th><th>n source</th><th>n generated</th><th>median source</th><th>median generated</th><th>paper D</th><th>D &le; threshold</th></tr>\n");
     for ce in &ev.classes {
         for cmp in &ce.comparisons {
@@ -472,7 +322,11 @@ table.kv td{text-align:left}\n\
     if let Some(f) = fig("timeseries") {
         h.push_str(&img(f, "Time-series windows: source pool (left) beside a generated session (right), x and y in canvas px"));
     }
-    // Extras
+}
+
+/// Beyond the paper: rates, medians, main sequence, events export.
+fn extras_section(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
+    let fig = |name: &str| figs.iter().find(|f| f.name == name);
     h.push_str("<h2>Beyond the paper</h2>\n<table><tr><th>class</th><th>measure</th><th>source</th><th>generated</th></tr>\n");
     for ce in &ev.classes {
         let (s, g) = (&ce.extras_source, &ce.extras_generated);
@@ -550,7 +404,11 @@ table.kv td{text-align:left}\n\
         ));
     }
     h.push_str("<p>Events of every generated session are exported in pymovements' events layout (<code>name,onset,offset</code>, times in ms from the session start) under <code>report/events/&lt;class&gt;/&lt;session&gt;.csv</code>.</p>\n");
-    // Visual
+}
+
+/// Visual mapping fidelity and the renderer's ground truth.
+fn visual_html(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
+    let fig = |name: &str| figs.iter().find(|f| f.name == name);
     h.push_str("<h2>Visual mapping fidelity</h2>\n");
     match &ev.visual {
         VisualSection::NotComputed { reason } => {
@@ -609,8 +467,6 @@ table.kv td{text-align:left}\n\
             t.summary()
         );
     }
-    h.push_str("</body></html>\n");
-    h
 }
 
 /// Paths written by [`write_report`].

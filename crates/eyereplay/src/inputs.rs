@@ -189,7 +189,7 @@ mod tests {
 [classes.reading]
 sources = [{ format = "video", path = "a.mp4" }, { format = "video", path = "b.mp4" }, { format = "video", path = "a.mp4" }]
 [classes.conversation]
-sources = [{ format = "video", path = "b.mp4" }, { format = "csv", path = "c.csv" }, { format = "video", path = "c.mp4" }]
+sources = [{ format = "video", path = "b.mp4" }, { format = "extract", path = "c.csv" }, { format = "video", path = "c.mp4" }]
 "#,
         )
         .unwrap();
