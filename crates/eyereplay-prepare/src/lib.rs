@@ -21,7 +21,9 @@ mod load;
 mod resample;
 mod slice;
 
-pub use calibrate::{auto_calibration, blink_filter, manual_calibration, Calibration, FillCounts};
+pub use calibrate::{
+    auto_calibration, blink_filter, manual_calibration, Calibration, FillAxes, FillCounts,
+};
 pub use config::{
     describe_toml_error, AppliesTo, BlinkFilterConfig, CalibrationConfig, CalibrationMode,
     CalibrationScope, ClassConfig, DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod,
@@ -174,7 +176,13 @@ fn filter_blinks(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Vec<Filtered> {
         .map(|s| {
             let iqr = cfg.blink_filter.iqr_applies_to == AppliesTo::All
                 || s.recording.kind == RecordingKind::Video;
-            blink_filter(&s.recording.segments, &cfg.blink_filter, iqr)
+            // The paper's per-axis rule; `FillAxes::Joint` awaits a config key.
+            blink_filter(
+                &s.recording.segments,
+                &cfg.blink_filter,
+                iqr,
+                FillAxes::PerAxis,
+            )
         })
         .collect()
 }
