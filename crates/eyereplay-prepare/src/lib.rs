@@ -35,7 +35,7 @@ pub use dataset::{
 pub use error::PrepareError;
 pub use load::{check_source_files, load_sources};
 pub use resample::{
-    resample_recording, scale_about_centroid, ResampleMethod, SpeedCorrectionReport,
+    is_linear_rate, resample_recording, scale_about_centroid, ResampleMethod, SpeedCorrectionReport,
 };
 pub use slice::{normalize_to, reuse_ratio, slice_index, slice_session, stride};
 

@@ -3,8 +3,10 @@
 //! and which samples feed the calibration percentiles.
 
 use eyereplay_core::{GazeClass, NormPos, Sample, Trajectory};
-use eyereplay_prepare::{prepare, DatasetConfig, PrepareError, Prepared, SourceInput};
-use eyereplay_sources::{Recording, RecordingKind};
+use eyereplay_prepare::{
+    prepare, DatasetConfig, PrepareError, Prepared, ResampleMethod, SourceInput,
+};
+use eyereplay_sources::{read_source, ReadOptions, Recording, RecordingKind, SourceSpec};
 
 /// A config for one conversation source; `extra` adds top-level tables.
 fn config(session_frames: usize, extra: &str) -> DatasetConfig {
@@ -93,4 +95,44 @@ fn blink_filter_replaces_only_the_axis_outside_its_fence() {
         (1, 0, 0, 1),
         "{filled:?}"
     );
+}
+
+/// An extract CSV at `fps` starting 10 s into a video, timestamps written to
+/// 0.1 ms as the extractor does: the measured rate carries rounding error
+/// (50 fps measures as 50.000000000001 Hz).
+fn extract_csv_at(dir: &std::path::Path, fps: f64) -> Recording {
+    let mut s = String::from("frame,time_s,valid,nx,ny\n");
+    for i in 0..20 {
+        let t = 10.0 + i as f64 / fps;
+        let nx = 0.5 + 0.02 * ((i * 7) % 5) as f64;
+        let ny = 0.5 + 0.015 * ((i * 3) % 4) as f64;
+        s.push_str(&format!("{i},{t:.4},1,{nx},{ny}\n"));
+    }
+    let p = dir.join(format!("v{fps}.csv"));
+    std::fs::write(&p, s).unwrap();
+    read_source(&SourceSpec::Extract { path: p }, &ReadOptions::default())
+        .unwrap()
+        .remove(0)
+}
+
+#[test]
+fn a_50_fps_source_is_interpolated_and_corrected_a_60_fps_one_decimated() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = config(5, MANUAL);
+    for (fps, method, applied) in [
+        (50.0, ResampleMethod::Linear, true),
+        (60.0, ResampleMethod::AntiAliasDecimate, false),
+    ] {
+        let rec = extract_csv_at(dir.path(), fps);
+        assert!((rec.rate_hz - fps).abs() < 0.5, "{}", rec.rate_hz);
+        let samples = rec.segments[0].samples().to_vec();
+        let p = run(&cfg, &[input(samples, rec.rate_hz, RecordingKind::Video)]).unwrap();
+        let sc = &p.sources[0].speed_correction;
+        assert_eq!(
+            (sc.method, sc.applied),
+            (method, applied),
+            "{fps} fps measured as {} Hz: {sc:?}",
+            rec.rate_hz
+        );
+    }
 }
