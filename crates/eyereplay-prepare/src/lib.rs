@@ -198,8 +198,9 @@ struct Calibrations {
 
 /// Paper stage 2, geometric calibration `c = s (n - 0.5) + mu` (eq. 2):
 /// manual, or auto-scaled from percentiles, pooled over all sources by
-/// default. Each source contributes about one sample per target frame, so a
-/// 500 Hz tracker does not outweigh a 25 fps video twenty times over.
+/// default. Pooled, each source contributes about one sample per target
+/// frame, so a 500 Hz tracker does not outweigh a 25 fps video twenty times
+/// over; per source, every sample counts.
 fn calibrate(
     cfg: &DatasetConfig,
     inputs: &[SourceInput],
@@ -215,7 +216,14 @@ fn calibrate(
         };
         let mut pts = Vec::new();
         for i in pick {
-            let step = ((inputs[i].recording.rate_hz / cfg.fps).round() as usize).max(1);
+            // Thinning only balances sources against each other; alone, a
+            // source's percentiles are best estimated from all its samples.
+            let step = match cfg.calibration.scope {
+                CalibrationScope::Pooled => {
+                    ((inputs[i].recording.rate_hz / cfg.fps).round() as usize).max(1)
+                }
+                CalibrationScope::PerSource => 1,
+            };
             pts.extend(
                 filtered[i]
                     .0

@@ -136,3 +136,48 @@ fn a_50_fps_source_is_interpolated_and_corrected_a_60_fps_one_decimated() {
         );
     }
 }
+
+#[test]
+fn per_source_calibration_uses_every_sample() {
+    // A 100 Hz recording whose every 4th sample (the ones thinning to about
+    // one per 25 fps frame keeps) sits at the centre, the others on a wide
+    // ramp. With scope = "per_source" nothing outweighs this source, so its
+    // percentiles come from all samples: p5..p95 of all 400 values.
+    let n = 400;
+    let nx_of = |i: usize| {
+        if (i / 4) * 4 == i {
+            0.5 + 0.0001 * (i % 8) as f64
+        } else {
+            0.2 + 0.6 * i as f64 / n as f64
+        }
+    };
+    let ny_of = |i: usize| 0.3 + 0.4 * ((i * 37) % n) as f64 / n as f64;
+    let samples: Vec<Sample<NormPos>> = (0..n)
+        .map(|i| {
+            Sample::new(
+                i as f64 / 100.0,
+                NormPos {
+                    nx: nx_of(i),
+                    ny: ny_of(i),
+                },
+            )
+        })
+        .collect();
+    let cfg = config(
+        5,
+        "[calibration]\nscope = \"per_source\"\n[smoothing]\nmethod = \"none\"\n",
+    );
+    let p = run(&cfg, &[input(samples, 100.0, RecordingKind::EyeTracker)]).unwrap();
+    let c = p.sources[0].calibration;
+    let xs: Vec<f64> = (0..n).map(nx_of).collect();
+    let (lo, hi) = (
+        eyereplay_signal::percentile(&xs, 5.0).unwrap(),
+        eyereplay_signal::percentile(&xs, 95.0).unwrap(),
+    );
+    let want_s_x = 0.8 * 1280.0 / (hi - lo);
+    assert!(
+        (c.s_x - want_s_x).abs() < 1e-9 * want_s_x,
+        "s_x {} vs {want_s_x} (all samples)",
+        c.s_x
+    );
+}
