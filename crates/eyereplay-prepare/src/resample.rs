@@ -47,7 +47,7 @@ pub fn resample_recording(
     fps: f64,
     cfg: &ResampleConfig,
 ) -> (Vec<CanvasPos>, Vec<bool>, SpeedCorrectionReport) {
-    let linear = rate_hz <= cfg.linear_max_ratio * fps;
+    let linear = is_linear_rate(rate_hz, fps, cfg.linear_max_ratio);
     let method = if linear {
         ResampleMethod::Linear
     } else {
@@ -104,6 +104,18 @@ pub fn resample_recording(
             path_length_resampled_px: l_res,
         },
     )
+}
+
+/// Relative tolerance of the rate rule. Rates are measured from timestamps
+/// (`1 / median interval`), which carry rounding: a 50 fps video whose
+/// timestamps start 10 s in measures 50.000000000001 Hz. 1e-6 is far above
+/// that and far below any real difference between frame rates.
+const RATE_RTOL: f64 = 1e-6;
+
+/// The `auto` rule: linear interpolation (and speed correction) for sources
+/// at most `max_ratio` times the target rate, up to measurement rounding.
+pub fn is_linear_rate(rate_hz: f64, fps: f64, max_ratio: f64) -> bool {
+    rate_hz <= max_ratio * fps * (1.0 + RATE_RTOL)
 }
 
 /// For each output time, whether a blink-flagged input sample lies within
@@ -243,5 +255,13 @@ mod tests {
         assert!(
             (p[0].x_px - (5.0 - 5.25)).abs() < 1e-12 && (p[1].y_px - (10.0 + 10.5)).abs() < 1e-12
         );
+    }
+
+    #[test]
+    fn rate_rule_tolerates_measurement_rounding_only() {
+        assert!(is_linear_rate(50.0, 25.0, 2.0));
+        assert!(is_linear_rate(50.000000000001066, 25.0, 2.0));
+        assert!(!is_linear_rate(50.01, 25.0, 2.0));
+        assert!(!is_linear_rate(60.0, 25.0, 2.0));
     }
 }

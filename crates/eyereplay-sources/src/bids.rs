@@ -147,7 +147,7 @@ pub(crate) fn read(
         None => 1.0,
         Some(_) => timestamp_scale(path, declared_unit.as_deref(), &rows, fs)?,
     };
-    let mut series = ScreenSeries::new(path, screen_px, ppd, opts);
+    let mut series = ScreenSeries::new(path, screen_px, ppd, opts)?;
     for (line, t, g) in rows {
         series.push(line, t * to_s, g, false)?;
     }
@@ -169,7 +169,10 @@ fn timestamp_scale(
         Some(other) => {
             return Err(SourceError::file(
                 path,
-                format!("timestamp Units '{other}' not understood (s, ms, us)"),
+                format!(
+                    "timestamp Units {} not understood (s, ms, us)",
+                    crate::error::cell(other)
+                ),
             ))
         }
         None => {}

@@ -26,14 +26,14 @@ impl SourceError {
     pub fn file(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
         SourceError::File {
             path: path.into(),
-            message: message.into(),
+            message: one_line(message.into()),
         }
     }
     pub fn line(path: impl Into<PathBuf>, line: u64, message: impl Into<String>) -> Self {
         SourceError::Line {
             path: path.into(),
             line,
-            message: message.into(),
+            message: one_line(message.into()),
         }
     }
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
@@ -42,4 +42,24 @@ impl SourceError {
             source,
         }
     }
+}
+
+/// Messages quote cells and headers from the file, which may hold line
+/// breaks (a stray quote makes a CSV cell span lines): escaped, so an error
+/// stays one line.
+fn one_line(message: String) -> String {
+    if message.contains(['\n', '\r']) {
+        message.replace('\n', "\\n").replace('\r', "\\r")
+    } else {
+        message
+    }
+}
+
+/// A cell as quoted in a message: at most 40 characters, escaped.
+pub(crate) fn cell(c: &str) -> String {
+    let mut out: String = c.chars().take(40).flat_map(char::escape_debug).collect();
+    if c.chars().count() > 40 {
+        out.push_str("...");
+    }
+    format!("'{out}'")
 }

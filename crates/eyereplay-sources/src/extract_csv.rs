@@ -36,7 +36,10 @@ pub(crate) fn read(path: &Path, opts: &ReadOptions) -> Result<Recording, SourceE
                 other => Err(SourceError::line(
                     path,
                     line,
-                    format!("column '{name}': '{other}' is not 0 or 1"),
+                    format!(
+                        "column '{name}': {} is not 0 or 1",
+                        crate::error::cell(other)
+                    ),
                 )),
             }
         };

@@ -84,7 +84,7 @@ pub(crate) fn read(
                     SourceError::line(
                         path,
                         line_no,
-                        format!("timestamp '{first}' is not a number"),
+                        format!("timestamp {} is not a number", crate::error::cell(first)),
                     )
                 })?;
                 let fields: Vec<&str> = tok.collect();
@@ -106,7 +106,10 @@ pub(crate) fn read(
                         _ => Err(SourceError::line(
                             path,
                             line_no,
-                            format!("gaze '{x} {y}' is not a pair of numbers"),
+                            format!(
+                                "gaze {} is not a pair of numbers",
+                                crate::error::cell(&format!("{x} {y}"))
+                            ),
                         )),
                     }
                 };
@@ -163,7 +166,7 @@ pub(crate) fn read(
         })
     };
 
-    let mut series = ScreenSeries::new(path, screen_px, ppd, opts);
+    let mut series = ScreenSeries::new(path, screen_px, ppd, opts)?;
     for s in raw {
         let l = if want_left { s.left } else { None };
         let r = if want_right { s.right } else { None };

@@ -75,10 +75,35 @@ impl Default for SaccadeModel {
 }
 
 impl SaccadeModel {
+    /// Rejects settings that cannot make samples: a rate outside (0, 100 kHz]
+    /// (above that, memory runs out before the file does), negative or
+    /// non-finite durations or drift.
+    pub fn check(&self) -> Result<(), String> {
+        if !(self.synth_rate_hz > 0.0 && self.synth_rate_hz <= 1e5) {
+            return Err(format!(
+                "saccade.synth_rate_hz = {} must be in (0, 100000]",
+                self.synth_rate_hz
+            ));
+        }
+        for (k, v) in [
+            ("base_ms", self.base_ms),
+            ("ms_per_deg", self.ms_per_deg),
+            ("drift_deg2_per_s", self.drift_deg2_per_s),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("saccade.{k} = {v} must be a finite number >= 0"));
+            }
+        }
+        Ok(())
+    }
+
     pub fn duration_s(&self, amplitude_deg: f64) -> f64 {
         (self.base_ms + self.ms_per_deg * amplitude_deg) * 1e-3
     }
 }
+
+/// Longest fixation accepted, s.
+const MAX_FIXATION_S: f64 = 60.0;
 
 /// Minimum-jerk position fraction at `u` in [0, 1].
 pub(crate) fn min_jerk(u: f64) -> f64 {
@@ -114,6 +139,7 @@ pub(crate) fn read(spec: &SourceSpec, opts: &ReadOptions) -> Result<Vec<Recordin
         unreachable!("fixations::read called with another format");
     };
     let path = path.as_path();
+    saccade.check().map_err(|m| SourceError::file(path, m))?;
     let (headers, mut rdr) = open_table(path, b',')?;
     let need = |name: &str| {
         column_index(&headers, &[name]).ok_or_else(|| {
@@ -147,11 +173,35 @@ pub(crate) fn read(spec: &SourceSpec, opts: &ReadOptions) -> Result<Vec<Recordin
             y_px: parse_f64(path, line, y_column, get(yi))?,
             next_amp_deg: ai.and_then(|i| get(i).trim().parse::<f64>().ok()),
         };
+        if ![f.start_s, f.end_s, f.x_px, f.y_px]
+            .iter()
+            .all(|v| v.is_finite())
+        {
+            return Err(SourceError::line(
+                path,
+                line,
+                "fixation start, end, x and y must be finite numbers",
+            ));
+        }
         if f.end_s < f.start_s {
             return Err(SourceError::line(
                 path,
                 line,
                 "fixation ends before it starts",
+            ));
+        }
+        // Samples are synthesized at synth_rate_hz over the fixation: an
+        // absurd duration would fill memory instead of failing. Real
+        // fixations last well under a few seconds; this catches a wrong
+        // time_unit too.
+        if f.end_s - f.start_s > MAX_FIXATION_S {
+            return Err(SourceError::line(
+                path,
+                line,
+                format!(
+                    "fixation lasts {:.0} s, more than {MAX_FIXATION_S} s: not a fixation (check time_unit, {time_unit:?} here)",
+                    f.end_s - f.start_s
+                ),
             ));
         }
         let key: Vec<String> = gi.iter().map(|&i| get(i).trim().to_string()).collect();
@@ -172,6 +222,7 @@ pub(crate) fn read(spec: &SourceSpec, opts: &ReadOptions) -> Result<Vec<Recordin
         (None, None) => geometry.px_per_deg(screen_px[0]),
     };
 
+    crate::series::check_screen(path, *screen_px, ppd)?;
     let mut out = Vec::new();
     for (key, fixes) in &groups {
         let mut series = SeriesBuilder::<NormPos>::new(path);
@@ -341,5 +392,26 @@ mod tests {
     fn main_sequence_duration_by_hand() {
         // 10 deg: 21 + 22 = 43 ms.
         assert!((SaccadeModel::default().duration_s(10.0) - 0.043).abs() < 1e-12);
+    }
+
+    #[test]
+    fn saccade_settings_that_cannot_make_samples_are_rejected() {
+        assert!(SaccadeModel::default().check().is_ok());
+        for bad in [
+            SaccadeModel {
+                synth_rate_hz: 1e12,
+                ..Default::default()
+            },
+            SaccadeModel {
+                synth_rate_hz: f64::NAN,
+                ..Default::default()
+            },
+            SaccadeModel {
+                drift_deg2_per_s: -1.0,
+                ..Default::default()
+            },
+        ] {
+            assert!(bad.check().is_err(), "{bad:?}");
+        }
     }
 }

@@ -53,7 +53,7 @@ pub(crate) fn read(
     let yi = find(cols.y, Y_NAMES, "y")?;
     let ppd = geometry.px_per_deg(screen_px[0]);
 
-    let mut series = ScreenSeries::new(path, screen_px, ppd, opts);
+    let mut series = ScreenSeries::new(path, screen_px, ppd, opts)?;
     for_each_record(path, &mut rdr, |rec, line| {
         let t = parse_f64(path, line, &headers[ti], rec.get(ti).unwrap_or(""))?;
         // Empty or NaN coordinates are tracking loss, not a format error.

@@ -140,9 +140,39 @@ pub(crate) fn parse_f64(
         SourceError::line(
             path,
             line,
-            format!("column '{column}': '{c}' is not a number"),
+            format!(
+                "column '{column}': {} is not a number",
+                crate::error::cell(c)
+            ),
         )
     })
+}
+
+/// Checks that a screen-pixel source's geometry gives finite positions.
+pub(crate) fn check_screen(
+    path: &Path,
+    screen_px: [f64; 2],
+    px_per_deg: f64,
+) -> Result<(), SourceError> {
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if !(positive(screen_px[0]) && positive(screen_px[1])) {
+        return Err(SourceError::file(
+            path,
+            format!(
+                "screen size {} x {} px is not positive (screen_px, DISPLAY_COORDS or ScreenResolution)",
+                screen_px[0], screen_px[1]
+            ),
+        ));
+    }
+    if !positive(px_per_deg) {
+        return Err(SourceError::file(
+            path,
+            format!(
+                "{px_per_deg} px per degree is not a positive number (check px_per_deg, screen width and viewing distance)"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// Collects eye-tracker samples in screen pixels, converting each to a
@@ -156,19 +186,23 @@ pub(crate) struct ScreenSeries<'a> {
 }
 
 impl<'a> ScreenSeries<'a> {
+    /// Fails when the screen size or `px_per_deg` is not a positive finite
+    /// number (a zero-width DISPLAY_COORDS, an absurd ScreenDistance), which
+    /// would turn every position into infinity.
     pub fn new(
         path: &'a Path,
         screen_px: [f64; 2],
         px_per_deg: f64,
         opts: &'a ReadOptions,
-    ) -> Self {
-        ScreenSeries {
+    ) -> Result<Self, SourceError> {
+        check_screen(path, screen_px, px_per_deg)?;
+        Ok(ScreenSeries {
             series: SeriesBuilder::new(path),
             path,
             screen_px,
             px_per_deg,
             opts,
-        }
+        })
     }
 
     /// `gaze` is `None` for tracking loss.

@@ -107,3 +107,89 @@ fn missing_file_is_named() {
     .to_string();
     assert!(e.starts_with("/nonexistent/iris.csv:"), "{e}");
 }
+
+// Regression cases found by tests/fuzz.rs.
+
+fn fixations_err(rows: &str) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("fix.csv");
+    std::fs::write(
+        &p,
+        format!("CURRENT_FIX_START,CURRENT_FIX_END,CURRENT_FIX_X,CURRENT_FIX_Y\n{rows}"),
+    )
+    .unwrap();
+    let spec = SourceSpec::Fixations {
+        path: p,
+        start_column: "CURRENT_FIX_START".into(),
+        end_column: "CURRENT_FIX_END".into(),
+        x_column: "CURRENT_FIX_X".into(),
+        y_column: "CURRENT_FIX_Y".into(),
+        group_columns: vec![],
+        amplitude_column: None,
+        time_unit: TimeUnit::Ms,
+        screen_px: [1920.0, 1080.0],
+        geometry: ViewingGeometry::default(),
+        saccade: Default::default(),
+    };
+    let e = read_source(&spec, &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("fix.csv") && !e.contains('\n'), "{e}");
+    e
+}
+
+#[test]
+fn fixation_with_infinite_or_nan_end_is_an_error_not_an_endless_loop() {
+    // Synthesis loops until the last fixation's end: with an end of inf or
+    // NaN it never stopped.
+    for end in ["inf", "NaN"] {
+        let e = fixations_err(&format!("100,250,300,200\n300,{end},400,200\n"));
+        assert!(e.contains("line 3") && e.contains("finite"), "{e}");
+    }
+}
+
+#[test]
+fn fixation_lasting_hours_is_an_error_not_a_memory_fill() {
+    // 1e9 ms: 11 days of 1 kHz samples. Typical cause: microseconds read as ms.
+    let e = fixations_err("100,1000000000,300,200\n");
+    assert!(e.contains("line 2") && e.contains("time_unit"), "{e}");
+}
+
+#[test]
+fn a_cell_spanning_lines_keeps_the_error_on_one_line() {
+    // A stray quote makes the csv reader join lines into one cell.
+    let e = extract_err(
+        "frame,time_s,valid,nx,ny\n0,0.00,1,0.5,0.5\n1,0.04,1,\",0.5\n2,0.08,1,0.5,0.5\n",
+    );
+    assert!(e.contains("'nx'") && e.contains("\\n"), "{e}");
+}
+
+#[test]
+fn bids_sidecar_with_absurd_distance_is_an_error() {
+    // ScreenDistance 1e308 m makes px_per_deg infinite: every position was
+    // infinite and the recording still "read".
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("s_physio.tsv");
+    std::fs::write(&p, "0\t600\t400\n2\t601\t400\n4\t602\t401\n").unwrap();
+    std::fs::write(
+        dir.path().join("s_physio.json"),
+        r#"{"SamplingFrequency": 500, "Columns": ["timestamp", "x_coordinate", "y_coordinate"],
+            "timestamp": {"Units": "ms"}, "ScreenResolution": [1280, 1024],
+            "ScreenSize": [0.531, 0.299], "ScreenDistance": 1e308}"#,
+    )
+    .unwrap();
+    let e = read_source(
+        &SourceSpec::Bids {
+            path: p,
+            screen_px: None,
+            geometry: ViewingGeometry::default(),
+        },
+        &ReadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("s_physio.tsv") && e.contains("px per degree"),
+        "{e}"
+    );
+}

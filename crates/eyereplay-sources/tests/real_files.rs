@@ -1,6 +1,6 @@
 //! Readers on real recordings fetched by `scripts/fetch-data.sh` into
-//! `.cache/data`. Outside CI a missing cache skips these tests with a note;
-//! in CI (`CI` set) it fails them.
+//! `.cache/data`. Without them these tests are listed as ignored, with the
+//! reason; with `CI` set the build fails instead (build.rs).
 
 use eyereplay_core::NormPos;
 use eyereplay_sources::{
@@ -9,20 +9,14 @@ use eyereplay_sources::{
 };
 use std::path::PathBuf;
 
-fn data(rel: &str) -> Option<PathBuf> {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../.cache/data");
-    let p = root.join(rel);
-    if p.exists() {
-        return Some(p);
-    }
-    if std::env::var_os("CI").is_some() {
-        panic!("{} missing: run scripts/fetch-data.sh", p.display());
-    }
-    eprintln!(
-        "skipping: {} missing (run scripts/fetch-data.sh)",
-        p.display()
-    );
-    None
+/// A file of the sample data; the tests calling this are ignored (see
+/// build.rs) when it was missing at build time.
+fn data(rel: &str) -> PathBuf {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../.cache/data")
+        .join(rel);
+    assert!(p.exists(), "{} missing: run scripts/setup.sh", p.display());
+    p
 }
 
 fn one(spec: SourceSpec) -> Recording {
@@ -65,13 +59,15 @@ fn syelink_samples(path: &std::path::Path) -> Vec<(f64, Option<[f64; 2]>)> {
 }
 
 #[test]
+#[cfg_attr(
+    not(has_sample_data),
+    ignore = "needs .cache/data: run scripts/setup.sh"
+)]
 fn eyelink_asc_agrees_with_syelinks_own_parser() {
-    let (Some(asc), Some(csvp)) = (
+    let (asc, csvp) = (
         data("syelink/left_eye.asc"),
         data("syelink/left_eye_samples.csv"),
-    ) else {
-        return;
-    };
+    );
     let rec = one(SourceSpec::Eyelink {
         path: asc,
         eye: EyeChoice::Left,
@@ -110,10 +106,12 @@ fn eyelink_asc_agrees_with_syelinks_own_parser() {
 }
 
 #[test]
+#[cfg_attr(
+    not(has_sample_data),
+    ignore = "needs .cache/data: run scripts/setup.sh"
+)]
 fn binocular_asc_mean_lies_between_the_eyes() {
-    let Some(asc) = data("syelink/both_eyes.asc") else {
-        return;
-    };
+    let asc = data("syelink/both_eyes.asc");
     let spec = |eye| SourceSpec::Eyelink {
         path: asc.clone(),
         eye,
@@ -138,13 +136,15 @@ fn binocular_asc_mean_lies_between_the_eyes() {
 }
 
 #[test]
+#[cfg_attr(
+    not(has_sample_data),
+    ignore = "needs .cache/data: run scripts/setup.sh"
+)]
 fn bids_physio_matches_the_same_samples_as_asc() {
-    let (Some(bids), Some(asc)) = (
+    let (bids, asc) = (
         data("bids/sub-01/beh/sub-01_task-reading_recording-eye1_physio.tsv.gz"),
         data("syelink/left_eye.asc"),
-    ) else {
-        return;
-    };
+    );
     let b = one(SourceSpec::Bids {
         path: bids,
         screen_px: None,
@@ -177,13 +177,15 @@ fn bids_physio_matches_the_same_samples_as_asc() {
 }
 
 #[test]
+#[cfg_attr(
+    not(has_sample_data),
+    ignore = "needs .cache/data: run scripts/setup.sh"
+)]
 fn generic_csv_with_named_columns_matches_asc() {
-    let (Some(csvp), Some(asc)) = (
+    let (csvp, asc) = (
         data("syelink/left_eye_samples.csv"),
         data("syelink/left_eye.asc"),
-    ) else {
-        return;
-    };
+    );
     let r = read_source(
         &SourceSpec::Csv {
             path: csvp,
@@ -214,10 +216,12 @@ fn generic_csv_with_named_columns_matches_asc() {
 }
 
 #[test]
+#[cfg_attr(
+    not(has_sample_data),
+    ignore = "needs .cache/data: run scripts/setup.sh"
+)]
 fn onestop_fixations_become_trajectories() {
-    let Some(p) = data("onestop_fixations.csv") else {
-        return;
-    };
+    let p = data("onestop_fixations.csv");
     let spec = SourceSpec::Fixations {
         path: p,
         start_column: "CURRENT_FIX_START".into(),
