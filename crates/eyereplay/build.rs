@@ -1,21 +1,6 @@
-//! Records the git revision in the binary for `metadata.json` provenance,
-//! and declares `cfg(has_sample_data)`, `cfg(has_models)`, `cfg(has_ffmpeg)`
-//! for the tests that need them (see build-support/test_prereqs.rs).
-
-include!("../../build-support/test_prereqs.rs");
+//! Records the git revision in the library for `metadata.json` provenance.
 
 fn main() {
-    test_prerequisites(&[
-        (
-            "has_sample_data",
-            Prereq::Files(&[
-                ".cache/data/onestop_fixations.csv",
-                ".cache/data/syelink/both_eyes.asc",
-            ]),
-        ),
-        ("has_models", Prereq::Models),
-        ("has_ffmpeg", Prereq::Command("ffmpeg")),
-    ]);
     let rev = std::process::Command::new("git")
         .args(["rev-parse", "--short=12", "HEAD"])
         .output()

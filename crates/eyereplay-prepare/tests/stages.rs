@@ -171,8 +171,8 @@ fn per_source_calibration_uses_every_sample() {
     let c = p.sources[0].calibration;
     let xs: Vec<f64> = (0..n).map(nx_of).collect();
     let (lo, hi) = (
-        eyereplay_signal::percentile(&xs, 5.0).unwrap(),
-        eyereplay_signal::percentile(&xs, 95.0).unwrap(),
+        eyereplay_signal::quantile(&xs, 0.05).unwrap(),
+        eyereplay_signal::quantile(&xs, 0.95).unwrap(),
     );
     let want_s_x = 0.8 * 1280.0 / (hi - lo);
     assert!(

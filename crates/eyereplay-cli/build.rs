@@ -1,0 +1,18 @@
+//! Declares `cfg(has_sample_data)`, `cfg(has_models)`, `cfg(has_ffmpeg)` for
+//! the tests that need them (see build-support/test_prereqs.rs).
+
+include!("../../build-support/test_prereqs.rs");
+
+fn main() {
+    test_prerequisites(&[
+        (
+            "has_sample_data",
+            Prereq::Files(&[
+                ".cache/data/onestop_fixations.csv",
+                ".cache/data/syelink/both_eyes.asc",
+            ]),
+        ),
+        ("has_models", Prereq::Models),
+        ("has_ffmpeg", Prereq::Command("ffmpeg")),
+    ]);
+}
