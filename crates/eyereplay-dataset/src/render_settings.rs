@@ -53,18 +53,32 @@ impl RenderSettings {
     pub fn from_config(cfg: &DatasetConfig, path: &Path) -> Result<Self, DatasetError> {
         match &cfg.render {
             None => Ok(RenderSettings::default()),
-            Some(table) => toml::Value::Table(table.clone())
-                .try_into::<RenderSettings>()
-                .map_err(|e| {
-                    DatasetError::invalid(
-                        path,
-                        format!(
-                            "[render]: {}",
-                            eyereplay_prepare::describe_toml_error("", &e)
-                        ),
-                    )
-                }),
+            Some(table) => Self::from_table(table).map_err(|e| {
+                DatasetError::invalid(
+                    path,
+                    format!(
+                        "[render]: {}",
+                        eyereplay_prepare::describe_toml_error("", &e)
+                    ),
+                )
+            }),
         }
+    }
+
+    /// Deserializes the table; a type error names the key at fault (the
+    /// table's own error does not), found by trying each key alone.
+    fn from_table(table: &toml::Table) -> Result<Self, toml::de::Error> {
+        toml::Value::Table(table.clone()).try_into().map_err(|e| {
+            let key = table.iter().find(|(k, v)| {
+                let mut one = toml::Table::new();
+                one.insert((*k).clone(), (*v).clone());
+                toml::Value::Table(one).try_into::<RenderSettings>().is_err()
+            });
+            match key {
+                Some((k, _)) => serde::de::Error::custom(format!("'{k}': {e}")),
+                None => e,
+            }
+        })
     }
 
     /// Sessions to render at once: `jobs`, or one per core.
@@ -85,7 +99,7 @@ mod tests {
 
     fn cfg(render: &str) -> DatasetConfig {
         DatasetConfig::parse(&format!(
-            "[classes.reading]\nsources = [{{ format = \"csv\", path = \"a.csv\" }}]\n{render}"
+            "[classes.reading]\nsources = [{{ format = \"extract\", path = \"a.csv\" }}]\n{render}"
         ))
         .unwrap()
     }
