@@ -72,7 +72,9 @@ impl RenderSettings {
             let key = table.iter().find(|(k, v)| {
                 let mut one = toml::Table::new();
                 one.insert((*k).clone(), (*v).clone());
-                toml::Value::Table(one).try_into::<RenderSettings>().is_err()
+                toml::Value::Table(one)
+                    .try_into::<RenderSettings>()
+                    .is_err()
             });
             match key {
                 Some((k, _)) => serde::de::Error::custom(format!("'{k}': {e}")),

@@ -82,7 +82,11 @@ fn another_format_version_is_one_clear_error() {
     let p = dir.path().join("metadata.json");
     let text = std::fs::read_to_string(&p).unwrap();
     assert!(text.starts_with("{\n  \"format_version\": 1,\n"), "{text}");
-    std::fs::write(&p, text.replacen("\"format_version\": 1", "\"format_version\": 7", 1)).unwrap();
+    std::fs::write(
+        &p,
+        text.replacen("\"format_version\": 1", "\"format_version\": 7", 1),
+    )
+    .unwrap();
     let e = read_metadata(dir.path()).unwrap_err().to_string();
     assert!(
         e.contains("metadata.json")
@@ -122,7 +126,17 @@ fn mutate(text: &[u8], r: &mut Rng) -> Vec<u8> {
         0 => t[i] ^= 1 << r.below(8),
         1 => t.truncate(i),
         2 => {
-            let tok: &[&[u8]] = &[b",", b"\"", b"\n", b"NaN", b"-1e309", b"{", b"]", b"\xff", b"999999999999999999999"];
+            let tok: &[&[u8]] = &[
+                b",",
+                b"\"",
+                b"\n",
+                b"NaN",
+                b"-1e309",
+                b"{",
+                b"]",
+                b"\xff",
+                b"999999999999999999999",
+            ];
             let k = tok[r.below(tok.len())];
             t.splice(i..i, k.iter().copied());
         }
@@ -160,11 +174,15 @@ fn mutated_files_give_clean_errors_never_panics() {
     let targets: [(&str, fn(&Path) -> Result<(), DatasetError>); 5] = [
         ("metadata.json", |d| read_metadata(d).map(drop)),
         ("labels.csv", |d| read_labels(d).map(drop)),
-        ("pool/reading.csv", |d| read_pool(&d.join("pool/reading.csv")).map(drop)),
+        ("pool/reading.csv", |d| {
+            read_pool(&d.join("pool/reading.csv")).map(drop)
+        }),
         ("reading/reading_0000.csv", |d| {
             read_blink_column(&d.join("reading/reading_0000.csv")).map(drop)
         }),
-        ("t_truth.csv", |d| read_truth_csv(&d.join("t_truth.csv")).map(drop)),
+        ("t_truth.csv", |d| {
+            read_truth_csv(&d.join("t_truth.csv")).map(drop)
+        }),
     ];
     let mut r = Rng(0x5EED_1234_ABCD_0001);
     for (file, read) in targets {
@@ -187,14 +205,20 @@ fn mutated_files_give_clean_errors_never_panics() {
                     errors += 1;
                     let msg = e.to_string();
                     let name = Path::new(file).file_name().unwrap().to_string_lossy();
-                    assert!(msg.contains(name.as_ref()), "{file}: error does not name the file: {msg}");
+                    assert!(
+                        msg.contains(name.as_ref()),
+                        "{file}: error does not name the file: {msg}"
+                    );
                     assert!(!msg.contains('\n'), "{file}: multi-line error: {msg}");
                 }
                 Ok(Ok(())) => {}
             }
         }
         // The mutations are harsh enough that most inputs are refused.
-        assert!(errors > cases / 4, "{file}: only {errors} of {cases} refused");
+        assert!(
+            errors > cases / 4,
+            "{file}: only {errors} of {cases} refused"
+        );
         std::fs::write(&path, &good).unwrap();
     }
 }
