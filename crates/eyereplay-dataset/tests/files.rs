@@ -162,6 +162,9 @@ fn mutate(text: &[u8], r: &mut Rng) -> Vec<u8> {
     t
 }
 
+/// Reads one file of the dataset at the given folder.
+type Reader = fn(&Path) -> Result<(), DatasetError>;
+
 #[test]
 fn mutated_files_give_clean_errors_never_panics() {
     let cases: usize = std::env::var("EYEREPLAY_FUZZ_CASES")
@@ -171,7 +174,7 @@ fn mutated_files_give_clean_errors_never_panics() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     write_all(d);
-    let targets: [(&str, fn(&Path) -> Result<(), DatasetError>); 5] = [
+    let targets: [(&str, Reader); 5] = [
         ("metadata.json", |d| read_metadata(d).map(drop)),
         ("labels.csv", |d| read_labels(d).map(drop)),
         ("pool/reading.csv", |d| {
