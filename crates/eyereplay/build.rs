@@ -1,6 +1,11 @@
-//! Records the git revision in the library for `metadata.json` provenance.
+//! Records the git revision in the library for `metadata.json` provenance,
+//! and declares `cfg(has_models)` for the tests that need the models (see
+//! build-support/test_prereqs.rs).
+
+include!("../../build-support/test_prereqs.rs");
 
 fn main() {
+    test_prerequisites(&[("has_models", Prereq::Models)]);
     let rev = std::process::Command::new("git")
         .args(["rev-parse", "--short=12", "HEAD"])
         .output()

@@ -59,8 +59,10 @@ pub struct SessionIdentity<I = serde_json::Value, M = serde_json::Value> {
     pub width: usize,
     pub height: usize,
     pub fps: f64,
-    /// Image-left eye first.
-    pub eyes: [EyeGeometry; 2],
+    /// Image-left eye first; absent when the simulator does not say where
+    /// it draws the eyes (a browser page without configured eye corners).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eyes: Option<[EyeGeometry; 2]>,
 }
 
 impl SessionIdentity {
@@ -74,11 +76,37 @@ impl SessionIdentity {
 
     /// `(inner, outer)` corner of each eye in image px, in file order
     /// (image-left eye first as the renderer writes it).
-    pub fn corner_pairs_px(&self) -> [([f64; 2], [f64; 2]); 2] {
-        [
-            (self.eyes[0].inner_corner_px, self.eyes[0].outer_corner_px),
-            (self.eyes[1].inner_corner_px, self.eyes[1].outer_corner_px),
-        ]
+    pub fn corner_pairs_px(&self) -> Option<[([f64; 2], [f64; 2]); 2]> {
+        let e = self.eyes.as_ref()?;
+        Some([
+            (e[0].inner_corner_px, e[0].outer_corner_px),
+            (e[1].inner_corner_px, e[1].outer_corner_px),
+        ])
+    }
+
+    /// Eye geometry from corners alone (`[inner_x, inner_y, outer_x,
+    /// outer_y]` per eye, image-left first): centre between the corners, box
+    /// around them, scale unknown (0).
+    pub fn eyes_from_corners(corners: [[f64; 4]; 2]) -> [EyeGeometry; 2] {
+        let eye = |side: Side, c: [f64; 4]| {
+            let (x0, x1) = (c[0].min(c[2]), c[0].max(c[2]));
+            let (y0, y1) = (c[1].min(c[3]), c[1].max(c[3]));
+            let w = x1 - x0;
+            EyeGeometry {
+                side,
+                inner_corner_px: [c[0], c[1]],
+                outer_corner_px: [c[2], c[3]],
+                centre_px: [(c[0] + c[2]) / 2.0, (c[1] + c[3]) / 2.0],
+                box_px: [
+                    x0.max(0.0) as u32,
+                    (y0 - w / 2.0).max(0.0) as u32,
+                    x1.ceil() as u32,
+                    (y1 + w / 2.0).ceil() as u32,
+                ],
+                px_per_mm: 0.0,
+            }
+        };
+        [eye(Side::Left, corners[0]), eye(Side::Right, corners[1])]
     }
 }
 

@@ -28,8 +28,32 @@ pub struct RenderSettings {
     pub preset: String,
     /// x264 constant rate factor.
     pub crf: u32,
-    /// Sessions rendered at once; 0 = one per core.
+    /// Sessions rendered at once; 0 = one per core (our renderer) or one
+    /// browser per two cores (the browser backend).
     pub jobs: usize,
+    /// Which simulator draws the sessions: `eyes` (eyereplay's own
+    /// ray-traced eyes, the default) or `browser` (a web page driven frame
+    /// by frame in a headless Chromium, as the paper's stage 6 did).
+    pub backend: RenderBackend,
+    /// `[render.browser]`: the browser backend's settings (page URL,
+    /// viewport, canvas-to-page mapping, readiness, crop; see
+    /// eyereplay-browser's README). Typed by the library when the backend is
+    /// `browser`.
+    pub browser: Option<toml::Table>,
+    /// Where the page draws its eyes, for the visual-fidelity read-back of a
+    /// browser-rendered video: per eye `[inner_x, inner_y, outer_x,
+    /// outer_y]` in video px, image-left eye first. Without it, evaluation
+    /// can only use the face detector.
+    pub browser_eye_corners_px: Option<[[f64; 4]; 2]>,
+}
+
+/// Which simulator renders the sessions.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RenderBackend {
+    #[default]
+    Eyes,
+    Browser,
 }
 
 impl Default for RenderSettings {
@@ -43,6 +67,9 @@ impl Default for RenderSettings {
             preset: "veryfast".into(),
             crf: 18,
             jobs: 0,
+            backend: RenderBackend::Eyes,
+            browser: None,
+            browser_eye_corners_px: None,
         }
     }
 }

@@ -179,7 +179,7 @@ pub fn render_dataset(
                         width: params.width,
                         height: params.height,
                         fps: params.fps,
-                        eyes: stats.eyes.clone().expect("render_session reports geometry"),
+                        eyes: stats.eyes.clone(),
                     }
                     .write(&files.identity_json)?;
                     frames.fetch_add(stats.frames, Ordering::Relaxed);

@@ -348,7 +348,13 @@ fn read_back(
                     shown(dir, geometry)
                 )));
             }
-            let corners = SessionIdentity::read(geometry)?.corner_pairs_px();
+            let Some(corners) = SessionIdentity::read(geometry)?.corner_pairs_px() else {
+                return Ok(Err(format!(
+                    "not computed: the face detector found no face, and {} does not say where the eyes are \
+(for a browser page set render.browser_eye_corners_px)",
+                    shown(dir, geometry)
+                )));
+            };
             let r = extract_at_corners(video, models, corners, n)?;
             let seen = match &first {
                 Ok(r) => format!("{:.0} %", 100.0 * detection_rate(r)),

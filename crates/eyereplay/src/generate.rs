@@ -54,6 +54,8 @@ pub fn plan(config_path: &Path, shard: Option<Shard>) -> Result<Job> {
     let settings = RenderSettings::from_config(&config, config_path)?;
     let params =
         render_params(&settings, &config).map_err(|e| Error::input(config_path, e.to_string()))?;
+    crate::render::browser_settings(&settings)
+        .map_err(|e| Error::input(config_path, e.to_string()))?;
     eyereplay_prepare::check_source_files(&config)?;
     if !video_sources(&config).is_empty() {
         check_models()?;

@@ -75,7 +75,7 @@ pub use inputs::{
     tool_info, video_sources, Extracted,
 };
 pub use progress::{NoProgress, Progress, Stage};
-pub use render::{render_params, render_sessions, RenderSummary};
+pub use render::{browser_settings, render_params, render_sessions, RenderSummary};
 pub use shard::Shard;
 
 pub use eyereplay_dataset::{DatasetMetadata, RenderSettings};

@@ -5,7 +5,8 @@
 use crate::progress::{Progress, Stage};
 use crate::shard::Shard;
 use crate::{Error, Result};
-use eyereplay_dataset::RenderSettings;
+use eyereplay_browser::{BrowserJob, BrowserSettings};
+use eyereplay_dataset::{RenderBackend, RenderSettings, SessionIdentity};
 use eyereplay_prepare::DatasetConfig;
 use eyereplay_render::{render_dataset, DatasetOptions, RenderParams, SessionOutcome};
 use std::path::Path;
@@ -39,9 +40,50 @@ pub struct RenderSummary {
     pub clamped_points: usize,
 }
 
-/// Renders the sessions of `out` (this shard's only, with `shard`); fails
-/// listing the sessions that failed after the others are written.
+/// The `[render.browser]` table, typed; `None` unless the backend is
+/// `browser`. Also finds the browser, so a missing one is reported before
+/// work starts (one line naming the Debian package).
+pub fn browser_settings(settings: &RenderSettings) -> Result<Option<BrowserSettings>> {
+    if settings.backend != RenderBackend::Browser {
+        return Ok(None);
+    }
+    let table = settings.browser.clone().unwrap_or_default();
+    let b: BrowserSettings = toml::Value::Table(table)
+        .try_into()
+        .map_err(|e| Error::Setting(format!("[render.browser]: {}", e.message())))?;
+    eyereplay_browser::find_browser(b.browser.as_deref())
+        .map_err(|e| Error::Setting(e.to_string()))?;
+    Ok(Some(b))
+}
+
+/// Renders the sessions of `out` (this shard's only, with `shard`) with the
+/// configured backend; fails listing the sessions that failed after the
+/// others are written.
 pub fn render_sessions(
+    out: &Path,
+    dataset_seed: u64,
+    settings: &RenderSettings,
+    params: RenderParams,
+    session_frames: usize,
+    shard: Option<Shard>,
+    progress: &dyn Progress,
+) -> Result<RenderSummary> {
+    match browser_settings(settings)? {
+        Some(b) => render_sessions_browser(out, settings, &b, &params, shard, progress),
+        None => render_sessions_eyes(
+            out,
+            dataset_seed,
+            settings,
+            params,
+            session_frames,
+            shard,
+            progress,
+        ),
+    }
+}
+
+/// Our own renderer, every session in parallel.
+fn render_sessions_eyes(
     out: &Path,
     dataset_seed: u64,
     settings: &RenderSettings,
@@ -79,4 +121,98 @@ pub fn render_sessions(
         frames: summary.frames,
         clamped_points: summary.clamped_points,
     })
+}
+
+/// The browser backend: each unfinished session's trajectory driven through
+/// the page frame by frame, `jobs` browsers at a time; beside each video the
+/// truth CSV (cursor per frame, plus the page's own truth columns) and an
+/// identity file naming the page (and its eyes, when configured).
+fn render_sessions_browser(
+    out: &Path,
+    settings: &RenderSettings,
+    browser: &BrowserSettings,
+    params: &RenderParams,
+    shard: Option<Shard>,
+    progress: &dyn Progress,
+) -> Result<RenderSummary> {
+    let meta = eyereplay_dataset::read_metadata(out)?.dataset;
+    let ffprobe = eyereplay_render::ffprobe_for(&params.encoder.ffmpeg);
+    let mut sessions = eyereplay_render::list_sessions(out, meta.seed)?;
+    if let Some(s) = shard {
+        sessions = sessions
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| s.contains(*i))
+            .map(|(_, j)| j)
+            .collect();
+    }
+    let mut summary = RenderSummary::default();
+    let mut todo = Vec::new();
+    for job in sessions {
+        for target in job.paths.outputs() {
+            for p in eyereplay_core::stale_temp_files(target) {
+                std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?;
+            }
+        }
+        let trajectory = eyereplay_core::read_session_csv(&job.paths.csv)?;
+        if eyereplay_render::is_complete(&job, trajectory.len(), &ffprobe) {
+            summary.skipped += 1;
+            continue;
+        }
+        todo.push((job, trajectory));
+    }
+    let total: usize = todo.iter().map(|(_, t)| t.len()).sum();
+    progress.begin(Stage::Render, total as u64);
+    let jobs = if settings.jobs > 0 {
+        settings.jobs
+    } else {
+        std::thread::available_parallelism().map_or(1, |n| (n.get() / 2).max(1))
+    };
+    let mut failed = Vec::new();
+    // A batch of `jobs` sessions at a time, so progress moves per batch.
+    for batch in todo.chunks(jobs) {
+        let browser_jobs: Vec<BrowserJob> = batch
+            .iter()
+            .map(|(job, t)| BrowserJob {
+                trajectory: t.clone(),
+                fps: meta.fps,
+                out_mp4: job.paths.mp4.clone(),
+                out_truth_csv: job.paths.truth.clone(),
+            })
+            .collect();
+        let results = eyereplay_browser::render_sessions(browser, &params.encoder, &browser_jobs, jobs);
+        for ((job, t), r) in batch.iter().zip(results) {
+            progress.advance(t.len() as u64);
+            match r {
+                Ok(stats) => {
+                    SessionIdentity {
+                        file: job.paths.file.clone(),
+                        seed: job.seed,
+                        identity: serde_json::json!({ "backend": "browser", "url": browser.url }),
+                        mapping: &browser.mapping,
+                        width: stats.width,
+                        height: stats.height,
+                        fps: meta.fps,
+                        eyes: settings
+                            .browser_eye_corners_px
+                            .map(SessionIdentity::eyes_from_corners),
+                    }
+                    .write(&job.paths.identity_json)?;
+                    summary.rendered += 1;
+                    summary.frames += stats.frames;
+                    summary.clamped_points += stats.clamped_points;
+                }
+                Err(e) => {
+                    let m = format!("{}: {e}", job.paths.file);
+                    progress.warn(&format!("error: {m}"));
+                    failed.push(m);
+                }
+            }
+        }
+    }
+    progress.end(Stage::Render);
+    if !failed.is_empty() {
+        return Err(Error::SessionsFailed(failed));
+    }
+    Ok(summary)
 }

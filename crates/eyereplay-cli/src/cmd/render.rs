@@ -170,10 +170,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &args.identity_out {
-        let eyes = stats
-            .eyes
-            .clone()
-            .ok_or_else(|| anyhow::anyhow!("the renderer reported no eye geometry"))?;
+        let eyes = stats.eyes.clone();
         eyereplay_dataset::SessionIdentity {
             file: traj_path.display().to_string(),
             seed: args.seed,

@@ -1,0 +1,107 @@
+//! `render.backend = "browser"` end to end through the library: prepare,
+//! render through the bundled test page, finalize, and the paper's visual
+//! fidelity table for that page (iris measured in the video at the page's
+//! configured eye corners).
+
+use eyereplay::{EvaluateOptions, GenerateOptions, NoProgress, VisualChoice};
+use eyereplay_eval::VisualSection;
+
+/// The browser must be there (setup installs it); only an explicit
+/// `EYEREPLAY_SKIP_BROWSER_TESTS=1` skips, and says so.
+fn have_browser() -> bool {
+    match eyereplay_browser::find_browser(None) {
+        Ok(_) => true,
+        Err(_) if std::env::var_os("EYEREPLAY_SKIP_BROWSER_TESTS").is_some_and(|v| v == "1") => {
+            eprintln!("SKIPPED: no chromium-headless-shell (EYEREPLAY_SKIP_BROWSER_TESTS=1)");
+            false
+        }
+        Err(e) => panic!("{e}"),
+    }
+}
+
+#[test]
+#[cfg_attr(not(has_models), ignore = "needs .cache/models: run scripts/setup.sh")]
+fn a_dataset_rendered_through_a_web_page_gets_its_visual_fidelity_table() {
+    if !have_browser() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Reading-like sweeps and a wandering gaze, 100 Hz, in screen px.
+    let mut read = String::from("time,x,y\n");
+    let mut talk = String::from("time,x,y\n");
+    for i in 0..2000 {
+        let t = i as f64 * 10.0;
+        read += &format!("{t},{},{}\n", 400.0 + (i % 100) as f64 * 11.0, 450.0 + (i / 100 % 6) as f64 * 30.0);
+        let a = i as f64 / 37.0;
+        talk += &format!("{t},{},{}\n", 960.0 + 300.0 * a.sin(), 540.0 + 160.0 * (a * 0.7).cos());
+    }
+    std::fs::write(d.join("read.csv"), read).unwrap();
+    std::fs::write(d.join("talk.csv"), talk).unwrap();
+    let cfg = r#"
+session_frames = 60
+[render]
+backend = "browser"
+natural_blinks = false
+browser_eye_corners_px = [[470.0, 381.6, 170.0, 381.6], [810.0, 381.6, 1110.0, 381.6]]
+[render.browser]
+truth_js = "eyereplayTruth()"
+[classes.reading]
+sessions = 1
+sources = [{ format = "csv", path = "read.csv", time_unit = "ms", screen_px = [1920, 1080] }]
+[classes.conversation]
+sessions = 1
+sources = [{ format = "csv", path = "talk.csv", time_unit = "ms", screen_px = [1920, 1080] }]
+"#;
+    std::fs::write(d.join("dataset.toml"), cfg).unwrap();
+    let job = eyereplay::plan(&d.join("dataset.toml"), None).unwrap();
+    let out = d.join("out");
+    let opts = GenerateOptions {
+        out: out.clone(),
+        cache: Some(d.join("cache")),
+        evaluate: None,
+        ..Default::default()
+    };
+    let summary = eyereplay::generate(&job, &opts, &NoProgress).unwrap();
+    assert_eq!((summary.render.rendered, summary.render.frames), (2, 120));
+    let id = eyereplay_dataset::SessionIdentity::read(&out.join("reading/reading_0000_identity.json")).unwrap();
+    assert_eq!(id.identity["backend"], "browser");
+    assert_eq!(id.eyes.as_ref().unwrap()[1].outer_corner_px, [1110.0, 381.6]);
+    // Finished and evaluated: the visual section read the iris back at the
+    // configured corners, and the page's own truth columns were compared too.
+    let ev = eyereplay::evaluate(
+        &out,
+        &EvaluateOptions {
+            visual: VisualChoice::Session("reading/reading_0000.csv".into()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let VisualSection::Computed(run) = &ev.evaluation.visual else {
+        panic!("visual section not computed: {:?}", ev.evaluation.visual)
+    };
+    assert!(run.eye_locator.contains("known geometry"), "{}", run.eye_locator);
+    assert_eq!(run.fidelity.n_frames, 60);
+    let (_, truth) = ev.evaluation.render_truth.as_ref().expect("page truth compared");
+    // The page moves its iris monotonically with the cursor: its own truth
+    // follows the source almost linearly.
+    assert!(truth.x.r.unwrap() > 0.95, "{:?}", truth.x);
+    // A rerun finds every session complete and renders nothing.
+    let again = eyereplay::generate(&job, &opts, &NoProgress).unwrap();
+    assert_eq!((again.render.rendered, again.render.skipped), (0, 2));
+}
+
+#[test]
+fn an_unknown_browser_setting_is_refused_before_work_starts() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("dataset.toml");
+    std::fs::write(dir.path().join("a.csv"), "frame,nx,ny\n").unwrap();
+    std::fs::write(
+        &p,
+        "[render]\nbackend = \"browser\"\n[render.browser]\nurll = \"x\"\n[classes.reading]\nsources = [{ format = \"extract\", path = \"a.csv\" }]\n",
+    )
+    .unwrap();
+    let e = eyereplay::plan(&p, None).err().expect("refused").to_string();
+    assert!(e.contains("dataset.toml") && e.contains("[render.browser]") && e.contains("urll"), "{e}");
+    assert!(!e.contains('\n'), "{e}");
+}
