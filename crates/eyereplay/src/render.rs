@@ -180,7 +180,8 @@ fn render_sessions_browser(
                 out_truth_csv: job.paths.truth.clone(),
             })
             .collect();
-        let results = eyereplay_browser::render_sessions(browser, &params.encoder, &browser_jobs, jobs);
+        let results =
+            eyereplay_browser::render_sessions(browser, &params.encoder, &browser_jobs, jobs);
         for ((job, t), r) in batch.iter().zip(results) {
             progress.advance(t.len() as u64);
             match r {

@@ -32,9 +32,17 @@ fn a_dataset_rendered_through_a_web_page_gets_its_visual_fidelity_table() {
     let mut talk = String::from("time,x,y\n");
     for i in 0..2000 {
         let t = i as f64 * 10.0;
-        read += &format!("{t},{},{}\n", 400.0 + (i % 100) as f64 * 11.0, 450.0 + (i / 100 % 6) as f64 * 30.0);
+        read += &format!(
+            "{t},{},{}\n",
+            400.0 + (i % 100) as f64 * 11.0,
+            450.0 + (i / 100 % 6) as f64 * 30.0
+        );
         let a = i as f64 / 37.0;
-        talk += &format!("{t},{},{}\n", 960.0 + 300.0 * a.sin(), 540.0 + 160.0 * (a * 0.7).cos());
+        talk += &format!(
+            "{t},{},{}\n",
+            960.0 + 300.0 * a.sin(),
+            540.0 + 160.0 * (a * 0.7).cos()
+        );
     }
     std::fs::write(d.join("read.csv"), read).unwrap();
     std::fs::write(d.join("talk.csv"), talk).unwrap();
@@ -64,9 +72,14 @@ sources = [{ format = "csv", path = "talk.csv", time_unit = "ms", screen_px = [1
     };
     let summary = eyereplay::generate(&job, &opts, &NoProgress).unwrap();
     assert_eq!((summary.render.rendered, summary.render.frames), (2, 120));
-    let id = eyereplay_dataset::SessionIdentity::read(&out.join("reading/reading_0000_identity.json")).unwrap();
+    let id =
+        eyereplay_dataset::SessionIdentity::read(&out.join("reading/reading_0000_identity.json"))
+            .unwrap();
     assert_eq!(id.identity["backend"], "browser");
-    assert_eq!(id.eyes.as_ref().unwrap()[1].outer_corner_px, [1110.0, 381.6]);
+    assert_eq!(
+        id.eyes.as_ref().unwrap()[1].outer_corner_px,
+        [1110.0, 381.6]
+    );
     // Finished and evaluated: the visual section read the iris back at the
     // configured corners, and the page's own truth columns were compared too.
     let ev = eyereplay::evaluate(
@@ -80,9 +93,17 @@ sources = [{ format = "csv", path = "talk.csv", time_unit = "ms", screen_px = [1
     let VisualSection::Computed(run) = &ev.evaluation.visual else {
         panic!("visual section not computed: {:?}", ev.evaluation.visual)
     };
-    assert!(run.eye_locator.contains("known geometry"), "{}", run.eye_locator);
+    assert!(
+        run.eye_locator.contains("known geometry"),
+        "{}",
+        run.eye_locator
+    );
     assert_eq!(run.fidelity.n_frames, 60);
-    let (_, truth) = ev.evaluation.render_truth.as_ref().expect("page truth compared");
+    let (_, truth) = ev
+        .evaluation
+        .render_truth
+        .as_ref()
+        .expect("page truth compared");
     // The page moves its iris monotonically with the cursor: its own truth
     // follows the source almost linearly.
     assert!(truth.x.r.unwrap() > 0.95, "{:?}", truth.x);
@@ -101,7 +122,13 @@ fn an_unknown_browser_setting_is_refused_before_work_starts() {
         "[render]\nbackend = \"browser\"\n[render.browser]\nurll = \"x\"\n[classes.reading]\nsources = [{ format = \"extract\", path = \"a.csv\" }]\n",
     )
     .unwrap();
-    let e = eyereplay::plan(&p, None).err().expect("refused").to_string();
-    assert!(e.contains("dataset.toml") && e.contains("[render.browser]") && e.contains("urll"), "{e}");
+    let e = eyereplay::plan(&p, None)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        e.contains("dataset.toml") && e.contains("[render.browser]") && e.contains("urll"),
+        "{e}"
+    );
     assert!(!e.contains('\n'), "{e}");
 }

@@ -9,21 +9,9 @@ pub mod models;
 pub mod prepare;
 pub mod render;
 
-use anyhow::Result;
 use eyereplay::{Progress, Stage};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::sync::Mutex;
-
-/// Two numbers joined by one of `seps` (see [`eyereplay::parse_usize_pair`]).
-pub fn parse_usize_pair(
-    flag: &str,
-    s: &str,
-    seps: &[char],
-    form: &str,
-    names: [&str; 2],
-) -> Result<(usize, usize)> {
-    Ok(eyereplay::parse_usize_pair(flag, s, seps, form, names)?)
-}
 
 /// The library's progress events as terminal progress bars: one bar per
 /// stage, counting frames, with rate and ETA; result lines on stdout,

@@ -86,13 +86,13 @@ pub struct Args {
 }
 
 fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
-    super::parse_usize_pair(
+    Ok(eyereplay::parse_usize_pair(
         "--size",
         s,
         &['x', 'X'],
         "WIDTHxHEIGHT, e.g. 1280x720",
         ["width", "height"],
-    )
+    )?)
 }
 
 fn params(args: &Args) -> anyhow::Result<RenderParams> {
