@@ -98,6 +98,19 @@ pub fn sha256_file(path: &Path) -> Result<String, CoreError> {
     Ok(hex::encode(h.finalize()))
 }
 
+/// The first `dir/rel` that is a file, for `dir` the current folder, the
+/// running binary's folder, and each of their ancestors: how eyereplay finds
+/// the checkout's `.cache/models`, `.cache/faces`, `examples/default.toml`
+/// and helper scripts when run from anywhere inside it.
+pub fn find_upwards(rel: &Path) -> Option<std::path::PathBuf> {
+    let starts = [std::env::current_dir().ok(), std::env::current_exe().ok()];
+    starts
+        .into_iter()
+        .flatten()
+        .flat_map(|s| s.ancestors().map(|d| d.join(rel)).collect::<Vec<_>>())
+        .find(|p| p.is_file())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -18,7 +18,9 @@ mod trajectory;
 pub use calibration::Calibration;
 pub use class::GazeClass;
 pub use error::CoreError;
-pub use fsio::{atomic_write, atomic_write_with, sha256_file, sha256_hex, stale_temp_files};
+pub use fsio::{
+    atomic_write, atomic_write_with, find_upwards, sha256_file, sha256_hex, stale_temp_files,
+};
 pub use position::{Canvas, CanvasPos, NormPos, PlanePos, ScreenPos, ScreenSize};
 pub use session_csv::{
     push_fixed3, push_point_row, push_u64, read_session_csv, write_session_csv,

@@ -101,19 +101,20 @@ pub fn read_truth_csv(path: &Path) -> Result<Vec<TruthRow>, DatasetError> {
         for (k, c) in cols.iter().enumerate() {
             v[k] = t.number(rec, *line, *c)?;
         }
-        let eye = |o: usize, i: usize| EyeTruthRow {
-            yaw_deg: v[3 + 2 * o],
-            pitch_deg: v[4 + 2 * o],
-            iris_px: [v[7 + 2 * o], v[8 + 2 * o]],
-            nx: v[11 + 2 * o],
-            ny: v[12 + 2 * o],
-            aperture: v[15 + i],
+        // Column offsets of eye `k` (0 left, 1 right) in TRUTH_HEADER order.
+        let eye = |k: usize| EyeTruthRow {
+            yaw_deg: v[3 + 2 * k],
+            pitch_deg: v[4 + 2 * k],
+            iris_px: [v[7 + 2 * k], v[8 + 2 * k]],
+            nx: v[11 + 2 * k],
+            ny: v[12 + 2 * k],
+            aperture: v[15 + k],
         };
         out.push(TruthRow {
             frame: v[0] as u64,
             x_px: v[1],
             y_px: v[2],
-            eyes: [eye(0, 0), eye(1, 1)],
+            eyes: [eye(0), eye(1)],
             lid_closure: v[17],
             blink: v[18] != 0.0,
         });

@@ -44,20 +44,8 @@ pub fn default_models_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("EYEREPLAY_MODELS") {
         return PathBuf::from(d);
     }
-    let mut starts = vec![];
-    if let Ok(cwd) = std::env::current_dir() {
-        starts.push(cwd);
-    }
-    if let Ok(exe) = std::env::current_exe() {
-        starts.push(exe);
-    }
-    for start in &starts {
-        for dir in start.ancestors() {
-            let cand = dir.join(".cache/models");
-            if cand.join(DETECTOR).is_file() {
-                return cand;
-            }
-        }
+    if let Some(marker) = eyereplay_core::find_upwards(&Path::new(".cache/models").join(DETECTOR)) {
+        return marker.parent().expect("a file has a folder").to_path_buf();
     }
     PathBuf::from(".cache/models")
 }

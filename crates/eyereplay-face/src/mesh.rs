@@ -79,20 +79,8 @@ pub fn default_faces_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("EYEREPLAY_CACHE") {
         return PathBuf::from(d).join("faces");
     }
-    let mut starts = vec![];
-    if let Ok(cwd) = std::env::current_dir() {
-        starts.push(cwd);
-    }
-    if let Ok(exe) = std::env::current_exe() {
-        starts.push(exe);
-    }
-    for start in &starts {
-        for dir in start.ancestors() {
-            let cand = dir.join(".cache/faces");
-            if cand.join(MESH_FILE).is_file() {
-                return cand;
-            }
-        }
+    if let Some(marker) = eyereplay_core::find_upwards(&Path::new(".cache/faces").join(MESH_FILE)) {
+        return marker.parent().expect("a file has a folder").to_path_buf();
     }
     PathBuf::from(".cache/faces")
 }

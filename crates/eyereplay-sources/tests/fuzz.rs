@@ -45,6 +45,18 @@ const GARBAGE: &[&str] = &[
 ];
 
 /// One random mutation of `text`.
+/// A line's separator (tab, comma, else space) and its fields.
+fn fields(line: &[u8]) -> (u8, Vec<Vec<u8>>) {
+    let sep = if line.contains(&b'\t') {
+        b'\t'
+    } else if line.contains(&b',') {
+        b','
+    } else {
+        b' '
+    };
+    (sep, line.split(|c| *c == sep).map(<[u8]>::to_vec).collect())
+}
+
 fn mutate(rng: &mut ChaCha8Rng, text: &[u8]) -> Vec<u8> {
     let mut b = text.to_vec();
     let lines =
@@ -71,14 +83,7 @@ fn mutate(rng: &mut ChaCha8Rng, text: &[u8]) -> Vec<u8> {
         3 => {
             let mut l = lines(&b);
             let k = rng.gen_range(0..l.len());
-            let sep = if l[k].contains(&b'\t') {
-                b'\t'
-            } else if l[k].contains(&b',') {
-                b','
-            } else {
-                b' '
-            };
-            let mut f: Vec<Vec<u8>> = l[k].split(|c| *c == sep).map(<[u8]>::to_vec).collect();
+            let (sep, mut f) = fields(&l[k]);
             if f.len() >= 2 {
                 let (i, j) = (rng.gen_range(0..f.len()), rng.gen_range(0..f.len()));
                 f.swap(i, j);
@@ -90,14 +95,7 @@ fn mutate(rng: &mut ChaCha8Rng, text: &[u8]) -> Vec<u8> {
         4 | 5 => {
             let mut l = lines(&b);
             let k = rng.gen_range(0..l.len());
-            let sep = if l[k].contains(&b'\t') {
-                b'\t'
-            } else if l[k].contains(&b',') {
-                b','
-            } else {
-                b' '
-            };
-            let mut f: Vec<Vec<u8>> = l[k].split(|c| *c == sep).map(<[u8]>::to_vec).collect();
+            let (sep, mut f) = fields(&l[k]);
             let i = rng.gen_range(0..f.len());
             f[i] = GARBAGE[rng.gen_range(0..GARBAGE.len())].as_bytes().to_vec();
             l[k] = f.join(&sep);

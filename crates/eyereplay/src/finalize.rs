@@ -4,19 +4,27 @@
 
 use crate::evaluate::{evaluate, EvaluateOptions, EvaluateOutcome};
 use crate::{Error, Result};
-use eyereplay_dataset::{read_metadata, write_metadata, Metadata, RenderMetadata, SessionIdentity};
-use eyereplay_render::{ffprobe_for, is_complete, list_sessions};
+use eyereplay_dataset::{
+    read_metadata, write_metadata, DatasetMetadata, Metadata, RenderMetadata, SessionIdentity,
+};
+use eyereplay_render::{ffprobe_for, is_complete, list_sessions, SessionJob};
 use std::path::Path;
 
 /// Sessions of `dir` whose video, truth or identity file is missing or
 /// incomplete (labels.csv order).
 pub fn missing_sessions(dir: &Path) -> Result<Vec<String>> {
-    let meta = read_metadata(dir)?.dataset;
+    let meta = read_metadata(dir)?;
+    Ok(incomplete(dir, &meta.dataset)?
+        .into_iter()
+        .map(|j| j.paths.file)
+        .collect())
+}
+
+fn incomplete(dir: &Path, meta: &DatasetMetadata) -> Result<Vec<SessionJob>> {
     let ffprobe = ffprobe_for(Path::new("ffmpeg"));
     Ok(list_sessions(dir, meta.seed)?
         .into_iter()
         .filter(|j| !is_complete(j, meta.session_frames, &ffprobe))
-        .map(|j| j.paths.file)
         .collect())
 }
 
@@ -29,9 +37,13 @@ pub fn finalize(
 ) -> Result<Option<EvaluateOutcome>> {
     let meta = read_metadata(dir)?;
     let jobs = list_sessions(dir, meta.dataset.seed)?;
-    let missing = missing_sessions(dir)?;
+    let missing = incomplete(dir, &meta.dataset)?;
     if !missing.is_empty() {
-        let shown: Vec<&str> = missing.iter().take(12).map(String::as_str).collect();
+        let shown: Vec<&str> = missing
+            .iter()
+            .take(12)
+            .map(|j| j.paths.file.as_str())
+            .collect();
         return Err(Error::input(
             dir,
             format!(

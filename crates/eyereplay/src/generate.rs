@@ -6,7 +6,7 @@ use crate::inputs::{cache_dir, check_ffmpeg, check_models, free_bytes, video_sou
 use crate::progress::Progress;
 use crate::render::{render_params, render_sessions, RenderSummary};
 use crate::shard::Shard;
-use crate::{prepare_dataset, Error, PreparedDataset, Result};
+use crate::{prepare_dataset, Error, Result};
 use eyereplay_dataset::RenderSettings;
 use eyereplay_prepare::DatasetConfig;
 use eyereplay_render::RenderParams;
@@ -126,22 +126,13 @@ pub fn generate(
     // Extract (cached) and prepare: every shard writes identical files.
     let t = Instant::now();
     let cache = opts.cache.clone().unwrap_or_else(|| cache_dir(None));
-    let prepared = prepare_dataset(&job.config, out, &cache, progress)?;
+    prepare_dataset(&job.config, out, &cache, progress)?;
     stage("extract+prepare", t, &mut log);
 
     // Render this shard's sessions (the renderer first removes what a
     // killed run left half-written of each of them).
     let t = Instant::now();
-    let PreparedDataset { metadata, .. } = prepared;
-    let render = render_sessions(
-        out,
-        metadata.seed,
-        &job.settings,
-        job.params.clone(),
-        metadata.session_frames,
-        job.shard,
-        progress,
-    )?;
+    let render = render_sessions(out, &job.settings, job.params.clone(), job.shard, progress)?;
     stage("render", t, &mut log);
 
     // Finish (a sharded run leaves it to 'eyereplay merge').

@@ -45,10 +45,10 @@
 //! config.base_dir = dir.path().to_path_buf();
 //! let out = dir.path().join("dataset");
 //! let cache = dir.path().join("cache");
-//! let ds = prepare_dataset(&config, &out, &cache, &NoProgress)?;   // stages 2-5 + files
+//! prepare_dataset(&config, &out, &cache, &NoProgress)?;           // stages 2-5 + files
 //! let settings = RenderSettings { width: Some(320), height: Some(180), ..Default::default() };
 //! let params = render_params(&settings, &config)?;
-//! let done = render_sessions(&out, ds.metadata.seed, &settings, params, 50, None, &NoProgress)?;
+//! let done = render_sessions(&out, &settings, params, None, &NoProgress)?;   // stage 6
 //! assert_eq!(done.rendered, 4);
 //! assert!(out.join("reading/reading_0001.mp4").is_file());
 //! # Ok(())

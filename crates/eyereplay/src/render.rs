@@ -6,7 +6,7 @@ use crate::progress::{Progress, Stage};
 use crate::shard::Shard;
 use crate::{Error, Result};
 use eyereplay_browser::{BrowserJob, BrowserSettings};
-use eyereplay_dataset::{RenderBackend, RenderSettings, SessionIdentity};
+use eyereplay_dataset::{DatasetMetadata, RenderBackend, RenderSettings, SessionIdentity};
 use eyereplay_prepare::DatasetConfig;
 use eyereplay_render::{render_dataset, DatasetOptions, RenderParams, SessionOutcome};
 use std::path::Path;
@@ -61,43 +61,35 @@ pub fn browser_settings(settings: &RenderSettings) -> Result<Option<BrowserSetti
 /// others are written.
 pub fn render_sessions(
     out: &Path,
-    dataset_seed: u64,
     settings: &RenderSettings,
     params: RenderParams,
-    session_frames: usize,
     shard: Option<Shard>,
     progress: &dyn Progress,
 ) -> Result<RenderSummary> {
+    // Seed, frame rate and session length are the dataset's own.
+    let meta = eyereplay_dataset::read_metadata(out)?.dataset;
     match browser_settings(settings)? {
-        Some(b) => render_sessions_browser(out, settings, &b, &params, shard, progress),
-        None => render_sessions_eyes(
-            out,
-            dataset_seed,
-            settings,
-            params,
-            session_frames,
-            shard,
-            progress,
-        ),
+        Some(b) => render_sessions_browser(out, &meta, settings, &b, &params, shard, progress),
+        None => render_sessions_eyes(out, &meta, settings, params, shard, progress),
     }
 }
 
 /// Our own renderer, every session in parallel.
 fn render_sessions_eyes(
     out: &Path,
-    dataset_seed: u64,
+    meta: &DatasetMetadata,
     settings: &RenderSettings,
     params: RenderParams,
-    session_frames: usize,
     shard: Option<Shard>,
     progress: &dyn Progress,
 ) -> Result<RenderSummary> {
+    let session_frames = meta.session_frames;
     let labels = eyereplay_dataset::read_labels(out)?;
     let sessions = shard.map_or(labels.len(), |s| s.count_of(labels.len()));
     progress.begin(Stage::Render, (sessions * session_frames) as u64);
     let done = AtomicUsize::new(0);
     let opts = DatasetOptions {
-        dataset_seed,
+        dataset_seed: meta.seed,
         jobs: settings.jobs(),
         params,
         natural_blinks: settings.natural_blinks,
@@ -129,13 +121,13 @@ fn render_sessions_eyes(
 /// identity file naming the page (and its eyes, when configured).
 fn render_sessions_browser(
     out: &Path,
+    meta: &DatasetMetadata,
     settings: &RenderSettings,
     browser: &BrowserSettings,
     params: &RenderParams,
     shard: Option<Shard>,
     progress: &dyn Progress,
 ) -> Result<RenderSummary> {
-    let meta = eyereplay_dataset::read_metadata(out)?.dataset;
     let ffprobe = eyereplay_render::ffprobe_for(&params.encoder.ffmpeg);
     let mut sessions = eyereplay_render::list_sessions(out, meta.seed)?;
     if let Some(s) = shard {

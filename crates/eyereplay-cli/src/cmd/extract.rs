@@ -119,24 +119,12 @@ impl ex::Progress for Bars {
     }
 }
 
+/// `rel` under `$EYEREPLAY_ROOT`, else above the current folder or binary.
 fn find_upwards(rel: &str) -> Option<PathBuf> {
-    if let Some(root) = std::env::var_os("EYEREPLAY_ROOT") {
-        let p = PathBuf::from(root).join(rel);
-        if p.is_file() {
-            return Some(p);
-        }
-    }
-    let mut starts = vec![];
-    if let Ok(c) = std::env::current_dir() {
-        starts.push(c);
-    }
-    if let Ok(e) = std::env::current_exe() {
-        starts.push(e);
-    }
-    starts
-        .iter()
-        .flat_map(|s| s.ancestors().map(|d| d.join(rel)).collect::<Vec<_>>())
-        .find(|p| p.is_file())
+    std::env::var_os("EYEREPLAY_ROOT")
+        .map(|root| PathBuf::from(root).join(rel))
+        .filter(|p| p.is_file())
+        .or_else(|| eyereplay_core::find_upwards(Path::new(rel)))
 }
 
 /// One whole process of a benchmark: CPU seconds (user + system, all its

@@ -55,16 +55,9 @@ pub struct Args {
 
 /// The bundled default config, found above the current folder or the binary.
 pub fn default_config() -> Result<PathBuf> {
-    let starts = [std::env::current_dir().ok(), std::env::current_exe().ok()];
-    for s in starts.into_iter().flatten() {
-        for dir in s.ancestors().take(12) {
-            let p = dir.join("examples/default.toml");
-            if p.is_file() {
-                return Ok(p);
-            }
-        }
-    }
-    anyhow::bail!("no --config given and examples/default.toml not found above the current folder; run from the eyereplay checkout or pass --config")
+    eyereplay_core::find_upwards(std::path::Path::new("examples/default.toml")).ok_or_else(|| {
+        anyhow::anyhow!("no --config given and examples/default.toml not found above the current folder; run from the eyereplay checkout or pass --config")
+    })
 }
 
 pub fn run(args: Args) -> Result<()> {
