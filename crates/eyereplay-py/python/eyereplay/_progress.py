@@ -1,0 +1,116 @@
+"""Progress of long work (extraction, rendering) in notebooks and terminals.
+
+The Rust library reports events from its worker threads: ``begin(stage,
+total)``, ``add_total(n)``, ``advance(n)``, ``status(text)``, ``end(stage)``,
+``info(line)`` and ``warn(line)``. :class:`ProgressBar` shows them with
+tqdm (a widget in Jupyter, a bar in a terminal) when tqdm is installed, and
+as a plain one-line bar on stderr otherwise. Pass your own object with
+those methods as ``progress=`` to route them elsewhere.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+import warnings
+
+
+class EyereplayWarning(UserWarning):
+    """Something the user should know that does not stop the job (a source
+    clipped, a session short of data)."""
+
+
+class ProgressBar:
+    """One bar per stage; units are video frames."""
+
+    def __init__(self, stream=None):
+        self._stream = stream or sys.stderr
+        self._lock = threading.Lock()
+        self._bar = None
+        self._stage = None
+        self._done = 0
+        self._total = 0
+        self._shown_at = 0.0
+        try:  # tqdm.auto picks the notebook widget inside Jupyter
+            from tqdm.auto import tqdm
+
+            self._tqdm = tqdm
+        except ImportError:
+            self._tqdm = None
+
+    def begin(self, stage: str, total: int) -> None:
+        with self._lock:
+            self._close()
+            self._stage, self._done, self._total = stage, 0, int(total)
+            if self._tqdm is not None:
+                self._bar = self._tqdm(total=self._total or None, desc=stage, unit="frame")
+
+    def add_total(self, n: int) -> None:
+        with self._lock:
+            self._total += int(n)
+            if self._bar is not None:
+                self._bar.total = self._total
+                self._bar.refresh()
+
+    def advance(self, n: int) -> None:
+        with self._lock:
+            self._done += int(n)
+            if self._bar is not None:
+                self._bar.update(int(n))
+            else:
+                self._text_bar()
+
+    def status(self, text: str) -> None:
+        with self._lock:
+            if self._bar is not None:
+                self._bar.set_postfix_str(text)
+
+    def end(self, stage: str) -> None:
+        with self._lock:
+            self._close()
+
+    def info(self, line: str) -> None:
+        with self._lock:
+            self._clear_line()
+            print(line, file=self._stream)
+
+    def warn(self, line: str) -> None:
+        warnings.warn(line.removeprefix("warning: "), EyereplayWarning, stacklevel=2)
+
+    # A bar of '=' every 0.2 s at most, redrawn in place with '\r'.
+    def _text_bar(self) -> None:
+        now = time.monotonic()
+        if now - self._shown_at < 0.2 and self._done < self._total:
+            return
+        self._shown_at = now
+        total = max(self._total, self._done, 1)
+        filled = int(30 * self._done / total)
+        self._stream.write(
+            f"\r{self._stage or '':>8} [{'=' * filled}{' ' * (30 - filled)}] {self._done}/{self._total} frames"
+        )
+        self._stream.flush()
+
+    def _clear_line(self) -> None:
+        if self._bar is None and self._shown_at:
+            self._stream.write("\r" + " " * 70 + "\r")
+            self._stream.flush()
+
+    def _close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+        elif self._shown_at:
+            self._stream.write("\n")
+            self._stream.flush()
+        self._shown_at = 0.0
+
+
+def resolve(progress):
+    """``True`` -> a :class:`ProgressBar`, ``False``/``None`` -> nothing,
+    anything else is used as it is."""
+    if progress is True:
+        return ProgressBar()
+    if progress is False or progress is None:
+        return None
+    return progress

@@ -1,0 +1,601 @@
+//! `eyereplay._native`: the `eyereplay` library's pipeline for Python.
+//!
+//! This module is deliberately thin: each function parses its arguments,
+//! releases the GIL, calls one function of the Rust library and turns the
+//! result into plain Python values (str, int, float, list, dict). The
+//! Python half of the package (`python/eyereplay`) turns those into numpy
+//! arrays, pandas frames and torch datasets, so this crate needs neither
+//! numpy's C API nor torch.
+
+use eyereplay::prepare_stages::PrepareError;
+use eyereplay::{DatasetConfig, Error, EvaluateOptions, Progress, Stage, VisualChoice};
+use eyereplay_extract as ex;
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use std::path::{Path, PathBuf};
+
+create_exception!(
+    eyereplay,
+    EyereplayError,
+    PyException,
+    "Base class of eyereplay's errors. The message is one line that names the file or setting at fault, as the command line prints it."
+);
+create_exception!(
+    eyereplay,
+    ConfigError,
+    EyereplayError,
+    "A dataset config (file or dict) or an option is invalid."
+);
+create_exception!(
+    eyereplay,
+    SourceError,
+    EyereplayError,
+    "A gaze source (CSV, EyeLink, BIDS, fixation report, extraction) is missing or unreadable, or too short for its class."
+);
+create_exception!(
+    eyereplay,
+    VideoError,
+    EyereplayError,
+    "A video cannot be decoded, has no face, or cannot be rendered or encoded."
+);
+create_exception!(
+    eyereplay,
+    ModelError,
+    EyereplayError,
+    "The face/iris models or the ONNX Runtime library are missing or do not match their pinned sha256 (run eyereplay.fetch_models())."
+);
+create_exception!(
+    eyereplay,
+    DatasetError,
+    EyereplayError,
+    "A dataset folder is incomplete, of another format version, or inconsistent."
+);
+
+/// Which exception class an error becomes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Config,
+    Source,
+    Video,
+    Model,
+    Dataset,
+    Other,
+}
+
+fn kind_of(e: &Error) -> Kind {
+    use ex::ExtractError as X;
+    match e {
+        Error::Setting(_) | Error::Prepare(PrepareError::Config { .. }) => Kind::Config,
+        Error::Prepare(_) | Error::Source(_) => Kind::Source,
+        Error::Extract(X::ModelsMissing { .. } | X::ModelChecksum { .. } | X::Runtime(_)) => {
+            Kind::Model
+        }
+        Error::Extract(_) | Error::Render(_) => Kind::Video,
+        Error::Dataset(_) | Error::Eval(_) | Error::SessionsFailed(_) => Kind::Dataset,
+        Error::Core(_) | Error::Input { .. } => Kind::Other,
+    }
+}
+
+fn raise(kind: Kind, message: String) -> PyErr {
+    match kind {
+        Kind::Config => ConfigError::new_err(message),
+        Kind::Source => SourceError::new_err(message),
+        Kind::Video => VideoError::new_err(message),
+        Kind::Model => ModelError::new_err(message),
+        Kind::Dataset => DatasetError::new_err(message),
+        Kind::Other => EyereplayError::new_err(message),
+    }
+}
+
+fn py_err(e: Error) -> PyErr {
+    raise(kind_of(&e), e.to_string())
+}
+
+/// Errors while checking a job's config: a bad `[render]` table or a
+/// setting the renderer refuses is the config's fault, whatever layer
+/// noticed it.
+fn plan_err(e: Error, config_label: &Path) -> PyErr {
+    let kind = match &e {
+        Error::Dataset(_) => Kind::Config,
+        Error::Input { path, .. } if path == config_label => Kind::Config,
+        _ => kind_of(&e),
+    };
+    raise(kind, e.to_string())
+}
+
+/// Forwards the library's progress events to a Python object with the
+/// methods `begin(stage, total)`, `add_total(n)`, `advance(n)`,
+/// `status(text)`, `end(stage)`, `info(line)` and `warn(line)`. Called from
+/// worker threads; each call takes the GIL for the duration of the call. An
+/// exception in a callback is reported as unraisable and the work goes on.
+struct PyProgress(Option<Py<PyAny>>);
+
+macro_rules! notify {
+    ($self:ident, $method:literal, $args:expr) => {
+        if let Some(obj) = &$self.0 {
+            Python::with_gil(|py| {
+                if let Err(e) = obj.call_method1(py, $method, $args) {
+                    e.write_unraisable(py, None);
+                }
+            })
+        }
+    };
+}
+
+fn stage_name(s: Stage) -> &'static str {
+    match s {
+        Stage::Extract => "extract",
+        Stage::Render => "render",
+    }
+}
+
+impl Progress for PyProgress {
+    fn begin(&self, stage: Stage, total: u64) {
+        notify!(self, "begin", (stage_name(stage), total));
+    }
+    fn add_total(&self, units: u64) {
+        notify!(self, "add_total", (units,));
+    }
+    fn advance(&self, units: u64) {
+        notify!(self, "advance", (units,));
+    }
+    fn status(&self, text: &str) {
+        notify!(self, "status", (text,));
+    }
+    fn end(&self, stage: Stage) {
+        notify!(self, "end", (stage_name(stage),));
+    }
+    fn info(&self, line: &str) {
+        notify!(self, "info", (line,));
+    }
+    fn warn(&self, line: &str) {
+        notify!(self, "warn", (line,));
+    }
+}
+
+/// The extractor's per-video events, summed into one frame count.
+impl ex::Progress for PyProgress {
+    fn start(&self, _video: usize, frames: Option<u64>) {
+        if let Some(n) = frames {
+            Progress::add_total(self, n);
+        }
+    }
+    fn advance(&self, _video: usize, n: u64) {
+        Progress::advance(self, n);
+    }
+}
+
+/// A config from a TOML file, or from TOML text (a Python dict, converted
+/// by the Python side) that errors call `label`.
+fn load_config(
+    path: Option<PathBuf>,
+    text: Option<String>,
+    label: &str,
+    base_dir: Option<PathBuf>,
+) -> PyResult<(DatasetConfig, PathBuf)> {
+    match (path, text) {
+        (Some(p), None) => DatasetConfig::load(&p)
+            .map(|c| (c, p))
+            .map_err(|e| py_err(e.into())),
+        (None, Some(t)) => {
+            let label = PathBuf::from(label);
+            let base = match base_dir {
+                Some(b) => b,
+                None => std::env::current_dir()
+                    .map_err(|e| EyereplayError::new_err(format!("current folder: {e}")))?,
+            };
+            DatasetConfig::from_text(&t, &label, &base)
+                .map(|c| (c, label))
+                .map_err(|e| match e {
+                    // Positions in TOML text the user never saw mean
+                    // nothing; the message names the key.
+                    PrepareError::Config { path, message } => ConfigError::new_err(format!(
+                        "{}: {}",
+                        path.display(),
+                        without_position(&message)
+                    )),
+                    e => py_err(e.into()),
+                })
+        }
+        _ => Err(ConfigError::new_err(
+            "give a config as a TOML path or as a dict, not both or neither",
+        )),
+    }
+}
+
+/// `message` without a leading "line N, column M: ".
+fn without_position(message: &str) -> &str {
+    match message.split_once(": ") {
+        Some((pos, rest)) if pos.starts_with("line ") && pos.contains(", column ") => rest,
+        _ => message,
+    }
+}
+
+/// A JSON object (a Python dict serialized by the Python side) as TOML
+/// text, so a dict config goes through exactly the parser and messages of
+/// a config file.
+#[pyfunction]
+fn json_to_toml(label: &str, json: &str) -> PyResult<String> {
+    let bad = |m: String| ConfigError::new_err(format!("{label}: {m}"));
+    let value: serde_json::Value = serde_json::from_str(json).map_err(|e| bad(e.to_string()))?;
+    let table = toml::Value::try_from(value).map_err(|e| {
+        bad(format!(
+            "cannot be written as TOML ({e}; None values are not allowed, leave the key out)"
+        ))
+    })?;
+    toml::to_string(&table).map_err(|e| bad(e.to_string()))
+}
+
+fn device_of(name: &str) -> PyResult<ex::Device> {
+    match name {
+        "auto" => Ok(ex::Device::Auto),
+        "cpu" => Ok(ex::Device::Cpu),
+        "cuda" => Ok(ex::Device::Cuda),
+        other => Err(ConfigError::new_err(format!(
+            "device '{other}': expected 'auto', 'cpu' or 'cuda'"
+        ))),
+    }
+}
+
+/// Stage 1 on each video: the per-frame CSV text exactly as `eyereplay
+/// extract` writes it, and the summary line's numbers.
+#[pyfunction]
+#[pyo3(signature = (videos, models=None, threads=0, blink_ratio=ex::DEFAULT_BLINK_RATIO,
+    max_seconds=None, mesh_every=ex::DEFAULT_MESH_EVERY, device="auto", progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn extract<'py>(
+    py: Python<'py>,
+    videos: Vec<PathBuf>,
+    models: Option<PathBuf>,
+    threads: usize,
+    blink_ratio: f64,
+    max_seconds: Option<f64>,
+    mesh_every: u32,
+    device: &str,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyList>> {
+    let opts = ex::ExtractOptions {
+        models_dir: models.unwrap_or_else(ex::default_models_dir),
+        threads,
+        blink_ratio,
+        max_duration_s: max_seconds,
+        preview_dir: None,
+        preview_every_s: 5.0,
+        mesh_every,
+        profile: false,
+        device: device_of(device)?,
+    };
+    let progress = PyProgress(progress);
+    Progress::begin(&progress, Stage::Extract, 0);
+    let results = py.allow_threads(|| ex::extract_many(&videos, &opts, &progress));
+    Progress::end(&progress, Stage::Extract);
+    let mut failed: Vec<(Kind, String)> = vec![];
+    let out = PyList::empty(py);
+    for res in results {
+        let x = match res {
+            Ok(x) => x,
+            Err(e) => {
+                let e = Error::from(e);
+                failed.push((kind_of(&e), e.to_string()));
+                continue;
+            }
+        };
+        let mut csv = Vec::new();
+        ex::write_csv(&mut csv, &x.rows).map_err(|e| EyereplayError::new_err(e.to_string()))?;
+        let d = PyDict::new(py);
+        d.set_item("path", &x.path)?;
+        d.set_item("csv", String::from_utf8_lossy(&csv))?;
+        d.set_item("frames", x.rows.len())?;
+        d.set_item("width", x.info.width)?;
+        d.set_item("height", x.info.height)?;
+        d.set_item("codec", &x.info.codec)?;
+        d.set_item("detection_rate", x.detection_rate())?;
+        d.set_item("valid_frames", x.valid_frames())?;
+        d.set_item("blinks", x.blinks)?;
+        d.set_item("decode_errors", x.decode_errors)?;
+        d.set_item("on_cuda", x.on_cuda)?;
+        out.append(d)?;
+    }
+    match failed.len() {
+        0 => Ok(out),
+        1 => {
+            let (kind, msg) = failed.remove(0);
+            Err(raise(kind, msg))
+        }
+        n => Err(raise(
+            failed[0].0,
+            format!(
+                "{n} of {} videos failed: {}",
+                videos.len(),
+                failed
+                    .iter()
+                    .map(|f| f.1.as_str())
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ),
+        )),
+    }
+}
+
+fn cache_of(cache: Option<PathBuf>) -> PathBuf {
+    eyereplay::cache_dir(cache.as_deref())
+}
+
+/// Stages 2-5 and the trajectory dataset (`eyereplay prepare`).
+#[pyfunction]
+#[pyo3(signature = (config_path, config_toml, label, base_dir, out, cache=None, dry_run=false, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn prepare<'py>(
+    py: Python<'py>,
+    config_path: Option<PathBuf>,
+    config_toml: Option<String>,
+    label: &str,
+    base_dir: Option<PathBuf>,
+    out: Option<PathBuf>,
+    cache: Option<PathBuf>,
+    dry_run: bool,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (cfg, _) = load_config(config_path, config_toml, label, base_dir)?;
+    let cache = cache_of(cache);
+    let progress = PyProgress(progress);
+    let d = PyDict::new(py);
+    let prepared = match out.filter(|_| !dry_run) {
+        None => py
+            .allow_threads(|| eyereplay::prepare_only(&cfg, &cache, &progress))
+            .map_err(py_err)?,
+        Some(out) => {
+            let ds = py
+                .allow_threads(|| eyereplay::prepare_dataset(&cfg, &out, &cache, &progress))
+                .map_err(py_err)?;
+            d.set_item("out", &out)?;
+            d.set_item("files", ds.files)?;
+            d.set_item("bytes", ds.bytes)?;
+            ds.prepared
+        }
+    };
+    let plan = prepared.plan(&cfg);
+    d.set_item("video_hours", plan.video_hours)?;
+    d.set_item("session_frames", cfg.session_frames)?;
+    d.set_item("fps", cfg.fps)?;
+    if let Some(c) = &prepared.calibration {
+        let cal = PyDict::new(py);
+        cal.set_item("s_x", c.s_x)?;
+        cal.set_item("s_y", c.s_y)?;
+        cal.set_item("mu_x", c.mu_x)?;
+        cal.set_item("mu_y", c.mu_y)?;
+        d.set_item("calibration", cal)?;
+    }
+    let sources = PyList::empty(py);
+    for s in &prepared.sources {
+        let r = PyDict::new(py);
+        r.set_item("id", &s.id)?;
+        r.set_item("class", s.class.name())?;
+        r.set_item("rate_hz", s.rate_hz)?;
+        r.set_item("samples", s.samples)?;
+        r.set_item("filled", s.filled.total)?;
+        r.set_item(
+            "alpha",
+            s.speed_correction
+                .applied
+                .then_some(s.speed_correction.alpha),
+        )?;
+        r.set_item("frames", s.frames)?;
+        sources.append(r)?;
+    }
+    d.set_item("sources", sources)?;
+    let classes = PyDict::new(py);
+    for c in &prepared.classes {
+        let r = PyDict::new(py);
+        r.set_item("sessions", c.sessions.len())?;
+        r.set_item("pool_frames", c.pool.len())?;
+        r.set_item("stride", c.stride)?;
+        r.set_item("reuse_ratio", c.reuse_ratio)?;
+        r.set_item("speed_scale", c.speed_scale)?;
+        classes.set_item(c.class.name(), r)?;
+    }
+    d.set_item("classes", classes)?;
+    d.set_item("warnings", &prepared.warnings)?;
+    Ok(d)
+}
+
+/// The whole job (`eyereplay generate`): validated first, then extract,
+/// prepare, render, and (without a shard) finalize and evaluate.
+#[pyfunction]
+#[pyo3(signature = (config_path, config_toml, label, base_dir, out, shard=None, shards=None,
+    cache=None, evaluate=true, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn generate<'py>(
+    py: Python<'py>,
+    config_path: Option<PathBuf>,
+    config_toml: Option<String>,
+    label: &str,
+    base_dir: Option<PathBuf>,
+    out: PathBuf,
+    shard: Option<String>,
+    shards: Option<usize>,
+    cache: Option<PathBuf>,
+    evaluate: bool,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (cfg, label) = load_config(config_path, config_toml, label, base_dir)?;
+    let shard = eyereplay::Shard::resolve(shard.as_deref(), shards)
+        .map_err(|e| raise(Kind::Config, e.to_string()))?;
+    let job = py
+        .allow_threads(|| eyereplay::plan_config(cfg, &label, shard))
+        .map_err(|e| plan_err(e, &label))?;
+    let opts = eyereplay::GenerateOptions {
+        out: out.clone(),
+        shard,
+        cache: Some(cache_of(cache)),
+        evaluate: evaluate.then(EvaluateOptions::default),
+    };
+    let progress = PyProgress(progress);
+    let summary = py
+        .allow_threads(|| eyereplay::generate(&job, &opts, &progress))
+        .map_err(py_err)?;
+    let d = PyDict::new(py);
+    d.set_item("out", &out)?;
+    d.set_item("rendered", summary.render.rendered)?;
+    d.set_item("skipped", summary.render.skipped)?;
+    d.set_item("frames", summary.render.frames)?;
+    d.set_item("clamped_points", summary.render.clamped_points)?;
+    d.set_item("report", summary.report.as_ref())?;
+    let stages = PyDict::new(py);
+    for (name, s) in &summary.stage_s {
+        stages.set_item(*name, *s)?;
+    }
+    d.set_item("stage_s", stages)?;
+    Ok(d)
+}
+
+/// The evaluation report (`eyereplay evaluate`): returns the metrics.json
+/// text and where the report and metrics were written.
+#[pyfunction]
+#[pyo3(signature = (dataset_dir, visual=true, visual_session=None, video=None, trajectory=None,
+    visual_seconds=120.0, models=None))]
+#[allow(clippy::too_many_arguments)]
+fn evaluate<'py>(
+    py: Python<'py>,
+    dataset_dir: PathBuf,
+    visual: bool,
+    visual_session: Option<String>,
+    video: Option<PathBuf>,
+    trajectory: Option<PathBuf>,
+    visual_seconds: f64,
+    models: Option<PathBuf>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let visual = match (visual, video, trajectory, visual_session) {
+        (false, ..) => VisualChoice::Skip,
+        (_, Some(video), Some(trajectory), _) => VisualChoice::Video { video, trajectory },
+        (_, Some(_), None, _) | (_, None, Some(_), _) => {
+            return Err(ConfigError::new_err(
+                "video and trajectory go together: give both or neither",
+            ))
+        }
+        (_, None, None, Some(s)) => VisualChoice::Session(s),
+        _ => VisualChoice::Auto,
+    };
+    let opts = EvaluateOptions {
+        visual,
+        visual_seconds,
+        models,
+        ..EvaluateOptions::default()
+    };
+    let outcome = py
+        .allow_threads(|| eyereplay::evaluate(&dataset_dir, &opts))
+        .map_err(py_err)?;
+    let d = PyDict::new(py);
+    d.set_item("metrics_json", &outcome.metrics_json)?;
+    d.set_item("metrics_path", &outcome.metrics_path)?;
+    d.set_item("html", &outcome.html)?;
+    Ok(d)
+}
+
+/// Finishes a sharded dataset once every shard is rendered (`eyereplay merge`).
+#[pyfunction]
+#[pyo3(signature = (dataset_dir, evaluate=true))]
+fn merge(py: Python<'_>, dataset_dir: PathBuf, evaluate: bool) -> PyResult<Option<PathBuf>> {
+    let opts = evaluate.then(EvaluateOptions::default);
+    let outcome = py
+        .allow_threads(|| eyereplay::finalize(&dataset_dir, opts.as_ref()))
+        .map_err(py_err)?;
+    Ok(outcome.map(|o| o.html))
+}
+
+/// A dataset folder's metadata.json text (format version checked) and one
+/// dict per session from labels.csv with the paths of its files.
+#[pyfunction]
+fn dataset_index<'py>(
+    py: Python<'py>,
+    dataset_dir: PathBuf,
+) -> PyResult<(String, Bound<'py, PyList>)> {
+    use eyereplay_dataset as ds;
+    let dataset_err = |e: ds::DatasetError| py_err(Error::from(e));
+    // Reading it through the typed reader checks the format version.
+    ds::read_metadata(&dataset_dir).map_err(dataset_err)?;
+    let meta_path = dataset_dir.join(ds::layout::METADATA_FILE);
+    let meta_text = std::fs::read_to_string(&meta_path)
+        .map_err(|e| DatasetError::new_err(format!("{}: {e}", meta_path.display())))?;
+    let labels = ds::read_labels(&dataset_dir).map_err(dataset_err)?;
+    let paths = ds::session_paths_of(&dataset_dir, &labels);
+    let rows = PyList::empty(py);
+    for (row, p) in labels.iter().zip(paths) {
+        let d = PyDict::new(py);
+        d.set_item("file", &row.file)?;
+        d.set_item("label", row.label())?;
+        d.set_item("class", row.class.name())?;
+        d.set_item("sources", &row.sources)?;
+        d.set_item("csv", &p.csv)?;
+        d.set_item("mp4", &p.mp4)?;
+        d.set_item("truth", &p.truth)?;
+        d.set_item("identity", &p.identity_json)?;
+        rows.append(d)?;
+    }
+    Ok((meta_text, rows))
+}
+
+/// `eyereplay models fetch`: download (pip, pinned), convert and check.
+#[pyfunction]
+#[pyo3(signature = (dir=None))]
+fn fetch_models(py: Python<'_>, dir: Option<PathBuf>) -> PyResult<Vec<String>> {
+    let dir = dir.unwrap_or_else(ex::default_models_dir);
+    py.allow_threads(|| eyereplay::fetch_models(&dir))
+        .map_err(|e| raise(Kind::Model, e.to_string()))
+}
+
+/// `eyereplay models check`: the models folder verified, one inference each.
+#[pyfunction]
+#[pyo3(signature = (dir=None))]
+fn check_models(py: Python<'_>, dir: Option<PathBuf>) -> PyResult<Vec<String>> {
+    let dir = dir.unwrap_or_else(ex::default_models_dir);
+    py.allow_threads(|| ex::check_models(&dir))
+        .map_err(|e| py_err(Error::from(e)))
+}
+
+/// Where models are looked for: `$EYEREPLAY_MODELS`, else the
+/// `.cache/models` of a checkout above the current folder, else
+/// `.cache/models` in the current folder.
+#[pyfunction]
+fn default_models_dir() -> PathBuf {
+    ex::default_models_dir()
+}
+
+/// The bundled default config (`examples/default.toml` of a checkout above
+/// the current folder), if there is one.
+#[pyfunction]
+fn default_config() -> Option<PathBuf> {
+    eyereplay::core::find_upwards(Path::new("examples/default.toml"))
+}
+
+/// The version of the Rust library inside this wheel.
+#[pyfunction]
+fn version() -> &'static str {
+    env!("CARGO_PKG_VERSION")
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("EyereplayError", py.get_type::<EyereplayError>())?;
+    m.add("ConfigError", py.get_type::<ConfigError>())?;
+    m.add("SourceError", py.get_type::<SourceError>())?;
+    m.add("VideoError", py.get_type::<VideoError>())?;
+    m.add("ModelError", py.get_type::<ModelError>())?;
+    m.add("DatasetError", py.get_type::<DatasetError>())?;
+    m.add_function(wrap_pyfunction!(json_to_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(extract, m)?)?;
+    m.add_function(wrap_pyfunction!(prepare, m)?)?;
+    m.add_function(wrap_pyfunction!(generate, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluate, m)?)?;
+    m.add_function(wrap_pyfunction!(merge, m)?)?;
+    m.add_function(wrap_pyfunction!(dataset_index, m)?)?;
+    m.add_function(wrap_pyfunction!(fetch_models, m)?)?;
+    m.add_function(wrap_pyfunction!(check_models, m)?)?;
+    m.add_function(wrap_pyfunction!(default_models_dir, m)?)?;
+    m.add_function(wrap_pyfunction!(default_config, m)?)?;
+    m.add_function(wrap_pyfunction!(version, m)?)?;
+    Ok(())
+}

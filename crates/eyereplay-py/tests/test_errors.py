@@ -1,0 +1,93 @@
+"""Errors are Python exceptions, one class per kind, carrying the command
+line's one-line messages, and nothing is left half-written."""
+
+import json
+import shutil
+
+import pytest
+
+import eyereplay
+from conftest import DATA, run_cli, small_config
+
+
+def test_missing_video_is_a_video_error(tmp_path):
+    with pytest.raises(eyereplay.VideoError) as e:
+        eyereplay.extract(tmp_path / "nope.mp4", progress=False)
+    assert "nope.mp4" in str(e.value) and "\n" not in str(e.value)
+    r = run_cli("extract", tmp_path / "nope.mp4", "--out", tmp_path / "x.csv")
+    assert str(e.value) in r.stderr
+
+
+def test_not_a_video_is_a_video_error(tmp_path):
+    p = tmp_path / "fake.mp4"
+    p.write_bytes(b"this is not a video" * 100)
+    with pytest.raises(eyereplay.VideoError):
+        eyereplay.extract(p, out=tmp_path / "fake.csv", progress=False)
+    assert not (tmp_path / "fake.csv").exists()
+
+
+def test_missing_models_is_a_model_error(tmp_path):
+    with pytest.raises(eyereplay.ModelError) as e:
+        eyereplay.extract(DATA / "franck.mp4", models=tmp_path, progress=False)
+    assert str(tmp_path) in str(e.value)
+    assert issubclass(eyereplay.ModelError, eyereplay.EyereplayError)
+
+
+def test_missing_source_is_a_source_error(tmp_path):
+    cfg = small_config()
+    cfg["classes"]["reading"]["sources"][0]["path"] = str(tmp_path / "gone.csv")
+    with pytest.raises(eyereplay.SourceError) as e:
+        eyereplay.prepare(cfg, tmp_path / "out", progress=False)
+    assert "gone.csv" in str(e.value)
+    assert not (tmp_path / "out").exists()
+
+
+def test_bad_render_setting_is_a_config_error(tmp_path):
+    cfg = small_config()
+    cfg["render"]["crf"] = "high"
+    with pytest.raises(eyereplay.ConfigError) as e:
+        eyereplay.generate(cfg, tmp_path / "out", progress=False)
+    assert "crf" in str(e.value)
+
+
+def test_none_in_a_dict_is_named(tmp_path):
+    cfg = small_config()
+    cfg["seed"] = None
+    with pytest.raises(eyereplay.ConfigError) as e:
+        eyereplay.prepare(cfg, tmp_path / "out", progress=False)
+    assert "None" in str(e.value)
+
+
+def test_config_of_the_wrong_type():
+    with pytest.raises(eyereplay.ConfigError):
+        eyereplay.prepare(42, None, progress=False)
+
+
+def test_dataset_of_another_version_is_a_dataset_error(tmp_path):
+    cfg = small_config()
+    out = tmp_path / "ds"
+    eyereplay.prepare(cfg, out, progress=False)
+    meta = json.loads((out / "metadata.json").read_text())
+    meta["format_version"] = 99
+    (out / "metadata.json").write_text(json.dumps(meta))
+    with pytest.raises(eyereplay.DatasetError) as e:
+        eyereplay.load_dataset(out)
+    assert "99" in str(e.value) and "metadata.json" in str(e.value)
+
+
+def test_prepare_writes_what_the_cli_writes(tmp_path, cache_dir):
+    from conftest import to_toml
+
+    cfg = small_config()
+    p = tmp_path / "c.toml"
+    p.write_text(to_toml(cfg))
+    r = run_cli("prepare", "--config", p, "--out", tmp_path / "cli", "--cache", cache_dir)
+    assert r.returncode == 0, r.stderr
+    s = eyereplay.prepare(p, tmp_path / "py", cache=cache_dir, progress=False)
+    for name in ("labels.csv", "metadata.json", "reading/reading_0001.csv", "pool/conversation.csv"):
+        assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes()
+    assert set(s["classes"]) == {"reading", "conversation"}
+    assert s["classes"]["reading"]["sessions"] == 2
+    # calibration as printed by the CLI
+    cal = s["calibration"]
+    assert f"s = ({cal['s_x']:.1f}, {cal['s_y']:.1f})" in r.stdout

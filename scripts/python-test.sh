@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# The Python package's tests: builds the wheel (scripts/python-wheel.sh),
+# installs it into a fresh venv with numpy, pandas and pytest (pinned by
+# version and sha256: crates/eyereplay-py/requirements-test.txt), and runs
+# pytest on crates/eyereplay-py/tests, which compare the package with the
+# `eyereplay` binary on the bundled sample data.
+#
+#   scripts/python-test.sh [--profile dev|release] [PYTEST ARGS]   default: release
+#
+# Needs scripts/setup.sh done (sample data, models). scripts/test.sh calls
+# this with --profile dev, after `cargo test` has built target/debug/eyereplay.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+profile=release
+if [[ "${1:-}" == "--profile" ]]; then
+  profile="${2:?--profile needs dev or release}"
+  shift 2
+fi
+dir=release
+[[ "$profile" == dev ]] && dir=debug
+export EYEREPLAY_CACHE="${EYEREPLAY_CACHE:-$root/.cache}"
+py="${PYTHON:-python3}"
+
+echo "python-test: cargo build --profile $profile -p eyereplay-cli"
+cargo build --quiet --profile "$profile" -p eyereplay-cli
+bash "$root/scripts/python-wheel.sh" --profile "$profile"
+
+venv="$root/target/py-test-venv"
+req="$root/crates/eyereplay-py/requirements-test.txt"
+echo "python-test: fresh venv $venv"
+rm -rf "$venv"
+"$py" -m venv "$venv"
+"$venv/bin/pip" download --quiet --require-hashes -r "$req" -d "$EYEREPLAY_CACHE/pip"
+"$venv/bin/pip" install --quiet --no-index --find-links "$EYEREPLAY_CACHE/pip" --require-hashes -r "$req"
+"$venv/bin/pip" install --quiet --no-index --no-deps target/wheels/eyereplay-*.whl
+
+echo "python-test: pytest"
+# From the tests' folder, so `import eyereplay` is the installed wheel, not
+# the source tree.
+cd "$root/crates/eyereplay-py/tests"
+EYEREPLAY_BIN="$root/target/$dir/eyereplay" EYEREPLAY_ROOT="$root" \
+  "$venv/bin/python" -m pytest -q -p no:cacheprovider "$@" .
