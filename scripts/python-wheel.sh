@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
 # Builds the Python package `eyereplay` (crates/eyereplay-py) into an abi3
-# wheel with maturin, for CPython 3.9 and later on this Linux.
+# manylinux wheel with maturin, for CPython 3.9 and later on x86-64 Linux
+# with glibc 2.35 or later, FFmpeg linked in statically (scripts/ffmpeg-static.sh).
 #
 #   scripts/python-wheel.sh [--profile dev|release]     default: release
 #
 # maturin comes from the package registry through pip, pinned by version and
 # sha256 (crates/eyereplay-py/requirements-build.txt), into a venv in the
 # cache; the wheel goes to target/wheels/. `pip install target/wheels/eyereplay-*.whl`
-# is then all a user needs (plus the ffmpeg program and the models, as for
-# the command line: eyereplay.fetch_models()).
+# is then all a user needs for extraction and datasets (plus the models,
+# eyereplay.fetch_models(); rendering MP4s runs the ffmpeg program, as the
+# command line does, so that x264 stays in its own process).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
@@ -26,11 +28,14 @@ if ! "$venv/bin/maturin" --version 2>/dev/null | grep -q "maturin 1.9.6"; then
 else
   echo "python-wheel: maturin 1.9.6 present"
 fi
+# FFmpeg linked statically (decoders only), so the wheel needs no libav*.
+bash "$root/scripts/ffmpeg-static.sh"
+export FFMPEG_DIR="$cache/ffmpeg-static"
 rm -f target/wheels/eyereplay-*.whl
 echo "python-wheel: maturin build --profile $profile"
-# --compatibility linux: the extension links Debian's libav* (decoding with
-# exact timestamps), which manylinux's library policy does not allow
-# unbundled; see the README's Python section.
-"$venv/bin/maturin" build --quiet --profile "$profile" --compatibility linux \
+# manylinux_2_35: the extension links only glibc (2.35 or later: Ubuntu
+# 22.04, Debian 12 and newer), libgcc_s and libm; maturin checks it against
+# the policy (auditwheel) before tagging.
+"$venv/bin/maturin" build --quiet --strip --profile "$profile" --compatibility manylinux_2_35 \
   --interpreter "$py" -m crates/eyereplay-py/Cargo.toml -o target/wheels
 ls target/wheels/eyereplay-*.whl
