@@ -24,6 +24,10 @@ pub struct RenderSettings {
     pub viewing_distance_mm: f64,
     /// Blink at a natural rate (besides the sources' own blinks).
     pub natural_blinks: bool,
+    /// Draw each identity's eye where the extractor's iris model reads the
+    /// trajectory's position (measured per session from probe frames;
+    /// needs the models), rather than at the renderer's geometric position.
+    pub match_extractor: bool,
     /// x264 preset.
     pub preset: String,
     /// x264 constant rate factor.
@@ -64,6 +68,7 @@ impl Default for RenderSettings {
             gain: 1.0,
             viewing_distance_mm: 600.0,
             natural_blinks: true,
+            match_extractor: true,
             preset: "veryfast".into(),
             crf: 18,
             jobs: 0,

@@ -6,7 +6,7 @@ use crate::encode::{ffprobe_for, probe_video};
 use crate::rng::mix64;
 use crate::session::{render_session, RenderParams};
 use crate::{Calibration, GazeMapping, Identity, RenderError};
-use eyereplay_core::{read_session_csv, Canvas};
+use eyereplay_core::{read_session_csv, Canvas, CanvasPos};
 use eyereplay_dataset::{
     read_blink_column, read_labels, read_metadata, session_paths_of, SessionIdentity, SessionPaths,
 };
@@ -79,6 +79,29 @@ pub struct DatasetOptions {
     /// `(k, n)`: render only the sessions whose position in labels.csv is
     /// `k` modulo `n` (one shard of a cluster run); `None` renders all.
     pub shard: Option<(usize, usize)>,
+    /// Measures how the extractor reads each session's identity (see
+    /// [`crate::ResponseMap`]); its result goes into the session's mapping.
+    pub response: Option<ResponseProbe>,
+}
+
+/// Measures an identity's [`crate::ResponseMap`] for a session's render
+/// parameters (identity, size and mapping set) over the range its
+/// trajectory covers; `Ok(None)` when it could not be fitted (the session
+/// is then drawn at the geometric target).
+#[derive(Clone)]
+#[allow(clippy::type_complexity)]
+pub struct ResponseProbe(
+    pub  std::sync::Arc<
+        dyn Fn(&RenderParams, &[CanvasPos]) -> Result<Option<crate::ResponseMap>, String>
+            + Send
+            + Sync,
+    >,
+);
+
+impl std::fmt::Debug for ResponseProbe {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ResponseProbe")
+    }
 }
 
 /// Progress of a dataset render, reported after every session.
@@ -164,6 +187,10 @@ pub fn render_dataset(
                     params.mapping = mapping;
                     params.fps = info.fps;
                     params.natural_blinks = opts.natural_blinks;
+                    if let Some(probe) = &opts.response {
+                        params.mapping.extractor_response =
+                            (probe.0)(&params, &traj).map_err(RenderError::Params)?;
+                    }
                     let stats = render_session(
                         &traj,
                         blinks.as_deref(),

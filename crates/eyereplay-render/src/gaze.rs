@@ -9,6 +9,8 @@
 //!    by `c = s * (n - 0.5) + mu`. We invert it: `n = (c - mu) / s + 0.5`.
 //! 2. **Gain.** `n' = 0.5 + gain * (n - 0.5)`; gain 1 (the default) keeps
 //!    the source's amplitude, larger values amplify the trajectory.
+//!    2b. **Extractor response** (when measured, see [`ResponseMap`]): the
+//!    position drawn is the one the extractor's iris model reads as `n'`.
 //! 3. **Eye rotation.** Each rendered eye is rotated (yaw, pitch) so that its
 //!    iris centre, measured in the rendered image exactly like the paper
 //!    measures MediaPipe landmarks (x between the two eye corners, y between
@@ -47,6 +49,133 @@ pub struct GazeMapping {
     pub gain: f64,
     /// Distance of the fixated target (the screen) from the eyes.
     pub viewing_distance_mm: f64,
+    /// How the extractor's iris model reads this identity's rendered eye
+    /// (step 2b below); `None` renders the geometric target as it is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub extractor_response: Option<ResponseMap>,
+}
+
+/// An affine map of normalized iris positions, `m = A t + b`: what a
+/// measurement (the extractor's iris model on the rendered frame) reads when
+/// the renderer draws the eye at the geometric position `t`.
+///
+/// Step 2b of the model: the renderer's own measurement (step 3) puts the
+/// lids where it draws their margins, but the iris model finds the lids of
+/// some rendered identities elsewhere and with another dependence on gaze,
+/// which scales the `ny` it reports (0.60-0.84 of the source's vertical
+/// excursion for 5 of 12 identities). With the map measured per identity,
+/// the renderer draws `A^-1 (n' - b)`, so that the extractor, the same one
+/// that measured the source, reads `n'` back.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ResponseMap {
+    /// Rows: measured nx, measured ny; columns: target nx, target ny.
+    pub a: [[f64; 2]; 2],
+    pub b: [f64; 2],
+}
+
+impl ResponseMap {
+    /// Least-squares fit of `measured = A target + b` over probe pairs;
+    /// `None` with fewer than 3 pairs, a singular design, or a map too far
+    /// from the identity to trust (any diagonal gain outside 0.25-4, or a
+    /// cross term above 0.5). Coefficients are rounded to 1e-4 so that a
+    /// last-bit difference in a measurement cannot change the video.
+    pub fn fit(pairs: &[(NormPos, NormPos)]) -> Option<ResponseMap> {
+        if pairs.len() < 3 {
+            return None;
+        }
+        // Normal equations of [tx ty 1] -> m (3x3), one solve per output.
+        let mut g = [[0.0f64; 3]; 3];
+        let mut r = [[0.0f64; 3]; 2];
+        for (t, m) in pairs {
+            let v = [t.nx, t.ny, 1.0];
+            for i in 0..3 {
+                for j in 0..3 {
+                    g[i][j] += v[i] * v[j];
+                }
+                r[0][i] += v[i] * m.nx;
+                r[1][i] += v[i] * m.ny;
+            }
+        }
+        let sol = |rhs: [f64; 3]| solve3(g, rhs);
+        let (x, y) = (sol(r[0])?, sol(r[1])?);
+        let q = |v: f64| (v * 1e4).round() / 1e4;
+        let map = ResponseMap {
+            a: [[q(x[0]), q(x[1])], [q(y[0]), q(y[1])]],
+            b: [q(x[2]), q(y[2])],
+        };
+        let gains_ok = (0..2).all(|k| (0.25..=4.0).contains(&map.a[k][k]));
+        let cross_ok = map.a[0][1].abs() <= 0.5 && map.a[1][0].abs() <= 0.5;
+        (gains_ok && cross_ok).then_some(map)
+    }
+
+    /// The same gains, with the offset set so that `origin` maps to
+    /// itself: corrects the measurement's gains around a working point
+    /// without moving the eye there (the measurement's constant offset is
+    /// left alone, since the response is only linear near where it was
+    /// probed).
+    pub fn about(mut self, origin: NormPos) -> ResponseMap {
+        let o = [origin.nx, origin.ny];
+        for k in 0..2 {
+            let b = o[k] - self.a[k][0] * o[0] - self.a[k][1] * o[1];
+            self.b[k] = (b * 1e4).round() / 1e4;
+        }
+        self
+    }
+
+    /// `self` after `first`: the map `t -> self.apply(first.apply(t))`.
+    pub fn after(&self, first: &ResponseMap) -> ResponseMap {
+        let (a2, a1) = (self.a, first.a);
+        let mut a = [[0.0; 2]; 2];
+        let mut b = [0.0; 2];
+        for i in 0..2 {
+            for j in 0..2 {
+                a[i][j] = a2[i][0] * a1[0][j] + a2[i][1] * a1[1][j];
+            }
+            b[i] = a2[i][0] * first.b[0] + a2[i][1] * first.b[1] + self.b[i];
+        }
+        ResponseMap { a, b }
+    }
+
+    /// What the measurement reads for a drawn position `t`.
+    pub fn apply(&self, t: NormPos) -> NormPos {
+        NormPos {
+            nx: self.a[0][0] * t.nx + self.a[0][1] * t.ny + self.b[0],
+            ny: self.a[1][0] * t.nx + self.a[1][1] * t.ny + self.b[1],
+        }
+    }
+
+    /// The position to draw so that the measurement reads `m`.
+    pub fn invert(&self, m: NormPos) -> NormPos {
+        let [[a, b], [c, d]] = self.a;
+        let det = a * d - b * c;
+        let (u, v) = (m.nx - self.b[0], m.ny - self.b[1]);
+        NormPos {
+            nx: (d * u - b * v) / det,
+            ny: (-c * u + a * v) / det,
+        }
+    }
+}
+
+/// Solves a 3x3 system by Cramer's rule; `None` when singular.
+fn solve3(m: [[f64; 3]; 3], r: [f64; 3]) -> Option<[f64; 3]> {
+    let det = |m: [[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det(m);
+    if d.abs() < 1e-12 {
+        return None;
+    }
+    let mut out = [0.0; 3];
+    for (k, o) in out.iter_mut().enumerate() {
+        let mut mk = m;
+        for i in 0..3 {
+            mk[i][k] = r[i];
+        }
+        *o = det(mk) / d;
+    }
+    Some(out)
 }
 
 impl GazeMapping {
@@ -56,15 +185,20 @@ impl GazeMapping {
             calibration: default_calibration(canvas),
             gain: 1.0,
             viewing_distance_mm: 600.0,
+            extractor_response: None,
         }
     }
 
     /// Steps 1 and 2 of the model: the iris position each eye should show.
     pub fn target_norm(&self, c: CanvasPos) -> NormPos {
         let n = self.calibration.canvas_to_norm(c);
-        NormPos {
+        let n = NormPos {
             nx: 0.5 + self.gain * (n.nx - 0.5),
             ny: 0.5 + self.gain * (n.ny - 0.5),
+        };
+        match &self.extractor_response {
+            Some(r) => r.invert(n),
+            None => n,
         }
     }
 
@@ -101,6 +235,103 @@ impl GazeMapping {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn n(nx: f64, ny: f64) -> NormPos {
+        NormPos { nx, ny }
+    }
+
+    #[test]
+    fn response_fit_recovers_an_affine_map_and_inverts_it() {
+        // m = A t + b with A = [[1.1, 0.05], [-0.02, 0.6]], b = (-0.03, 0.21)
+        let truth = ResponseMap {
+            a: [[1.1, 0.05], [-0.02, 0.6]],
+            b: [-0.03, 0.21],
+        };
+        let pairs: Vec<_> = (0..5)
+            .flat_map(|i| (0..7).map(move |j| n(0.4 + 0.05 * i as f64, 0.38 + 0.03 * j as f64)))
+            .map(|t| (t, truth.apply(t)))
+            .collect();
+        let fit = ResponseMap::fit(&pairs).expect("well posed");
+        for k in 0..2 {
+            assert!((fit.b[k] - truth.b[k]).abs() < 1e-4);
+            for j in 0..2 {
+                assert!((fit.a[k][j] - truth.a[k][j]).abs() < 1e-4);
+            }
+        }
+        // Drawing at invert(m) makes the measurement read m.
+        let m = n(0.47, 0.52);
+        let back = truth.apply(truth.invert(m));
+        assert!((back.nx - m.nx).abs() < 1e-12 && (back.ny - m.ny).abs() < 1e-12);
+    }
+
+    #[test]
+    fn response_about_a_point_keeps_gains_and_fixes_the_point() {
+        let r = ResponseMap {
+            a: [[1.0, 0.0], [0.0, 0.5]],
+            b: [0.0, 0.3],
+        }
+        .about(n(0.5, 0.45));
+        assert_eq!(r.a, [[1.0, 0.0], [0.0, 0.5]]);
+        let o = r.apply(n(0.5, 0.45));
+        assert!((o.nx - 0.5).abs() < 1e-4 && (o.ny - 0.45).abs() < 1e-4);
+        // ny 0.05 above the point reads 0.025 above it: gain 0.5, so the
+        // renderer draws 0.1 above to be read 0.05 above.
+        let d = r.invert(n(0.5, 0.50));
+        assert!((d.ny - 0.55).abs() < 1e-3, "{d:?}");
+    }
+
+    #[test]
+    fn response_after_composes_in_order() {
+        let first = ResponseMap {
+            a: [[2.0, 0.0], [0.0, 1.0]],
+            b: [0.1, 0.0],
+        };
+        let second = ResponseMap {
+            a: [[1.0, 1.0], [0.0, 3.0]],
+            b: [0.0, -0.2],
+        };
+        let both = second.after(&first);
+        let t = n(0.3, 0.4);
+        let want = second.apply(first.apply(t));
+        let got = both.apply(t);
+        assert!((got.nx - want.nx).abs() < 1e-12 && (got.ny - want.ny).abs() < 1e-12);
+    }
+
+    #[test]
+    fn response_fit_refuses_degenerate_or_implausible_probes() {
+        let t = [n(0.4, 0.4), n(0.5, 0.4), n(0.6, 0.4)]; // ny never varies
+        let pairs: Vec<_> = t.iter().map(|&t| (t, t)).collect();
+        assert!(ResponseMap::fit(&pairs).is_none());
+        assert!(ResponseMap::fit(&pairs[..2]).is_none());
+        // A gain of 10 is not a rendered eye read by an iris model.
+        let wild: Vec<_> = (0..9)
+            .map(|k| n(0.4 + 0.02 * (k % 3) as f64, 0.4 + 0.02 * (k / 3) as f64))
+            .map(|t| (t, n(t.nx, 10.0 * t.ny)))
+            .collect();
+        assert!(ResponseMap::fit(&wild).is_none());
+    }
+
+    #[test]
+    fn mapping_draws_through_the_response_inverse() {
+        let mut g = GazeMapping::new(Canvas::default());
+        let c = CanvasPos {
+            x_px: 700.0,
+            y_px: 300.0,
+        };
+        let plain = g.target_norm(c);
+        let r = ResponseMap {
+            a: [[1.0, 0.0], [0.0, 0.5]],
+            b: [0.0, 0.25],
+        };
+        g.extractor_response = Some(r);
+        let drawn = g.target_norm(c);
+        let read = r.apply(drawn);
+        assert!((read.nx - plain.nx).abs() < 1e-12 && (read.ny - plain.ny).abs() < 1e-12);
+        // An identity file without the field reads as before.
+        let json = r#"{"canvas":{"width_px":1280,"height_px":720},"calibration":{"s_x":1.0,"s_y":1.0,"mu_x":0.0,"mu_y":0.0},"gain":1.0,"viewing_distance_mm":600.0}"#;
+        let old: GazeMapping = serde_json::from_str(json).unwrap();
+        assert_eq!(old.extractor_response, None);
+    }
     #[test]
     fn calibration_inverse_roundtrips_and_gain_scales() {
         let cal = Calibration {

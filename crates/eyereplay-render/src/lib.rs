@@ -66,7 +66,7 @@ pub use bench::{conversation_trajectory, cpu_times, reading_trajectory, run_benc
 pub use blink::{closure_at, closure_track};
 pub use dataset::{
     is_complete, list_sessions, read_dataset_info, render_dataset, session_seed, DatasetInfo,
-    DatasetOptions, DatasetSummary, SessionJob, SessionOutcome,
+    DatasetOptions, DatasetSummary, ResponseProbe, SessionJob, SessionOutcome,
 };
 pub use encode::{
     ffprobe_for, probe_video, rgb_to_yuv420, Codec, Encoder, EncoderSettings, VideoInfo,
@@ -74,7 +74,7 @@ pub use encode::{
 };
 pub use error::RenderError;
 pub use eyereplay_dataset::{read_blink_column, TRUTH_HEADER};
-pub use gaze::{default_calibration, Calibration, GazeMapping};
+pub use gaze::{default_calibration, Calibration, GazeMapping, ResponseMap};
 pub use identity::{CameraPose, EyeShape, Identity, IrisStyle, Lighting};
 pub use scene::{EyeGeometry, EyePose, EyeTruth, Scene, Side};
 pub use session::{

@@ -45,6 +45,7 @@ fn opts() -> DatasetOptions {
         params: p,
         natural_blinks: false,
         shard: None,
+        response: None,
     }
 }
 

@@ -48,7 +48,8 @@ impl Job {
 }
 
 /// Loads the config and checks every input before hours of work start:
-/// source files, render settings, models (with video sources), ffmpeg.
+/// source files, render settings, models (with video sources, or for
+/// `render.match_extractor`), ffmpeg.
 pub fn plan(config_path: &Path, shard: Option<Shard>) -> Result<Job> {
     plan_config(DatasetConfig::load(config_path)?, config_path, shard)
 }
@@ -62,7 +63,8 @@ pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shar
     crate::render::browser_settings(&settings)
         .map_err(|e| Error::input(config_path, e.to_string()))?;
     eyereplay_prepare::check_source_files(&config)?;
-    if !video_sources(&config).is_empty() {
+    let eyes = settings.backend == eyereplay_dataset::RenderBackend::Eyes;
+    if !video_sources(&config).is_empty() || (eyes && settings.match_extractor) {
         check_models()?;
     }
     check_ffmpeg(&params.encoder.ffmpeg)?;

@@ -68,6 +68,12 @@ pub struct Args {
     /// Add blinks at the identity's natural rate (8-22 per minute).
     #[arg(long)]
     pub natural_blinks: bool,
+    /// Draw each identity's eye where the extractor's iris model reads the
+    /// trajectory's position (measured per identity from 35 probe frames;
+    /// needs the models), as `generate` does; false draws the renderer's
+    /// geometric position.
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set, value_name = "BOOL")]
+    pub match_extractor: bool,
     /// Lossless H.264 (qp 0) instead of constant quality.
     #[arg(long)]
     pub lossless: bool,
@@ -149,6 +155,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let traj_path = args.trajectory.as_ref().expect("clap requires it");
     let traj = read_session_csv(traj_path)?;
+    let mut p = p;
+    if args.match_extractor {
+        let probe = eyereplay::response_probe(&eyereplay_extract::default_models_dir())?;
+        p.mapping.extractor_response = (probe.0)(&p, &traj).map_err(anyhow::Error::msg)?;
+    }
     let blinks = read_blink_column(traj_path)?;
     let out = args
         .out
@@ -213,6 +224,13 @@ fn run_dataset(dir: &std::path::Path, args: &Args, p: RenderParams) -> anyhow::R
         natural_blinks: args.natural_blinks,
         params: p,
         shard: None,
+        response: if args.match_extractor {
+            Some(eyereplay::response_probe(
+                &eyereplay_extract::default_models_dir(),
+            )?)
+        } else {
+            None
+        },
     };
     let summary = render_dataset(dir, &opts, &|job, outcome| {
         match outcome {
