@@ -77,7 +77,7 @@ pub use inputs::{
 };
 pub use progress::{NoProgress, Progress, Stage};
 pub use render::{browser_settings, render_params, render_sessions, RenderSummary};
-pub use response::{measure_response, response_probe};
+pub use response::{match_extractor_probe, measure_response, response_probe};
 pub use shard::Shard;
 
 pub use eyereplay_dataset::{DatasetMetadata, RenderSettings};

@@ -94,13 +94,7 @@ fn render_sessions_eyes(
         params,
         natural_blinks: settings.natural_blinks,
         shard: shard.map(|s| (s.index, s.count)),
-        response: if settings.match_extractor {
-            Some(crate::response_probe(
-                &eyereplay_extract::default_models_dir(),
-            )?)
-        } else {
-            None
-        },
+        response: crate::match_extractor_probe(settings.match_extractor)?,
     };
     let summary = render_dataset(out, &opts, &|job, outcome| {
         let n = done.fetch_add(1, Ordering::Relaxed) + 1;

@@ -137,6 +137,14 @@ fn probe_pass(
     Ok(ResponseMap::fit(&pairs))
 }
 
+/// [`response_probe`] on the default models folder when `enabled`
+/// (`render.match_extractor`), else `None`.
+pub fn match_extractor_probe(enabled: bool) -> Result<Option<ResponseProbe>> {
+    enabled
+        .then(|| response_probe(&eyereplay_extract::default_models_dir()))
+        .transpose()
+}
+
 /// The probe a dataset render calls per session: one iris model shared by
 /// the render workers (probing is a few hundred ms per session).
 pub fn response_probe(models_dir: &Path) -> Result<ResponseProbe> {

@@ -156,8 +156,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let traj_path = args.trajectory.as_ref().expect("clap requires it");
     let traj = read_session_csv(traj_path)?;
     let mut p = p;
-    if args.match_extractor {
-        let probe = eyereplay::response_probe(&eyereplay_extract::default_models_dir())?;
+    if let Some(probe) = eyereplay::match_extractor_probe(args.match_extractor)? {
         p.mapping.extractor_response = (probe.0)(&p, &traj).map_err(anyhow::Error::msg)?;
     }
     let blinks = read_blink_column(traj_path)?;
@@ -224,13 +223,7 @@ fn run_dataset(dir: &std::path::Path, args: &Args, p: RenderParams) -> anyhow::R
         natural_blinks: args.natural_blinks,
         params: p,
         shard: None,
-        response: if args.match_extractor {
-            Some(eyereplay::response_probe(
-                &eyereplay_extract::default_models_dir(),
-            )?)
-        } else {
-            None
-        },
+        response: eyereplay::match_extractor_probe(args.match_extractor)?,
     };
     let summary = render_dataset(dir, &opts, &|job, outcome| {
         match outcome {
