@@ -4,7 +4,7 @@
 //! features other crates switch on in `serde_json`.
 //!
 //! Keys include `distribution.<class>.<metric>.{ks_d,ks_p,n_source,n_generated}`,
-//! `visual.{x,y}.{r,amplitude_ratio}` and `visual.error.{mean,median,p95}`.
+//! `visual.{x,y}.{r,amplitude_ratio,gain}` and `visual.error.{mean,median,p95}`.
 
 use crate::distribution::{ClassEvaluation, Extras, MetricComparison};
 use crate::json::Json;
@@ -150,6 +150,8 @@ struct Axis {
     r: Option<f64>,
     amplitude_ratio: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
+    gain: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     std_source: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     std_rendered: Option<f64>,
@@ -188,6 +190,7 @@ impl Axis {
         Axis {
             r: None,
             amplitude_ratio: None,
+            gain: None,
             std_source: None,
             std_rendered: None,
             meets_targets: None,
@@ -197,6 +200,7 @@ impl Axis {
         Axis {
             r: a.r,
             amplitude_ratio: a.amplitude_ratio,
+            gain: a.gain,
             ..Axis::none()
         }
     }

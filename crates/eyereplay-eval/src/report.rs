@@ -438,11 +438,12 @@ fn visual_html(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
                 let a_ok = matches!(a.amplitude_ratio, Some(x) if (lo..=hi).contains(&x));
                 let _ = writeln!(
                     h,
-                    "<tr><td>Pearson r ({ax})</td><td>{}</td><td>&ge; {TARGET_R_MIN}</td><td>{}</td><td>{pr}</td></tr>\n<tr><td>amplitude ratio ({ax}, std rendered / std source)</td><td>{}</td><td>{lo}-{hi}</td><td>{}</td><td>{pa}</td></tr>",
+                    "<tr><td>Pearson r ({ax})</td><td>{}</td><td>&ge; {TARGET_R_MIN}</td><td>{}</td><td>{pr}</td></tr>\n<tr><td>amplitude ratio ({ax}, std rendered / std source)</td><td>{}</td><td>{lo}-{hi}</td><td>{}</td><td>{pa}</td></tr>\n<tr><td>gain ({ax}, slope of rendered on source; the ratio without the read-back's noise, which inflates the ratio by about 1/r)</td><td>{}</td><td>-</td><td>-</td><td>-</td></tr>",
                     f3(a.r),
                     verdict(r_ok),
                     f3(a.amplitude_ratio),
-                    verdict(a_ok)
+                    verdict(a_ok),
+                    f3(a.gain)
                 );
             }
             if let Some(inp) = &v.input {

@@ -18,8 +18,12 @@ pub struct AxisFidelity {
     /// Pearson r between source and rendered; `None` when either is constant.
     pub r: Option<f64>,
     /// `std(rendered) / std(source)` (population std); `None` when the
-    /// source is constant.
+    /// source is constant. Noise in the read-back inflates it by about
+    /// `1 / r`, so at small excursions (low r) it overstates the gain.
     pub amplitude_ratio: Option<f64>,
+    /// Least-squares slope of rendered on source (`r * std ratio`): how much
+    /// of a source movement comes back, unbiased by read-back noise.
+    pub gain: Option<f64>,
     pub std_source: f64,
     pub std_rendered: f64,
 }
@@ -88,9 +92,12 @@ impl VisualFidelity {
 
 fn axis(src: &[f64], ren: &[f64]) -> AxisFidelity {
     let (ss, sr) = (std_pop(src).unwrap_or(0.0), std_pop(ren).unwrap_or(0.0));
+    let r = pearson(src, ren);
+    let amplitude_ratio = (ss > 0.0).then(|| sr / ss);
     AxisFidelity {
-        r: pearson(src, ren),
-        amplitude_ratio: (ss > 0.0).then(|| sr / ss),
+        r,
+        amplitude_ratio,
+        gain: r.zip(amplitude_ratio).map(|(r, a)| r * a),
         std_source: ss,
         std_rendered: sr,
     }
@@ -213,7 +220,9 @@ mod tests {
         let v = compare_visual(&s, &r, Some((&input, Canvas::default()))).unwrap();
         assert!((v.x.amplitude_ratio.unwrap() - 0.3).abs() < 1e-12);
         assert!((v.x.r.unwrap() - 1.0).abs() < 1e-12);
+        assert!((v.x.gain.unwrap() - 0.3).abs() < 1e-12);
         assert_eq!(v.y.r, None);
+        assert_eq!(v.y.gain, None);
         // every frame is 0.07 off
         assert!((v.error.mean - 0.07).abs() < 1e-12);
         assert!((v.error.p95 - 0.07).abs() < 1e-12);
@@ -221,6 +230,28 @@ mod tests {
         assert_eq!(inp.range_px, [100.0, 155.0]);
         assert!((inp.range_pct_canvas[0] - 7.8125).abs() < 1e-12);
         assert!(!v.meets_targets());
+    }
+
+    #[test]
+    fn noise_inflates_the_ratio_but_not_the_gain() {
+        // Source x: -1, 1, -1, 1 around 0.5 (scaled by 0.1); rendered adds
+        // noise +-0.1 uncorrelated with it: 1, 1, -1, -1 (scaled by 0.1).
+        // Worked by hand: std source 0.1, std rendered 0.1 * sqrt(2), r =
+        // 1 / sqrt(2), so the ratio is sqrt(2) and the gain r * ratio = 1.
+        let s: Vec<[f64; 2]> = [-1.0, 1.0, -1.0, 1.0]
+            .iter()
+            .map(|&a| [0.5 + 0.1 * a, 0.5])
+            .collect();
+        let noise = [1.0, 1.0, -1.0, -1.0];
+        let r: Vec<[f64; 2]> = s
+            .iter()
+            .zip(noise)
+            .map(|(p, e)| [p[0] + 0.1 * e, 0.5])
+            .collect();
+        let v = compare_visual(&s, &r, None).unwrap();
+        assert!((v.x.amplitude_ratio.unwrap() - 2f64.sqrt()).abs() < 1e-12);
+        assert!((v.x.r.unwrap() - 1.0 / 2f64.sqrt()).abs() < 1e-12);
+        assert!((v.x.gain.unwrap() - 1.0).abs() < 1e-12);
     }
 
     #[test]

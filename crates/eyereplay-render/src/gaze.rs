@@ -77,8 +77,7 @@ impl ResponseMap {
     /// Least-squares fit of `measured = A target + b` over probe pairs;
     /// `None` with fewer than 3 pairs, a singular design, or a map too far
     /// from the identity to trust (any diagonal gain outside 0.25-4, or a
-    /// cross term above 0.5). Coefficients are rounded to 1e-4 so that a
-    /// last-bit difference in a measurement cannot change the video.
+    /// cross term above 0.5). Coefficients are [`rounded`](Self::rounded).
     pub fn fit(pairs: &[(NormPos, NormPos)]) -> Option<ResponseMap> {
         if pairs.len() < 3 {
             return None;
@@ -98,11 +97,11 @@ impl ResponseMap {
         }
         let sol = |rhs: [f64; 3]| solve3(g, rhs);
         let (x, y) = (sol(r[0])?, sol(r[1])?);
-        let q = |v: f64| (v * 1e4).round() / 1e4;
         let map = ResponseMap {
-            a: [[q(x[0]), q(x[1])], [q(y[0]), q(y[1])]],
-            b: [q(x[2]), q(y[2])],
-        };
+            a: [[x[0], x[1]], [y[0], y[1]]],
+            b: [x[2], y[2]],
+        }
+        .rounded();
         let gains_ok = (0..2).all(|k| (0.25..=4.0).contains(&map.a[k][k]));
         let cross_ok = map.a[0][1].abs() <= 0.5 && map.a[1][0].abs() <= 0.5;
         (gains_ok && cross_ok).then_some(map)
@@ -116,9 +115,17 @@ impl ResponseMap {
     pub fn about(mut self, origin: NormPos) -> ResponseMap {
         let o = [origin.nx, origin.ny];
         for k in 0..2 {
-            let b = o[k] - self.a[k][0] * o[0] - self.a[k][1] * o[1];
-            self.b[k] = (b * 1e4).round() / 1e4;
+            self.b[k] = o[k] - self.a[k][0] * o[0] - self.a[k][1] * o[1];
         }
+        self.rounded()
+    }
+
+    /// Coefficients rounded to 1e-4, so that a last-bit difference in a
+    /// measurement cannot change the video or the identity file.
+    pub fn rounded(mut self) -> ResponseMap {
+        let q = |v: &mut f64| *v = (*v * 1e4).round() / 1e4;
+        self.a.iter_mut().flatten().for_each(q);
+        self.b.iter_mut().for_each(q);
         self
     }
 

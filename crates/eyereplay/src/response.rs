@@ -77,7 +77,7 @@ pub fn measure_response(
     };
     let first = first.about(centre);
     let second = probe_pass(&scene, params, &grid, Some(&first), tracker)?;
-    Ok(second.map(|m| m.about(centre).after(&first)))
+    Ok(second.map(|m| m.about(centre).after(&first).rounded()))
 }
 
 /// Draws each grid target (through `correction`'s inverse when given) and
