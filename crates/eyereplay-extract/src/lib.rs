@@ -56,7 +56,10 @@ pub use models::{
     check as check_models, default_models_dir, init_runtime, missing_files, runtime_library,
     Device, Models,
 };
-pub use output::{flag_blinks, save_csv, write_csv, EyeRow, Row, CSV_HEADER, DEFAULT_BLINK_RATIO};
+pub use output::{
+    flag_blinks, output_csv_paths, save_csv, write_csv, EyeRow, Row, CSV_HEADER,
+    DEFAULT_BLINK_RATIO,
+};
 pub use profile::{
     children_cpu_s, children_major_faults, process_cpu_s, thread_cpu_s, Stage, StageClock,
     StageTimes,

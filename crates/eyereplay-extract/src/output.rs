@@ -194,6 +194,39 @@ pub fn write_csv(w: &mut dyn Write, rows: &[Row]) -> std::io::Result<()> {
     Ok(())
 }
 
+/// Where the extraction CSVs of `videos` go for an output `out`: `out`
+/// itself when it names a `.csv` file (one video only), else `<out>/<video
+/// stem>.csv` each. The error is the one line the command line and the
+/// Python package print.
+pub fn output_csv_paths(
+    out: &Path,
+    videos: &[std::path::PathBuf],
+) -> std::result::Result<Vec<std::path::PathBuf>, String> {
+    let single_file = out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+    if single_file && videos.len() > 1 {
+        return Err(format!(
+            "--out {} is one file but {} videos were given; pass a folder",
+            out.display(),
+            videos.len()
+        ));
+    }
+    Ok(videos
+        .iter()
+        .map(|video| {
+            if single_file {
+                return out.to_path_buf();
+            }
+            let stem = video
+                .file_stem()
+                .map(|s| s.to_string_lossy().to_string())
+                .unwrap_or_else(|| "video".into());
+            out.join(format!("{stem}.csv"))
+        })
+        .collect())
+}
+
 /// Writes the CSV atomically: readers see the old file or the whole new one,
 /// never a partial one.
 pub fn save_csv(path: &Path, rows: &[Row]) -> Result<()> {

@@ -240,14 +240,16 @@ fn device_of(name: &str) -> PyResult<ex::Device> {
 }
 
 /// Stage 1 on each video: the per-frame CSV text exactly as `eyereplay
-/// extract` writes it, and the summary line's numbers.
+/// extract` writes it, and the summary line's numbers; with `out`, the CSVs
+/// are also saved where the command would put them (atomically).
 #[pyfunction]
-#[pyo3(signature = (videos, models=None, threads=0, blink_ratio=ex::DEFAULT_BLINK_RATIO,
+#[pyo3(signature = (videos, out=None, models=None, threads=0, blink_ratio=ex::DEFAULT_BLINK_RATIO,
     max_seconds=None, mesh_every=ex::DEFAULT_MESH_EVERY, device="auto", progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn extract<'py>(
     py: Python<'py>,
     videos: Vec<PathBuf>,
+    out: Option<PathBuf>,
     models: Option<PathBuf>,
     threads: usize,
     blink_ratio: f64,
@@ -256,6 +258,11 @@ fn extract<'py>(
     device: &str,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
+    // Where each CSV goes, checked before any work (as the command does).
+    let csv_paths = match &out {
+        Some(o) => Some(ex::output_csv_paths(o, &videos).map_err(ConfigError::new_err)?),
+        None => None,
+    };
     let opts = ex::ExtractOptions {
         models_dir: models.unwrap_or_else(ex::default_models_dir),
         threads,
@@ -273,7 +280,7 @@ fn extract<'py>(
     Progress::end(&progress, Stage::Extract);
     let mut failed: Vec<(Kind, String)> = vec![];
     let out = PyList::empty(py);
-    for res in results {
+    for (k, res) in results.into_iter().enumerate() {
         let x = match res {
             Ok(x) => x,
             Err(e) => {
@@ -282,6 +289,9 @@ fn extract<'py>(
                 continue;
             }
         };
+        if let Some(paths) = &csv_paths {
+            ex::save_csv(&paths[k], &x.rows).map_err(|e| py_err(Error::from(e)))?;
+        }
         let mut csv = Vec::new();
         ex::write_csv(&mut csv, &x.rows).map_err(|e| EyereplayError::new_err(e.to_string()))?;
         let d = PyDict::new(py);
@@ -514,11 +524,12 @@ fn dataset_index<'py>(
 ) -> PyResult<(String, Bound<'py, PyList>)> {
     use eyereplay_dataset as ds;
     let dataset_err = |e: ds::DatasetError| py_err(Error::from(e));
-    // Reading it through the typed reader checks the format version.
-    ds::read_metadata(&dataset_dir).map_err(dataset_err)?;
     let meta_path = dataset_dir.join(ds::layout::METADATA_FILE);
     let meta_text = std::fs::read_to_string(&meta_path)
         .map_err(|e| DatasetError::new_err(format!("{}: {e}", meta_path.display())))?;
+    // Parsed by the typed reader for its format-version check; Python gets
+    // the document as written.
+    ds::parse_metadata(&meta_text, &meta_path).map_err(dataset_err)?;
     let labels = ds::read_labels(&dataset_dir).map_err(dataset_err)?;
     let paths = ds::session_paths_of(&dataset_dir, &labels);
     let rows = PyList::empty(py);

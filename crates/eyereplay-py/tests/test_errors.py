@@ -91,3 +91,13 @@ def test_prepare_writes_what_the_cli_writes(tmp_path, cache_dir):
     # calibration as printed by the CLI
     cal = s["calibration"]
     assert f"s = ({cal['s_x']:.1f}, {cal['s_y']:.1f})" in r.stdout
+
+
+def test_one_csv_for_two_videos_is_refused_before_work(tmp_path):
+    v = DATA / "franck.mp4"
+    with pytest.raises(eyereplay.ConfigError) as e:
+        eyereplay.extract_many([v, v], out=tmp_path / "both.csv", progress=False)
+    assert "one file but 2 videos" in str(e.value)
+    r = run_cli("extract", v, v, "--out", tmp_path / "both.csv")
+    assert str(e.value) in r.stderr
+    assert not (tmp_path / "both.csv").exists()

@@ -1,7 +1,7 @@
 //! Rendering one session: trajectory in, MP4 and ground-truth CSV out.
 
 use crate::encode::{Encoder, EncoderSettings};
-use crate::scene::{EyePose, EyeTruth, Scene, Side};
+use crate::scene::{EyeTruth, Scene, Side};
 use crate::{closure_track, GazeMapping, Identity, RenderError};
 use eyereplay_core::{Canvas, CanvasPos};
 use eyereplay_dataset::{EyeTruthRow, TruthRow};
@@ -158,12 +158,7 @@ pub fn solve_truth(
         .enumerate()
         .map(|(i, &c)| {
             let target = params.mapping.target_norm(c);
-            let eyes = Side::BOTH.map(|side| {
-                let mut pose = scene.solve_pose(side, target);
-                // Converge: the image-left eye turns right (+yaw), the other left.
-                pose.yaw_rad += if side == Side::Left { verg } else { -verg };
-                EyePose { ..pose }
-            });
+            let eyes = scene.solve_gaze(target, verg);
             let t = i as f64 / params.fps;
             // Slow pupil drift plus hippus; deterministic from the seed.
             let pupil_scale = 1.0

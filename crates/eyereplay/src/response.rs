@@ -8,7 +8,7 @@ use eyereplay_core::{CanvasPos, NormPos};
 use eyereplay_extract::{
     order_eye_corners, EyeCropTracker, ImageView, Models, Planes, Pt, Rotation, YuvMatrix,
 };
-use eyereplay_render::{EyePose, RenderParams, ResponseMap, ResponseProbe, Scene, Side};
+use eyereplay_render::{RenderParams, ResponseMap, ResponseProbe, Scene};
 use eyereplay_signal::stats::quantile;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -55,10 +55,11 @@ fn probe_grid(params: &RenderParams, traj: &[CanvasPos]) -> (Vec<NormPos>, NormP
 }
 
 /// Renders the probe frames of `params`' identity at its size over the
-/// range `traj` covers (lids open, vergence as in the session) and measures each with the iris model on
-/// crops at the render's own eye corners, as `eyereplay evaluate` reads a
-/// close-up back (`nx` against those corners, `ny` against the model's
-/// lids, both eyes' mean); fits the affine response to them.
+/// range `traj` covers (lids open, vergence as in the session), measures
+/// each with the iris model on crops at the render's own eye corners as
+/// `eyereplay evaluate` reads a close-up back (`nx` against those corners,
+/// `ny` against the model's lids, both eyes' mean), and fits the affine
+/// response to them.
 pub fn measure_response(
     params: &RenderParams,
     traj: &[CanvasPos],
@@ -101,11 +102,7 @@ fn probe_pass(
     let mut scratch = Vec::new();
     for &target in grid {
         let drawn = correction.map_or(target, |c| c.invert(target));
-        let poses: [EyePose; 2] = Side::BOTH.map(|side| {
-            let mut pose = scene.solve_pose(side, drawn);
-            pose.yaw_rad += if side == Side::Left { verg } else { -verg };
-            pose
-        });
+        let poses = scene.solve_gaze(drawn, verg);
         // yuv420p BT.709 limited range: the frame as the encoder is
         // fed it and the decoder hands it to the extractor (less x264).
         let mut yuv = scene.background_yuv().to_vec();
@@ -146,7 +143,7 @@ pub fn match_extractor_probe(enabled: bool) -> Result<Option<ResponseProbe>> {
 }
 
 /// The probe a dataset render calls per session: one iris model shared by
-/// the render workers (probing is a few hundred ms per session).
+/// the render workers (probing takes about 1 s per session at 1280x720).
 pub fn response_probe(models_dir: &Path) -> Result<ResponseProbe> {
     eyereplay_extract::init_runtime(models_dir)?;
     let models = Models::load(models_dir).map_err(|e| {

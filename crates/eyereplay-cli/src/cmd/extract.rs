@@ -215,7 +215,9 @@ fn bench_mediapipe(a: &Args, opts: &ex::ExtractOptions) -> Result<()> {
     let python = cache.join("venv-mediapipe/bin/python");
     let me = std::env::current_exe().context("locating the eyereplay binary")?;
     // Each eyereplay round writes --out itself (atomically), as a user's run would.
-    let ours_csv = csv_path(a, video);
+    let ours_csv = ex::output_csv_paths(&a.out, std::slice::from_ref(video))
+        .map_err(anyhow::Error::msg)?
+        .remove(0);
     let rounds = a.bench_rounds.max(1);
     eprintln!(
         "benchmark: {} rounds of MediaPipe Python then eyereplay on {}, whole processes",
@@ -296,23 +298,6 @@ fn bench_mediapipe(a: &Args, opts: &ex::ExtractOptions) -> Result<()> {
     Ok(())
 }
 
-/// Where the CSV of `video` goes: --out itself when it names a .csv file,
-/// else `<out>/<video stem>.csv`.
-fn csv_path(a: &Args, video: &Path) -> PathBuf {
-    if a.out
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
-    {
-        a.out.clone()
-    } else {
-        let stem = video
-            .file_stem()
-            .map(|s| s.to_string_lossy().to_string())
-            .unwrap_or_else(|| "video".into());
-        a.out.join(format!("{stem}.csv"))
-    }
-}
-
 /// `--profile`: CPU time per frame of each stage; the rows sum to the
 /// process's CPU time.
 fn print_profile(stages: &ex::StageTimes, csv_s: f64, frames: usize, workers: usize, cuda: bool) {
@@ -350,17 +335,7 @@ fn peak_rss_mib() -> Option<f64> {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let single_file = a
-        .out
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
-    if single_file && a.videos.len() > 1 {
-        bail!(
-            "--out {} is one file but {} videos were given; pass a folder",
-            a.out.display(),
-            a.videos.len()
-        );
-    }
+    let csv_paths = ex::output_csv_paths(&a.out, &a.videos).map_err(anyhow::Error::msg)?;
     if (a.compare.is_some() || a.bench_mediapipe) && a.videos.len() != 1 {
         bail!("--compare and --bench-mediapipe take exactly one video");
     }
@@ -417,7 +392,7 @@ pub fn run(a: Args) -> Result<()> {
     let mut failed = vec![];
     let mut total_stages = ex::StageTimes::default();
     let (mut total_frames, mut csv_s, mut on_cuda) = (0usize, 0.0, false);
-    for (video, res) in a.videos.iter().zip(results) {
+    for ((video, out), res) in a.videos.iter().zip(&csv_paths).zip(results) {
         let x = match res {
             Ok(x) => x,
             Err(e) => {
@@ -425,9 +400,8 @@ pub fn run(a: Args) -> Result<()> {
                 continue;
             }
         };
-        let out = csv_path(&a, video);
         let csv_t0 = ex::thread_cpu_s();
-        ex::save_csv(&out, &x.rows)?;
+        ex::save_csv(out, &x.rows)?;
         csv_s += ex::thread_cpu_s() - csv_t0;
         println!(
             "{}: {} frames ({}x{}, {}), face in {:.1}%, {} valid, {} blinks -> {}",

@@ -168,12 +168,9 @@ def extract_many(
     videos = [os.fspath(v) for v in videos]
     if not videos:
         raise ConfigError("no videos given")
-    if out is not None and os.fspath(out).lower().endswith(".csv") and len(videos) > 1:
-        raise ConfigError(
-            f"out {os.fspath(out)} is one file but {len(videos)} videos were given; pass a folder"
-        )
     results = _native.extract(
         videos,
+        out=_opt_path(out),
         models=_opt_path(models),
         threads=threads,
         blink_ratio=blink_ratio,
@@ -184,8 +181,6 @@ def extract_many(
     )
     tables = []
     for video, r in zip(videos, results):
-        if out is not None:
-            _write_atomic(_csv_path(Path(out), Path(video)), r["csv"])
         t = parse_csv(r["csv"], video)
         tables.append(to_pandas(t) if pandas else t)
     return tables
@@ -200,21 +195,6 @@ EXTRACT_COLUMNS: Tuple[str, ...] = (
     "right_eye_left_corner_x_px", "right_eye_left_corner_y_px",
     "right_eye_right_corner_x_px", "right_eye_right_corner_y_px",
 )
-
-
-def _csv_path(out: Path, video: Path) -> Path:
-    if out.suffix.lower() == ".csv":
-        return out
-    return out / f"{video.stem or 'video'}.csv"
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    """Readers see the old file or the whole new one, as the CLI's writes."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    with open(tmp, "w", encoding="utf-8", newline="") as f:
-        f.write(text)
-    os.replace(tmp, path)
 
 
 def prepare(

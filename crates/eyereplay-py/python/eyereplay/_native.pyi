@@ -13,6 +13,7 @@ class DatasetError(EyereplayError): ...
 def json_to_toml(label: str, json: str) -> str: ...
 def extract(
     videos: List[str],
+    out: Optional[str] = None,
     models: Optional[str] = None,
     threads: int = 0,
     blink_ratio: float = 0.6,

@@ -106,6 +106,21 @@ impl Scene {
         }
     }
 
+    /// Both eyes' poses for one gaze target, image-left eye first: each
+    /// solved with [`solve_pose`](Self::solve_pose), then turned nasally by
+    /// `vergence_rad` to converge (the image-left eye turns right, +yaw).
+    pub fn solve_gaze(&self, target: NormPos, vergence_rad: f64) -> [EyePose; 2] {
+        Side::BOTH.map(|side| {
+            let mut pose = self.solve_pose(side, target);
+            pose.yaw_rad += if side == Side::Left {
+                vergence_rad
+            } else {
+                -vergence_rad
+            };
+            pose
+        })
+    }
+
     /// Ground truth of the eye on `side` for a pose and lid closure.
     pub fn truth(&self, side: Side, pose: EyePose, closure: f64) -> EyeTruth {
         self.measure(side, pose, closure)
