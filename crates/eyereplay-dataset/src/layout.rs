@@ -78,6 +78,17 @@ impl SessionPaths {
         }
     }
 
+    /// The full-face mode's head ground truth, beside the truth CSV
+    /// (`X_head.csv`).
+    pub fn head_csv(&self) -> PathBuf {
+        let name = self
+            .truth
+            .file_name()
+            .map(|n| n.to_string_lossy().replace("_truth.csv", "_head.csv"))
+            .unwrap_or_else(|| "head.csv".into());
+        self.truth.with_file_name(name)
+    }
+
     /// The session's own files (what an interrupted render may have left
     /// half-written).
     pub fn outputs(&self) -> [&Path; 3] {

@@ -37,7 +37,9 @@ pub struct RenderSettings {
     pub jobs: usize,
     /// Which simulator draws the sessions: `eyes` (eyereplay's own
     /// ray-traced eyes, the default) or `browser` (a web page driven frame
-    /// by frame in a headless Chromium, as the paper's stage 6 did).
+    /// by frame in a headless Chromium, as the paper's stage 6 did) or
+    /// `face` (a whole face from a real photo in a webcam frame, the head
+    /// moving with the gaze).
     pub backend: RenderBackend,
     /// `[render.browser]`: the browser backend's settings (page URL,
     /// viewport, canvas-to-page mapping, readiness, crop; see
@@ -49,6 +51,20 @@ pub struct RenderSettings {
     /// outer_y]` in video px, image-left eye first. Without it, evaluation
     /// can only use the face detector.
     pub browser_eye_corners_px: Option<[[f64; 4]; 2]>,
+    /// Full-face mode (`backend = "face"`): frontal photos whose faces
+    /// become the identities (relative paths from the config's folder);
+    /// empty = the bundled photos. Each session draws one by its seed.
+    pub identities: Vec<std::path::PathBuf>,
+    /// Full-face mode: the face's forehead-to-chin height over the frame
+    /// height, drawn per session from this range.
+    pub face_height_frac: [f64; 2],
+    /// Full-face mode: scale of the head's drift and sway (0 = none, 1 =
+    /// the documented default RMS).
+    pub head_sway: f64,
+    /// `[render.webcam]`: the full-face mode's camera-look ranges (field of
+    /// view, exposure, white balance, noise, blur, light, bitrate); typed
+    /// by the library, defaults look like a laptop webcam.
+    pub webcam: Option<toml::Table>,
 }
 
 /// Which simulator renders the sessions.
@@ -58,6 +74,9 @@ pub enum RenderBackend {
     #[default]
     Eyes,
     Browser,
+    /// A whole face from a real photo, head moving with the gaze, webcam
+    /// look (eyereplay-face).
+    Face,
 }
 
 impl Default for RenderSettings {
@@ -75,6 +94,10 @@ impl Default for RenderSettings {
             backend: RenderBackend::Eyes,
             browser: None,
             browser_eye_corners_px: None,
+            identities: vec![],
+            face_height_frac: [0.36, 0.5],
+            head_sway: 1.0,
+            webcam: None,
         }
     }
 }

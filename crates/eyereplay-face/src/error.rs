@@ -32,6 +32,10 @@ pub enum FaceError {
     Extract(#[from] eyereplay_extract::ExtractError),
     #[error(transparent)]
     Core(#[from] eyereplay_core::CoreError),
+    #[error(transparent)]
+    Render(#[from] eyereplay_render::RenderError),
+    #[error(transparent)]
+    Dataset(#[from] eyereplay_dataset::DatasetError),
 }
 
 pub type Result<T, E = FaceError> = std::result::Result<T, E>;

@@ -49,7 +49,11 @@ mod error;
 mod mesh;
 mod photo;
 mod pose;
+mod probe;
 mod raster;
+mod scene;
+mod session;
+pub mod webcam;
 
 pub use error::{FaceError, Result};
 pub use mesh::{
@@ -60,4 +64,7 @@ pub use photo::{
     fit_shape, read_image, PhotoEye, PhotoFitter, PhotoIdentity, MIN_FACE_HEIGHT_PX, PHOTO_VFOV_DEG,
 };
 pub use pose::{solve_pose, weighted_procrustes, Camera, HeadPose, Similarity};
+pub use probe::{measure_response, probe_grid};
 pub use raster::{DrawStats, Rasterizer, RgbImage, TexturedMesh};
+pub use scene::{EyeImage, FaceScene, FaceState, Framing};
+pub use session::{render_face_session, FaceSessionParams, FaceSessionStats, HEAD_TRUTH_HEADER};

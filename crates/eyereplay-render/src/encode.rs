@@ -36,6 +36,11 @@ pub struct EncoderSettings {
     pub x264_params: Option<String>,
     /// x264 threads; `None` lets x264 choose.
     pub threads: Option<u32>,
+    /// Average bitrate (kbit/s) instead of constant quality: a video call's
+    /// rate control (`-b:v`, `-maxrate` the same, a 2 s buffer), for the
+    /// full-face mode's webcam look. `None`: `crf`.
+    #[serde(default)]
+    pub bitrate_kbps: Option<u32>,
     /// The ffmpeg program (a name on PATH or a path).
     pub ffmpeg: PathBuf,
 }
@@ -59,6 +64,7 @@ impl Default for EncoderSettings {
             // render of the same 750-frame reading session, both ways).
             x264_params: Some(DEFAULT_X264_PARAMS.into()),
             threads: None,
+            bitrate_kbps: None,
             ffmpeg: PathBuf::from("ffmpeg"),
         }
     }
@@ -130,9 +136,17 @@ impl Encoder {
                 "-preset",
                 &settings.preset,
             ]);
-        match settings.codec {
-            Codec::H264 => cmd.args(["-crf", &settings.crf.to_string()]),
-            Codec::Lossless => cmd.args(["-qp", "0"]),
+        match (settings.codec, settings.bitrate_kbps) {
+            (Codec::H264, Some(k)) => cmd.args([
+                "-b:v",
+                &format!("{k}k"),
+                "-maxrate",
+                &format!("{k}k"),
+                "-bufsize",
+                &format!("{}k", 2 * k),
+            ]),
+            (Codec::H264, None) => cmd.args(["-crf", &settings.crf.to_string()]),
+            (Codec::Lossless, _) => cmd.args(["-qp", "0"]),
         };
         if let Some(p) = settings.x264_params.as_deref().filter(|p| !p.is_empty()) {
             cmd.args(["-x264-params", p]);

@@ -57,7 +57,7 @@ mod encode;
 mod error;
 mod gaze;
 mod identity;
-mod math;
+pub mod math;
 mod rng;
 mod scene;
 mod session;
@@ -76,7 +76,7 @@ pub use error::RenderError;
 pub use eyereplay_dataset::{read_blink_column, TRUTH_HEADER};
 pub use gaze::{default_calibration, Calibration, GazeMapping, ResponseMap};
 pub use identity::{CameraPose, EyeShape, Identity, IrisStyle, Lighting};
-pub use scene::{EyeGeometry, EyePose, EyeTruth, Scene, Side};
+pub use scene::{EyeGeometry, EyePose, EyeTruth, Eyeball, Scene, Side};
 pub use session::{
     check_trajectory, render_frames, render_session, render_session_pngs, solve_truth,
     write_truth_csv, FrameSink, FrameTruth, RenderParams, RenderStats,

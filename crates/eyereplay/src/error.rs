@@ -18,6 +18,8 @@ pub enum Error {
     Render(#[from] eyereplay_render::RenderError),
     #[error(transparent)]
     Eval(#[from] eyereplay_eval::EvalError),
+    #[error(transparent)]
+    Face(#[from] eyereplay_face::FaceError),
     /// A file or folder the job needs is missing or unusable.
     #[error("{path}: {message}")]
     Input { path: PathBuf, message: String },

@@ -57,14 +57,37 @@ pub fn plan(config_path: &Path, shard: Option<Shard>) -> Result<Job> {
 /// [`plan`] for a config already loaded (from text or built in code);
 /// `config_path` is the name errors give it.
 pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shard>) -> Result<Job> {
-    let settings = RenderSettings::from_config(&config, config_path)?;
+    let mut settings = RenderSettings::from_config(&config, config_path)?;
     let params =
         render_params(&settings, &config).map_err(|e| Error::input(config_path, e.to_string()))?;
     crate::render::browser_settings(&settings)
         .map_err(|e| Error::input(config_path, e.to_string()))?;
     eyereplay_prepare::check_source_files(&config)?;
     let eyes = settings.backend == eyereplay_dataset::RenderBackend::Eyes;
-    if !video_sources(&config).is_empty() || (eyes && settings.match_extractor) {
+    let face = settings.backend == eyereplay_dataset::RenderBackend::Face;
+    if face {
+        crate::face::webcam_ranges(&settings)
+            .map_err(|e| Error::input(config_path, e.to_string()))?;
+        // Photos resolved against the config's folder, checked now.
+        let photos = crate::face::identity_photos(&settings, |p| config.resolve(p));
+        for p in &photos {
+            if !p.is_file() {
+                return Err(Error::input(
+                    p,
+                    "identity photo not found (render.identities; the bundled ones come with scripts/setup.sh)",
+                ));
+            }
+        }
+        settings.identities = photos;
+        let mesh = eyereplay_face::default_faces_dir().join(eyereplay_face::MESH_FILE);
+        if !mesh.is_file() {
+            return Err(Error::input(
+                mesh,
+                "canonical face mesh not found (run scripts/setup.sh)",
+            ));
+        }
+    }
+    if !video_sources(&config).is_empty() || (eyes && settings.match_extractor) || face {
         check_models()?;
     }
     check_ffmpeg(&params.encoder.ffmpeg)?;

@@ -57,6 +57,7 @@
 
 mod error;
 mod evaluate;
+pub mod face;
 mod finalize;
 mod generate;
 mod inputs;

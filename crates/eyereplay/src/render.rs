@@ -68,6 +68,9 @@ pub fn render_sessions(
 ) -> Result<RenderSummary> {
     // Seed, frame rate and session length are the dataset's own.
     let meta = eyereplay_dataset::read_metadata(out)?.dataset;
+    if settings.backend == RenderBackend::Face {
+        return crate::face::render_sessions_face(out, &meta, settings, &params, shard, progress);
+    }
     match browser_settings(settings)? {
         Some(b) => render_sessions_browser(out, &meta, settings, &b, &params, shard, progress),
         None => render_sessions_eyes(out, &meta, settings, params, shard, progress),

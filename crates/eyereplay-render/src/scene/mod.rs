@@ -41,6 +41,7 @@
 
 mod background;
 mod eye_model;
+mod eyeball;
 mod frame;
 mod hair;
 mod pose;
@@ -48,6 +49,7 @@ mod shade;
 mod textures;
 
 use self::eye_model::EyeModel;
+pub use self::eyeball::Eyeball;
 use self::pose::PITCH_LIMIT_RAD;
 use self::shade::BallPx;
 use self::textures::Textures;

@@ -8,8 +8,9 @@
 //! is prepared once per session in [`BallPx`] ([`Scene::make_ball`]).
 
 use super::eye_model::CORNEA_INDEX;
-use super::frame::EyeFrame;
+use super::frame::{EyeFrame, EyeGeoF32};
 use super::hair::LASH_ROOT_PX;
+use super::textures::Textures;
 use super::{Scene, Side};
 use crate::math::{clamp01, f3, floor_fast, smoothstep, F3};
 
@@ -158,90 +159,117 @@ impl Scene {
     /// halves the latency of the square roots and divisions that dominate.
     #[inline(always)]
     pub(super) fn shade_cornea(&self, ef: &EyeFrame, px: f32, py: f32) -> Option<F3> {
-        let g = &ef.geo;
         let d = ef.dir_fwd + ef.dir_right * (px - ef.cx) + ef.dir_down * (py - ef.cy);
         let d = d * (1.0 / d.dot(d).sqrt());
         let o = ef.origin + d * ef.origin_skip_mm;
-        let light = ef.light;
-        let lc = self.light_rgb;
-        let amb = self.ambient;
-        let oc = f3(o.x, o.y, o.z - g.cornea_z);
-        let b = oc.dot(d);
-        let c = oc.dot(oc) - g.cornea_r * g.cornea_r;
-        let disc = b * b - c;
-        if disc <= 0.0 {
-            return None;
-        }
-        let t = -b - disc.sqrt();
-        let p = o + d * t;
-        if p.z < g.limbus_z {
-            return None;
-        }
-        let n = f3(p.x, p.y, p.z - g.cornea_z) * (1.0 / g.cornea_r);
-        let cosi = -d.dot(n);
-        // Refraction into the aqueous humour, then hit the iris plane.
-        let eta = 1.0 / CORNEA_INDEX as f32;
-        let k = 1.0 - eta * eta * (1.0 - cosi * cosi);
-        let tr = d * eta + n * (eta * cosi - k.max(0.0).sqrt());
-        let s = (g.iris_z - p.z) / tr.z;
-        let q = p + tr * s;
-        let r2 = q.x * q.x + q.y * q.y;
-        let ri = g.iris_r;
-        let pr = ef.pupil_mm;
-        let iris_light = amb + 0.75 * (0.4 + 0.6 * light.z.max(0.0));
-        let mut col = if r2 < pr * pr {
-            f3(0.006, 0.005, 0.005)
-        } else if r2 < ri * ri {
-            let tex = self.tex.iris_at(q.x / ri, q.y / ri);
-            // Dark pupillary ruff right at the pupil edge.
-            let ruff = smoothstep(pr * 1.12, pr, r2.sqrt());
-            tex.lerp(f3(0.03, 0.02, 0.015), ruff * 0.8) * iris_light
-        } else {
-            f3(0.05, 0.045, 0.045) * iris_light
-        };
-        col = col.mulv(lc * 0.7 + f3(1.0, 1.0, 1.0) * 0.3);
-        // Blend into the sclera over the last 0.3 mm at the limbus.
-        let edge = smoothstep(g.limbus_z, g.limbus_z + 0.3, p.z);
-        if edge < 1.0 {
-            let on_ball = p * (g.radius / p.dot(p).sqrt());
-            col = self.sclera_color(ef, on_ball, d).lerp(col, edge);
-        }
-        // Corneal reflections: the key light's glint and a faint room.
-        let refl = d + n * (2.0 * cosi);
-        let glint = smoothstep(0.9965, 0.9985, refl.dot(light)) * 2.2;
-        // A dim, even room reflection growing toward grazing angles.
-        let fresnel = 0.02 + 0.2 * (1.0 - cosi).powi(4);
-        let env = f3(0.5, 0.5, 0.55) * fresnel;
-        Some(col + lc * glint + env)
-    }
-
-    /// The sclera at eye-frame point `p` near the limbus, seen along `d`
-    /// (the cornea's edge blends into it).
-    #[inline(always)]
-    fn sclera_color(&self, ef: &EyeFrame, p: F3, d: F3) -> F3 {
-        let n = p * (1.0 / ef.geo.radius);
-        let tex = self.tex.sclera_at(n.x, n.y);
-        let (mul, add) = self.sclera_light(n, d, ef.light);
-        tex.mulv(mul) + add
-    }
-
-    /// Lighting of the sclera at unit normal `n` seen along `d`: colour =
-    /// texel * `mul` + `add`. Only dot products of `n`, `d` and `light`
-    /// enter, so any common frame works (eye frame per pixel at the limbus,
-    /// head frame once per session in [`BallPx`]).
-    #[inline(always)]
-    fn sclera_light(&self, n: F3, d: F3, light: F3) -> (F3, F3) {
-        let ndl = n.dot(light);
-        let ndv = -n.dot(d);
-        let diffuse = self.ambient + 0.8 * ((ndl + 0.25) / 1.25).max(0.0);
-        let rim = 0.45 + 0.55 * ndv.max(0.0);
-        let refl = d + n * (2.0 * ndv);
-        let spec = smoothstep(0.992, 0.998, refl.dot(light)) * 0.6;
-        (
-            (self.light_rgb * diffuse + f3(1.0, 1.0, 1.0) * (self.ambient * 0.3)) * rim,
-            self.light_rgb * spec,
+        trace_cornea(
+            &self.tex,
+            self.light_rgb,
+            self.ambient,
+            &ef.geo,
+            ef.pupil_mm,
+            ef.light,
+            o,
+            d,
         )
     }
+
+    /// [`sclera_light`] under the scene's light.
+    #[inline(always)]
+    fn sclera_light(&self, n: F3, d: F3, light: F3) -> (F3, F3) {
+        sclera_light(self.light_rgb, self.ambient, n, d, light)
+    }
+}
+
+/// Lighting of the sclera at unit normal `n` seen along `d` under a key
+/// light of colour `light_rgb` from direction `light` plus `ambient`:
+/// colour = texel * `mul` + `add`. Only dot products of `n`, `d` and
+/// `light` enter, so any common frame works (eye frame per pixel at the
+/// limbus, head frame once per session in [`BallPx`]).
+#[inline(always)]
+pub(super) fn sclera_light(light_rgb: F3, ambient: f32, n: F3, d: F3, light: F3) -> (F3, F3) {
+    let ndl = n.dot(light);
+    let ndv = -n.dot(d);
+    let diffuse = ambient + 0.8 * ((ndl + 0.25) / 1.25).max(0.0);
+    let rim = 0.45 + 0.55 * ndv.max(0.0);
+    let refl = d + n * (2.0 * ndv);
+    let spec = smoothstep(0.992, 0.998, refl.dot(light)) * 0.6;
+    (
+        (light_rgb * diffuse + f3(1.0, 1.0, 1.0) * (ambient * 0.3)) * rim,
+        light_rgb * spec,
+    )
+}
+
+/// Ray-traces the cornea, the iris behind it and the limbus for a ray from
+/// `o` along unit `d` in the turned eye's frame (mm, origin at the eyeball
+/// centre, +z out through the cornea), under a key light of colour
+/// `light_rgb` from direction `light` (same frame) plus `ambient`; `None`
+/// where the ray does not meet the corneal cap. Shared by the close-up
+/// renderer and [`super::Eyeball`] (the full-face mode's eyes).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(super) fn trace_cornea(
+    tex: &Textures,
+    light_rgb: F3,
+    ambient: f32,
+    g: &EyeGeoF32,
+    pupil_mm: f32,
+    light: F3,
+    o: F3,
+    d: F3,
+) -> Option<F3> {
+    let lc = light_rgb;
+    let amb = ambient;
+    let oc = f3(o.x, o.y, o.z - g.cornea_z);
+    let b = oc.dot(d);
+    let c = oc.dot(oc) - g.cornea_r * g.cornea_r;
+    let disc = b * b - c;
+    if disc <= 0.0 {
+        return None;
+    }
+    let t = -b - disc.sqrt();
+    let p = o + d * t;
+    if p.z < g.limbus_z {
+        return None;
+    }
+    let n = f3(p.x, p.y, p.z - g.cornea_z) * (1.0 / g.cornea_r);
+    let cosi = -d.dot(n);
+    // Refraction into the aqueous humour, then hit the iris plane.
+    let eta = 1.0 / CORNEA_INDEX as f32;
+    let k = 1.0 - eta * eta * (1.0 - cosi * cosi);
+    let tr = d * eta + n * (eta * cosi - k.max(0.0).sqrt());
+    let s = (g.iris_z - p.z) / tr.z;
+    let q = p + tr * s;
+    let r2 = q.x * q.x + q.y * q.y;
+    let ri = g.iris_r;
+    let pr = pupil_mm;
+    let iris_light = amb + 0.75 * (0.4 + 0.6 * light.z.max(0.0));
+    let mut col = if r2 < pr * pr {
+        f3(0.006, 0.005, 0.005)
+    } else if r2 < ri * ri {
+        let tex = tex.iris_at(q.x / ri, q.y / ri);
+        // Dark pupillary ruff right at the pupil edge.
+        let ruff = smoothstep(pr * 1.12, pr, r2.sqrt());
+        tex.lerp(f3(0.03, 0.02, 0.015), ruff * 0.8) * iris_light
+    } else {
+        f3(0.05, 0.045, 0.045) * iris_light
+    };
+    col = col.mulv(lc * 0.7 + f3(1.0, 1.0, 1.0) * 0.3);
+    // Blend into the sclera over the last 0.3 mm at the limbus.
+    let edge = smoothstep(g.limbus_z, g.limbus_z + 0.3, p.z);
+    if edge < 1.0 {
+        let on_ball = p * (g.radius / p.dot(p).sqrt());
+        let n = on_ball * (1.0 / g.radius);
+        let (mul, add) = sclera_light(light_rgb, ambient, n, d, light);
+        col = (tex.sclera_at(n.x, n.y).mulv(mul) + add).lerp(col, edge);
+    }
+    // Corneal reflections: the key light's glint and a faint room.
+    let refl = d + n * (2.0 * cosi);
+    let glint = smoothstep(0.9965, 0.9985, refl.dot(light)) * 2.2;
+    // A dim, even room reflection growing toward grazing angles.
+    let fresnel = 0.02 + 0.2 * (1.0 - cosi).powi(4);
+    let env = f3(0.5, 0.5, 0.55) * fresnel;
+    Some(col + lc * glint + env)
 }
 
 /// Whether the ray of image point (px, py) passes within the sphere that

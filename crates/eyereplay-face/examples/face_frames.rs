@@ -1,0 +1,100 @@
+//! Renders full-face frames of every bundled identity (or the photos
+//! given) at a few gaze targets, head turns and a half blink, saves them
+//! as PNG, and reads each back with the extractor's unmodified path
+//! (detection, landmarks, iris) to print the target against the measured
+//! `(nx, ny)`.
+//!
+//!   cargo run --release -p eyereplay-face --example face_frames -- OUT_DIR [PHOTO...]
+
+use eyereplay_face::*;
+use std::path::PathBuf;
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let out = PathBuf::from(args.first().map(String::as_str).unwrap_or("face_frames"));
+    std::fs::create_dir_all(&out).map_err(|source| FaceError::Io {
+        path: out.clone(),
+        source,
+    })?;
+    let faces = default_faces_dir();
+    let photos: Vec<PathBuf> = if args.len() > 1 {
+        args[1..].iter().map(PathBuf::from).collect()
+    } else {
+        [
+            "astronaut.png",
+            "grace_hopper.jpg",
+            "psychopy_face01.jpg",
+            "psychopy_face.jpg",
+        ]
+        .iter()
+        .map(|n| faces.join(n))
+        .collect()
+    };
+    let mesh = CanonicalMesh::load(&faces.join(MESH_FILE))?;
+    let mut fitter = PhotoFitter::new(&eyereplay_extract::default_models_dir(), mesh.clone())?;
+    for (i, path) in photos.iter().enumerate() {
+        let id = fitter.fit(path)?;
+        let name = id.name.clone();
+        let framing = Framing {
+            width: 640,
+            height: 480,
+            vfov_deg: 43.0,
+            face_height_frac: 0.42,
+            light_dir: [0.4, 0.5, 1.0],
+        };
+        let scene = FaceScene::new(
+            id,
+            &mesh,
+            eyereplay_render::Identity::sample(i as u64 + 1),
+            &framing,
+        );
+        let mut raster = Rasterizer::new(640, 480);
+        let mut tm = TexturedMesh::new(vec![], vec![], vec![]);
+        let mut frame = RgbImage::filled(640, 480, [0, 0, 0]);
+        let cases: [(&str, (f64, f64), f64, f64, f64); 8] = [
+            ("centre", (0.5, 0.5), 0.0, 0.0, 0.0),
+            ("left", (0.3, 0.5), 0.0, 0.0, 0.0),
+            ("right", (0.7, 0.5), 0.0, 0.0, 0.0),
+            ("up", (0.5, 0.35), 0.0, 0.0, 0.0),
+            ("down", (0.5, 0.65), 0.0, 0.0, 0.0),
+            ("blink", (0.5, 0.5), 0.0, 0.0, 0.6),
+            ("yaw15", (0.5, 0.5), 15.0, 0.0, 0.0),
+            ("pitch-10", (0.6, 0.4), -6.0, -10.0, 0.0),
+        ];
+        for (label, target, yaw, pitch, closure) in cases {
+            let mut head = scene.rest_pose;
+            head.yaw_deg += yaw;
+            head.pitch_deg += pitch;
+            let eyes = scene.solve_eyes(&head, target, closure);
+            let st = FaceState {
+                head,
+                eyes,
+                closure,
+                pupil_scale: 1.0,
+            };
+            scene.draw(&st, &mut raster, &mut tm, &mut frame);
+            let truth = scene.eye_images(&st).map(|e| e.norm());
+            frame.save_png(&out.join(format!("{name}_{label}.png")))?;
+            let got = fitter.landmarks(&frame)?;
+            match got {
+                None => println!("{name} {label}: NO FACE"),
+                Some(f) => {
+                    let m: Vec<(f64, f64)> = f
+                        .eyes
+                        .iter()
+                        .map(|e| {
+                            let r = e.measure_against(e.corner_left, e.corner_right);
+                            (r.nx, r.ny)
+                        })
+                        .collect();
+                    println!(
+                        "{name} {label}: target ({:.2},{:.2}) truth L({:.3},{:.3}) R({:.3},{:.3}) measured L({:.3},{:.3}) R({:.3},{:.3}) score {:.2}",
+                        target.0, target.1, truth[0].0, truth[0].1, truth[1].0, truth[1].1,
+                        m[0].0, m[0].1, m[1].0, m[1].1, f.score
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}

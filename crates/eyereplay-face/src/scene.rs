@@ -1,0 +1,764 @@
+//! One frame of the full-face mode: the photo's surroundings, the textured
+//! face mesh under the frame's head pose, and the ray-traced eyeballs seen
+//! through the face's own lid opening ([`FaceScene::draw`]).
+//!
+//! # Drawing order
+//!
+//! 1. **Backdrop.** The photo itself, mapped into the output frame by a 2D
+//!    similarity fitted once (the face's landmarks at the rest pose against
+//!    their photo positions), gives hair, neck, clothes and room. Around
+//!    the head (a soft ellipse covering hair and neck) it follows the
+//!    head's own image motion, a similarity fitted per frame from the
+//!    projected landmarks; the room beyond stays still. Pixels the photo
+//!    does not cover repeat its edge.
+//! 2. **Face.** The photo-textured mesh ([`PhotoIdentity::textured_mesh`]
+//!    with the eye-opening triangles dropped) under the frame's head pose;
+//!    its lid vertices move with the eye's vertical rotation and close in
+//!    blinks ([`LidRig`]), the skin next to the lids following part of the
+//!    way.
+//! 3. **Eyes.** Every pixel inside a lid opening that the face left
+//!    uncovered is a ray traced into that eye's eyeball: the same cornea,
+//!    iris and sclera as the close-up renderer ([`Eyeball`]), placed behind
+//!    the photo's lid contour and turned by the frame's eye-in-head angles,
+//!    darkened under the upper lid and toward the corners.
+
+use crate::lm;
+use crate::mesh::{CanonicalMesh, LEFT_EYE_CONTOUR, RIGHT_EYE_CONTOUR};
+use crate::photo::PhotoIdentity;
+use crate::pose::{Camera, HeadPose};
+use crate::raster::{Rasterizer, RgbImage, TexturedMesh};
+use eyereplay_render::math::{f3, v3, Basis, SrgbLut, V3};
+use eyereplay_render::{EyePose, Eyeball, Identity};
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+/// Depth of the eyeball centre behind the mean of its lid contour, cm: the
+/// lids rest on the globe, so the corneal apex (13.2 mm from the centre of
+/// a 12 mm eye) stands about 2 mm in front of the lid margins.
+const EYE_CENTRE_BEHIND_LIDS_CM: f64 = 1.1;
+/// How much of a lid vertex's motion the skin next to it follows.
+const UPPER_SKIN_FOLLOW: f32 = 0.45;
+const LOWER_SKIN_FOLLOW: f32 = 0.3;
+
+/// The lids of one eye as mesh vertex ids.
+#[derive(Clone, Debug)]
+struct LidRig {
+    /// The corners on the image's left and right (at the rest pose).
+    corner_left: u32,
+    corner_right: u32,
+    /// Upper and lower lid margins, paired, from the inner corner outward.
+    upper: [u32; 7],
+    lower: [u32; 7],
+    /// Skin vertices next to the lids: (vertex, lid index, upper lid?).
+    skin: Vec<(u32, usize, bool)>,
+}
+
+impl LidRig {
+    /// The rig of a contour ordered as MediaPipe's (outer corner, lower lid
+    /// outward-in, inner corner, upper lid inward-out).
+    fn new(mesh: &CanonicalMesh, contour: &[u32; 16], image_left_is_outer: bool) -> LidRig {
+        let upper: [u32; 7] = std::array::from_fn(|k| contour[9 + k]);
+        let lower: [u32; 7] = std::array::from_fn(|k| contour[7 - k]);
+        let (outer, inner) = (contour[0], contour[8]);
+        let fill = mesh.eye_fill_triangles();
+        let mut skin: Vec<(u32, usize, bool)> = vec![];
+        for (ti, t) in mesh.triangles.iter().enumerate() {
+            if fill.contains(&ti) {
+                continue;
+            }
+            for (lid, is_upper) in [(&upper, true), (&lower, false)] {
+                for (k, &v) in lid.iter().enumerate() {
+                    if !t.contains(&v) {
+                        continue;
+                    }
+                    for &u in t {
+                        if contour.contains(&u) || skin.iter().any(|s| s.0 == u) {
+                            continue;
+                        }
+                        skin.push((u, k, is_upper));
+                    }
+                }
+            }
+        }
+        skin.sort();
+        let (corner_left, corner_right) = if image_left_is_outer {
+            (outer, inner)
+        } else {
+            (inner, outer)
+        };
+        LidRig {
+            corner_left,
+            corner_right,
+            upper,
+            lower,
+            skin,
+        }
+    }
+}
+
+/// Everything about one eye that a frame's state does not change.
+#[derive(Clone, Debug)]
+struct EyeSetup {
+    rig: LidRig,
+    /// Eyeball centre, head frame (cm).
+    centre_cm: Vector3<f64>,
+}
+
+/// One frame's state of the head, eyes and lids.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FaceState {
+    pub head: HeadPose,
+    /// Eye-in-head rotation, image-left eye first (yaw > 0 looks toward
+    /// image right, pitch > 0 up, as [`eyereplay_render::EyePose`]).
+    pub eyes: [EyePose; 2],
+    /// 0 open .. 1 closed (eased).
+    pub closure: f64,
+    pub pupil_scale: f64,
+}
+
+/// Where an eye's iris and aperture landmarks land in the image for one
+/// state: what a landmark model should measure.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EyeImage {
+    pub iris_px: [f64; 2],
+    pub corner_left_px: [f64; 2],
+    pub corner_right_px: [f64; 2],
+    /// The lids straight above and below the iris centre.
+    pub upper_px: [f64; 2],
+    pub lower_px: [f64; 2],
+}
+
+impl EyeImage {
+    /// `(nx, ny, aperture)` as the extractor defines them (see
+    /// eyereplay-extract's crate docs).
+    pub fn norm(&self) -> (f64, f64, f64) {
+        let nx = (self.iris_px[0] - self.corner_left_px[0])
+            / (self.corner_right_px[0] - self.corner_left_px[0]);
+        let ny = (self.iris_px[1] - self.upper_px[1]) / (self.lower_px[1] - self.upper_px[1]);
+        let w = ((self.corner_right_px[0] - self.corner_left_px[0]).powi(2)
+            + (self.corner_right_px[1] - self.corner_left_px[1]).powi(2))
+        .sqrt();
+        (nx, ny, (self.lower_px[1] - self.upper_px[1]).max(0.0) / w)
+    }
+}
+
+/// Framing of the output video.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Framing {
+    pub width: usize,
+    pub height: usize,
+    pub vfov_deg: f64,
+    /// Forehead-to-chin height over the frame height at the rest pose.
+    pub face_height_frac: f64,
+    /// Key light direction in the head frame (toward the light).
+    pub light_dir: [f64; 3],
+}
+
+/// An identity ready to draw frames at one size.
+pub struct FaceScene {
+    pub identity: PhotoIdentity,
+    pub camera: Camera,
+    /// The head's pose with nothing moving: the photo's rotation, framed
+    /// by [`Framing`].
+    pub rest_pose: HeadPose,
+    /// The eyeball's identity (iris and sclera textures, eye geometry).
+    pub eye_identity: Identity,
+    eyeball: Eyeball,
+    mesh: TexturedMesh,
+    eyes: [EyeSetup; 2],
+    lid_follow: (f64, f64),
+    light_head: Vector3<f64>,
+    lut: SrgbLut,
+    backdrop: Backdrop,
+}
+
+/// The photo mapped into the frame (see the module docs).
+struct Backdrop {
+    /// Output pixel -> photo pixel at the rest pose: `p -> a p + b` with
+    /// `a` a complex number (scale and rotation).
+    to_photo: Sim2,
+    /// The static backdrop, sRGB.
+    still: Vec<u8>,
+    /// Per pixel, how much it follows the head (0 room .. 1 head).
+    weight: Vec<f32>,
+    /// Rows and columns where `weight > 0`.
+    moving_box: [usize; 4],
+    /// Landmark ids whose projections fit the head's image motion.
+    anchors: Vec<usize>,
+    rest_anchors_px: Vec<[f64; 2]>,
+}
+
+/// A 2D similarity `p -> (ar + i ai) p + (bx + i by)` in complex form.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Sim2 {
+    ar: f64,
+    ai: f64,
+    bx: f64,
+    by: f64,
+}
+
+impl Sim2 {
+    const IDENTITY: Sim2 = Sim2 {
+        ar: 1.0,
+        ai: 0.0,
+        bx: 0.0,
+        by: 0.0,
+    };
+
+    /// Least-squares similarity taking `from` onto `to`.
+    fn fit(from: &[[f64; 2]], to: &[[f64; 2]]) -> Sim2 {
+        let n = from.len().max(1) as f64;
+        let mf = from
+            .iter()
+            .fold([0.0, 0.0], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
+        let mt = to
+            .iter()
+            .fold([0.0, 0.0], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
+        let (mut sr, mut si, mut ss) = (0.0, 0.0, 0.0);
+        for (p, q) in from.iter().zip(to) {
+            let (px, py) = (p[0] - mf[0], p[1] - mf[1]);
+            let (qx, qy) = (q[0] - mt[0], q[1] - mt[1]);
+            // sum conj(p) q and |p|^2
+            sr += px * qx + py * qy;
+            si += px * qy - py * qx;
+            ss += px * px + py * py;
+        }
+        if ss <= 0.0 {
+            return Sim2::IDENTITY;
+        }
+        let (ar, ai) = (sr / ss, si / ss);
+        Sim2 {
+            ar,
+            ai,
+            bx: mt[0] - (ar * mf[0] - ai * mf[1]),
+            by: mt[1] - (ai * mf[0] + ar * mf[1]),
+        }
+    }
+
+    #[inline(always)]
+    fn apply(&self, p: [f64; 2]) -> [f64; 2] {
+        [
+            self.ar * p[0] - self.ai * p[1] + self.bx,
+            self.ai * p[0] + self.ar * p[1] + self.by,
+        ]
+    }
+}
+
+impl FaceScene {
+    /// Sets up `identity` for frames framed by `framing`; `eye_identity`
+    /// gives the eyeballs (its iris colour is replaced by the photo's).
+    pub fn new(
+        identity: PhotoIdentity,
+        mesh: &CanonicalMesh,
+        mut eye_identity: Identity,
+        framing: &Framing,
+    ) -> FaceScene {
+        let camera = Camera::from_vfov(framing.width, framing.height, framing.vfov_deg);
+        let s = &identity.shape_cm;
+        let dist = |a: [f32; 3], b: [f32; 3]| {
+            (((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)) as f64).sqrt()
+        };
+        let face_cm = dist(s[lm::FOREHEAD], s[lm::CHIN]);
+        let depth_cm =
+            camera.focal_px * face_cm / (framing.face_height_frac * framing.height as f64);
+        // Face centre (between forehead and chin) a little above the frame
+        // centre, as a webcam user sits.
+        let mid = Vector3::new(
+            (s[lm::FOREHEAD][0] + s[lm::CHIN][0]) as f64 / 2.0,
+            (s[lm::FOREHEAD][1] + s[lm::CHIN][1]) as f64 / 2.0,
+            (s[lm::FOREHEAD][2] + s[lm::CHIN][2]) as f64 / 2.0,
+        );
+        let mut rest_pose = HeadPose {
+            yaw_deg: identity.photo_pose.yaw_deg,
+            pitch_deg: identity.photo_pose.pitch_deg,
+            roll_deg: identity.photo_pose.roll_deg,
+            translation_cm: [0.0, 0.0, depth_cm],
+        };
+        let (m, _) = rest_pose.to_camera();
+        let want = Vector3::new(
+            0.0,
+            -0.06 * framing.height as f64 / camera.focal_px * depth_cm,
+            depth_cm,
+        );
+        let t = want - m * mid;
+        rest_pose.translation_cm = [t.x, t.y, t.z];
+
+        // Eyes: the eyeball behind each lid contour, the photo's iris
+        // colour and size.
+        let eye_of = |contour: &[u32; 16], image_left_is_outer: bool| {
+            let rig = LidRig::new(mesh, contour, image_left_is_outer);
+            let n = contour.len() as f64;
+            let mut c = Vector3::zeros();
+            for &i in contour {
+                c += Vector3::from(s[i as usize].map(f64::from)) / n;
+            }
+            c.z -= EYE_CENTRE_BEHIND_LIDS_CM;
+            EyeSetup { rig, centre_cm: c }
+        };
+        let eyes = [
+            eye_of(&RIGHT_EYE_CONTOUR, true),
+            eye_of(&LEFT_EYE_CONTOUR, false),
+        ];
+        let lin = |c: u8| eyereplay_render::math::srgb_to_linear(c as f32 / 255.0);
+        let iris = identity.iris_rgb.map(lin);
+        eye_identity.iris.outer_rgb = iris;
+        eye_identity.iris.inner_rgb = iris.map(|c| c * 0.8);
+        // The photo's iris radius relative to its eye width gives the
+        // eyeball's iris radius in mm (the mesh is metric).
+        let ratio: f64 = identity
+            .eyes
+            .iter()
+            .zip(&eyes)
+            .map(|(pe, es)| {
+                let (a, b) = (
+                    identity.landmarks_px[es.rig.corner_left as usize],
+                    identity.landmarks_px[es.rig.corner_right as usize],
+                );
+                let w_px = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt() as f64;
+                let w_mm = 10.0
+                    * dist(
+                        s[es.rig.corner_left as usize],
+                        s[es.rig.corner_right as usize],
+                    );
+                pe.iris_radius_px as f64 / w_px.max(1.0) * w_mm
+            })
+            .sum::<f64>()
+            / 2.0;
+        eye_identity.eye.iris_radius_mm = ratio.clamp(5.3, 6.5);
+        let eyeball = Eyeball::new(&eye_identity);
+        let l = Vector3::from(framing.light_dir).normalize();
+        let mut scene = FaceScene {
+            mesh: identity.textured_mesh(mesh, true),
+            eyes,
+            lid_follow: (
+                eye_identity.eye.upper_lid_follow,
+                eye_identity.eye.lower_lid_follow,
+            ),
+            eye_identity,
+            eyeball,
+            camera,
+            rest_pose,
+            light_head: l,
+            lut: SrgbLut::new(),
+            backdrop: Backdrop {
+                to_photo: Sim2::IDENTITY,
+                still: vec![],
+                weight: vec![],
+                moving_box: [0; 4],
+                anchors: vec![],
+                rest_anchors_px: vec![],
+            },
+            identity,
+        };
+        scene.backdrop = scene.make_backdrop();
+        scene
+    }
+
+    pub fn width(&self) -> usize {
+        self.camera.width_px
+    }
+
+    pub fn height(&self) -> usize {
+        self.camera.height_px
+    }
+
+    /// Where the nose tip lands in the image under `head` (the frame's
+    /// motion for the webcam's motion blur).
+    pub fn nose_px(&self, head: &HeadPose) -> [f64; 2] {
+        let p = Vector3::from(self.identity.shape_cm[lm::NOSE_TIP].map(f64::from));
+        self.project(head, std::iter::once(p))[0]
+    }
+
+    /// Head-frame points -> image pixels under `pose`.
+    fn project(&self, pose: &HeadPose, pts: impl Iterator<Item = Vector3<f64>>) -> Vec<[f64; 2]> {
+        let (m, t) = pose.to_camera();
+        pts.map(|p| self.camera.project(m * p + t)).collect()
+    }
+
+    fn make_backdrop(&self) -> Backdrop {
+        let (w, h) = (self.width(), self.height());
+        let s = &self.identity.shape_cm;
+        let all = self.project(
+            &self.rest_pose,
+            s.iter().map(|p| Vector3::from(p.map(f64::from))),
+        );
+        let photo: Vec<[f64; 2]> = self
+            .identity
+            .landmarks_px
+            .iter()
+            .map(|p| p.map(f64::from))
+            .collect();
+        let to_photo = Sim2::fit(&all, &photo);
+        let anchors: Vec<usize> = (0..s.len()).step_by(9).collect();
+        let rest_anchors_px = anchors.iter().map(|&i| all[i]).collect();
+        // The head's soft ellipse: from the forehead-chin line, wide and
+        // tall enough for hair and neck.
+        let (fh, ch) = (all[lm::FOREHEAD], all[lm::CHIN]);
+        let face_px = ((fh[0] - ch[0]).powi(2) + (fh[1] - ch[1]).powi(2)).sqrt();
+        let centre = [
+            (fh[0] + ch[0]) / 2.0,
+            (fh[1] + ch[1]) / 2.0 - 0.12 * face_px,
+        ];
+        let (ax, ay) = (0.62 * face_px, 0.85 * face_px);
+        let mut weight = vec![0f32; w * h];
+        let mut bx = [usize::MAX, usize::MAX, 0, 0];
+        for y in 0..h {
+            for x in 0..w {
+                let dx = (x as f64 + 0.5 - centre[0]) / ax;
+                let dy = (y as f64 + 0.5 - centre[1]) / ay;
+                let rho = (dx * dx + dy * dy).sqrt();
+                let t = ((1.4 - rho) / 0.4).clamp(0.0, 1.0);
+                let wt = (t * t * (3.0 - 2.0 * t)) as f32;
+                weight[y * w + x] = wt;
+                if wt > 0.0 {
+                    bx = [
+                        bx[0].min(x),
+                        bx[1].min(y),
+                        bx[2].max(x + 1),
+                        bx[3].max(y + 1),
+                    ];
+                }
+            }
+        }
+        if bx[0] == usize::MAX {
+            bx = [0; 4];
+        }
+        let mut still = vec![0u8; w * h * 3];
+        let tex = &self.identity.texture;
+        still
+            .par_chunks_mut(w * 3)
+            .enumerate()
+            .for_each(|(y, row)| {
+                for x in 0..w {
+                    let q = to_photo.apply([x as f64 + 0.5, y as f64 + 0.5]);
+                    let c = tex.sample(q[0] as f32, q[1] as f32);
+                    for k in 0..3 {
+                        row[x * 3 + k] = (c[k] + 0.5) as u8;
+                    }
+                }
+            });
+        Backdrop {
+            to_photo,
+            still,
+            weight,
+            moving_box: bx,
+            anchors,
+            rest_anchors_px,
+        }
+    }
+
+    /// The mesh's vertex positions for one state: lids moved by the eyes'
+    /// vertical rotation and the blink.
+    fn posed_vertices(&self, state: &FaceState, out: &mut Vec<[f32; 3]>) {
+        out.clear();
+        out.extend_from_slice(&self.identity.shape_cm);
+        let base = &self.identity.shape_cm;
+        let (up_f, lo_f) = self.lid_follow;
+        let limbus_cm = self.eyeball.limbus_z_mm() / 10.0;
+        let eased = state.closure.clamp(0.0, 1.0);
+        for (e, pose) in self.eyes.iter().zip(&state.eyes) {
+            let lift = limbus_cm * pose.pitch_rad.sin();
+            let mut moved_up = [[0f32; 3]; 7];
+            let mut moved_lo = [[0f32; 3]; 7];
+            for k in 0..7 {
+                let (u, l) = (e.rig.upper[k] as usize, e.rig.lower[k] as usize);
+                let mut pu = base[u];
+                pu[1] += (up_f * lift) as f32;
+                let mut pl = base[l];
+                pl[1] += (lo_f * lift * (1.0 - 0.15 * eased)) as f32;
+                // Closing moves the upper lid down onto the lower one.
+                let c = (0.97 * eased) as f32;
+                for j in 0..3 {
+                    pu[j] += (pl[j] - pu[j]) * c;
+                }
+                moved_up[k] = pu;
+                moved_lo[k] = pl;
+                out[u] = pu;
+                out[l] = pl;
+            }
+            for &(v, k, upper) in &e.rig.skin {
+                let (lid, moved, f) = if upper {
+                    (e.rig.upper[k], moved_up[k], UPPER_SKIN_FOLLOW)
+                } else {
+                    (e.rig.lower[k], moved_lo[k], LOWER_SKIN_FOLLOW)
+                };
+                let b = base[lid as usize];
+                for j in 0..3 {
+                    out[v as usize][j] = base[v as usize][j] + (moved[j] - b[j]) * f;
+                }
+            }
+        }
+    }
+
+    /// Where each eye's iris centre, corners and lids land in the image
+    /// for `state` (image-left eye first).
+    pub fn eye_images(&self, state: &FaceState) -> [EyeImage; 2] {
+        let mut verts = Vec::with_capacity(self.identity.shape_cm.len());
+        self.posed_vertices(state, &mut verts);
+        let limbus_cm = self.eyeball.limbus_z_mm() / 10.0;
+        std::array::from_fn(|k| {
+            let e = &self.eyes[k];
+            let g = Basis::gaze(state.eyes[k].yaw_rad, state.eyes[k].pitch_rad);
+            // Render frame (y down) -> head frame (y up).
+            let iris = e.centre_cm + Vector3::new(g.z.x, -g.z.y, g.z.z) * limbus_cm;
+            let v = |i: u32| Vector3::from(verts[i as usize].map(f64::from));
+            let mut pts = vec![iris, v(e.rig.corner_left), v(e.rig.corner_right)];
+            pts.extend(e.rig.upper.iter().map(|&i| v(i)));
+            pts.extend(e.rig.lower.iter().map(|&i| v(i)));
+            let px = self.project(&state.head, pts.into_iter());
+            let ix = px[0][0];
+            let at_x = |line: &[[f64; 2]]| -> [f64; 2] {
+                // The lid polyline (corners included) at the iris's x.
+                let mut l: Vec<[f64; 2]> = vec![px[1], px[2]];
+                l.extend_from_slice(line);
+                l.sort_by(|a, b| a[0].total_cmp(&b[0]));
+                for s in l.windows(2) {
+                    if ix >= s[0][0] && ix <= s[1][0] {
+                        let t = (ix - s[0][0]) / (s[1][0] - s[0][0]).max(1e-9);
+                        return [ix, s[0][1] + t * (s[1][1] - s[0][1])];
+                    }
+                }
+                let c = if ix < l[0][0] { l[0] } else { l[l.len() - 1] };
+                [ix, c[1]]
+            };
+            EyeImage {
+                iris_px: px[0],
+                corner_left_px: px[1],
+                corner_right_px: px[2],
+                upper_px: at_x(&px[3..10]),
+                lower_px: at_x(&px[10..17]),
+            }
+        })
+    }
+
+    /// Draws one frame into `frame` (resized if needed); `raster` and
+    /// `verts` are reusable scratch for frames of this size.
+    pub fn draw(
+        &self,
+        state: &FaceState,
+        raster: &mut Rasterizer,
+        mesh: &mut TexturedMesh,
+        frame: &mut RgbImage,
+    ) {
+        let (w, h) = (self.width(), self.height());
+        if frame.width != w || frame.height != h {
+            *frame = RgbImage::filled(w, h, [0, 0, 0]);
+        }
+        self.draw_backdrop(&state.head, frame);
+        if mesh.triangles.len() != self.mesh.triangles.len() {
+            *mesh = self.mesh.clone();
+        }
+        self.posed_vertices(state, &mut mesh.positions_cm);
+        raster.draw(
+            frame,
+            &self.camera,
+            &state.head,
+            mesh,
+            &self.identity.texture,
+        );
+        for k in 0..2 {
+            self.draw_eye(state, k, &mesh.positions_cm, raster.inv_depth(), frame);
+        }
+    }
+
+    fn draw_backdrop(&self, head: &HeadPose, frame: &mut RgbImage) {
+        let b = &self.backdrop;
+        let w = self.width();
+        frame.data.copy_from_slice(&b.still);
+        let s = &self.identity.shape_cm;
+        let now = self.project(
+            head,
+            b.anchors
+                .iter()
+                .map(|&i| Vector3::from(s[i].map(f64::from))),
+        );
+        // Image motion of the head: current -> rest.
+        let back = Sim2::fit(&now, &b.rest_anchors_px);
+        if back == Sim2::IDENTITY {
+            return;
+        }
+        let [x0, y0, x1, y1] = b.moving_box;
+        let tex = &self.identity.texture;
+        frame.data[y0 * w * 3..y1 * w * 3]
+            .par_chunks_mut(w * 3)
+            .enumerate()
+            .for_each(|(dy, row)| {
+                let y = y0 + dy;
+                for x in x0..x1 {
+                    let wt = b.weight[y * w + x] as f64;
+                    if wt <= 0.0 {
+                        continue;
+                    }
+                    let p = [x as f64 + 0.5, y as f64 + 0.5];
+                    let q = back.apply(p);
+                    let q = [p[0] + wt * (q[0] - p[0]), p[1] + wt * (q[1] - p[1])];
+                    let r = b.to_photo.apply(q);
+                    let c = tex.sample(r[0] as f32, r[1] as f32);
+                    for k in 0..3 {
+                        row[x * 3 + k] = (c[k] + 0.5) as u8;
+                    }
+                }
+            });
+    }
+
+    /// Ray-traces eye `k` into the pixels of its lid opening that the face
+    /// left uncovered.
+    fn draw_eye(
+        &self,
+        state: &FaceState,
+        k: usize,
+        verts: &[[f32; 3]],
+        inv_depth: &[f32],
+        frame: &mut RgbImage,
+    ) {
+        let e = &self.eyes[k];
+        let w = self.width();
+        let (m, t) = state.head.to_camera();
+        let mt = m.transpose();
+        // The opening's outline in the image, lids as posed.
+        let v = |i: u32| Vector3::from(verts[i as usize].map(f64::from));
+        let mut outline = vec![v(e.rig.corner_left)];
+        outline.extend(e.rig.upper.iter().map(|&i| v(i)));
+        outline.push(v(e.rig.corner_right));
+        outline.extend(e.rig.lower.iter().map(|&i| v(i)));
+        let px = self.project(&state.head, outline.into_iter());
+        let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+        for p in &px {
+            x0 = x0.min(p[0]);
+            y0 = y0.min(p[1]);
+            x1 = x1.max(p[0]);
+            y1 = y1.max(p[1]);
+        }
+        let h = self.height();
+        let bx0 = (x0.floor() - 1.0).max(0.0) as usize;
+        let by0 = (y0.floor() - 1.0).max(0.0) as usize;
+        let bx1 = ((x1.ceil() + 1.0).max(0.0) as usize).min(w);
+        let by1 = ((y1.ceil() + 1.0).max(0.0) as usize).min(h);
+        if bx1 <= bx0 || by1 <= by0 {
+            return;
+        }
+        // Upper lid per column, for its shadow on the eye.
+        let mut up: Vec<[f64; 2]> = px[..9].to_vec();
+        up.sort_by(|a, b| a[0].total_cmp(&b[0]));
+        let upper_y = |x: f64| -> f64 {
+            for s in up.windows(2) {
+                if x >= s[0][0] && x <= s[1][0] {
+                    let t = (x - s[0][0]) / (s[1][0] - s[0][0]).max(1e-9);
+                    return s[0][1] + t * (s[1][1] - s[0][1]);
+                }
+            }
+            if x < up[0][0] {
+                up[0][1]
+            } else {
+                up[up.len() - 1][1]
+            }
+        };
+        let eye_w = ((px[0][0] - px[8][0]).powi(2) + (px[0][1] - px[8][1]).powi(2)).sqrt();
+        let shadow_px = (0.07 * eye_w).max(0.7);
+        // Ray basis in the turned eye's frame (mm): the render crate's
+        // head frame is this crate's with y flipped, in mm.
+        let g = Basis::gaze(state.eyes[k].yaw_rad, state.eyes[k].pitch_rad);
+        let to_eye = |d: Vector3<f64>| -> V3 { g.to_local(v3(d.x, -d.y, d.z)) };
+        let f = self.camera.focal_px;
+        let origin = to_eye((-(mt * t) - e.centre_cm) * 10.0);
+        let dir_fwd = to_eye(mt * Vector3::new(0.0, 0.0, 1.0));
+        let dir_right = to_eye(mt * Vector3::new(1.0 / f, 0.0, 0.0));
+        let dir_down = to_eye(mt * Vector3::new(0.0, 1.0 / f, 0.0));
+        let light = to_eye(self.light_head);
+        let light = [light.x as f32, light.y as f32, light.z as f32];
+        let skip = (origin.len() - 30.0) as f32;
+        let (o, a, bx, by) = (origin.f(), dir_fwd.f(), dir_right.f(), dir_down.f());
+        let (cx, cy) = (self.camera.cx_px as f32, self.camera.cy_px as f32);
+        let pupil = state.pupil_scale as f32;
+        let beside = f3(0.30, 0.16, 0.14);
+        let corners = [px[0], px[8]];
+        for y in by0..by1 {
+            for x in bx0..bx1 {
+                if inv_depth[y * w + x] != 0.0 {
+                    continue;
+                }
+                let (pxf, pyf) = (x as f32 + 0.5, y as f32 + 0.5);
+                let d = a + bx * (pxf - cx) + by * (pyf - cy);
+                let d = d * (1.0 / d.dot(d).sqrt());
+                let oo = o + d * skip;
+                let c = self
+                    .eyeball
+                    .shade([oo.x, oo.y, oo.z], [d.x, d.y, d.z], light, pupil)
+                    .map(|c| f3(c[0], c[1], c[2]))
+                    .unwrap_or(beside);
+                let du = (pyf as f64 - upper_y(pxf as f64)).max(0.0);
+                let dc = corners
+                    .iter()
+                    .map(|q| ((pxf as f64 - q[0]).powi(2) + (pyf as f64 - q[1]).powi(2)).sqrt())
+                    .fold(f64::MAX, f64::min);
+                let shade = (1.0 - 0.55 * (-du / shadow_px).exp())
+                    * (1.0 - 0.35 * (-dc / (0.12 * eye_w).max(1.0)).exp());
+                let rgb = self.lut.rgb(c * shade as f32);
+                let i = (y * w + x) * 3;
+                frame.data[i..i + 3].copy_from_slice(&rgb);
+            }
+        }
+    }
+}
+
+/// The eye-in-head rotation that puts eye `k`'s iris at `target` `(nx, ny)`
+/// in its aperture as the extractor measures it in the image, for a head
+/// pose and lid closure (Newton's method on [`FaceScene::eye_images`],
+/// started from the same guess every frame so frames are independent).
+impl FaceScene {
+    pub fn solve_eyes(&self, head: &HeadPose, target: (f64, f64), closure: f64) -> [EyePose; 2] {
+        let limit = (35f64).to_radians();
+        let measure = |k: usize, pose: EyePose| -> (f64, f64) {
+            let mut st = FaceState {
+                head: *head,
+                closure,
+                pupil_scale: 1.0,
+                ..Default::default()
+            };
+            st.eyes[k] = pose;
+            let (nx, ny, _) = self.eye_images(&st)[k].norm();
+            (nx, ny)
+        };
+        std::array::from_fn(|k| {
+            let (mut yaw, mut pitch) = (0.0f64, 0.0f64);
+            let hstep = 1e-4;
+            for _ in 0..8 {
+                let p = EyePose {
+                    yaw_rad: yaw,
+                    pitch_rad: pitch,
+                };
+                let n0 = measure(k, p);
+                let (ex, ey) = (n0.0 - target.0, n0.1 - target.1);
+                if ex.abs() < 1e-6 && ey.abs() < 1e-6 {
+                    break;
+                }
+                let na = measure(
+                    k,
+                    EyePose {
+                        yaw_rad: yaw + hstep,
+                        ..p
+                    },
+                );
+                let nb = measure(
+                    k,
+                    EyePose {
+                        pitch_rad: pitch + hstep,
+                        ..p
+                    },
+                );
+                let (j11, j21) = ((na.0 - n0.0) / hstep, (na.1 - n0.1) / hstep);
+                let (j12, j22) = ((nb.0 - n0.0) / hstep, (nb.1 - n0.1) / hstep);
+                let det = j11 * j22 - j12 * j21;
+                if det.abs() < 1e-12 {
+                    break;
+                }
+                yaw = (yaw - (j22 * ex - j12 * ey) / det).clamp(-limit, limit);
+                pitch = (pitch - (-j21 * ex + j11 * ey) / det).clamp(-limit, limit);
+            }
+            EyePose {
+                yaw_rad: yaw,
+                pitch_rad: pitch,
+            }
+        })
+    }
+}

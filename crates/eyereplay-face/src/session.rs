@@ -1,0 +1,305 @@
+//! A whole full-face session: trajectory in, webcam-like MP4 and ground
+//! truth out ([`render_face_session`]).
+//!
+//! Per frame, in order:
+//! 1. the gaze target `(nx, ny)` from the canvas position (the same
+//!    [`GazeMapping`] as the close-up mode);
+//! 2. the eye-in-head rotation that puts the iris there at the rest pose;
+//!    from it the gaze in the world by the eye-head coordination model
+//!    ([`crate::coordination`]: the gaze whose eye share is that rotation),
+//!    the head's part of it with its delayed, damped dynamics, plus drift
+//!    and sway ([`Sway`]);
+//! 3. the eye-in-head rotation solved again under the frame's head pose,
+//!    so the iris lands at `(nx, ny)` in the aperture as the extractor
+//!    measures it in the image: the source trajectory stays the eye-in-head
+//!    position, whatever the head does;
+//! 4. the frame drawn ([`FaceScene::draw`]), given the webcam look
+//!    ([`Webcam`]), converted to yuv420p and piped to x264 at the look's
+//!    video-call bitrate.
+//!
+//! Frames are solved in parallel and drawn one after another (each frame's
+//! drawing is parallel inside); the output does not depend on the number
+//! of threads.
+
+use crate::coordination::{head_track, CoordinationParams, HeadDynamics, Sway, Task};
+use crate::error::Result;
+use crate::pose::HeadPose;
+use crate::raster::{Rasterizer, RgbImage, TexturedMesh};
+use crate::scene::{FaceScene, FaceState};
+use crate::webcam::{Webcam, WebcamLook};
+use eyereplay_core::CanvasPos;
+use eyereplay_dataset::{EyeTruthRow, TruthRow};
+use eyereplay_render::{
+    check_trajectory, closure_track, rgb_to_yuv420, Encoder, EncoderSettings, GazeMapping,
+};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+
+/// Columns of the head ground truth written beside each session's truth
+/// CSV: the head pose relative to the rest pose (degrees; translation in
+/// cm, camera frame x right, y down, z away), the eye-in-head rotation
+/// (mean of both eyes) and the gaze in the world (head + eye).
+pub const HEAD_TRUTH_HEADER: &str = "frame,head_yaw_deg,head_pitch_deg,head_roll_deg,\
+head_x_cm,head_y_cm,head_z_cm,eye_yaw_deg,eye_pitch_deg,gaze_yaw_deg,gaze_pitch_deg";
+
+/// The head turns the mode draws, at most (deg), coordination and sway
+/// together: a frontal photo's texture and the backdrop's 2D warp stay
+/// plausible within about this range (beyond it the far cheek stretches
+/// and the photo's own head shows beside the turned one).
+pub const HEAD_YAW_LIMIT_DEG: f64 = 12.0;
+pub const HEAD_PITCH_LIMIT_DEG: f64 = 8.0;
+
+/// What a session varies besides the identity.
+#[derive(Clone, Debug)]
+pub struct FaceSessionParams {
+    pub fps: f64,
+    pub mapping: GazeMapping,
+    pub natural_blinks: bool,
+    pub blink_rate_per_min: f64,
+    pub task: Task,
+    pub coordination: CoordinationParams,
+    pub dynamics: HeadDynamics,
+    /// RMS of the drift and sway: yaw, pitch, roll (deg), x, y, z (cm).
+    pub sway_rms: [f64; 6],
+    pub look: WebcamLook,
+    pub encoder: EncoderSettings,
+    pub seed: u64,
+}
+
+/// What a session render did.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct FaceSessionStats {
+    pub frames: usize,
+    pub clamped_points: usize,
+    pub blink_frames: usize,
+    /// Largest head turn from the rest pose in the session (deg).
+    pub max_head_yaw_deg: f64,
+    pub max_head_pitch_deg: f64,
+    pub render_s: f64,
+    pub total_s: f64,
+}
+
+/// One frame's state and truth.
+struct Solved {
+    state: FaceState,
+    row: TruthRow,
+    /// The head relative to the rest pose, and the mean eye-in-head angles.
+    head: HeadPose,
+    eye_deg: (f64, f64),
+}
+
+/// The gaze angle (deg) whose eye-in-head share is `eye_deg` on one axis:
+/// the inverse of `gaze - head(gaze)` (monotone in the gaze), by bisection.
+fn gaze_for_eye(eye_deg: f64, eye_of_gaze: impl Fn(f64) -> f64) -> f64 {
+    let (mut lo, mut hi) = (-120.0f64, 120.0f64);
+    for _ in 0..50 {
+        let mid = 0.5 * (lo + hi);
+        if eye_of_gaze(mid) < eye_deg {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+fn solve_frames(
+    scene: &FaceScene,
+    traj: &[CanvasPos],
+    blinks: Option<&[bool]>,
+    p: &FaceSessionParams,
+) -> Vec<Solved> {
+    let n = traj.len();
+    let closure = closure_track(
+        n,
+        p.fps,
+        blinks,
+        p.natural_blinks.then_some(p.blink_rate_per_min),
+        p.seed,
+    );
+    let targets: Vec<(f64, f64)> = traj
+        .iter()
+        .map(|&c| {
+            let t = p.mapping.target_norm(c);
+            (t.nx, t.ny)
+        })
+        .collect();
+    let rest = scene.rest_pose;
+    // Eye-in-head at the rest pose, then the gaze whose eye share it is.
+    let eye_rest: Vec<(f64, f64)> = targets
+        .par_iter()
+        .map(|&t| {
+            let e = scene.solve_eyes(&rest, t, 0.0);
+            (
+                0.5 * (e[0].yaw_rad + e[1].yaw_rad).to_degrees(),
+                0.5 * (e[0].pitch_rad + e[1].pitch_rad).to_degrees(),
+            )
+        })
+        .collect();
+    let c = p.coordination;
+    let gaze: Vec<(f64, f64)> = eye_rest
+        .iter()
+        .map(|&(eh, ev)| {
+            let h = gaze_for_eye(eh, |g| g - c.head_target(p.task, g, 0.0).0);
+            let v = gaze_for_eye(ev, |g| g - c.head_target(p.task, 0.0, g).1);
+            (h, v)
+        })
+        .collect();
+    let track = head_track(&c, &p.dynamics, p.task, &gaze, 1.0 / p.fps);
+    let sway = Sway::new(p.seed ^ 0x5ea7, p.sway_rms);
+    (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let s = sway.at(i as f64 / p.fps);
+            let (hh, hv) = track.head_deg[i];
+            let rel = HeadPose {
+                yaw_deg: (hh + s[0]).clamp(-HEAD_YAW_LIMIT_DEG, HEAD_YAW_LIMIT_DEG),
+                pitch_deg: (hv + s[1]).clamp(-HEAD_PITCH_LIMIT_DEG, HEAD_PITCH_LIMIT_DEG),
+                roll_deg: s[2],
+                translation_cm: [s[3], s[4], s[5]],
+            };
+            let head = HeadPose {
+                yaw_deg: rest.yaw_deg + rel.yaw_deg,
+                pitch_deg: rest.pitch_deg + rel.pitch_deg,
+                roll_deg: rest.roll_deg + rel.roll_deg,
+                translation_cm: [
+                    rest.translation_cm[0] + s[3],
+                    rest.translation_cm[1] + s[4],
+                    rest.translation_cm[2] + s[5],
+                ],
+            };
+            let eyes = scene.solve_eyes(&head, targets[i], closure[i]);
+            let pupil_scale = 1.0 + 0.08 * (std::f64::consts::TAU * 0.07 * i as f64 / p.fps).sin();
+            let state = FaceState {
+                head,
+                eyes,
+                closure: closure[i],
+                pupil_scale,
+            };
+            let img = scene.eye_images(&state);
+            let eye_row = |k: usize| {
+                let (nx, ny, aperture) = img[k].norm();
+                EyeTruthRow {
+                    yaw_deg: eyes[k].yaw_rad.to_degrees(),
+                    pitch_deg: eyes[k].pitch_rad.to_degrees(),
+                    iris_px: img[k].iris_px,
+                    nx,
+                    ny,
+                    aperture,
+                }
+            };
+            let row = TruthRow {
+                frame: i as u64,
+                x_px: traj[i].x_px,
+                y_px: traj[i].y_px,
+                eyes: [eye_row(0), eye_row(1)],
+                lid_closure: closure[i],
+                blink: closure[i] >= 0.5,
+            };
+            let eye_deg = (
+                0.5 * (eyes[0].yaw_rad + eyes[1].yaw_rad).to_degrees(),
+                0.5 * (eyes[0].pitch_rad + eyes[1].pitch_rad).to_degrees(),
+            );
+            Solved {
+                state,
+                row,
+                head: rel,
+                eye_deg,
+            }
+        })
+        .collect()
+}
+
+fn write_head_csv(path: &Path, solved: &[Solved]) -> Result<()> {
+    eyereplay_core::atomic_write_with(path, |w| {
+        writeln!(w, "{HEAD_TRUTH_HEADER}")?;
+        for (i, s) in solved.iter().enumerate() {
+            let h = &s.head;
+            writeln!(
+                w,
+                "{i},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+                h.yaw_deg,
+                h.pitch_deg,
+                h.roll_deg,
+                h.translation_cm[0],
+                h.translation_cm[1],
+                h.translation_cm[2],
+                s.eye_deg.0,
+                s.eye_deg.1,
+                h.yaw_deg + s.eye_deg.0,
+                h.pitch_deg + s.eye_deg.1,
+            )?;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
+/// Renders a session of `scene` to `out_mp4`, with the truth CSV (the
+/// close-up mode's layout, measured in this video's image) and the head
+/// truth CSV ([`HEAD_TRUTH_HEADER`]). Nothing is left under the target
+/// names on error.
+pub fn render_face_session(
+    scene: &FaceScene,
+    traj: &[CanvasPos],
+    blinks: Option<&[bool]>,
+    p: &FaceSessionParams,
+    out_mp4: &Path,
+    out_truth_csv: &Path,
+    out_head_csv: &Path,
+) -> Result<FaceSessionStats> {
+    let t0 = Instant::now();
+    let (traj, clamped) = check_trajectory(traj, blinks, p.mapping.canvas)?;
+    let (w, h) = (scene.width(), scene.height());
+    let mut enc = p.encoder.clone();
+    enc.bitrate_kbps = Some(p.look.bitrate_kbps_for(w, h));
+    let mut encoder = Encoder::start(out_mp4, w, h, p.fps, &enc)?;
+    let solved = solve_frames(scene, &traj, blinks, p);
+    let t1 = Instant::now();
+    let mut raster = Rasterizer::new(w, h);
+    let mut mesh = TexturedMesh::new(vec![], vec![], vec![]);
+    let mut frame = RgbImage::filled(w, h, [0, 0, 0]);
+    let mut yuv = vec![0u8; w * h * 3 / 2];
+    let mut webcam = Webcam::new(&p.look, w, h);
+    let mut last_nose: Option<[f64; 2]> = None;
+    for (i, s) in solved.iter().enumerate() {
+        scene.draw(&s.state, &mut raster, &mut mesh, &mut frame);
+        let nose = scene.nose_px(&s.state.head);
+        let motion = last_nose.map_or([0.0, 0.0], |q| {
+            [(nose[0] - q[0]) as f32, (nose[1] - q[1]) as f32]
+        });
+        last_nose = Some(nose);
+        webcam.apply(&mut frame, i as u64, motion);
+        rgb_to_yuv420(&frame.data, w, [0, 0, w, h], &mut yuv, w, h);
+        encoder.write_frame(&yuv)?;
+    }
+    let render_s = t1.elapsed().as_secs_f64();
+    let rows: Vec<TruthRow> = solved.iter().map(|s| s.row).collect();
+    eyereplay_dataset::write_truth_csv(out_truth_csv, &rows)?;
+    if let Err(e) = write_head_csv(out_head_csv, &solved) {
+        let _ = std::fs::remove_file(out_truth_csv);
+        return Err(e);
+    }
+    if let Err(e) = encoder.finish() {
+        let _ = std::fs::remove_file(out_truth_csv);
+        let _ = std::fs::remove_file(out_head_csv);
+        return Err(e.into());
+    }
+    Ok(FaceSessionStats {
+        frames: solved.len(),
+        clamped_points: clamped,
+        blink_frames: rows.iter().filter(|r| r.blink).count(),
+        max_head_yaw_deg: solved
+            .iter()
+            .map(|s| s.head.yaw_deg.abs())
+            .fold(0.0, f64::max),
+        max_head_pitch_deg: solved
+            .iter()
+            .map(|s| s.head.pitch_deg.abs())
+            .fold(0.0, f64::max),
+        render_s,
+        total_s: t0.elapsed().as_secs_f64(),
+    })
+}

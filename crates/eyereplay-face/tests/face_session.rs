@@ -1,0 +1,133 @@
+//! A full-face session end to end: rendered to H.264 with the default
+//! webcam look, read back by the extractor's unmodified video path, and
+//! compared with the ground truth (needs scripts/setup.sh's models and
+//! face assets).
+
+mod common;
+
+use eyereplay_core::{Canvas, NormPos};
+use eyereplay_extract::{extract_video_to_csv, ExtractOptions};
+use eyereplay_face::coordination::{CoordinationParams, HeadDynamics, Task, DEFAULT_SWAY_RMS};
+use eyereplay_face::webcam::WebcamRanges;
+use eyereplay_face::*;
+use eyereplay_render::{reading_trajectory, EncoderSettings, GazeMapping, Identity};
+
+fn pearson(a: &[f64], b: &[f64]) -> (f64, f64) {
+    let n = a.len() as f64;
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        sab += (x - ma) * (y - mb);
+        saa += (x - ma) * (x - ma);
+        sbb += (y - mb) * (y - mb);
+    }
+    (sab / (saa * sbb).sqrt(), sab / saa)
+}
+
+/// A reading-scale session: the face is found in every frame, the
+/// horizontal eye-in-head signal comes back with r >= 0.9 and a gain inside
+/// 0.8-1.2 (after the extractor-response probe), the head moves, and the
+/// same seed gives the same truth files byte for byte.
+#[test]
+fn full_face_session_reads_back() {
+    let (Some(models), Some(mesh), Some(photo)) = (
+        common::models(),
+        common::mesh(),
+        common::faces_file("astronaut.png"),
+    ) else {
+        return;
+    };
+    let mut fitter = PhotoFitter::new(&models, mesh.clone()).unwrap();
+    let id = fitter.fit(&photo).unwrap();
+    let look = WebcamRanges::default().sample(3);
+    let framing = Framing {
+        width: 640,
+        height: 480,
+        vfov_deg: look.vfov_deg,
+        face_height_frac: 0.42,
+        light_dir: [0.3, 0.4, 0.9],
+    };
+    let scene = FaceScene::new(id, &mesh, Identity::sample(3), &framing);
+    let canvas = Canvas::default();
+    let traj = reading_trajectory(150, canvas.width_px as f64, canvas.height_px as f64);
+    let mut mapping = GazeMapping::new(canvas);
+    let targets: Vec<NormPos> = traj.iter().map(|&c| mapping.target_norm(c)).collect();
+    mapping.extractor_response = measure_response(&scene, &look, &mut fitter, &targets).unwrap();
+    let map = mapping.extractor_response.expect("a response map");
+    let params = FaceSessionParams {
+        fps: 25.0,
+        mapping,
+        natural_blinks: false,
+        blink_rate_per_min: 0.0,
+        task: Task::Reading,
+        coordination: CoordinationParams::default(),
+        dynamics: HeadDynamics::default(),
+        sway_rms: DEFAULT_SWAY_RMS,
+        look,
+        encoder: EncoderSettings::default(),
+        seed: 3,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (mp4, truth, head) = (
+        dir.path().join("s.mp4"),
+        dir.path().join("s_truth.csv"),
+        dir.path().join("s_head.csv"),
+    );
+    let stats = render_face_session(&scene, &traj, None, &params, &mp4, &truth, &head).unwrap();
+    assert_eq!(stats.frames, 150);
+    assert!(stats.max_head_yaw_deg > 0.2, "the head sways");
+    let ex = extract_video_to_csv(
+        &mp4,
+        &dir.path().join("x.csv"),
+        &ExtractOptions {
+            models_dir: models.clone(),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(ex.detection_rate() >= 0.99, "{}", ex.detection_rate());
+    let rows = eyereplay_dataset::read_truth_csv(&truth).unwrap();
+    let (mut got, mut want) = (vec![], vec![]);
+    for (r, t) in ex.rows.iter().zip(&rows) {
+        if let (Some(e), false) = (r.eyes, r.blink) {
+            got.push(0.5 * (e[0].nx + e[1].nx));
+            // The source's n is what the response map reads for the drawn n.
+            let d = t.mean_norm();
+            want.push(map.apply(NormPos { nx: d[0], ny: d[1] }).nx);
+        }
+    }
+    let (r, gain) = pearson(&want, &got);
+    let sd = |v: &[f64]| {
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
+    };
+    eprintln!(
+        "horizontal r {r:.3} gain {gain:.3} over {} frames; sd want {:.4} got {:.4}; map {map:?}",
+        got.len(),
+        sd(&want),
+        sd(&got)
+    );
+    assert!(r >= 0.9, "r {r}");
+    assert!((0.8..=1.2).contains(&gain), "gain {gain}");
+
+    // Determinism of the truth files.
+    let (truth2, head2) = (dir.path().join("t2.csv"), dir.path().join("h2.csv"));
+    render_face_session(
+        &scene,
+        &traj,
+        None,
+        &params,
+        &dir.path().join("s2.mp4"),
+        &truth2,
+        &head2,
+    )
+    .unwrap();
+    assert_eq!(
+        std::fs::read(&truth).unwrap(),
+        std::fs::read(&truth2).unwrap()
+    );
+    assert_eq!(
+        std::fs::read(&head).unwrap(),
+        std::fs::read(&head2).unwrap()
+    );
+}

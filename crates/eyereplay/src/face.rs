@@ -1,0 +1,253 @@
+//! The full-face render mode for a whole dataset (`[render] backend =
+//! "face"`): identities fitted once from the configured photos (or the
+//! bundled ones), then each session drawn by eyereplay-face with its own
+//! identity, head-movement person, and webcam look, all from its seed.
+
+use crate::progress::{Progress, Stage};
+use crate::render::RenderSummary;
+use crate::shard::Shard;
+use crate::{Error, Result};
+use eyereplay_core::NormPos;
+use eyereplay_dataset::{DatasetMetadata, RenderSettings, SessionIdentity};
+use eyereplay_face::coordination::{CoordinationParams, HeadDynamics, Task, DEFAULT_SWAY_RMS};
+use eyereplay_face::webcam::{WebcamLook, WebcamRanges};
+use eyereplay_face::{
+    default_faces_dir, CanonicalMesh, FaceScene, FaceSessionParams, Framing, PhotoFitter,
+    PhotoIdentity, MESH_FILE,
+};
+use eyereplay_render::{GazeMapping, Identity, RenderParams};
+use rand::SeedableRng;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// The photos bundled by `scripts/face-assets.sh` (licenses in NOTICE).
+pub const BUNDLED_FACES: [&str; 4] = [
+    "astronaut.png",
+    "grace_hopper.jpg",
+    "psychopy_face01.jpg",
+    "psychopy_face.jpg",
+];
+
+/// The photos a face-mode config uses: its `identities` resolved against
+/// the config's folder, or the bundled photos.
+pub fn identity_photos(
+    settings: &RenderSettings,
+    resolve: impl Fn(&Path) -> PathBuf,
+) -> Vec<PathBuf> {
+    if settings.identities.is_empty() {
+        let dir = default_faces_dir();
+        BUNDLED_FACES.iter().map(|n| dir.join(n)).collect()
+    } else {
+        settings.identities.iter().map(|p| resolve(p)).collect()
+    }
+}
+
+/// The `[render.webcam]` table typed and checked.
+pub fn webcam_ranges(settings: &RenderSettings) -> Result<WebcamRanges> {
+    let r: WebcamRanges = match &settings.webcam {
+        None => WebcamRanges::default(),
+        Some(t) => toml::Value::Table(t.clone())
+            .try_into()
+            .map_err(|e| Error::Setting(format!("[render.webcam]: {}", e.message())))?,
+    };
+    r.validate().map_err(Error::Setting)?;
+    let [lo, hi] = settings.face_height_frac;
+    if !(lo.is_finite() && hi.is_finite() && 0.15 <= lo && lo <= hi && hi <= 0.8) {
+        return Err(Error::Setting(format!(
+            "[render]: face_height_frac [{lo}, {hi}] must be a range inside [0.15, 0.8]"
+        )));
+    }
+    if !(settings.head_sway.is_finite() && (0.0..=5.0).contains(&settings.head_sway)) {
+        return Err(Error::Setting(format!(
+            "[render]: head_sway {} must be between 0 and 5",
+            settings.head_sway
+        )));
+    }
+    Ok(r)
+}
+
+/// Checks everything the face mode needs before work starts: the settings,
+/// the canonical mesh, and every photo (read and fitted: a photo without a
+/// usable face fails here, with its name).
+pub fn fit_identities(
+    photos: &[PathBuf],
+) -> Result<(CanonicalMesh, Vec<PhotoIdentity>, PhotoFitter)> {
+    let mesh_path = default_faces_dir().join(MESH_FILE);
+    let mesh = CanonicalMesh::load(&mesh_path)?;
+    let mut fitter = PhotoFitter::new(&eyereplay_extract::default_models_dir(), mesh.clone())?;
+    let ids = photos
+        .iter()
+        .map(|p| fitter.fit(p))
+        .collect::<std::result::Result<Vec<_>, _>>()?;
+    Ok((mesh, ids, fitter))
+}
+
+/// What a face-mode session records in its identity file.
+#[derive(Serialize)]
+struct FaceIdentityRecord<'a> {
+    backend: &'static str,
+    photo: String,
+    eye_identity: &'a Identity,
+    webcam: &'a WebcamLook,
+    face_height_frac: f64,
+    coordination_e0_deg: f64,
+    coordination_k: f64,
+    task: &'static str,
+    max_head_yaw_deg: f64,
+    max_head_pitch_deg: f64,
+}
+
+/// Renders the unfinished sessions of `out` in the full-face mode.
+pub(crate) fn render_sessions_face(
+    out: &Path,
+    meta: &DatasetMetadata,
+    settings: &RenderSettings,
+    params: &RenderParams,
+    shard: Option<Shard>,
+    progress: &dyn Progress,
+) -> Result<RenderSummary> {
+    let ranges = webcam_ranges(settings)?;
+    let photos = identity_photos(settings, |p| p.to_path_buf());
+    let ffprobe = eyereplay_render::ffprobe_for(&params.encoder.ffmpeg);
+    let mut sessions = eyereplay_render::list_sessions(out, meta.seed)?;
+    if let Some(s) = shard {
+        sessions = sessions
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| s.contains(*i))
+            .map(|(_, j)| j)
+            .collect();
+    }
+    let (mesh, identities, mut fitter) = fit_identities(&photos)?;
+    let info = eyereplay_render::read_dataset_info(out)?;
+    let mut mapping = GazeMapping::new(info.canvas);
+    if let Some(c) = info.calibration {
+        mapping.calibration = c;
+    }
+    mapping.gain = params.mapping.gain;
+    mapping.viewing_distance_mm = params.mapping.viewing_distance_mm;
+    progress.begin(Stage::Render, (sessions.len() * meta.session_frames) as u64);
+    let mut summary = RenderSummary::default();
+    let mut failed = vec![];
+    for (n, job) in sessions.iter().enumerate() {
+        progress.status(&format!("{}/{} sessions", n + 1, sessions.len()));
+        let files = &job.paths;
+        let head_csv = files.head_csv();
+        for target in files.outputs().into_iter().chain([head_csv.as_path()]) {
+            for p in eyereplay_core::stale_temp_files(target) {
+                std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?;
+            }
+        }
+        let traj = eyereplay_core::read_session_csv(&files.csv)?;
+        let blinks = eyereplay_render::read_blink_column(&files.csv)?;
+        if head_csv.exists() && eyereplay_render::is_complete(job, traj.len(), &ffprobe) {
+            summary.skipped += 1;
+            progress.advance(traj.len() as u64);
+            continue;
+        }
+        let seed = job.seed;
+        let photo = &identities[(seed % identities.len() as u64) as usize];
+        let look = ranges.sample(seed ^ 0x00ca_3e4a);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x4ead);
+        let coordination = CoordinationParams::sample(&mut rng);
+        let [lo, hi] = settings.face_height_frac;
+        let frac = lo + (hi - lo) * rand::Rng::gen::<f64>(&mut rng);
+        let eye_identity = Identity::sample(seed);
+        let az = look.light_azimuth_deg.to_radians();
+        let el = 25f64.to_radians();
+        let framing = Framing {
+            width: params.width,
+            height: params.height,
+            vfov_deg: look.vfov_deg,
+            face_height_frac: frac,
+            light_dir: [el.cos() * az.sin(), el.sin(), el.cos() * az.cos()],
+        };
+        let scene = FaceScene::new(photo.clone(), &mesh, eye_identity.clone(), &framing);
+        let class = files.file.split('/').next().unwrap_or("");
+        let task = if class.to_ascii_lowercase().contains("read") {
+            Task::Reading
+        } else {
+            Task::Saccades
+        };
+        // match_extractor: measure how the extractor reads this identity,
+        // framing and look, and draw through the inverse.
+        let mut session_mapping = mapping;
+        let response = if settings.match_extractor {
+            let targets: Vec<NormPos> = traj.iter().map(|&c| mapping.target_norm(c)).collect();
+            eyereplay_face::measure_response(&scene, &look, &mut fitter, &targets)?
+        } else {
+            None
+        };
+        session_mapping.extractor_response = response;
+        let p = FaceSessionParams {
+            fps: meta.fps,
+            mapping: session_mapping,
+            natural_blinks: settings.natural_blinks,
+            blink_rate_per_min: eye_identity.blink_rate_per_min,
+            task,
+            coordination,
+            dynamics: HeadDynamics::default(),
+            sway_rms: DEFAULT_SWAY_RMS.map(|r| r * settings.head_sway),
+            look: look.clone(),
+            encoder: params.encoder.clone(),
+            seed,
+        };
+        let result = eyereplay_face::render_face_session(
+            &scene,
+            &traj,
+            blinks.as_deref(),
+            &p,
+            &files.mp4,
+            &files.truth,
+            &head_csv,
+        )
+        .map_err(Error::from)
+        .and_then(|stats| {
+            SessionIdentity {
+                file: files.file.clone(),
+                seed,
+                identity: FaceIdentityRecord {
+                    backend: "face",
+                    photo: photo.name.clone(),
+                    eye_identity: &eye_identity,
+                    webcam: &look,
+                    face_height_frac: frac,
+                    coordination_e0_deg: coordination.e0_deg,
+                    coordination_k: coordination.k,
+                    task: if task == Task::Reading {
+                        "reading"
+                    } else {
+                        "saccades"
+                    },
+                    max_head_yaw_deg: stats.max_head_yaw_deg,
+                    max_head_pitch_deg: stats.max_head_pitch_deg,
+                },
+                mapping: &session_mapping,
+                width: params.width,
+                height: params.height,
+                fps: meta.fps,
+                eyes: None,
+            }
+            .write(&files.identity_json)?;
+            Ok(stats)
+        });
+        progress.advance(traj.len() as u64);
+        match result {
+            Ok(stats) => {
+                summary.rendered += 1;
+                summary.frames += stats.frames;
+                summary.clamped_points += stats.clamped_points;
+            }
+            Err(e) => {
+                let m = format!("{}: {e}", files.file);
+                progress.warn(&format!("error: {m}"));
+                failed.push(m);
+            }
+        }
+    }
+    progress.end(Stage::Render);
+    if !failed.is_empty() {
+        return Err(Error::SessionsFailed(failed));
+    }
+    Ok(summary)
+}
