@@ -36,6 +36,10 @@ use rayon::prelude::*;
 /// lids rest on the globe, so the corneal apex (13.2 mm from the centre of
 /// a 12 mm eye) stands about 2 mm in front of the lid margins.
 const EYE_CENTRE_BEHIND_LIDS_CM: f64 = 1.1;
+/// The eye-in-head rotation the solver allows (deg): the human
+/// oculomotor range is about +-50-55 deg (Guitton & Volle 1987); a frontal
+/// photo's lid opening is reached well before that.
+pub const EYE_LIMIT_DEG: f64 = 50.0;
 /// How much of a lid vertex's motion the skin next to it follows.
 const UPPER_SKIN_FOLLOW: f32 = 0.45;
 const LOWER_SKIN_FOLLOW: f32 = 0.3;
@@ -164,6 +168,13 @@ pub struct FaceScene {
     /// The eyeball's identity (iris and sclera textures, eye geometry).
     pub eye_identity: Identity,
     eyeball: Eyeball,
+    /// Per-channel factor on the eyeball's linear colour, so its sclera
+    /// comes out as bright and as tinted as the photo's own sclera (the
+    /// photo's exposure and light, not the eye model's).
+    eye_gain: [f32; 3],
+    /// Forehead-to-chin over the frame height at the rest pose: the
+    /// framing's, or more where the photo is small around the face.
+    pub face_frac: f64,
     mesh: TexturedMesh,
     eyes: [EyeSetup; 2],
     lid_follow: (f64, f64),
@@ -259,10 +270,43 @@ impl FaceScene {
             (((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)) as f64).sqrt()
         };
         let face_cm = dist(s[lm::FOREHEAD], s[lm::CHIN]);
-        let depth_cm =
-            camera.focal_px * face_cm / (framing.face_height_frac * framing.height as f64);
-        // Face centre (between forehead and chin) a little above the frame
-        // centre, as a webcam user sits.
+        // Framing: the frame shows a window of the photo around the face.
+        // The face is at least `face_height_frac` of the frame, more where
+        // the photo is too small around it (up to 0.6), so the frame stays
+        // inside the photo; the window is centred a little below the face
+        // (a webcam user sits with the face in the upper half) and slid
+        // inside the photo, so a face off-centre in the photo is off-centre
+        // in the frame too. Beyond the photo, the backdrop mirrors it.
+        let (fw, fh) = (framing.width as f64, framing.height as f64);
+        let (pw, ph) = (
+            identity.texture.width as f64,
+            identity.texture.height as f64,
+        );
+        let face_px = identity.face_height_px as f64;
+        let face_height_frac = framing
+            .face_height_frac
+            .max(face_px / ph.min(pw * fh / fw))
+            .min(0.6);
+        let depth_cm = camera.focal_px * face_cm / (face_height_frac * fh);
+        let lm_px = |i: usize| identity.landmarks_px[i].map(f64::from);
+        let (a, b) = (lm_px(lm::FOREHEAD), lm_px(lm::CHIN));
+        let mid_px = [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0];
+        let win_h = face_px / face_height_frac;
+        let win_w = win_h * fw / fh;
+        let slide = |c: f64, size: f64, extent: f64| {
+            if size >= extent {
+                extent / 2.0
+            } else {
+                c.clamp(size / 2.0, extent - size / 2.0)
+            }
+        };
+        let win_cx = slide(mid_px[0], win_w, pw);
+        let win_cy = slide(mid_px[1] + 0.06 * win_h, win_h, ph);
+        // Where the face's middle lands in the frame.
+        let out = [
+            (mid_px[0] - win_cx) * fh / win_h + fw / 2.0,
+            (mid_px[1] - win_cy) * fh / win_h + fh / 2.0,
+        ];
         let mid = Vector3::new(
             (s[lm::FOREHEAD][0] + s[lm::CHIN][0]) as f64 / 2.0,
             (s[lm::FOREHEAD][1] + s[lm::CHIN][1]) as f64 / 2.0,
@@ -276,8 +320,8 @@ impl FaceScene {
         };
         let (m, _) = rest_pose.to_camera();
         let want = Vector3::new(
-            0.0,
-            -0.06 * framing.height as f64 / camera.focal_px * depth_cm,
+            (out[0] - camera.cx_px) / camera.focal_px * depth_cm,
+            (out[1] - camera.cy_px) / camera.focal_px * depth_cm,
             depth_cm,
         );
         let t = want - m * mid;
@@ -299,10 +343,11 @@ impl FaceScene {
             eye_of(&RIGHT_EYE_CONTOUR, true),
             eye_of(&LEFT_EYE_CONTOUR, false),
         ];
-        let lin = |c: u8| eyereplay_render::math::srgb_to_linear(c as f32 / 255.0);
+        let lin = |c: u8| eyereplay_render::math::srgb_to_linear(c as f32);
         let iris = identity.iris_rgb.map(lin);
         eye_identity.iris.outer_rgb = iris;
         eye_identity.iris.inner_rgb = iris.map(|c| c * 0.8);
+        let photo_sclera = photo_sclera_linear(&identity);
         // The photo's iris radius relative to its eye width gives the
         // eyeball's iris radius in mm (the mesh is metric).
         let ratio: f64 = identity
@@ -325,8 +370,38 @@ impl FaceScene {
             .sum::<f64>()
             / 2.0;
         eye_identity.eye.iris_radius_mm = ratio.clamp(5.3, 6.5);
-        let eyeball = Eyeball::new(&eye_identity);
         let l = Vector3::from(framing.light_dir).normalize();
+        // The eye model's own sclera and iris under this light, seen from
+        // the front, against the photo's: a gain for the sclera, and the
+        // iris texture scaled so that after that gain it shows the photo's
+        // iris colour.
+        let light_eye = [l.x as f32, -l.y as f32, l.z as f32];
+        let probe = |ball: &Eyeball, x_mm: f32| -> [f32; 3] {
+            ball.shade([x_mm, 0.0, 30.0], [0.0, 0.0, -1.0], light_eye, 1.0)
+                .unwrap_or([0.5; 3])
+        };
+        let first = Eyeball::new(&eye_identity);
+        let r_iris = first.iris_radius_mm() as f32;
+        let sclera_ref = probe(&first, r_iris + 2.5);
+        // One brightness gain, and a tint of at most 15 % per channel (a
+        // small photo's "sclera" pixels also hold lid and lash).
+        let luma = |c: [f32; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+        let eye_gain: [f32; 3] = match photo_sclera {
+            Some(ps) => {
+                let g = (luma(ps) / luma(sclera_ref).max(1e-3)).clamp(0.3, 1.2);
+                std::array::from_fn(|c| g * (ps[c] / sclera_ref[c].max(1e-3) / g).clamp(0.85, 1.15))
+            }
+            None => [1.0; 3],
+        };
+        let iris_ref = probe(&first, 0.75 * r_iris);
+        for c in 0..3 {
+            let want = iris[c];
+            let got = (iris_ref[c] * eye_gain[c]).max(1e-4);
+            let k = (want / got).clamp(0.3, 4.0);
+            eye_identity.iris.outer_rgb[c] = (eye_identity.iris.outer_rgb[c] * k).min(1.0);
+            eye_identity.iris.inner_rgb[c] = (eye_identity.iris.inner_rgb[c] * k).min(1.0);
+        }
+        let eyeball = Eyeball::new(&eye_identity);
         let mut scene = FaceScene {
             mesh: identity.textured_mesh(mesh, true),
             eyes,
@@ -336,6 +411,8 @@ impl FaceScene {
             ),
             eye_identity,
             eyeball,
+            eye_gain,
+            face_frac: face_height_frac,
             camera,
             rest_pose,
             light_head: l,
@@ -431,7 +508,10 @@ impl FaceScene {
             .for_each(|(y, row)| {
                 for x in 0..w {
                     let q = to_photo.apply([x as f64 + 0.5, y as f64 + 0.5]);
-                    let c = tex.sample(q[0] as f32, q[1] as f32);
+                    let c = tex.sample(
+                        mirror(q[0] as f32, tex.width as f32),
+                        mirror(q[1] as f32, tex.height as f32),
+                    );
                     for k in 0..3 {
                         row[x * 3 + k] = (c[k] + 0.5) as u8;
                     }
@@ -544,7 +624,10 @@ impl FaceScene {
         if frame.width != w || frame.height != h {
             *frame = RgbImage::filled(w, h, [0, 0, 0]);
         }
-        self.draw_backdrop(&state.head, frame);
+        // The still room first, the face over it; then the part of the
+        // backdrop that follows the head, only where the face left the
+        // pixel uncovered (most of the head box is face).
+        frame.data.copy_from_slice(&self.backdrop.still);
         if mesh.triangles.len() != self.mesh.triangles.len() {
             *mesh = self.mesh.clone();
         }
@@ -556,15 +639,45 @@ impl FaceScene {
             mesh,
             &self.identity.texture,
         );
+        let holes = [0, 1].map(|k| self.eye_rect(state, k, &mesh.positions_cm));
+        self.draw_backdrop(&state.head, raster.inv_depth(), &holes, frame);
         for k in 0..2 {
             self.draw_eye(state, k, &mesh.positions_cm, raster.inv_depth(), frame);
         }
     }
 
-    fn draw_backdrop(&self, head: &HeadPose, frame: &mut RgbImage) {
+    /// The pixel box around eye `k`'s lid opening as posed.
+    fn eye_rect(&self, state: &FaceState, k: usize, verts: &[[f32; 3]]) -> [usize; 4] {
+        let e = &self.eyes[k];
+        let v = |i: u32| Vector3::from(verts[i as usize].map(f64::from));
+        let mut pts = vec![v(e.rig.corner_left), v(e.rig.corner_right)];
+        pts.extend(e.rig.upper.iter().map(|&i| v(i)));
+        pts.extend(e.rig.lower.iter().map(|&i| v(i)));
+        let px = self.project(&state.head, pts.into_iter());
+        let (w, h) = (self.width() as f64, self.height() as f64);
+        let lo = |i: usize| px.iter().map(|p| p[i]).fold(f64::MAX, f64::min);
+        let hi = |i: usize| px.iter().map(|p| p[i]).fold(f64::MIN, f64::max);
+        [
+            (lo(0) - 2.0).clamp(0.0, w) as usize,
+            (lo(1) - 2.0).clamp(0.0, h) as usize,
+            (hi(0) + 3.0).clamp(0.0, w) as usize,
+            (hi(1) + 3.0).clamp(0.0, h) as usize,
+        ]
+    }
+
+    /// The part of the backdrop that follows the head, where the face left
+    /// pixels uncovered; then the face's outline feathered into it over a
+    /// few pixels (a hard outline shows as a seam once the head turns).
+    /// `holes` are the eye openings, which are not outline.
+    fn draw_backdrop(
+        &self,
+        head: &HeadPose,
+        covered: &[f32],
+        holes: &[[usize; 4]; 2],
+        frame: &mut RgbImage,
+    ) {
         let b = &self.backdrop;
         let w = self.width();
-        frame.data.copy_from_slice(&b.still);
         let s = &self.identity.shape_cm;
         let now = self.project(
             head,
@@ -574,31 +687,111 @@ impl FaceScene {
         );
         // Image motion of the head: current -> rest.
         let back = Sim2::fit(&now, &b.rest_anchors_px);
-        if back == Sim2::IDENTITY {
-            return;
-        }
+        // Photo position of output pixel p: S0(p) + weight(p) * E(p), with
+        // E(p) = S0(back(p)) - S0(p) affine in p, so both are a few f32
+        // multiply-adds per pixel.
+        let s0 = b.to_photo;
+        let e = {
+            // E = S0 o back - S0 as an affine map: linear part A0 (B - I).
+            let (ar, ai) = (back.ar - 1.0, back.ai);
+            Sim2 {
+                ar: s0.ar * ar - s0.ai * ai,
+                ai: s0.ar * ai + s0.ai * ar,
+                bx: s0.ar * back.bx - s0.ai * back.by,
+                by: s0.ai * back.bx + s0.ar * back.by,
+            }
+        };
+        let f = |m: Sim2| [m.ar as f32, m.ai as f32, m.bx as f32, m.by as f32];
+        let ([sr, si, sx, sy], [er, ei, ex, ey]) = (f(s0), f(e));
         let [x0, y0, x1, y1] = b.moving_box;
         let tex = &self.identity.texture;
+        let (tw, th) = (tex.width as f32, tex.height as f32);
         frame.data[y0 * w * 3..y1 * w * 3]
             .par_chunks_mut(w * 3)
             .enumerate()
             .for_each(|(dy, row)| {
                 let y = y0 + dy;
+                let py = y as f32 + 0.5;
                 for x in x0..x1 {
-                    let wt = b.weight[y * w + x] as f64;
-                    if wt <= 0.0 {
+                    let k = y * w + x;
+                    let wt = b.weight[k];
+                    if wt <= 0.0 || covered[k] != 0.0 {
                         continue;
                     }
-                    let p = [x as f64 + 0.5, y as f64 + 0.5];
-                    let q = back.apply(p);
-                    let q = [p[0] + wt * (q[0] - p[0]), p[1] + wt * (q[1] - p[1])];
-                    let r = b.to_photo.apply(q);
-                    let c = tex.sample(r[0] as f32, r[1] as f32);
-                    for k in 0..3 {
-                        row[x * 3 + k] = (c[k] + 0.5) as u8;
+                    let px = x as f32 + 0.5;
+                    let rx = sr * px - si * py + sx + wt * (er * px - ei * py + ex);
+                    let ry = si * px + sr * py + sy + wt * (ei * px + er * py + ey);
+                    let c = tex.sample(mirror(rx, tw), mirror(ry, th));
+                    for ch in 0..3 {
+                        row[x * 3 + ch] = (c[ch] + 0.5) as u8;
                     }
                 }
             });
+        // Feather: coverage (eye openings count as covered) box-blurred
+        // over `r` px; a covered pixel whose neighbourhood is part
+        // uncovered is mixed with the backdrop.
+        let r = ((0.015 * self.face_frac * self.height() as f64).round() as usize).max(1);
+        let (bw, bh) = (x1 - x0, y1 - y0);
+        if bw == 0 || bh == 0 {
+            return;
+        }
+        let in_hole = |x: usize, y: usize| {
+            holes
+                .iter()
+                .any(|h| x >= h[0] && x < h[2] && y >= h[1] && y < h[3])
+        };
+        let mut m = vec![0u16; bw * bh];
+        for y in 0..bh {
+            for x in 0..bw {
+                let (gx, gy) = (x0 + x, y0 + y);
+                m[y * bw + x] = u16::from(covered[gy * w + gx] != 0.0 || in_hole(gx, gy));
+            }
+        }
+        let blur = |src: &[u16], stride: usize, n: usize, count: usize, step: usize| {
+            // Box sum along one axis (edges clamped).
+            let mut out = vec![0u16; src.len()];
+            for line in 0..count {
+                let at = |i: usize| src[line * stride + i * step];
+                let mut acc: u32 = 0;
+                for i in 0..=r.min(n - 1) {
+                    acc += at(i) as u32;
+                }
+                acc += at(0) as u32 * r as u32;
+                for i in 0..n {
+                    out[line * stride + i * step] = acc as u16;
+                    let add = at((i + r + 1).min(n - 1)) as u32;
+                    let sub = at(i.saturating_sub(r)) as u32;
+                    acc = acc + add - sub;
+                }
+            }
+            out
+        };
+        let hsum = blur(&m, bw, bw, bh, 1);
+        let sum = blur(&hsum, 1, bh, bw, bw);
+        let full = ((2 * r + 1) * (2 * r + 1)) as f32;
+        for y in 0..bh {
+            for x in 0..bw {
+                let k = y * bw + x;
+                if m[k] == 0 || sum[k] as f32 >= full {
+                    continue;
+                }
+                let (gx, gy) = (x0 + x, y0 + y);
+                if in_hole(gx, gy) {
+                    continue;
+                }
+                let alpha = ((sum[k] as f32 / full - 0.5) * 2.0).clamp(0.0, 1.0);
+                let wt = b.weight[gy * w + gx];
+                let (px, py) = (gx as f32 + 0.5, gy as f32 + 0.5);
+                let rx = sr * px - si * py + sx + wt * (er * px - ei * py + ex);
+                let ry = si * px + sr * py + sy + wt * (ei * px + er * py + ey);
+                let c = tex.sample(mirror(rx, tw), mirror(ry, th));
+                let o = (gy * w + gx) * 3;
+                for ch in 0..3 {
+                    let f = frame.data[o + ch] as f32;
+                    frame.data[o + ch] = (c[ch] + (f - c[ch]) * alpha + 0.5) as u8;
+                }
+            }
+        }
     }
 
     /// Ray-traces eye `k` into the pixels of its lid opening that the face
@@ -693,7 +886,10 @@ impl FaceScene {
                     .fold(f64::MAX, f64::min);
                 let shade = (1.0 - 0.55 * (-du / shadow_px).exp())
                     * (1.0 - 0.35 * (-dc / (0.12 * eye_w).max(1.0)).exp());
-                let rgb = self.lut.rgb(c * shade as f32);
+                let g = self.eye_gain;
+                let rgb = self
+                    .lut
+                    .rgb(f3(c.x * g[0], c.y * g[1], c.z * g[2]) * shade as f32);
                 let i = (y * w + x) * 3;
                 frame.data[i..i + 3].copy_from_slice(&rgb);
             }
@@ -707,7 +903,7 @@ impl FaceScene {
 /// started from the same guess every frame so frames are independent).
 impl FaceScene {
     pub fn solve_eyes(&self, head: &HeadPose, target: (f64, f64), closure: f64) -> [EyePose; 2] {
-        let limit = (35f64).to_radians();
+        let limit = EYE_LIMIT_DEG.to_radians();
         let measure = |k: usize, pose: EyePose| -> (f64, f64) {
             let mut st = FaceState {
                 head: *head,
@@ -761,4 +957,64 @@ impl FaceScene {
             }
         })
     }
+}
+
+/// `v` reflected into `[0, n]` (mirror padding: a backdrop wider than the
+/// photo repeats its edge region mirrored rather than smearing its edge
+/// pixels into streaks).
+#[inline(always)]
+fn mirror(v: f32, n: f32) -> f32 {
+    let p = 2.0 * n;
+    let m = v.rem_euclid(p);
+    if m > n {
+        p - m
+    } else {
+        m
+    }
+}
+
+/// Mean linear colour of the photo's visible sclera: inside each eye's lid
+/// contour, more than 1.3 iris radii from the iris centre, the brightest
+/// half (lashes and lid shadow excluded); `None` when too few pixels show.
+fn photo_sclera_linear(id: &PhotoIdentity) -> Option<[f32; 3]> {
+    let mut px: Vec<[u8; 3]> = vec![];
+    for e in &id.eyes {
+        let poly: Vec<[f32; 2]> = e
+            .contour
+            .iter()
+            .map(|&i| id.landmarks_px[i as usize])
+            .collect();
+        let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
+        for p in &poly {
+            x0 = x0.min(p[0]);
+            y0 = y0.min(p[1]);
+            x1 = x1.max(p[0]);
+            y1 = y1.max(p[1]);
+        }
+        let t = &id.texture;
+        for y in (y0.max(0.0) as usize)..(y1.ceil() as usize).min(t.height) {
+            for x in (x0.max(0.0) as usize)..(x1.ceil() as usize).min(t.width) {
+                let p = [x as f32 + 0.5, y as f32 + 0.5];
+                let d = ((p[0] - e.iris_center_px[0]).powi(2)
+                    + (p[1] - e.iris_center_px[1]).powi(2))
+                .sqrt();
+                if d > 1.3 * e.iris_radius_px && crate::photo::inside(&poly, p) {
+                    px.push(t.pixel(x, y));
+                }
+            }
+        }
+    }
+    if px.len() < 8 {
+        return None;
+    }
+    px.sort_by_key(|c| 299 * c[0] as u32 + 587 * c[1] as u32 + 114 * c[2] as u32);
+    let kept = &px[px.len() / 2..];
+    let lin = |c: u8| eyereplay_render::math::srgb_to_linear(c as f32);
+    let mut sum = [0f32; 3];
+    for c in kept {
+        for k in 0..3 {
+            sum[k] += lin(c[k]);
+        }
+    }
+    Some(sum.map(|v| v / kept.len() as f32))
 }

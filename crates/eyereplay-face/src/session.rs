@@ -212,6 +212,66 @@ fn solve_frames(
         .collect()
 }
 
+/// Draws, films and converts every frame, whole frames in parallel (one
+/// worker per core, each frame on one worker, buffers reused), and pipes
+/// them to the encoder in order from the calling thread. Each frame
+/// depends only on its own state (and the previous frame's head for the
+/// motion blur), so the output does not depend on the number of workers.
+fn draw_frames(
+    scene: &FaceScene,
+    solved: &[Solved],
+    look: &WebcamLook,
+    encoder: &mut Encoder,
+) -> Result<()> {
+    let (w, h) = (scene.width(), scene.height());
+    let workers = std::thread::available_parallelism()
+        .map_or(2, |n| n.get())
+        .clamp(1, 16);
+    std::thread::scope(|s| -> Result<()> {
+        let mut frames_rx = Vec::with_capacity(workers);
+        let mut spare_tx = Vec::with_capacity(workers);
+        for first in 0..workers {
+            let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(1);
+            let (spare, spare_rx) = std::sync::mpsc::channel::<Vec<u8>>();
+            frames_rx.push(rx);
+            spare_tx.push(spare);
+            s.spawn(move || {
+                let mut raster = Rasterizer::new(w, h);
+                let mut mesh = TexturedMesh::new(vec![], vec![], vec![]);
+                let mut frame = RgbImage::filled(w, h, [0, 0, 0]);
+                let mut webcam = Webcam::new(look, w, h);
+                for i in (first..solved.len()).step_by(workers) {
+                    let st = &solved[i].state;
+                    scene.draw(st, &mut raster, &mut mesh, &mut frame);
+                    let nose = scene.nose_px(&st.head);
+                    let motion = if i == 0 {
+                        [0.0, 0.0]
+                    } else {
+                        let q = scene.nose_px(&solved[i - 1].state.head);
+                        [(nose[0] - q[0]) as f32, (nose[1] - q[1]) as f32]
+                    };
+                    webcam.apply(&mut frame, i as u64, motion);
+                    let mut yuv = spare_rx
+                        .try_recv()
+                        .unwrap_or_else(|_| vec![0u8; w * h * 3 / 2]);
+                    rgb_to_yuv420(&frame.data, w, [0, 0, w, h], &mut yuv, w, h);
+                    if tx.send(yuv).is_err() {
+                        break; // the writer stopped on an error
+                    }
+                }
+            });
+        }
+        for i in 0..solved.len() {
+            let buf = frames_rx[i % workers].recv().map_err(|_| {
+                eyereplay_render::RenderError::Input(format!("frame {i}: render worker stopped"))
+            })?;
+            encoder.write_frame(&buf)?;
+            let _ = spare_tx[i % workers].send(buf);
+        }
+        Ok(())
+    })
+}
+
 fn write_head_csv(path: &Path, solved: &[Solved]) -> Result<()> {
     eyereplay_core::atomic_write_with(path, |w| {
         writeln!(w, "{HEAD_TRUTH_HEADER}")?;
@@ -258,23 +318,7 @@ pub fn render_face_session(
     let mut encoder = Encoder::start(out_mp4, w, h, p.fps, &enc)?;
     let solved = solve_frames(scene, &traj, blinks, p);
     let t1 = Instant::now();
-    let mut raster = Rasterizer::new(w, h);
-    let mut mesh = TexturedMesh::new(vec![], vec![], vec![]);
-    let mut frame = RgbImage::filled(w, h, [0, 0, 0]);
-    let mut yuv = vec![0u8; w * h * 3 / 2];
-    let mut webcam = Webcam::new(&p.look, w, h);
-    let mut last_nose: Option<[f64; 2]> = None;
-    for (i, s) in solved.iter().enumerate() {
-        scene.draw(&s.state, &mut raster, &mut mesh, &mut frame);
-        let nose = scene.nose_px(&s.state.head);
-        let motion = last_nose.map_or([0.0, 0.0], |q| {
-            [(nose[0] - q[0]) as f32, (nose[1] - q[1]) as f32]
-        });
-        last_nose = Some(nose);
-        webcam.apply(&mut frame, i as u64, motion);
-        rgb_to_yuv420(&frame.data, w, [0, 0, w, h], &mut yuv, w, h);
-        encoder.write_frame(&yuv)?;
-    }
+    draw_frames(scene, &solved, &p.look, &mut encoder)?;
     let render_s = t1.elapsed().as_secs_f64();
     let rows: Vec<TruthRow> = solved.iter().map(|s| s.row).collect();
     eyereplay_dataset::write_truth_csv(out_truth_csv, &rows)?;

@@ -128,6 +128,7 @@ const NOISE_C3: f32 = 5.773_954_3e-9;
 /// integer held in the low mantissa bits; unlike a float-to-int cast this
 /// vectorizes.
 const MAGIC: f32 = 8_388_608.0;
+const MAGIC_BITS: i32 = 0x4B00_0000;
 /// Smallest gaussian sigma that blurs at all, px: below it the 3-sigma
 /// kernel would be a single tap.
 const MIN_SIGMA_PX: f64 = 0.05;
@@ -440,31 +441,34 @@ fn lowbias32(mut x: u32) -> u32 {
 }
 
 /// Standard-normal-like noise for value `i` under the frame's keys `k1`
-/// (odd) and `k2`: lowbias32 of `i k1 + k2` (a different affine map of the
-/// index per frame, so no two frames share a noise pattern, not even
-/// shifted), then the cubic-corrected Irwin-Hall sum of its four bytes.
+/// and `k2`: lowbias32 of `(i xor k1) + k2` (a different bijection of the
+/// index per frame, mixing xor and add, so no two frames share a noise
+/// pattern, not even shifted), then the cubic-corrected Irwin-Hall sum of
+/// its four bytes.
 #[inline(always)]
 fn noise_at(i: u32, k1: u32, k2: u32) -> f32 {
-    let h = lowbias32(i.wrapping_mul(k1).wrapping_add(k2));
+    let h = lowbias32((i ^ k1).wrapping_add(k2));
     // Sum of the four bytes: pairs first, then the two 16-bit halves.
     let pairs = (h & 0x00FF_00FF) + ((h >> 8) & 0x00FF_00FF);
     let sum = (pairs & 0xFFFF) + (pairs >> 16);
     let z = (sum as i32 - 510) as f32;
-    z * (NOISE_C1 + NOISE_C3 * z * z)
+    z * (z * z).mul_add(NOISE_C3, NOISE_C1)
 }
 
 /// Linear light to an sRGB code value (not rounded), in f32: the linear
-/// segment, else the polynomial in sqrt(linear). `l` in 0..=1.
+/// segment, else the polynomial in sqrt(linear). `l` in 0..=1, `s` its
+/// square root.
 #[inline(always)]
-fn encode_f32(l: f32) -> f32 {
-    let u = l.sqrt() * ENC_SCALE + ENC_OFFSET;
+fn encode_f32(l: f32, s: f32) -> f32 {
+    let u = s.mul_add(ENC_SCALE, ENC_OFFSET);
     // Estrin's scheme: short dependency chains, so more values are in
     // flight at once than with Horner's.
     let c = ENC_POLY;
-    let (u2, u4) = (u * u, u * u * (u * u));
-    let lo = (c[0] + c[1] * u) + u2 * (c[2] + c[3] * u);
-    let hi = (c[4] + c[5] * u) + u2 * (c[6] + c[7] * u);
-    let p = lo + u4 * hi;
+    let u2 = u * u;
+    let u4 = u2 * u2;
+    let lo = u2.mul_add(c[3].mul_add(u, c[2]), c[1].mul_add(u, c[0]));
+    let hi = u2.mul_add(c[7].mul_add(u, c[6]), c[5].mul_add(u, c[4]));
+    let p = u4.mul_add(hi, lo);
     if l <= SRGB_KNEE {
         l * SRGB_SLOPE
     } else {
@@ -472,10 +476,48 @@ fn encode_f32(l: f32) -> f32 {
     }
 }
 
-/// Rounds a code value to the nearest byte, clamped (NaN to 0).
+/// The noise std `sqrt(read^2 + shot^2 s^2)` (code values; s =
+/// sqrt(linear)) as a degree-4 polynomial in s, lowest power first: the
+/// interpolant at the 5 Chebyshev nodes of 0..1, which saves a square root
+/// per value. Within 0.2 % over the default ranges; exact for read or shot
+/// noise alone; at worst 0.06 code values off (a tiny read noise under a
+/// strong shot noise, near black). Only IEEE-exact operations, so every
+/// machine gets the same coefficients.
+fn noise_std_poly(read: f64, shot: f64) -> [f32; 5] {
+    // 0.5 + 0.5 cos(pi (k + 0.5) / 5).
+    const NODES: [f64; 5] = [
+        0.975_528_258_147_576_8,
+        0.793_892_626_146_236_6,
+        0.5,
+        0.206_107_373_853_763_4,
+        0.024_471_741_852_423_2,
+    ];
+    let f = |s: f64| (read * read + shot * shot * s * s).sqrt();
+    // Newton's divided differences, then expanded to powers of s.
+    let mut c = NODES.map(f);
+    for j in 1..5 {
+        for i in (j..5).rev() {
+            c[i] = (c[i] - c[i - 1]) / (NODES[i] - NODES[i - j]);
+        }
+    }
+    let mut poly = [0.0f64; 5];
+    for i in (0..5).rev() {
+        // poly = poly * (s - NODES[i]) + c[i]
+        let mut next = [0.0f64; 5];
+        for k in 0..5 {
+            next[k] = if k > 0 { poly[k - 1] } else { 0.0 } - NODES[i] * poly[k];
+        }
+        next[0] += c[i];
+        poly = next;
+    }
+    poly.map(|v| v as f32)
+}
+
+/// Rounds a code value (finite, |code| < 2^22) to the nearest byte,
+/// clamped: the integer clamp compiles to saturating packs.
 #[inline(always)]
 fn to_byte(code: f32) -> u8 {
-    (code.max(0.0).min(255.0) + MAGIC).to_bits() as u8
+    ((code + MAGIC).to_bits() as i32 - MAGIC_BITS).clamp(0, 255) as u8
 }
 
 /// Everything of a [`Webcam`] fixed for the session.
@@ -486,9 +528,9 @@ struct Params {
     /// sRGB code -> linear.
     decode: [f32; 256],
     noise: bool,
-    /// Noise variance: read (code values^2) and shot (per unit linear).
-    read_var: f32,
-    shot_var: f32,
+    /// Noise std in code values, `sqrt(noise_sigma^2 + shot_noise^2
+    /// linear)`, as a polynomial in sqrt(linear), lowest power first.
+    noise_std: [f32; 5],
     /// Vignetting or side light present.
     spatial: bool,
     /// Exposure times white balance, per channel.
@@ -530,6 +572,8 @@ struct Scratch {
     v_ring: Vec<f32>,
     /// The finished linear row.
     row: Vec<f32>,
+    /// Its noise std per value.
+    std: Vec<f32>,
 }
 
 fn grow<T: Default + Clone>(v: &mut Vec<T>, n: usize) {
@@ -544,7 +588,9 @@ pub struct Webcam {
     p: Params,
     noop: bool,
     avx2: bool,
-    src: Vec<u8>,
+    /// Per band, the input rows it needs from outside itself (copied
+    /// before any band writes, so the frame can be processed in place).
+    halo: Vec<u8>,
     taps: Vec<Tap>,
     pool: Mutex<Vec<Scratch>>,
 }
@@ -553,9 +599,7 @@ impl Webcam {
     pub fn new(look: &WebcamLook, width: usize, height: usize) -> Webcam {
         let decode: [f32; 256] = std::array::from_fn(|c| srgb_decode(c as f64) as f32);
         let noise = look.noise_sigma > 0.0 || look.shot_noise > 0.0;
-        let read_var = look.noise_sigma.powi(2) as f32;
-        // Shot std `shot_noise * sqrt(linear)` code values.
-        let shot_var = look.shot_noise.powi(2) as f32;
+        let noise_std = noise_std_poly(look.noise_sigma, look.shot_noise);
         let wb = look.white_balance_gains();
         let ev = 2f64.powf(look.exposure_ev) as f32;
         let gain = wb.map(|g| g * ev);
@@ -592,7 +636,8 @@ impl Webcam {
 
         let sigma = look.defocus_sigma_at(height);
         let kernel = if sigma >= MIN_SIGMA_PX {
-            let r = (3.0 * sigma).ceil() as usize;
+            // Truncated at 3 sigma (the taps beyond carry 0.3 % of the weight).
+            let r = ((3.0 * sigma).floor() as usize).max(1);
             let k: Vec<f64> = (0..=r)
                 .map(|i| (-((i * i) as f64) / (2.0 * sigma * sigma)).exp())
                 .collect();
@@ -605,7 +650,8 @@ impl Webcam {
         let noop =
             !noise && !spatial && gain == [1.0; 3] && kernel.len() == 1 && motion_blur == 0.0;
         #[cfg(target_arch = "x86_64")]
-        let avx2 = std::arch::is_x86_feature_detected!("avx2");
+        let avx2 = std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma");
         #[cfg(not(target_arch = "x86_64"))]
         let avx2 = false;
         Webcam {
@@ -615,8 +661,7 @@ impl Webcam {
                 seed: look.seed,
                 decode,
                 noise,
-                read_var,
-                shot_var,
+                noise_std,
                 spatial,
                 gain,
                 gain_3: (0..width * 3).map(|i| gain[i % 3]).collect(),
@@ -631,7 +676,7 @@ impl Webcam {
             },
             noop,
             avx2,
-            src: vec![0; width * height * 3],
+            halo: Vec::new(),
             taps: Vec::new(),
             pool: Mutex::new(Vec::new()),
         }
@@ -670,32 +715,56 @@ impl Webcam {
         let mx = self.taps.iter().map(|t| t.dx.unsigned_abs()).max();
         let my = self.taps.iter().map(|t| t.dy.unsigned_abs()).max();
         let (mx, my) = (mx.unwrap_or(0), my.unwrap_or(0));
-        self.src.copy_from_slice(&frame.data);
         let key = mix64(
             mix64(self.p.seed ^ 0x5745_4243_414D_0001)
                 .wrapping_add(mix64(frame_index).wrapping_mul(GOLDEN)),
         );
         // Two bands per thread: balanced, and few halo rows recomputed.
-        let bands = (2 * rayon::current_num_threads()).clamp(1, h);
-        let band_rows = h.div_ceil(bands);
+        let w3 = w * 3;
+        let band_rows = h.div_ceil((2 * rayon::current_num_threads()).clamp(1, h));
+        let bands = h.div_ceil(band_rows);
+        // Rows a band reads beyond each of its ends.
+        let reach = self.p.kernel.len() - 1 + my;
+        let halo_len = 2 * reach * w3;
+        grow(&mut self.halo, bands * halo_len);
+        if reach > 0 {
+            let data = &frame.data;
+            self.halo[..bands * halo_len]
+                .par_chunks_mut(halo_len)
+                .enumerate()
+                .for_each(|(b, halo)| {
+                    let (y0, y1) = (b * band_rows, ((b + 1) * band_rows).min(h));
+                    for k in 0..reach {
+                        let above = (y0 + k).checked_sub(reach);
+                        let below = Some(y1 + k).filter(|&y| y < h);
+                        for (slot, y) in [(k, above), (reach + k, below)] {
+                            if let Some(y) = y {
+                                halo[slot * w3..(slot + 1) * w3]
+                                    .copy_from_slice(&data[y * w3..(y + 1) * w3]);
+                            }
+                        }
+                    }
+                });
+        }
         let job = Job {
             p: &self.p,
             taps: &self.taps,
             mx,
             my,
-            src: &self.src,
+            reach,
             key,
         };
-        let (pool, avx2) = (&self.pool, self.avx2);
+        let (pool, avx2, halo) = (&self.pool, self.avx2, &self.halo);
         frame
             .data
-            .par_chunks_mut(band_rows * w * 3)
+            .par_chunks_mut(band_rows * w3)
             .enumerate()
             .for_each(|(b, out)| {
+                let halo = &halo[b * halo_len..(b + 1) * halo_len];
                 let mut s = pool.lock().unwrap().pop().unwrap_or_default();
                 let y0 = b * band_rows;
-                let y1 = y0 + out.len() / (w * 3);
-                job.band(&mut s, out, y0, y1, avx2);
+                let y1 = y0 + out.len() / w3;
+                job.band(&mut s, out, halo, y0, y1, avx2);
                 pool.lock().unwrap().push(s);
             });
     }
@@ -743,27 +812,30 @@ struct Job<'a> {
     taps: &'a [Tap],
     mx: usize,
     my: usize,
-    src: &'a [u8],
+    /// Rows a band reads beyond each of its ends.
+    reach: usize,
     key: u64,
 }
 
 impl Job<'_> {
-    fn band(&self, s: &mut Scratch, out: &mut [u8], y0: usize, y1: usize, avx2: bool) {
+    /// One band: `out` holds its rows `y0..y1` (input, overwritten with
+    /// the output), `halo` the `reach` input rows above and below it.
+    fn band(&self, s: &mut Scratch, out: &mut [u8], halo: &[u8], y0: usize, y1: usize, avx2: bool) {
         #[cfg(target_arch = "x86_64")]
         if avx2 {
             // SAFETY: `avx2` is true only where the CPU was detected to
-            // support AVX2 (Webcam::new).
-            unsafe { self.band_avx2(s, out, y0, y1) };
+            // support AVX2 and FMA (Webcam::new).
+            unsafe { self.band_avx2(s, out, halo, y0, y1) };
             return;
         }
         let _ = avx2;
-        self.band_impl(s, out, y0, y1);
+        self.band_impl(s, out, halo, y0, y1);
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn band_avx2(&self, s: &mut Scratch, out: &mut [u8], y0: usize, y1: usize) {
-        self.band_impl(s, out, y0, y1);
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn band_avx2(&self, s: &mut Scratch, out: &mut [u8], halo: &[u8], y0: usize, y1: usize) {
+        self.band_impl(s, out, halo, y0, y1);
     }
 
     /// Rows `y0..y1` into `out`: each output row needs the vertically
@@ -771,9 +843,10 @@ impl Job<'_> {
     /// blurred rows within the gaussian radius; both are computed once, in
     /// order, into rings (a row's ring slot is its index modulo the ring
     /// size, and the rings are just long enough that every row still needed
-    /// is in them, edge rows included).
+    /// is in them, edge rows included). Input row y is read before output
+    /// row y - reach is written, so the band is processed in place.
     #[inline(always)]
-    fn band_impl(&self, s: &mut Scratch, out: &mut [u8], y0: usize, y1: usize) {
+    fn band_impl(&self, s: &mut Scratch, out: &mut [u8], halo: &[u8], y0: usize, y1: usize) {
         let p = self.p;
         let (w, h) = (p.width, p.height);
         let w3 = w * 3;
@@ -789,11 +862,13 @@ impl Job<'_> {
             grow(&mut s.v_ring, v_len * vw3);
         }
         grow(&mut s.row, w3);
+        grow(&mut s.std, w3);
         let Scratch {
             lin,
             h_ring,
             v_ring,
             row,
+            std,
         } = s;
         let row = &mut row[..w3];
         let last = h - 1;
@@ -806,8 +881,16 @@ impl Job<'_> {
             while v_next <= v_need {
                 let yv = v_next;
                 while h_next <= (yv + r).min(last) {
-                    let o = (h_next % h_len) * w3;
-                    self.h_row(h_next, lin, &mut h_ring[o..o + w3]);
+                    let yh = h_next;
+                    let src = if yh < y0 {
+                        &halo[(yh + self.reach - y0) * w3..][..w3]
+                    } else if yh < y1 {
+                        &out[(yh - y0) * w3..][..w3]
+                    } else {
+                        &halo[(self.reach + yh - y1) * w3..][..w3]
+                    };
+                    let o = (yh % h_len) * w3;
+                    self.h_row(yh, src, lin, &mut h_ring[o..o + w3]);
                     h_next += 1;
                 }
                 let dst = if motion {
@@ -837,25 +920,24 @@ impl Job<'_> {
                         }
                     } else {
                         for (d, &v) in row.iter_mut().zip(src) {
-                            *d += t.w * v;
+                            *d = t.w.mul_add(v, *d);
                         }
                     }
                 }
             }
             let o = (y - y0) * w3;
-            self.encode_row(row, &mut out[o..o + w3], y);
+            self.encode_row(row, &mut std[..w3], &mut out[o..o + w3], y);
         }
     }
 
     /// Row `y` decoded to linear light, times the vignetting, side light,
     /// exposure and white balance gains, blurred horizontally into `dst`.
     #[inline(always)]
-    fn h_row(&self, y: usize, lin: &mut [f32], dst: &mut [f32]) {
+    fn h_row(&self, y: usize, src: &[u8], lin: &mut [f32], dst: &mut [f32]) {
         let p = self.p;
         let w = p.width;
         let w3 = w * 3;
         let r = p.kernel.len() - 1;
-        let src = &self.src[y * w3..(y + 1) * w3];
         let lin = &mut lin[..(w + 2 * r) * 3];
         let body = &mut lin[r * 3..r * 3 + w3];
         for (o, &s) in body.iter_mut().zip(src) {
@@ -874,7 +956,7 @@ impl Job<'_> {
                 .zip(&p.light_3)
             {
                 let t = 1.0 / (1.0 + k * (rx + ry));
-                *o *= (t * t * (g + (dx + dy) * l)).max(0.0);
+                *o *= (t * t * (dx + dy).mul_add(l, g)).max(0.0);
             }
         } else if p.gain != [1.0; 3] {
             for (o, &g) in body.iter_mut().zip(&p.gain_3) {
@@ -895,60 +977,102 @@ impl Job<'_> {
     /// A finished linear row to sRGB bytes plus noise (one pass that
     /// vectorizes: no table lookups).
     #[inline(always)]
-    fn encode_row(&self, row: &[f32], out: &mut [u8], y: usize) {
+    fn encode_row(&self, row: &mut [f32], std: &mut [f32], out: &mut [u8], y: usize) {
         let p = self.p;
         if p.noise {
-            let (k1, k2) = (self.key as u32 | 1, (self.key >> 32) as u32);
+            // Two passes: each has short enough dependency chains and few
+            // enough live constants to keep many values in flight.
+            let c = p.noise_std;
+            for (v, sd) in row.iter_mut().zip(std.iter_mut()) {
+                let l = v.max(0.0).min(1.0);
+                let s = l.sqrt();
+                let s2 = s * s;
+                *sd = s2.mul_add(
+                    s2.mul_add(c[4], s.mul_add(c[3], c[2])),
+                    s.mul_add(c[1], c[0]),
+                );
+                *v = encode_f32(l, s);
+            }
+            let (k1, k2) = (self.key as u32, (self.key >> 32) as u32);
             // Index of the row's first value (wrapping: frames of up to 2^32
             // values get distinct noise per value).
             let i0 = (y * p.width * 3) as u32;
-            let (read_var, shot_var) = (p.read_var, p.shot_var);
-            for (j, (o, &v)) in out.iter_mut().zip(row).enumerate() {
-                let l = v.max(0.0).min(1.0);
-                let std = (read_var + shot_var * l).sqrt();
+            for (j, ((o, &code), &sd)) in out.iter_mut().zip(row.iter()).zip(std.iter()).enumerate()
+            {
                 let z = noise_at(i0.wrapping_add(j as u32), k1, k2);
-                *o = to_byte(encode_f32(l) + std * z);
+                *o = to_byte(sd.mul_add(z, code));
             }
         } else {
-            for (o, &v) in out.iter_mut().zip(row) {
-                *o = to_byte(encode_f32(v.max(0.0).min(1.0)));
+            for (o, &v) in out.iter_mut().zip(row.iter()) {
+                let l = v.max(0.0).min(1.0);
+                *o = to_byte(encode_f32(l, l.sqrt()));
             }
         }
     }
 }
 
 /// `dst = k[0] row(0) + sum_j k[j] (row(-j) + row(j))`: a symmetric
-/// kernel over whole rows (vectorizes along the row), two taps per pass
-/// over `dst` to halve its loads and stores.
+/// kernel over whole rows (vectorizes along the row), up to three tap
+/// pairs per pass over `dst` to save its loads and stores.
 #[inline(always)]
 fn blur_rows<'a>(k: &[f32], dst: &mut [f32], row: impl Fn(isize) -> &'a [f32]) {
     let r = k.len() - 1;
+    let pair = |j: usize| (row(-(j as isize)), row(j as isize));
     let c = row(0);
-    if r == 0 {
-        for (d, &v) in dst.iter_mut().zip(c) {
-            *d = k[0] * v;
+    match r {
+        0 => {
+            for (d, &v) in dst.iter_mut().zip(c) {
+                *d = k[0] * v;
+            }
         }
-        return;
-    }
-    let (a, b) = (row(-1), row(1));
-    for (((d, &v), &va), &vb) in dst.iter_mut().zip(c).zip(a).zip(b) {
-        *d = k[0] * v + k[1] * (va + vb);
-    }
-    let mut j = 2;
-    while j + 1 <= r {
-        let (k1, k2) = (k[j], k[j + 1]);
-        let (a1, b1) = (row(-(j as isize)), row(j as isize));
-        let (a2, b2) = (row(-(j as isize) - 1), row(j as isize + 1));
-        for ((((d, &va1), &vb1), &va2), &vb2) in dst.iter_mut().zip(a1).zip(b1).zip(a2).zip(b2) {
-            *d += k1 * (va1 + vb1) + k2 * (va2 + vb2);
+        1 => {
+            let (a, b) = pair(1);
+            for (((d, &v), &a), &b) in dst.iter_mut().zip(c).zip(a).zip(b) {
+                *d = k[1].mul_add(a + b, k[0] * v);
+            }
         }
-        j += 2;
-    }
-    if j == r {
-        let (a, b) = (row(-(j as isize)), row(j as isize));
-        for ((d, &va), &vb) in dst.iter_mut().zip(a).zip(b) {
-            *d += k[j] * (va + vb);
+        _ => {
+            let ((a1, b1), (a2, b2)) = (pair(1), pair(2));
+            for (((((d, &v), &a1), &b1), &a2), &b2) in
+                dst.iter_mut().zip(c).zip(a1).zip(b1).zip(a2).zip(b2)
+            {
+                *d = k[2].mul_add(a2 + b2, k[1].mul_add(a1 + b1, k[0] * v));
+            }
         }
+    }
+    let mut j = 3;
+    while j <= r {
+        match r + 1 - j {
+            1 => {
+                let (a, b) = pair(j);
+                for ((d, &a), &b) in dst.iter_mut().zip(a).zip(b) {
+                    *d = k[j].mul_add(a + b, *d);
+                }
+            }
+            2 => {
+                let ((a1, b1), (a2, b2)) = (pair(j), pair(j + 1));
+                for ((((d, &a1), &b1), &a2), &b2) in dst.iter_mut().zip(a1).zip(b1).zip(a2).zip(b2)
+                {
+                    *d = k[j + 1].mul_add(a2 + b2, k[j].mul_add(a1 + b1, *d));
+                }
+            }
+            _ => {
+                let ((a1, b1), (a2, b2), (a3, b3)) = (pair(j), pair(j + 1), pair(j + 2));
+                for ((((((d, &a1), &b1), &a2), &b2), &a3), &b3) in dst
+                    .iter_mut()
+                    .zip(a1)
+                    .zip(b1)
+                    .zip(a2)
+                    .zip(b2)
+                    .zip(a3)
+                    .zip(b3)
+                {
+                    let acc = k[j].mul_add(a1 + b1, *d);
+                    *d = k[j + 2].mul_add(a3 + b3, k[j + 1].mul_add(a2 + b2, acc));
+                }
+            }
+        }
+        j += 3;
     }
 }
 
@@ -1023,12 +1147,18 @@ mod tests {
         assert_eq!(applied(&l, &f, 0, [0.2, 0.1]), f);
         let cam = Webcam::new(&l, 1, 1);
         for c in 0..=255u8 {
-            assert_eq!(to_byte(encode_f32(cam.p.decode[c as usize])), c);
+            assert_eq!(
+                to_byte(encode_f32(
+                    cam.p.decode[c as usize],
+                    cam.p.decode[c as usize].sqrt()
+                )),
+                c
+            );
         }
         // The polynomial against the exact curve.
         for i in 0..=100_000 {
             let l = i as f32 / 100_000.0;
-            let err = encode_f32(l) as f64 - srgb_encode(l as f64);
+            let err = encode_f32(l, l.sqrt()) as f64 - srgb_encode(l as f64);
             assert!(err.abs() < 0.05, "{l}: {err}");
         }
     }
@@ -1458,44 +1588,80 @@ mod tmp_timing {
         }
         b
     }
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     unsafe fn dec(d: &[f32; 256], src: &[u8], out: &mut [f32]) {
         for (o, &s) in out.iter_mut().zip(src) {
             *o = d[s as usize];
         }
     }
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     unsafe fn enc(row: &[f32], out: &mut [u8]) {
         for (o, &v) in out.iter_mut().zip(row) {
-            *o = to_byte(encode_f32(v.max(0.0).min(1.0)));
+            *o = to_byte(encode_f32(v.max(0.0).min(1.0), v.max(0.0).min(1.0).sqrt()));
         }
     }
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     unsafe fn enc_noise(row: &[f32], out: &mut [u8]) {
         for (j, (o, &v)) in out.iter_mut().zip(row).enumerate() {
             let l = v.max(0.0).min(1.0);
             let std = (4.0 + 9.0 * l).sqrt();
             let z = noise_at(j as u32, 77, 99);
-            *o = to_byte(encode_f32(l) + std * z);
+            *o = to_byte(encode_f32(l, l.sqrt()) + std * z);
         }
     }
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     unsafe fn blur(k: &[f32], src: &[f32], dst: &mut [f32]) {
         let r = k.len() - 1;
         let n = dst.len();
         blur_rows(k, dst, |j| &src[(3 * r as isize + 3 * j) as usize..][..n]);
     }
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     unsafe fn scale(src: &[f32], dst: &mut [f32]) {
         for (d, &v) in dst.iter_mut().zip(src) {
             *d = 1.5 * v + 0.5;
         }
     }
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     unsafe fn sq(src: &[f32], dst: &mut [f32]) {
         for (d, &v) in dst.iter_mut().zip(src) {
             *d = v.sqrt();
         }
+    }
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn enc_f(row: &[f32], out: &mut [f32]) {
+        for (o, &v) in out.iter_mut().zip(row) {
+            *o = encode_f32(v.max(0.0).min(1.0), v.max(0.0).min(1.0).sqrt());
+        }
+    }
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn pack(row: &[f32], out: &mut [u8]) {
+        for (o, &v) in out.iter_mut().zip(row) {
+            *o = to_byte(v);
+        }
+    }
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn noise_only(row: &[f32], out: &mut [f32]) {
+        for (j, (o, &v)) in out.iter_mut().zip(row).enumerate() {
+            *o = v + noise_at(j as u32, 77, 99);
+        }
+    }
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn dec_gather(d: &[f32; 256], src: &[u8], out: &mut [f32]) {
+        use std::arch::x86_64::*;
+        for (o, s) in out.chunks_exact_mut(8).zip(src.chunks_exact(8)) {
+            let b = _mm_loadl_epi64(s.as_ptr() as *const __m128i);
+            let idx = _mm256_cvtepu8_epi32(b);
+            let v = _mm256_i32gather_ps::<4>(d.as_ptr(), idx);
+            _mm256_storeu_ps(o.as_mut_ptr(), v);
+        }
+    }
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn vblur(k: &[f32], ring: &[f32], n: usize, dst: &mut [f32]) {
+        blur_rows(k, dst, |j| &ring[(5 + j) as usize * n..][..n]);
+    }
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn enc_real(job: &Job, row: &mut [f32], std: &mut [f32], out: &mut [u8]) {
+        job.encode_row(row, std, out, 7);
     }
     #[test]
     #[ignore]
@@ -1511,6 +1677,10 @@ mod tmp_timing {
                 "decode {:.3} ms/frame",
                 rows as f64 * best(|| dec(&d, &src, &mut lin[..n]))
             );
+            println!(
+                "decode gather {:.3} ms/frame",
+                rows as f64 * best(|| dec_gather(&d, &src, &mut lin[..n]))
+            );
             for (i, v) in lin.iter_mut().enumerate() {
                 *v = (i % 1000) as f32 / 1000.0;
             }
@@ -1523,8 +1693,53 @@ mod tmp_timing {
                 rows as f64 * best(|| enc_noise(&lin[..n], &mut out))
             );
             let mut dst = vec![0f32; n];
-            println!("scale {:.3} ms/frame", rows as f64 * best(|| scale(&lin[..n], &mut dst)));
-            println!("sqrt {:.3} ms/frame", rows as f64 * best(|| sq(&lin[..n], &mut dst)));
+            println!(
+                "enc_f {:.3} ms/frame",
+                rows as f64 * best(|| enc_f(&lin[..n], &mut dst))
+            );
+            println!(
+                "pack {:.3} ms/frame",
+                rows as f64 * best(|| pack(&lin[..n], &mut out))
+            );
+            println!(
+                "noise_only {:.3} ms/frame",
+                rows as f64 * best(|| noise_only(&lin[..n], &mut dst))
+            );
+            let cam = Webcam::new(&WebcamRanges::default().sample(1), 1280, 720);
+            let job = Job {
+                p: &cam.p,
+                taps: &[],
+                mx: 0,
+                my: 0,
+                reach: 0,
+                key: 5,
+            };
+            println!(
+                "encode_row real {:.3} ms/frame",
+                rows as f64 * {
+                    let mut sd = vec![0f32; n];
+                    let mut r2 = lin[..n].to_vec();
+                    best(|| enc_real(&job, &mut r2, &mut sd, &mut out))
+                }
+            );
+            let ring = vec![0.5f32; 11 * n];
+            let k4 = vec![0.2f32; 5];
+            println!(
+                "vblur L2 r4 {:.3} ms/frame",
+                rows as f64 * best(|| vblur(&k4, &ring, n, &mut dst))
+            );
+            println!(
+                "hblur L1 r4 {:.3} ms/frame",
+                rows as f64 * best(|| blur(&k4, &lin, &mut dst))
+            );
+            println!(
+                "scale {:.3} ms/frame",
+                rows as f64 * best(|| scale(&lin[..n], &mut dst))
+            );
+            println!(
+                "sqrt {:.3} ms/frame",
+                rows as f64 * best(|| sq(&lin[..n], &mut dst))
+            );
             let k = vec![0.2f32; 6];
             println!(
                 "blur r5 {:.3} ms/frame",
@@ -1543,9 +1758,6 @@ mod tmp_timing {
         }
         let base = WebcamRanges::default().sample(1);
         let mut cases: Vec<(&str, WebcamLook)> = vec![("full", base.clone())];
-        if std::env::var("ONLY_BASE").is_ok() {
-            cases.clear();
-        }
         let mut l = WebcamLook::identity();
         l.exposure_ev = 0.5;
         cases.push(("decode+encode", l));
@@ -1562,8 +1774,15 @@ mod tmp_timing {
         let mut l = WebcamLook::identity();
         l.motion_blur = 0.5;
         cases.push(("motion 4px", l));
+        if let Ok(k) = std::env::var("ONLY") {
+            let k: usize = k.parse().unwrap();
+            cases = vec![cases[k].clone()];
+        }
+        let threads = std::env::var("THREADS")
+            .map(|r| r.parse().unwrap())
+            .unwrap_or(1);
         let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(1)
+            .num_threads(threads)
             .build()
             .unwrap();
         pool.install(|| {
@@ -1577,10 +1796,15 @@ mod tmp_timing {
                 for k in 0..reps {
                     f.data.copy_from_slice(&input.data);
                     let t = std::time::Instant::now();
-                    cam.apply(&mut f, k, [3.0, -2.6]);
+                    let m = if std::env::var("STILL").is_ok() {
+                        0.0
+                    } else {
+                        1.0
+                    };
+                    cam.apply(&mut f, k, [3.0 * m, -2.6 * m]);
                     best = best.min(t.elapsed().as_nanos() as u64);
                 }
-                println!("{name}: {:.2} ms cpu (1 thread)", best as f64 / 1e6);
+                println!("{name}: {:.2} ms cpu ({threads} thread)", best as f64 / 1e6);
             }
         });
     }
