@@ -17,6 +17,10 @@
 #   pip  scikit-image==0.26.0   astronaut.png (Eileen Collins, NASA, public domain)
 #   pip  matplotlib==3.11.2     grace_hopper.jpg (Grace Hopper, US Navy portrait)
 #   pip  psychopy==2026.2.5     psychopy_face01.jpg, psychopy_face.jpg (GPL-3.0)
+#   pip  thumbor==7.8.0         giunchedi.jpg (Filippo Giunchedi, Myleen Hollero /
+#                               Wikimedia Foundation, CC BY-SA 3.0)
+#   apt  kphotoalbum=5.9.1-1    kphotoalbum_jesper.jpg (Jesper K. Pedersen; Debian
+#                               main, GPL-2+; upstream: CC-BY-SA-4.0)
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -45,6 +49,7 @@ WHEELS=(
   "scikit_image-0.26.0-cp311-cp311-manylinux_2_24_x86_64.manylinux_2_28_x86_64.whl|scikit-image==0.26.0|manylinux_2_28_x86_64|74aa5518ccea28121f57a95374581d3b979839adc25bb03f289b1bc9b99c58af"
   "matplotlib-3.11.2-cp311-cp311-manylinux2014_x86_64.manylinux_2_17_x86_64.whl|matplotlib==3.11.2|manylinux2014_x86_64|07d9b9fa60cd4c393692f50d0bb03123242ddf61c99bb0e95e75feb354e7c1a8"
   "psychopy-2026.2.5-py3-none-any.whl|psychopy==2026.2.5||271ff330e371ffd3b6d4c03a8ddf646034fdc24eaaea0da5e04226c8ff2eec39"
+  "thumbor-7.8.0-cp311-cp311-manylinux2014_x86_64.manylinux_2_17_x86_64.manylinux_2_28_x86_64.whl|thumbor==7.8.0|manylinux2014_x86_64|7a613cadfa2e05001ef1ebe647643679bed2f042b3d1bec3b3aa9771d95a1f88"
 )
 # output name | wheel file | path inside the wheel | sha256
 PHOTOS=(
@@ -53,6 +58,13 @@ PHOTOS=(
   "psychopy_face01.jpg|psychopy-2026.2.5-py3-none-any.whl|psychopy/demos/builder/Design Templates/randomisedBlocks/stims/face01.jpg|c1770c733865dd10a73d249e27fbc5715b0adbe8d50510d24edad78b255c08c6"
   "psychopy_face.jpg|psychopy-2026.2.5-py3-none-any.whl|psychopy/demos/coder/stimuli/face.jpg|ecb867bca5ac8b1623c379d05920f24b992493e006787f551bb7bb68b5098aa2"
   "LICENSE-psychopy.txt|psychopy-2026.2.5-py3-none-any.whl|psychopy/LICENSE.txt|27827b4e016018e4c5b2becae83a38f12742230abcf3f28b7cc17cba271ddd6c"
+  "giunchedi.jpg|thumbor-7.8.0-cp311-cp311-manylinux2014_x86_64.manylinux_2_17_x86_64.manylinux_2_28_x86_64.whl|thumbor/fixtures/filters/Giunchedi%2C_Filippo_January_2015_01.jpg|6a7faf8e2adb028436340e6b8c5955f0d669b9166e9c9581bbc61ff9636b1910"
+)
+# Debian packages: output name | package=version | .deb file | .deb sha256 |
+# path inside | sha256
+DEBS=(
+  "kphotoalbum_jesper.jpg|kphotoalbum=5.9.1-1|kphotoalbum_5.9.1-1_amd64.deb|00f8b26b5db1beb30a822d15f464b3c68ffa556d267870aa98a59aaaaf81ec43|./usr/share/kphotoalbum/demo/jesper_2.jpg|e7c5112cad4076c0b16f7a822b0bf559859ad84077705442769afb91c81bcb1b"
+  "LICENSE-kphotoalbum.txt|kphotoalbum=5.9.1-1|kphotoalbum_5.9.1-1_amd64.deb|00f8b26b5db1beb30a822d15f464b3c68ffa556d267870aa98a59aaaaf81ec43|./usr/share/doc/kphotoalbum/copyright|"
 )
 
 # --- canonical face mesh -------------------------------------------------
@@ -100,6 +112,14 @@ for row in "${PHOTOS[@]}"; do
   IFS='|' read -r name _ _ want <<<"$row"
   have "$faces/$name" "$want" || photos_ok=0
 done
+for row in "${DEBS[@]}"; do
+  IFS='|' read -r name _ _ _ _ want <<<"$row"
+  if [[ -n "$want" ]]; then
+    have "$faces/$name" "$want" || photos_ok=0
+  else
+    [[ -f "$faces/$name" ]] || photos_ok=0
+  fi
+done
 if ((photos_ok)); then
   say "have the face photos (sha256 ok)"
   exit 0
@@ -127,5 +147,22 @@ open(tmp, "wb").write(data)
 os.replace(tmp, out)
 PY
   verify "$faces/$name" "$want"
+  say "unpacked $name"
+done
+for row in "${DEBS[@]}"; do
+  IFS='|' read -r name spec file debsha inner want <<<"$row"
+  if [[ -n "$want" ]]; then
+    have "$faces/$name" "$want" && continue
+  else
+    [[ -f "$faces/$name" ]] && continue
+  fi
+  if ! have "$dl/$file" "$debsha"; then
+    say "apt-get download $spec (once; kept in $dl)"
+    (cd "$dl" && apt-get download -q=2 "$spec")
+    verify "$dl/$file" "$debsha"
+  fi
+  dpkg-deb --fsys-tarfile "$dl/$file" | tar -xO "$inner" >"$faces/$name.tmp"
+  mv "$faces/$name.tmp" "$faces/$name"
+  [[ -n "$want" ]] && verify "$faces/$name" "$want"
   say "unpacked $name"
 done

@@ -30,29 +30,31 @@ fn main() {
         }
         let mut cam = Webcam::new(&look, w, h);
         for (label, motion) in [("still", [0.0f32, 0.0]), ("moving 4 px", [3.0, -2.6])] {
+            // The cost does not depend on the pixel values, so criterion
+            // applies the look to the same frame over and over.
             let mut frame = input.clone();
             let mut k = 0u64;
             c.bench_function(&format!("webcam {w}x{h} {label}"), |b| {
                 b.iter(|| {
-                    frame.data.copy_from_slice(&input.data);
                     k += 1;
                     cam.apply(&mut frame, k, motion)
                 })
             });
-            // The ratio, measured in this run: median of 200 frames (the
-            // copy of the input frame included, about 0.1 ms at 720p).
+            // The ratio, measured in this run: median of 200 fresh frames.
             let mut ms: Vec<f64> = (0..200u64)
                 .map(|k| {
-                    let t = Instant::now();
                     frame.data.copy_from_slice(&input.data);
+                    let t = Instant::now();
                     cam.apply(&mut frame, k, motion);
                     t.elapsed().as_secs_f64() * 1e3
                 })
                 .collect();
             ms.sort_by(f64::total_cmp);
-            let med = ms[ms.len() / 2];
+            let (best, med) = (ms[0], ms[ms.len() / 2]);
+            // The fastest frame too: on a busy machine the median carries
+            // other processes' time.
             lines.push(format!(
-                "{w}x{h} {label}: {med:.2} ms per frame on {} threads = {:.1} % of the {BUDGET_MS} ms budget of 25 fps real time",
+                "{w}x{h} {label}: {med:.2} ms per frame (fastest {best:.2}) on {} threads = {:.1} % of the {BUDGET_MS} ms budget of 25 fps real time",
                 rayon::current_num_threads(),
                 med / BUDGET_MS * 100.0
             ));

@@ -25,6 +25,8 @@ fn main() -> Result<()> {
             "grace_hopper.jpg",
             "psychopy_face01.jpg",
             "psychopy_face.jpg",
+            "giunchedi.jpg",
+            "kphotoalbum_jesper.jpg",
         ]
         .iter()
         .map(|n| faces.join(n))

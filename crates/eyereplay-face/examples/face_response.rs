@@ -20,6 +20,8 @@ fn main() -> Result<()> {
             "grace_hopper.jpg",
             "psychopy_face01.jpg",
             "psychopy_face.jpg",
+            "giunchedi.jpg",
+            "kphotoalbum_jesper.jpg",
         ]
         .iter()
         .map(|n| faces.join(n))
@@ -28,6 +30,12 @@ fn main() -> Result<()> {
     let mesh = CanonicalMesh::load(&faces.join(MESH_FILE))?;
     let mut fitter = PhotoFitter::new(&eyereplay_extract::default_models_dir(), mesh.clone())?;
     let (w, h) = (640, 480);
+    // Extra head yaw (deg) for every probe: how the response changes as
+    // the head turns.
+    let yaw_off: f64 = std::env::var("EYEREPLAY_PROBE_YAW")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0.0);
     for (i, path) in photos.iter().enumerate() {
         let id = fitter.fit(path)?;
         let name = id.name.clone();
@@ -52,7 +60,8 @@ fn main() -> Result<()> {
             for k in 0..9 {
                 let v = 0.1 + 0.1 * k as f64;
                 let target = if axis == 0 { (v, 0.5) } else { (0.5, v) };
-                let head = scene.rest_pose;
+                let mut head = scene.rest_pose;
+                head.yaw_deg += yaw_off;
                 let eyes = scene.solve_eyes(&head, target, 0.0);
                 let st = FaceState {
                     head,

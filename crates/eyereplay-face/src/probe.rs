@@ -30,6 +30,11 @@ const MIN_SPAN: f64 = 0.08;
 
 /// The probe grid over the 5th-95th percentiles of `targets`, and its centre.
 pub fn probe_grid(targets: &[NormPos]) -> (Vec<NormPos>, NormPos) {
+    probe_grid_min(targets, MIN_SPAN)
+}
+
+/// [`probe_grid`] with at least `min_span` per axis.
+fn probe_grid_min(targets: &[NormPos], min_span: f64) -> (Vec<NormPos>, NormPos) {
     let pct = |mut v: Vec<f64>, q: f64| -> f64 {
         v.sort_by(f64::total_cmp);
         if v.is_empty() {
@@ -40,7 +45,7 @@ pub fn probe_grid(targets: &[NormPos]) -> (Vec<NormPos>, NormPos) {
     let range = |v: Vec<f64>| -> (f64, f64) {
         let (lo, hi) = (pct(v.clone(), 0.05), pct(v, 0.95));
         let mid = 0.5 * (lo + hi);
-        let half = (0.5 * (hi - lo)).max(MIN_SPAN / 2.0);
+        let half = (0.5 * (hi - lo)).max(min_span / 2.0);
         (mid - half, mid + half)
     };
     let (x0, x1) = range(targets.iter().map(|t| t.nx).collect());
@@ -62,16 +67,33 @@ pub fn probe_grid(targets: &[NormPos]) -> (Vec<NormPos>, NormPos) {
     (grid, centre)
 }
 
+/// A grid this wide per axis is probed when the session's own range gave
+/// no usable fit (a reading session's vertical range can be a few
+/// hundredths, where the read-back's noise hides the slope).
+const RETRY_SPAN: f64 = 0.2;
+
 /// Measures the response map of `scene` with `look` over the session's
-/// `targets` (uncorrected); `Ok(None)` when the probe frames could not be
-/// read well enough to fit one (the session is then drawn geometrically).
+/// `targets` (uncorrected), retrying once over a wider grid; `Ok(None)`
+/// when the probe frames could not be read well enough to fit one (the
+/// session is then drawn geometrically).
 pub fn measure_response(
     scene: &FaceScene,
     look: &WebcamLook,
     fitter: &mut PhotoFitter,
     targets: &[NormPos],
 ) -> Result<Option<ResponseMap>> {
-    let (grid, centre) = probe_grid(targets);
+    if let Some(m) = measure_over(scene, look, fitter, probe_grid(targets))? {
+        return Ok(Some(m));
+    }
+    measure_over(scene, look, fitter, probe_grid_min(targets, RETRY_SPAN))
+}
+
+fn measure_over(
+    scene: &FaceScene,
+    look: &WebcamLook,
+    fitter: &mut PhotoFitter,
+    (grid, centre): (Vec<NormPos>, NormPos),
+) -> Result<Option<ResponseMap>> {
     let (w, h) = (scene.width(), scene.height());
     let mut raster = Rasterizer::new(w, h);
     let mut mesh = TexturedMesh::new(vec![], vec![], vec![]);
@@ -115,4 +137,81 @@ pub fn measure_response(
         read(first.invert(g), &mut pairs)?;
     }
     Ok(ResponseMap::fit(&pairs).map(|m| m.about(centre)))
+}
+
+/// Head turn used to measure [`measure_pose_slopes`] (deg each way).
+const SLOPE_YAW_DEG: f64 = 8.0;
+const SLOPE_PITCH_DEG: f64 = 6.0;
+
+/// How the extractor's reading moves when the head turns with the eye
+/// still in the head: `d(nx, ny) / d(yaw, pitch)` per degree (rows nx,
+/// ny; columns yaw, pitch), measured at five drawn positions around
+/// `centre` with the head turned each way. The iris model reads a turned
+/// head's eye a little off (about -0.003 nx per degree of yaw on the
+/// bundled identities: 0.035 at 12 deg, as much as a conversation's
+/// whole horizontal spread), so the renderer subtracts this per frame.
+/// `Ok(None)` when a probe frame has no face.
+pub fn measure_pose_slopes(
+    scene: &FaceScene,
+    look: &WebcamLook,
+    fitter: &mut PhotoFitter,
+    centre: NormPos,
+) -> Result<Option<[[f64; 2]; 2]>> {
+    let (w, h) = (scene.width(), scene.height());
+    let mut raster = Rasterizer::new(w, h);
+    let mut mesh = TexturedMesh::new(vec![], vec![], vec![]);
+    let mut frame = RgbImage::filled(w, h, [0, 0, 0]);
+    let mut webcam = Webcam::new(look, w, h);
+    let pts = [
+        (0.0, 0.0),
+        (0.03, 0.0),
+        (-0.03, 0.0),
+        (0.0, 0.03),
+        (0.0, -0.03),
+    ];
+    let mut mean_at = |d_yaw: f64, d_pitch: f64| -> Result<Option<(f64, f64)>> {
+        let mut head = scene.rest_pose;
+        head.yaw_deg += d_yaw;
+        head.pitch_deg += d_pitch;
+        let (mut sx, mut sy) = (0.0, 0.0);
+        for (dx, dy) in pts {
+            let target = (centre.nx + dx, centre.ny + dy);
+            let state = FaceState {
+                head,
+                eyes: scene.solve_eyes(&head, target, 0.0),
+                closure: 0.0,
+                pupil_scale: 1.0,
+            };
+            scene.draw(&state, &mut raster, &mut mesh, &mut frame);
+            webcam.apply(&mut frame, 0, [0.0, 0.0]);
+            let Some(face) = fitter.landmarks(&frame)? else {
+                return Ok(None);
+            };
+            for e in &face.eyes {
+                let r = e.measure_against(e.corner_left, e.corner_right);
+                sx += r.nx / 10.0;
+                sy += r.ny / 10.0;
+            }
+        }
+        Ok(Some((sx, sy)))
+    };
+    let (Some(yl), Some(yr), Some(pd), Some(pu)) = (
+        mean_at(-SLOPE_YAW_DEG, 0.0)?,
+        mean_at(SLOPE_YAW_DEG, 0.0)?,
+        mean_at(0.0, -SLOPE_PITCH_DEG)?,
+        mean_at(0.0, SLOPE_PITCH_DEG)?,
+    ) else {
+        return Ok(None);
+    };
+    let q = |v: f64| (v * 1e5).round() / 1e5;
+    Ok(Some([
+        [
+            q((yr.0 - yl.0) / (2.0 * SLOPE_YAW_DEG)),
+            q((pu.0 - pd.0) / (2.0 * SLOPE_PITCH_DEG)),
+        ],
+        [
+            q((yr.1 - yl.1) / (2.0 * SLOPE_YAW_DEG)),
+            q((pu.1 - pd.1) / (2.0 * SLOPE_PITCH_DEG)),
+        ],
+    ]))
 }

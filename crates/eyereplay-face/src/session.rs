@@ -66,6 +66,10 @@ pub struct FaceSessionParams {
     pub look: WebcamLook,
     pub encoder: EncoderSettings,
     pub seed: u64,
+    /// How the extractor's reading moves as the head turns (see
+    /// [`crate::measure_pose_slopes`]); subtracted per frame. `None`: no
+    /// correction.
+    pub pose_slopes: Option<[[f64; 2]; 2]>,
 }
 
 /// What a session render did.
@@ -170,7 +174,19 @@ fn solve_frames(
                     rest.translation_cm[2] + s[5],
                 ],
             };
-            let eyes = scene.solve_eyes(&head, targets[i], closure[i]);
+            // The extractor reads a turned head's eye a little off: draw
+            // against that, in drawn units (through the response's gains).
+            let mut target = targets[i];
+            if let Some(sl) = p.pose_slopes {
+                let gain = p
+                    .mapping
+                    .extractor_response
+                    .map_or([1.0, 1.0], |m| [m.a[0][0], m.a[1][1]]);
+                for (k, t) in [&mut target.0, &mut target.1].into_iter().enumerate() {
+                    *t -= (sl[k][0] * rel.yaw_deg + sl[k][1] * rel.pitch_deg) / gain[k];
+                }
+            }
+            let eyes = scene.solve_eyes(&head, target, closure[i]);
             let pupil_scale = 1.0 + 0.08 * (std::f64::consts::TAU * 0.07 * i as f64 / p.fps).sin();
             let state = FaceState {
                 head,

@@ -61,22 +61,27 @@
 //! clips optical blur too). The gaussian is separable (truncated at 3
 //! sigma, edges replicated); the motion smear is a small 2-D kernel of
 //! bilinear taps merged on the integer grid. Encoding back to sRGB is a
-//! 4097-entry table indexed by `sqrt(linear)` (near-uniform steps in code
-//! values, within 0.1 code value everywhere, so a code value survives
-//! decode-encode exactly), which also holds the noise std of that level.
+//! degree-7 polynomial in `sqrt(linear)` (within 0.05 code value of the
+//! exact curve, so every code value survives decode-encode exactly), and
+//! the noise std a degree-4 one: no table lookups, so it vectorizes.
 //!
-//! Determinism: the noise of pixel `i` of frame `f` is a counter-based hash
-//! (splitmix64) of (seed, f, i) mapped through a 4096-entry table of normal
-//! quantiles, and each row's result depends only on the input rows, never
-//! on how the frame was cut into rayon bands, so the bytes are the same for
-//! any thread count. Rust never fuses multiply-adds on its own, so the
-//! AVX2 and SSE2 builds of the same code give the same bytes too.
+//! Determinism: the noise of value `i` (pixel times 3 plus channel) of
+//! frame `f` comes from a counter-based hash, lowbias32 of `i` keyed by
+//! splitmix64 of (seed, f), its four bytes summed and shaped into a
+//! near-normal deviate; each row's result
+//! depends only on the input rows, never on how the frame was cut into
+//! rayon bands, so the bytes are the same for any thread count. The code
+//! uses only IEEE-exact operations (add, multiply, divide, sqrt, fused
+//! multiply-add via `mul_add`), so its AVX2+FMA build (picked at run time)
+//! and the portable build (where `mul_add` is libm's correctly rounded
+//! `fmaf`: the same bytes, slowly) agree bit for bit.
 //!
-//! The frame is cut into bands of rows, one rayon task each; a band streams
-//! its rows through small ring buffers (horizontally blurred rows, then
-//! vertically blurred rows for the motion smear), so the working set stays
-//! in cache. No allocation per frame once the buffers have grown to the
-//! largest motion smear seen.
+//! The frame is processed in place, cut into bands of rows, one rayon task
+//! each (the few input rows a band reads beyond its ends are copied first);
+//! a band streams its rows through small ring buffers (horizontally blurred
+//! rows, then vertically blurred rows for the motion smear), so the working
+//! set stays in cache. No allocation per frame once the buffers have grown
+//! to the largest motion smear seen.
 
 use crate::RgbImage;
 use rand::SeedableRng;
@@ -123,14 +128,14 @@ const ENC_POLY: [f32; 8] = [
 /// (solved from the exact moments of S); tails within 15 % of the normal's
 /// at 2 and 3 sigma, cut at 4 sigma.
 const NOISE_C1: f32 = 0.006_421_040_6;
-const NOISE_C3: f32 = 5.773_954_3e-9;
+const NOISE_C3: f32 = 5.773_954e-9;
 /// 2^23: adding it to a float in [0, 2^22] rounds it (to nearest) to an
 /// integer held in the low mantissa bits; unlike a float-to-int cast this
 /// vectorizes.
 const MAGIC: f32 = 8_388_608.0;
 const MAGIC_BITS: i32 = 0x4B00_0000;
-/// Smallest gaussian sigma that blurs at all, px: below it the 3-sigma
-/// kernel would be a single tap.
+/// Smallest gaussian sigma that blurs at all, px (the neighbours of a
+/// smaller one weigh under 1e-80).
 const MIN_SIGMA_PX: f64 = 0.05;
 /// Shortest motion smear applied, px.
 const MIN_SMEAR_PX: f32 = 0.25;
@@ -353,7 +358,7 @@ impl WebcamLook {
     /// (roughly 0.5-1 Mbps at 480p against 1.2-2.5 Mbps at 720p, i.e. about
     /// 2x for 3x the pixels); sqrt gives 1.73x. 0 stays 0 (no limit).
     pub fn bitrate_kbps_for(&self, width: usize, height: usize) -> u32 {
-        if !(self.bitrate_kbps > 0.0) {
+        if self.bitrate_kbps.is_nan() || self.bitrate_kbps <= 0.0 {
             return 0;
         }
         let ratio = (width * height) as f64 / (REFERENCE_WIDTH_PX * REFERENCE_HEIGHT_PX) as f64;
@@ -407,6 +412,7 @@ fn srgb_decode(code: f64) -> f64 {
 }
 
 /// Linear light (0-1) to an sRGB code value (0-255, not rounded).
+#[cfg(test)]
 fn srgb_encode(linear: f64) -> f64 {
     let l = linear.clamp(0.0, 1.0);
     255.0
@@ -418,7 +424,8 @@ fn srgb_encode(linear: f64) -> f64 {
 }
 
 /// splitmix64's output function: a bijective 64-bit mix with full
-/// avalanche, the counter-based hash behind the noise.
+/// avalanche; derives each frame's noise keys from the seed and the frame
+/// index.
 #[inline(always)]
 fn mix64(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -513,6 +520,14 @@ fn noise_std_poly(read: f64, shot: f64) -> [f32; 5] {
     poly.map(|v| v as f32)
 }
 
+/// Clamps to 0..=1, NaN to 0 (`clamp` would keep NaN, which would then
+/// not round to a byte).
+#[allow(clippy::manual_clamp)]
+#[inline(always)]
+fn unit(v: f32) -> f32 {
+    v.max(0.0).min(1.0)
+}
+
 /// Rounds a code value (finite, |code| < 2^22) to the nearest byte,
 /// clamped: the integer clamp compiles to saturating packs.
 #[inline(always)]
@@ -535,18 +550,16 @@ struct Params {
     spatial: bool,
     /// Exposure times white balance, per channel.
     gain: [f32; 3],
-    /// Per value of a row (interleaved RGB, 3 w): exposure times white
-    /// balance, and `light_strength * light_tint` times that.
-    gain_3: Vec<f32>,
-    light_3: Vec<f32>,
+    /// `light_strength * light_tint * gain`, per channel.
+    light: [f32; 3],
     /// cos^4 vignetting `(1 + k r^2)^-2`, r = 1 at the corners: r^2 as a
-    /// column term (per value) plus a row term.
+    /// column term plus a row term.
     vignette_k: f32,
-    col_r2_3: Vec<f32>,
+    col_r2: Vec<f32>,
     row_r2: Vec<f32>,
     /// Side light: position along the light direction, -0.5..0.5 over the
-    /// frame, as a column term (per value) plus a row term.
-    col_d_3: Vec<f32>,
+    /// frame, as a column term plus a row term.
+    col_d: Vec<f32>,
     row_d: Vec<f32>,
     /// Gaussian taps for offsets 0..=radius (symmetric), sum over -r..=r 1.
     kernel: Vec<f32>,
@@ -613,9 +626,8 @@ impl Webcam {
 
         let (w, h) = (width as f64, height as f64);
         let half_diag2 = (w * w + h * h) / 4.0;
-        let col_r2_3 = (0..width * 3)
-            .map(|i| ((i as f64 / 3.0).floor() + 0.5 - w / 2.0).powi(2) / half_diag2)
-            .map(|v| v as f32)
+        let col_r2 = (0..width)
+            .map(|x| ((x as f64 + 0.5 - w / 2.0).powi(2) / half_diag2) as f32)
             .collect();
         let row_r2 = (0..height)
             .map(|y| ((y as f64 + 0.5 - h / 2.0).powi(2) / half_diag2) as f32)
@@ -626,9 +638,8 @@ impl Webcam {
         // Half the frame's extent along it, in units of the height.
         let extent = 0.5 * (w / h.max(1.0)) * lx.abs() + 0.5 * ly.abs();
         let scale = 1.0 / (2.0 * extent.max(1e-9) * h.max(1.0));
-        let col_d_3 = (0..width * 3)
-            .map(|i| ((i as f64 / 3.0).floor() + 0.5 - w / 2.0) * lx * scale)
-            .map(|v| v as f32)
+        let col_d = (0..width)
+            .map(|x| ((x as f64 + 0.5 - w / 2.0) * lx * scale) as f32)
             .collect();
         let row_d = (0..height)
             .map(|y| ((y as f64 + 0.5 - h / 2.0) * ly * scale) as f32)
@@ -664,12 +675,11 @@ impl Webcam {
                 noise_std,
                 spatial,
                 gain,
-                gain_3: (0..width * 3).map(|i| gain[i % 3]).collect(),
-                light_3: (0..width * 3).map(|i| light[i % 3]).collect(),
+                light,
                 vignette_k,
-                col_r2_3,
+                col_r2,
                 row_r2,
-                col_d_3,
+                col_d,
                 row_d,
                 kernel,
                 motion_blur,
@@ -776,7 +786,8 @@ impl Webcam {
 fn motion_taps(smear: [f32; 2], taps: &mut Vec<Tap>) {
     taps.clear();
     let len = smear[0].hypot(smear[1]);
-    if !(len >= MIN_SMEAR_PX) {
+    // Also skips NaN and infinite motion.
+    if !(len >= MIN_SMEAR_PX && len.is_finite()) {
         return;
     }
     let shorten = (MAX_SMEAR_PX / len).min(1.0);
@@ -944,23 +955,24 @@ impl Job<'_> {
             *o = p.decode[s as usize];
         }
         if p.spatial {
-            // Per value: v = (1 + k r^2)^-2, the cos^4 law; gain =
-            // v (gain + d light), d the position along the light; never
-            // negative. Interleaved per-value columns, so it vectorizes.
+            // Per pixel: v = (1 + k r^2)^-2, the cos^4 law; gain_c =
+            // v (gain_c + d light_c), d the position along the light;
+            // never negative.
             let (k, ry, dy) = (p.vignette_k, p.row_r2[y], p.row_d[y]);
-            for ((((o, &rx), &dx), &g), &l) in body
-                .iter_mut()
-                .zip(&p.col_r2_3)
-                .zip(&p.col_d_3)
-                .zip(&p.gain_3)
-                .zip(&p.light_3)
-            {
+            let (g, l) = (p.gain, p.light);
+            for ((o, &rx), &dx) in body.chunks_exact_mut(3).zip(&p.col_r2).zip(&p.col_d) {
                 let t = 1.0 / (1.0 + k * (rx + ry));
-                *o *= (t * t * (dx + dy).mul_add(l, g)).max(0.0);
+                let (v, d) = (t * t, dx + dy);
+                o[0] *= (v * d.mul_add(l[0], g[0])).max(0.0);
+                o[1] *= (v * d.mul_add(l[1], g[1])).max(0.0);
+                o[2] *= (v * d.mul_add(l[2], g[2])).max(0.0);
             }
         } else if p.gain != [1.0; 3] {
-            for (o, &g) in body.iter_mut().zip(&p.gain_3) {
-                *o *= g;
+            let g = p.gain;
+            for o in body.chunks_exact_mut(3) {
+                o[0] *= g[0];
+                o[1] *= g[1];
+                o[2] *= g[2];
             }
         }
         pad_row(lin, r);
@@ -984,7 +996,7 @@ impl Job<'_> {
             // enough live constants to keep many values in flight.
             let c = p.noise_std;
             for (v, sd) in row.iter_mut().zip(std.iter_mut()) {
-                let l = v.max(0.0).min(1.0);
+                let l = unit(*v);
                 let s = l.sqrt();
                 let s2 = s * s;
                 *sd = s2.mul_add(
@@ -1004,7 +1016,7 @@ impl Job<'_> {
             }
         } else {
             for (o, &v) in out.iter_mut().zip(row.iter()) {
-                let l = v.max(0.0).min(1.0);
+                let l = unit(v);
                 *o = to_byte(encode_f32(l, l.sqrt()));
             }
         }
@@ -1573,239 +1585,5 @@ mod tests {
             .filter(|&i| noise_at(i, 0x1234_5678, 0x9ABC_DEF1) == v[i as usize] as f32)
             .count();
         assert!(same < 20, "{same}");
-    }
-}
-#[cfg(test)]
-mod tmp_timing {
-    use super::*;
-    use std::time::Instant;
-    fn best(mut f: impl FnMut()) -> f64 {
-        let mut b = f64::MAX;
-        for _ in 0..200 {
-            let t = Instant::now();
-            f();
-            b = b.min(t.elapsed().as_secs_f64() * 1e3);
-        }
-        b
-    }
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn dec(d: &[f32; 256], src: &[u8], out: &mut [f32]) {
-        for (o, &s) in out.iter_mut().zip(src) {
-            *o = d[s as usize];
-        }
-    }
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn enc(row: &[f32], out: &mut [u8]) {
-        for (o, &v) in out.iter_mut().zip(row) {
-            *o = to_byte(encode_f32(v.max(0.0).min(1.0), v.max(0.0).min(1.0).sqrt()));
-        }
-    }
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn enc_noise(row: &[f32], out: &mut [u8]) {
-        for (j, (o, &v)) in out.iter_mut().zip(row).enumerate() {
-            let l = v.max(0.0).min(1.0);
-            let std = (4.0 + 9.0 * l).sqrt();
-            let z = noise_at(j as u32, 77, 99);
-            *o = to_byte(encode_f32(l, l.sqrt()) + std * z);
-        }
-    }
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn blur(k: &[f32], src: &[f32], dst: &mut [f32]) {
-        let r = k.len() - 1;
-        let n = dst.len();
-        blur_rows(k, dst, |j| &src[(3 * r as isize + 3 * j) as usize..][..n]);
-    }
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn scale(src: &[f32], dst: &mut [f32]) {
-        for (d, &v) in dst.iter_mut().zip(src) {
-            *d = 1.5 * v + 0.5;
-        }
-    }
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn sq(src: &[f32], dst: &mut [f32]) {
-        for (d, &v) in dst.iter_mut().zip(src) {
-            *d = v.sqrt();
-        }
-    }
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn enc_f(row: &[f32], out: &mut [f32]) {
-        for (o, &v) in out.iter_mut().zip(row) {
-            *o = encode_f32(v.max(0.0).min(1.0), v.max(0.0).min(1.0).sqrt());
-        }
-    }
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn pack(row: &[f32], out: &mut [u8]) {
-        for (o, &v) in out.iter_mut().zip(row) {
-            *o = to_byte(v);
-        }
-    }
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn noise_only(row: &[f32], out: &mut [f32]) {
-        for (j, (o, &v)) in out.iter_mut().zip(row).enumerate() {
-            *o = v + noise_at(j as u32, 77, 99);
-        }
-    }
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn dec_gather(d: &[f32; 256], src: &[u8], out: &mut [f32]) {
-        use std::arch::x86_64::*;
-        for (o, s) in out.chunks_exact_mut(8).zip(src.chunks_exact(8)) {
-            let b = _mm_loadl_epi64(s.as_ptr() as *const __m128i);
-            let idx = _mm256_cvtepu8_epi32(b);
-            let v = _mm256_i32gather_ps::<4>(d.as_ptr(), idx);
-            _mm256_storeu_ps(o.as_mut_ptr(), v);
-        }
-    }
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn vblur(k: &[f32], ring: &[f32], n: usize, dst: &mut [f32]) {
-        blur_rows(k, dst, |j| &ring[(5 + j) as usize * n..][..n]);
-    }
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn enc_real(job: &Job, row: &mut [f32], std: &mut [f32], out: &mut [u8]) {
-        job.encode_row(row, std, out, 7);
-    }
-    #[test]
-    #[ignore]
-    fn loop_timings() {
-        let n = 3840;
-        let rows = 720;
-        let src: Vec<u8> = (0..n).map(|i| (i % 251) as u8).collect();
-        let mut lin = vec![0f32; n + 60];
-        let mut out = vec![0u8; n];
-        let d: [f32; 256] = std::array::from_fn(|c| srgb_decode(c as f64) as f32);
-        unsafe {
-            println!(
-                "decode {:.3} ms/frame",
-                rows as f64 * best(|| dec(&d, &src, &mut lin[..n]))
-            );
-            println!(
-                "decode gather {:.3} ms/frame",
-                rows as f64 * best(|| dec_gather(&d, &src, &mut lin[..n]))
-            );
-            for (i, v) in lin.iter_mut().enumerate() {
-                *v = (i % 1000) as f32 / 1000.0;
-            }
-            println!(
-                "encode {:.3} ms/frame",
-                rows as f64 * best(|| enc(&lin[..n], &mut out))
-            );
-            println!(
-                "encode+noise {:.3} ms/frame",
-                rows as f64 * best(|| enc_noise(&lin[..n], &mut out))
-            );
-            let mut dst = vec![0f32; n];
-            println!(
-                "enc_f {:.3} ms/frame",
-                rows as f64 * best(|| enc_f(&lin[..n], &mut dst))
-            );
-            println!(
-                "pack {:.3} ms/frame",
-                rows as f64 * best(|| pack(&lin[..n], &mut out))
-            );
-            println!(
-                "noise_only {:.3} ms/frame",
-                rows as f64 * best(|| noise_only(&lin[..n], &mut dst))
-            );
-            let cam = Webcam::new(&WebcamRanges::default().sample(1), 1280, 720);
-            let job = Job {
-                p: &cam.p,
-                taps: &[],
-                mx: 0,
-                my: 0,
-                reach: 0,
-                key: 5,
-            };
-            println!(
-                "encode_row real {:.3} ms/frame",
-                rows as f64 * {
-                    let mut sd = vec![0f32; n];
-                    let mut r2 = lin[..n].to_vec();
-                    best(|| enc_real(&job, &mut r2, &mut sd, &mut out))
-                }
-            );
-            let ring = vec![0.5f32; 11 * n];
-            let k4 = vec![0.2f32; 5];
-            println!(
-                "vblur L2 r4 {:.3} ms/frame",
-                rows as f64 * best(|| vblur(&k4, &ring, n, &mut dst))
-            );
-            println!(
-                "hblur L1 r4 {:.3} ms/frame",
-                rows as f64 * best(|| blur(&k4, &lin, &mut dst))
-            );
-            println!(
-                "scale {:.3} ms/frame",
-                rows as f64 * best(|| scale(&lin[..n], &mut dst))
-            );
-            println!(
-                "sqrt {:.3} ms/frame",
-                rows as f64 * best(|| sq(&lin[..n], &mut dst))
-            );
-            let k = vec![0.2f32; 6];
-            println!(
-                "blur r5 {:.3} ms/frame",
-                rows as f64 * best(|| blur(&k, &lin, &mut dst))
-            );
-        }
-        std::hint::black_box(&out);
-    }
-    #[test]
-    #[ignore]
-    fn stage_timings() {
-        let (w, h) = (1280, 720);
-        let mut input = RgbImage::filled(w, h, [0, 0, 0]);
-        for (i, v) in input.data.iter_mut().enumerate() {
-            *v = (i % 251) as u8;
-        }
-        let base = WebcamRanges::default().sample(1);
-        let mut cases: Vec<(&str, WebcamLook)> = vec![("full", base.clone())];
-        let mut l = WebcamLook::identity();
-        l.exposure_ev = 0.5;
-        cases.push(("decode+encode", l));
-        let mut l = WebcamLook::identity();
-        l.vignetting = 0.2;
-        l.light_strength = 0.2;
-        cases.push(("spatial gain", l));
-        let mut l = WebcamLook::identity();
-        l.defocus_sigma_px = base.defocus_sigma_px;
-        cases.push(("defocus", l));
-        let mut l = WebcamLook::identity();
-        l.noise_sigma = 2.0;
-        cases.push(("noise", l));
-        let mut l = WebcamLook::identity();
-        l.motion_blur = 0.5;
-        cases.push(("motion 4px", l));
-        if let Ok(k) = std::env::var("ONLY") {
-            let k: usize = k.parse().unwrap();
-            cases = vec![cases[k].clone()];
-        }
-        let threads = std::env::var("THREADS")
-            .map(|r| r.parse().unwrap())
-            .unwrap_or(1);
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
-            for (name, l) in &cases {
-                let mut cam = Webcam::new(l, w, h);
-                let mut f = input.clone();
-                let mut best = u64::MAX;
-                let reps = std::env::var("REPS")
-                    .map(|r| r.parse().unwrap())
-                    .unwrap_or(100);
-                for k in 0..reps {
-                    f.data.copy_from_slice(&input.data);
-                    let t = std::time::Instant::now();
-                    let m = if std::env::var("STILL").is_ok() {
-                        0.0
-                    } else {
-                        1.0
-                    };
-                    cam.apply(&mut f, k, [3.0 * m, -2.6 * m]);
-                    best = best.min(t.elapsed().as_nanos() as u64);
-                }
-                println!("{name}: {:.2} ms cpu ({threads} thread)", best as f64 / 1e6);
-            }
-        });
     }
 }

@@ -66,6 +66,7 @@ fn full_face_session_reads_back() {
         look,
         encoder: EncoderSettings::default(),
         seed: 3,
+        pose_slopes: None,
     };
     let dir = tempfile::tempdir().unwrap();
     let (mp4, truth, head) = (

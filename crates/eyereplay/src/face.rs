@@ -21,11 +21,13 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// The photos bundled by `scripts/face-assets.sh` (licenses in NOTICE).
-pub const BUNDLED_FACES: [&str; 4] = [
+pub const BUNDLED_FACES: [&str; 6] = [
     "astronaut.png",
     "grace_hopper.jpg",
     "psychopy_face01.jpg",
     "psychopy_face.jpg",
+    "giunchedi.jpg",
+    "kphotoalbum_jesper.jpg",
 ];
 
 /// The photos a face-mode config uses: its `identities` resolved against
@@ -95,6 +97,8 @@ struct FaceIdentityRecord<'a> {
     task: &'static str,
     max_head_yaw_deg: f64,
     max_head_pitch_deg: f64,
+    /// d(nx, ny)/d(head yaw, pitch) per degree, subtracted per frame.
+    pose_slopes: Option<[[f64; 2]; 2]>,
 }
 
 /// Renders the unfinished sessions of `out` in the full-face mode.
@@ -179,6 +183,16 @@ pub(crate) fn render_sessions_face(
             None
         };
         session_mapping.extractor_response = response;
+        let pose_slopes = if settings.match_extractor {
+            let targets: Vec<NormPos> = traj
+                .iter()
+                .map(|&c| session_mapping.target_norm(c))
+                .collect();
+            let (_, centre) = eyereplay_face::probe_grid(&targets);
+            eyereplay_face::measure_pose_slopes(&scene, &look, &mut fitter, centre)?
+        } else {
+            None
+        };
         let p = FaceSessionParams {
             fps: meta.fps,
             mapping: session_mapping,
@@ -191,6 +205,7 @@ pub(crate) fn render_sessions_face(
             look: look.clone(),
             encoder: params.encoder.clone(),
             seed,
+            pose_slopes,
         };
         let result = eyereplay_face::render_face_session(
             &scene,
@@ -211,7 +226,7 @@ pub(crate) fn render_sessions_face(
                     photo: photo.name.clone(),
                     eye_identity: &eye_identity,
                     webcam: &look,
-                    face_height_frac: frac,
+                    face_height_frac: scene.face_frac,
                     coordination_e0_deg: coordination.e0_deg,
                     coordination_k: coordination.k,
                     task: if task == Task::Reading {
@@ -221,6 +236,7 @@ pub(crate) fn render_sessions_face(
                     },
                     max_head_yaw_deg: stats.max_head_yaw_deg,
                     max_head_pitch_deg: stats.max_head_pitch_deg,
+                    pose_slopes,
                 },
                 mapping: &session_mapping,
                 width: params.width,

@@ -1,0 +1,81 @@
+#!/usr/bin/env python3
+"""Visual fidelity of every session of a full-face dataset, one row each.
+
+    python3 scripts/face-table.py DATASET_DIR [--eyereplay PATH]
+
+For each rendered session: `eyereplay extract` (the unmodified path: face
+detection, 468 landmarks, iris) reads the video back (kept in
+DATASET_DIR/.readback/); the mean nx, ny of both eyes is compared frame by
+frame, open-eye frames only, with the source's position for that frame:
+the session's drawn truth mapped through its `extractor_response` (the
+renderer draws the inverse of that map, so this is the trajectory's own
+normalized position). Prints face detection, r, amplitude ratio
+(std ratio) and gain (slope) per axis, the head's yaw range, and a summary
+per class. Exit status 0; it measures, it does not judge.
+"""
+import argparse, csv, json, math, os, subprocess, sys
+
+
+def pearson(a, b):
+    n = len(a)
+    ma, mb = sum(a) / n, sum(b) / n
+    saa = sum((x - ma) ** 2 for x in a)
+    sbb = sum((y - mb) ** 2 for y in b)
+    sab = sum((x - ma) * (y - mb) for x, y in zip(a, b))
+    if saa <= 0 or sbb <= 0:
+        return float("nan"), float("nan"), float("nan")
+    return sab / math.sqrt(saa * sbb), math.sqrt(sbb / saa), sab / saa
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("dataset")
+    here = os.path.dirname(os.path.abspath(__file__))
+    ap.add_argument("--eyereplay", default=os.path.join(here, "..", "target", "release", "eyereplay"))
+    a = ap.parse_args()
+    d = a.dataset
+    labels = list(csv.DictReader(open(os.path.join(d, "labels.csv"))))
+    out = os.path.join(d, ".readback")
+    os.makedirs(out, exist_ok=True)
+    rows = []
+    for lab in labels:
+        f = lab.get("file") or lab.get("path") or list(lab.values())[0]
+        stem = os.path.join(d, f[:-4])
+        mp4, truth, head, ident = stem + ".mp4", stem + "_truth.csv", stem + "_head.csv", stem + "_identity.json"
+        if not (os.path.exists(mp4) and os.path.exists(truth)):
+            continue
+        x = os.path.join(out, f.replace("/", "__"))
+        if not os.path.exists(x):
+            subprocess.run([a.eyereplay, "extract", mp4, "--out", x], check=True,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        ex = list(csv.DictReader(open(x)))
+        tr = list(csv.DictReader(open(truth)))
+        idn = json.load(open(ident))
+        mp = idn["mapping"]
+        cal, g = mp["calibration"], mp.get("gain", 1.0)
+        pts = []
+        for e, t in zip(ex, tr):
+            if e["valid"] == "1" and t["blink"] == "0":
+                sx = 0.5 + g * (float(t["x"]) - cal["mu_x"]) / cal["s_x"]
+                sy = 0.5 + g * (float(t["y"]) - cal["mu_y"]) / cal["s_y"]
+                pts.append((sx, sy, float(e["nx"]), float(e["ny"])))
+        face = sum(1 for e in ex if e["face"] == "1") / max(1, len(ex))
+        rx = pearson([p[0] for p in pts], [p[2] for p in pts])
+        ry = pearson([p[1] for p in pts], [p[3] for p in pts])
+        yaw = [float(h["head_yaw_deg"]) for h in csv.DictReader(open(head))] if os.path.exists(head) else [0.0]
+        cls = f.split("/")[0]
+        photo = idn.get("identity", {}).get("photo", "?")
+        rows.append((f, cls, photo, face, len(pts), rx, ry, min(yaw), max(yaw)))
+    print(f"{'session':<34} {'photo':<20} {'face':>6} {'n':>5} {'x r':>6} {'x ratio':>7} {'x gain':>6} {'y r':>6} {'y ratio':>7} {'y gain':>6} {'yaw deg':>12}")
+    for f, cls, photo, face, n, rx, ry, y0, y1 in rows:
+        print(f"{f:<34} {photo:<20} {100*face:5.1f}% {n:5d} {rx[0]:6.3f} {rx[1]:7.2f} {rx[2]:6.2f} {ry[0]:6.3f} {ry[1]:7.2f} {ry[2]:6.2f} {y0:5.1f}..{y1:4.1f}")
+    for cls in sorted({r[1] for r in rows}):
+        sel = [r for r in rows if r[1] == cls]
+        rng = lambda k, i: (min(r[k][i] for r in sel), max(r[k][i] for r in sel))
+        print(f"{cls}: {len(sel)} sessions, face {100*min(r[3] for r in sel):.1f}-{100*max(r[3] for r in sel):.1f} %, "
+              f"x r {rng(5,0)[0]:.3f}-{rng(5,0)[1]:.3f}, x ratio {rng(5,1)[0]:.2f}-{rng(5,1)[1]:.2f}, "
+              f"y r {rng(6,0)[0]:.3f}-{rng(6,0)[1]:.3f}, y ratio {rng(6,1)[0]:.2f}-{rng(6,1)[1]:.2f}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
