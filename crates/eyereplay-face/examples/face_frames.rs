@@ -81,6 +81,42 @@ fn main() -> Result<()> {
             match got {
                 None => println!("{name} {label}: NO FACE"),
                 Some(f) => {
+                    let basis: Vec<usize> = mesh.procrustes.iter().map(|p| p.0 as usize).collect();
+                    let wts: Vec<f64> = mesh.procrustes.iter().map(|p| p.1 as f64).collect();
+                    let model: Vec<nalgebra::Vector3<f64>> = basis
+                        .iter()
+                        .map(|&i| {
+                            nalgebra::Vector3::from(scene.identity.shape_cm[i].map(f64::from))
+                        })
+                        .collect();
+                    let obs: Vec<[f64; 2]> = basis
+                        .iter()
+                        .map(|&i| [f.mesh[i].x as f64, f.mesh[i].y as f64])
+                        .collect();
+                    let solved = solve_pose(&scene.camera, &model, &obs, &wts, 20);
+                    let mut plain = RgbImage::filled(640, 480, [118, 124, 132]);
+                    let tmc = scene.identity.textured_mesh(&mesh, false);
+                    Rasterizer::new(640, 480).draw(
+                        &mut plain,
+                        &scene.camera,
+                        &head,
+                        &tmc,
+                        &scene.identity.texture,
+                    );
+                    if let Some(f2) = fitter.landmarks(&plain)? {
+                        let obs2: Vec<[f64; 2]> = basis
+                            .iter()
+                            .map(|&i| [f2.mesh[i].x as f64, f2.mesh[i].y as f64])
+                            .collect();
+                        println!(
+                            "   plain mesh only: solved yaw {:.1}",
+                            solve_pose(&scene.camera, &model, &obs2, &wts, 20).yaw_deg
+                        );
+                    }
+                    println!(
+                        "   head yaw drawn {:.1} solved {:.1}; pitch drawn {:.1} solved {:.1}",
+                        head.yaw_deg, solved.yaw_deg, head.pitch_deg, solved.pitch_deg
+                    );
                     let m: Vec<(f64, f64)> = f
                         .eyes
                         .iter()

@@ -53,6 +53,7 @@ mod probe;
 mod raster;
 mod scene;
 mod session;
+mod video_pose;
 pub mod webcam;
 
 pub use error::{FaceError, Result};
@@ -67,4 +68,8 @@ pub use pose::{solve_pose, weighted_procrustes, Camera, HeadPose, Similarity};
 pub use probe::{measure_pose_slopes, measure_response, probe_grid};
 pub use raster::{DrawStats, Rasterizer, RgbImage, TexturedMesh};
 pub use scene::{EyeImage, FaceScene, FaceState, Framing};
-pub use session::{render_face_session, FaceSessionParams, FaceSessionStats, HEAD_TRUTH_HEADER};
+pub use session::{
+    render_face_session, run_face_bench, FaceSessionParams, FaceSessionStats, HEAD_PITCH_LIMIT_DEG,
+    HEAD_TRUTH_HEADER, HEAD_YAW_LIMIT_DEG,
+};
+pub use video_pose::video_head_poses;

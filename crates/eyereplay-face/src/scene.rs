@@ -403,7 +403,7 @@ impl FaceScene {
         }
         let eyeball = Eyeball::new(&eye_identity);
         let mut scene = FaceScene {
-            mesh: identity.textured_mesh(mesh, true),
+            mesh: with_skirt(&identity, mesh),
             eyes,
             lid_follow: (
                 eye_identity.eye.upper_lid_follow,
@@ -466,8 +466,21 @@ impl FaceScene {
             .map(|p| p.map(f64::from))
             .collect();
         let to_photo = Sim2::fit(&all, &photo);
-        let anchors: Vec<usize> = (0..s.len()).step_by(9).collect();
-        let rest_anchors_px = anchors.iter().map(|&i| all[i]).collect();
+        // The backdrop around the head moves as the skirt's outer ring does
+        // (the mesh's last vertices), so the two meet where they join.
+        let pos = &self.mesh.positions_cm;
+        let ring = if pos.len() > s.len() {
+            (pos.len() - (pos.len() - s.len()) / SKIRT_RINGS.len())..pos.len()
+        } else {
+            0..s.len()
+        };
+        let anchors: Vec<usize> = ring.collect();
+        let rest_anchors_px = self.project(
+            &self.rest_pose,
+            anchors
+                .iter()
+                .map(|&i| Vector3::from(pos[i].map(f64::from))),
+        );
         // The head's soft ellipse: from the forehead-chin line, wide and
         // tall enough for hair and neck.
         let (fh, ch) = (all[lm::FOREHEAD], all[lm::CHIN]);
@@ -531,8 +544,8 @@ impl FaceScene {
     /// vertical rotation and the blink.
     fn posed_vertices(&self, state: &FaceState, out: &mut Vec<[f32; 3]>) {
         out.clear();
-        out.extend_from_slice(&self.identity.shape_cm);
-        let base = &self.identity.shape_cm;
+        out.extend_from_slice(&self.mesh.positions_cm);
+        let base = &self.mesh.positions_cm;
         let (up_f, lo_f) = self.lid_follow;
         let limbus_cm = self.eyeball.limbus_z_mm() / 10.0;
         let eased = state.closure.clamp(0.0, 1.0);
@@ -573,7 +586,7 @@ impl FaceScene {
     /// Where each eye's iris centre, corners and lids land in the image
     /// for `state` (image-left eye first).
     pub fn eye_images(&self, state: &FaceState) -> [EyeImage; 2] {
-        let mut verts = Vec::with_capacity(self.identity.shape_cm.len());
+        let mut verts = Vec::with_capacity(self.mesh.positions_cm.len());
         self.posed_vertices(state, &mut verts);
         let limbus_cm = self.eyeball.limbus_z_mm() / 10.0;
         std::array::from_fn(|k| {
@@ -678,12 +691,11 @@ impl FaceScene {
     ) {
         let b = &self.backdrop;
         let w = self.width();
-        let s = &self.identity.shape_cm;
         let now = self.project(
             head,
             b.anchors
                 .iter()
-                .map(|&i| Vector3::from(s[i].map(f64::from))),
+                .map(|&i| Vector3::from(self.mesh.positions_cm[i].map(f64::from))),
         );
         // Image motion of the head: current -> rest.
         let back = Sim2::fit(&now, &b.rest_anchors_px);
@@ -730,7 +742,7 @@ impl FaceScene {
         // Feather: coverage (eye openings count as covered) box-blurred
         // over `r` px; a covered pixel whose neighbourhood is part
         // uncovered is mixed with the backdrop.
-        let r = ((0.015 * self.face_frac * self.height() as f64).round() as usize).max(1);
+        let r = ((0.03 * self.face_frac * self.height() as f64).round() as usize).max(1);
         let (bw, bh) = (x1 - x0, y1 - y0);
         if bw == 0 || bh == 0 {
             return;
@@ -957,6 +969,72 @@ impl FaceScene {
             }
         })
     }
+}
+
+/// Rings of the skirt around the face oval: radial scale from the oval's
+/// centre (head frame x, y) and depth behind the oval's vertex (cm).
+const SKIRT_RINGS: [(f32, f32); 2] = [(1.2, 1.5), (1.5, 4.5)];
+
+/// The photo-textured mesh with its eye openings left open, plus a skirt:
+/// two rings of vertices around the face oval, outward and receding,
+/// textured from the photo around the face (jaw, ears, hair, neck). The
+/// canonical mesh ends at the face oval; without the skirt, what lies
+/// around the face (the photo's own ears, hair and jaw line) stays flat in
+/// the backdrop while the face turns, and the landmark model reads a
+/// fraction of the turn (16 deg drawn, 4 deg read on Grace Hopper's photo).
+fn with_skirt(id: &PhotoIdentity, mesh: &CanonicalMesh) -> TexturedMesh {
+    let base = id.textured_mesh(mesh, true);
+    let mut pos = base.positions_cm.clone();
+    let mut uv = base.uv_px.clone();
+    let mut tris = base.triangles.clone();
+    let Some(oval) = mesh.boundary_loops().into_iter().max_by_key(|l| l.len()) else {
+        return base;
+    };
+    let n = oval.len();
+    let c = oval.iter().fold([0f32; 2], |a, &i| {
+        let p = pos[i as usize];
+        [a[0] + p[0] / n as f32, a[1] + p[1] / n as f32]
+    });
+    let (m, t) = id.photo_pose.to_camera();
+    let front: f32 = tris
+        .iter()
+        .map(|tr| {
+            let [a, b, c] = tr.map(|i| pos[i as usize]);
+            (b[0] - a[0]) * (-c[1] + a[1]) - (-b[1] + a[1]) * (c[0] - a[0])
+        })
+        .sum::<f32>()
+        .signum();
+    let mut prev: Vec<u32> = oval.clone();
+    for (scale, depth) in SKIRT_RINGS {
+        let first = pos.len() as u32;
+        for &i in &oval {
+            let p = pos[i as usize];
+            let q = [
+                c[0] + (p[0] - c[0]) * scale,
+                c[1] + (p[1] - c[1]) * scale,
+                p[2] - depth,
+            ];
+            let cam = m * Vector3::new(q[0] as f64, q[1] as f64, q[2] as f64) + t;
+            let px = id.photo_camera.project(cam);
+            pos.push(q);
+            uv.push([px[0] as f32, px[1] as f32]);
+        }
+        let ring: Vec<u32> = (0..n as u32).map(|k| first + k).collect();
+        for k in 0..n {
+            let (a, b) = (prev[k], prev[(k + 1) % n]);
+            let (ra, rb) = (ring[k], ring[(k + 1) % n]);
+            for mut tr in [[a, b, rb], [a, rb, ra]] {
+                let [x, y, z] = tr.map(|i| pos[i as usize]);
+                let area = (y[0] - x[0]) * (-z[1] + x[1]) - (-y[1] + x[1]) * (z[0] - x[0]);
+                if area * front < 0.0 {
+                    tr.swap(1, 2);
+                }
+                tris.push(tr);
+            }
+        }
+        prev = ring;
+    }
+    TexturedMesh::new(pos, uv, tris)
 }
 
 /// `v` reflected into `[0, n]` (mirror padding: a backdrop wider than the

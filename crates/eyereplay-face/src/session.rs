@@ -30,7 +30,8 @@ use crate::webcam::{Webcam, WebcamLook};
 use eyereplay_core::CanvasPos;
 use eyereplay_dataset::{EyeTruthRow, TruthRow};
 use eyereplay_render::{
-    check_trajectory, closure_track, rgb_to_yuv420, Encoder, EncoderSettings, GazeMapping,
+    check_trajectory, closure_track, cpu_times, rgb_to_yuv420, BenchReport, Encoder,
+    EncoderSettings, FrameSink, GazeMapping,
 };
 use rayon::prelude::*;
 use serde::Serialize;
@@ -237,7 +238,7 @@ fn draw_frames(
     scene: &FaceScene,
     solved: &[Solved],
     look: &WebcamLook,
-    encoder: &mut Encoder,
+    sink: &mut (dyn FrameSink + Send),
 ) -> Result<()> {
     let (w, h) = (scene.width(), scene.height());
     let workers = std::thread::available_parallelism()
@@ -281,7 +282,7 @@ fn draw_frames(
             let buf = frames_rx[i % workers].recv().map_err(|_| {
                 eyereplay_render::RenderError::Input(format!("frame {i}: render worker stopped"))
             })?;
-            encoder.write_frame(&buf)?;
+            sink.frame(i, &buf)?;
             let _ = spare_tx[i % workers].send(buf);
         }
         Ok(())
@@ -361,5 +362,94 @@ pub fn render_face_session(
             .fold(0.0, f64::max),
         render_s,
         total_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// Keeps every frame in memory (the bench's render-only pass).
+struct Keep {
+    frames: Vec<u8>,
+    frame_bytes: usize,
+}
+
+impl FrameSink for Keep {
+    fn frame(&mut self, i: usize, yuv: &[u8]) -> Result<(), eyereplay_render::RenderError> {
+        let n = self.frame_bytes;
+        self.frames[i * n..(i + 1) * n].copy_from_slice(yuv);
+        Ok(())
+    }
+}
+
+/// The full-face mode's speed, measured as the close-up's
+/// ([`eyereplay_render::run_bench`]): render only (frames kept in memory),
+/// encode only (the same frames, the look's bitrate), and end to end
+/// through [`render_face_session`], on `traj`, in one run.
+pub fn run_face_bench(
+    scene: &FaceScene,
+    traj: &[CanvasPos],
+    p: &FaceSessionParams,
+) -> Result<BenchReport> {
+    let (w, h) = (scene.width(), scene.height());
+    let n = traj.len();
+    let dir = tempfile::tempdir().map_err(|source| crate::FaceError::Io {
+        path: std::env::temp_dir(),
+        source,
+    })?;
+    let (traj, _) = check_trajectory(traj, None, p.mapping.canvas)?;
+    let solved = solve_frames(scene, &traj, None, p);
+    let frame_bytes = w * h * 3 / 2;
+    let mut keep = Keep {
+        frames: vec![0u8; n * frame_bytes],
+        frame_bytes,
+    };
+    let c0 = cpu_times();
+    let t = Instant::now();
+    draw_frames(scene, &solved, &p.look, &mut keep)?;
+    let render_s = t.elapsed().as_secs_f64();
+    let c1 = cpu_times();
+    let mut enc = p.encoder.clone();
+    enc.bitrate_kbps = Some(p.look.bitrate_kbps_for(w, h));
+    let t = Instant::now();
+    let mut encoder = Encoder::start(&dir.path().join("encode_only.mp4"), w, h, p.fps, &enc)?;
+    for f in keep.frames.chunks(frame_bytes) {
+        encoder.write_frame(f)?;
+    }
+    encoder.finish()?;
+    let encode_s = t.elapsed().as_secs_f64();
+    let c2 = cpu_times();
+    drop(keep);
+    let t = Instant::now();
+    render_face_session(
+        scene,
+        &traj,
+        None,
+        p,
+        &dir.path().join("s.mp4"),
+        &dir.path().join("s_truth.csv"),
+        &dir.path().join("s_head.csv"),
+    )?;
+    let e2e_s = t.elapsed().as_secs_f64();
+    let c3 = cpu_times();
+    let nf = n as f64;
+    let ms = |a: Option<(f64, f64)>, b: Option<(f64, f64)>, pick: fn((f64, f64)) -> f64| {
+        Some((pick(b?) - pick(a?)) * 1000.0 / nf)
+    };
+    let end_to_end_cpu_ms = ms(c2, c3, |c| c.0 + c.1);
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    Ok(BenchReport {
+        frames: n,
+        width: w,
+        height: h,
+        video_fps: p.fps,
+        render_fps: nf / render_s,
+        encode_fps: nf / encode_s,
+        end_to_end_fps: nf / e2e_s,
+        realtime_factor: nf / e2e_s / p.fps,
+        ratio_to_encode: encode_s / e2e_s,
+        scene_setup_s: 0.0,
+        render_cpu_ms: ms(c0, c1, |c| c.0),
+        encode_cpu_ms: ms(c1, c2, |c| c.0 + c.1),
+        end_to_end_cpu_ms,
+        cpu_bound_fps: end_to_end_cpu_ms.map(|m| cores as f64 * 1000.0 / m),
+        cores,
     })
 }

@@ -132,3 +132,89 @@ fn full_face_session_reads_back() {
         std::fs::read(&head2).unwrap()
     );
 }
+
+/// Head yaw solved from the landmarks the extractor finds in a rendered
+/// conversation-scale session (coordination and sway on, head turns up to
+/// the mode's limit) against the session's head ground truth: r >= 0.9,
+/// with the identity's own shape and with the canonical mesh (what an
+/// unknown person's video gets).
+#[test]
+fn head_yaw_from_rendered_video() {
+    let (Some(models), Some(mesh), Some(photo)) = (
+        common::models(),
+        common::mesh(),
+        common::faces_file("grace_hopper.jpg"),
+    ) else {
+        return;
+    };
+    let mut fitter = PhotoFitter::new(&models, mesh.clone()).unwrap();
+    let id = fitter.fit(&photo).unwrap();
+    let look = WebcamRanges::default().sample(8);
+    let framing = Framing {
+        width: 640,
+        height: 480,
+        vfov_deg: look.vfov_deg,
+        face_height_frac: 0.42,
+        light_dir: [0.3, 0.4, 0.9],
+    };
+    let own = id.shape_cm.clone();
+    let scene = FaceScene::new(id, &mesh, Identity::sample(8), &framing);
+    let canvas = Canvas::default();
+    let traj = eyereplay_render::conversation_trajectory(
+        200,
+        canvas.width_px as f64,
+        canvas.height_px as f64,
+        8,
+    );
+    let params = FaceSessionParams {
+        fps: 25.0,
+        mapping: GazeMapping::new(canvas),
+        natural_blinks: false,
+        blink_rate_per_min: 0.0,
+        task: Task::Saccades,
+        coordination: CoordinationParams {
+            e0_deg: 8.0,
+            k: 0.8,
+        },
+        dynamics: HeadDynamics::default(),
+        sway_rms: DEFAULT_SWAY_RMS,
+        look: look.clone(),
+        encoder: EncoderSettings::default(),
+        seed: 8,
+        pose_slopes: None,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (mp4, head) = (dir.path().join("s.mp4"), dir.path().join("s_head.csv"));
+    let stats = render_face_session(
+        &scene,
+        &traj,
+        None,
+        &params,
+        &mp4,
+        &dir.path().join("t.csv"),
+        &head,
+    )
+    .unwrap();
+    assert!(stats.max_head_yaw_deg > 5.0, "{}", stats.max_head_yaw_deg);
+    let text = std::fs::read_to_string(&head).unwrap();
+    let truth: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse::<f64>().unwrap())
+        .collect();
+    for (name, shape) in [("own", &own), ("canonical", &mesh.positions_cm)] {
+        let poses = video_head_poses(&mp4, &models, &mesh, shape, look.vfov_deg).unwrap();
+        let (mut a, mut b) = (vec![], vec![]);
+        for (p, t) in poses.iter().zip(&truth) {
+            if let Some(p) = p {
+                a.push(*t);
+                b.push(p.yaw_deg);
+            }
+        }
+        assert!(a.len() >= 198, "face in {} of 200 frames", a.len());
+        let (r, slope) = pearson(&a, &b);
+        eprintln!("head yaw from landmarks ({name} shape): r {r:.3}, slope {slope:.2}");
+        assert!(r >= 0.9, "{name}: r {r}");
+        assert!((0.7..=1.3).contains(&slope), "{name}: slope {slope}");
+    }
+}

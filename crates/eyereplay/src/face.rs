@@ -267,3 +267,45 @@ pub(crate) fn render_sessions_face(
     }
     Ok(summary)
 }
+
+/// The full-face mode's speed bench (`eyereplay render --bench --face`): the
+/// first bundled photo, framed at `width` x `height` with a default webcam
+/// look, head coordination and sway on, on a reading trajectory of
+/// `frames` frames; render only, encode only and end to end in one run.
+/// The per-session probes (`match_extractor`) are not included: they cost
+/// about 70 extractor frames per session whatever its length.
+pub fn bench(width: usize, height: usize, frames: usize) -> Result<eyereplay_render::BenchReport> {
+    let photos = identity_photos(&RenderSettings::default(), |p| p.to_path_buf());
+    let (mesh, ids, _) = fit_identities(&photos[..1])?;
+    let look = WebcamRanges::default().sample(1);
+    let framing = Framing {
+        width,
+        height,
+        vfov_deg: look.vfov_deg,
+        face_height_frac: 0.42,
+        light_dir: [0.3, 0.4, 0.9],
+    };
+    let eye_identity = Identity::sample(1);
+    let scene = FaceScene::new(ids[0].clone(), &mesh, eye_identity.clone(), &framing);
+    let canvas = eyereplay_core::Canvas::default();
+    let traj = eyereplay_render::reading_trajectory(
+        frames,
+        canvas.width_px as f64,
+        canvas.height_px as f64,
+    );
+    let p = FaceSessionParams {
+        fps: 25.0,
+        mapping: GazeMapping::new(canvas),
+        natural_blinks: true,
+        blink_rate_per_min: eye_identity.blink_rate_per_min,
+        task: Task::Reading,
+        coordination: CoordinationParams::default(),
+        dynamics: HeadDynamics::default(),
+        sway_rms: DEFAULT_SWAY_RMS,
+        look,
+        encoder: eyereplay_render::EncoderSettings::default(),
+        seed: 1,
+        pose_slopes: None,
+    };
+    Ok(eyereplay_face::run_face_bench(&scene, &traj, &p)?)
+}

@@ -19,7 +19,8 @@ eyereplay render traj.csv --out s.mp4 --seed 7 --gain 2 --natural-blinks\n  \
 eyereplay render traj.csv --out s.mp4 --calibration data/metadata.json\n  \
 eyereplay render traj.csv --png-frames frames/                   # lossless stills\n  \
 eyereplay render --dataset data/ --jobs 2                        # every session of a prepared dataset\n  \
-eyereplay render --bench --frames 1000                           # frames/s, real-time factor")]
+eyereplay render --bench --frames 1000                           # frames/s, real-time factor\n  \
+eyereplay render --bench --face --size 640x480                   # the full-face webcam mode's speed")]
 pub struct Args {
     /// Session trajectory CSV (frame,x,y in canvas pixels).
     #[arg(required_unless_present_any = ["dataset", "bench"], conflicts_with_all = ["dataset", "bench"])]
@@ -45,6 +46,11 @@ pub struct Args {
     /// Frames for --bench.
     #[arg(long, default_value_t = 750)]
     pub frames: usize,
+    /// With --bench: the full-face webcam mode (render.backend = "face":
+    /// the first bundled photo, webcam look, head motion) instead of the
+    /// close-up eyes.
+    #[arg(long, requires = "bench")]
+    pub face: bool,
     /// Identity seed (face, iris, lighting, camera); 0 is the reference face.
     /// With --dataset, the dataset seed each session's seed is derived from.
     #[arg(long, default_value_t = 0)]
@@ -146,7 +152,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let p = params(&args)?;
     if args.bench {
         anyhow::ensure!(args.frames >= 25, "--frames must be at least 25");
-        let report = run_bench(&p, args.frames)?;
+        let report = if args.face {
+            eyereplay::face::bench(p.width, p.height, args.frames)?
+        } else {
+            run_bench(&p, args.frames)?
+        };
         println!("{report}");
         return Ok(());
     }
