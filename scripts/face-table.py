@@ -53,9 +53,13 @@ def main():
         idn = json.load(open(ident))
         mp = idn["mapping"]
         cal, g = mp["calibration"], mp.get("gain", 1.0)
+        # Blinks widened by two frames each side (the lids are part-closed
+        # just before and after), as `eyereplay evaluate` does.
+        blink = [t["blink"] == "1" for t in tr]
+        closed = [any(blink[max(0, k - 2):k + 3]) for k in range(len(blink))]
         pts = []
-        for e, t in zip(ex, tr):
-            if e["valid"] == "1" and t["blink"] == "0":
+        for e, t, c in zip(ex, tr, closed):
+            if e["valid"] == "1" and not c:
                 sx = 0.5 + g * (float(t["x"]) - cal["mu_x"]) / cal["s_x"]
                 sy = 0.5 + g * (float(t["y"]) - cal["mu_y"]) / cal["s_y"]
                 pts.append((sx, sy, float(e["nx"]), float(e["ny"])))

@@ -53,6 +53,7 @@ fn main() -> Result<()> {
         let mut raster = Rasterizer::new(640, 480);
         let mut tm = TexturedMesh::new(vec![], vec![], vec![]);
         let mut frame = RgbImage::filled(640, 480, [0, 0, 0]);
+        #[allow(clippy::type_complexity)]
         let cases: [(&str, (f64, f64), f64, f64, f64); 8] = [
             ("centre", (0.5, 0.5), 0.0, 0.0, 0.0),
             ("left", (0.2, 0.5), 0.0, 0.0, 0.0),

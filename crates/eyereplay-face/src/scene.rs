@@ -798,9 +798,8 @@ impl FaceScene {
                 let ry = si * px + sr * py + sy + wt * (ei * px + er * py + ey);
                 let c = tex.sample(mirror(rx, tw), mirror(ry, th));
                 let o = (gy * w + gx) * 3;
-                for ch in 0..3 {
-                    let f = frame.data[o + ch] as f32;
-                    frame.data[o + ch] = (c[ch] + (f - c[ch]) * alpha + 0.5) as u8;
+                for (px, bg) in frame.data[o..o + 3].iter_mut().zip(c) {
+                    *px = (bg + (*px as f32 - bg) * alpha + 0.5) as u8;
                 }
             }
         }

@@ -331,7 +331,8 @@ pub fn render_face_session(
     let (traj, clamped) = check_trajectory(traj, blinks, p.mapping.canvas)?;
     let (w, h) = (scene.width(), scene.height());
     let mut enc = p.encoder.clone();
-    enc.bitrate_kbps = Some(p.look.bitrate_kbps_for(w, h));
+    // 0 (the identity look): no rate control, the encoder's own CRF.
+    enc.bitrate_kbps = Some(p.look.bitrate_kbps_for(w, h)).filter(|&k| k > 0);
     let mut encoder = Encoder::start(out_mp4, w, h, p.fps, &enc)?;
     let solved = solve_frames(scene, &traj, blinks, p);
     let t1 = Instant::now();
@@ -407,7 +408,8 @@ pub fn run_face_bench(
     let render_s = t.elapsed().as_secs_f64();
     let c1 = cpu_times();
     let mut enc = p.encoder.clone();
-    enc.bitrate_kbps = Some(p.look.bitrate_kbps_for(w, h));
+    // 0 (the identity look): no rate control, the encoder's own CRF.
+    enc.bitrate_kbps = Some(p.look.bitrate_kbps_for(w, h)).filter(|&k| k > 0);
     let t = Instant::now();
     let mut encoder = Encoder::start(&dir.path().join("encode_only.mp4"), w, h, p.fps, &enc)?;
     for f in keep.frames.chunks(frame_bytes) {
