@@ -653,10 +653,26 @@ impl FaceScene {
             &self.identity.texture,
         );
         let holes = [0, 1].map(|k| self.eye_rect(state, k, &mesh.positions_cm));
-        self.draw_backdrop(&state.head, raster.inv_depth(), &holes, frame);
+        let face_box = self.screen_box(&state.head, &mesh.positions_cm);
+        self.draw_backdrop(&state.head, raster.inv_depth(), &holes, face_box, frame);
         for k in 0..2 {
             self.draw_eye(state, k, &mesh.positions_cm, raster.inv_depth(), frame);
         }
+    }
+
+    /// The pixel box of the mesh's vertices under `head`, one pixel wider
+    /// each way, inside the frame.
+    fn screen_box(&self, head: &HeadPose, verts: &[[f32; 3]]) -> [usize; 4] {
+        let px = self.project(head, verts.iter().map(|p| Vector3::from(p.map(f64::from))));
+        let (w, h) = (self.width() as f64, self.height() as f64);
+        let lo = |i: usize| px.iter().map(|p| p[i]).fold(f64::MAX, f64::min);
+        let hi = |i: usize| px.iter().map(|p| p[i]).fold(f64::MIN, f64::max);
+        [
+            (lo(0) - 1.0).clamp(0.0, w) as usize,
+            (lo(1) - 1.0).clamp(0.0, h) as usize,
+            (hi(0) + 2.0).clamp(0.0, w) as usize,
+            (hi(1) + 2.0).clamp(0.0, h) as usize,
+        ]
     }
 
     /// The pixel box around eye `k`'s lid opening as posed.
@@ -687,6 +703,7 @@ impl FaceScene {
         head: &HeadPose,
         covered: &[f32],
         holes: &[[usize; 4]; 2],
+        face_box: [usize; 4],
         frame: &mut RgbImage,
     ) {
         let b = &self.backdrop;
@@ -743,7 +760,9 @@ impl FaceScene {
         // over `r` px; a covered pixel whose neighbourhood is part
         // uncovered is mixed with the backdrop.
         let r = ((0.03 * self.face_frac * self.height() as f64).round() as usize).max(1);
-        let (bw, bh) = (x1 - x0, y1 - y0);
+        // Only around the drawn mesh (its box), not the whole head region.
+        let [x0, y0, x1, y1] = face_box;
+        let (bw, bh) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
         if bw == 0 || bh == 0 {
             return;
         }
@@ -1041,6 +1060,9 @@ fn with_skirt(id: &PhotoIdentity, mesh: &CanonicalMesh) -> TexturedMesh {
 /// pixels into streaks).
 #[inline(always)]
 fn mirror(v: f32, n: f32) -> f32 {
+    if (0.0..=n).contains(&v) {
+        return v;
+    }
     let p = 2.0 * n;
     let m = v.rem_euclid(p);
     if m > n {
