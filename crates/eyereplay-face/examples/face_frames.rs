@@ -20,17 +20,7 @@ fn main() -> Result<()> {
     let photos: Vec<PathBuf> = if args.len() > 1 {
         args[1..].iter().map(PathBuf::from).collect()
     } else {
-        [
-            "astronaut.png",
-            "grace_hopper.jpg",
-            "psychopy_face01.jpg",
-            "psychopy_face.jpg",
-            "giunchedi.jpg",
-            "kphotoalbum_jesper.jpg",
-        ]
-        .iter()
-        .map(|n| faces.join(n))
-        .collect()
+        bundled_faces()
     };
     let mesh = CanonicalMesh::load(&faces.join(MESH_FILE))?;
     let mut fitter = PhotoFitter::new(&eyereplay_extract::default_models_dir(), mesh.clone())?;

@@ -15,17 +15,7 @@ fn main() -> Result<()> {
     let photos: Vec<PathBuf> = if !args.is_empty() {
         args.iter().map(PathBuf::from).collect()
     } else {
-        [
-            "astronaut.png",
-            "grace_hopper.jpg",
-            "psychopy_face01.jpg",
-            "psychopy_face.jpg",
-            "giunchedi.jpg",
-            "kphotoalbum_jesper.jpg",
-        ]
-        .iter()
-        .map(|n| faces.join(n))
-        .collect()
+        bundled_faces()
     };
     let mesh = CanonicalMesh::load(&faces.join(MESH_FILE))?;
     let mut fitter = PhotoFitter::new(&eyereplay_extract::default_models_dir(), mesh.clone())?;
@@ -73,13 +63,7 @@ fn main() -> Result<()> {
                 let t = 0.5 * (truth[0].norm().0 + truth[1].norm().0);
                 let tv = 0.5 * (truth[0].norm().1 + truth[1].norm().1);
                 scene.draw(&st, &mut raster, &mut tm, &mut frame);
-                let m = fitter.landmarks(&frame)?.map(|f| {
-                    let a =
-                        f.eyes[0].measure_against(f.eyes[0].corner_left, f.eyes[0].corner_right);
-                    let b =
-                        f.eyes[1].measure_against(f.eyes[1].corner_left, f.eyes[1].corner_right);
-                    (0.5 * (a.nx + b.nx), 0.5 * (a.ny + b.ny))
-                });
+                let m = read_frame(&mut fitter, &frame)?.map(|n| (n.nx, n.ny));
                 let drawn = if axis == 0 { t } else { tv };
                 let got = m.map_or(f64::NAN, |m| if axis == 0 { m.0 } else { m.1 });
                 line += &format!(" {v:.1}->{drawn:.2}->{got:.3}");

@@ -58,14 +58,14 @@ pub mod webcam;
 
 pub use error::{FaceError, Result};
 pub use mesh::{
-    default_faces_dir, lm, parse as parse_mesh, CanonicalMesh, INNER_LIPS, LEFT_EYE_CONTOUR,
-    MESH_FILE, MESH_VERTICES, RIGHT_EYE_CONTOUR,
+    bundled_faces, default_faces_dir, lm, parse as parse_mesh, CanonicalMesh, BUNDLED_FACES,
+    INNER_LIPS, LEFT_EYE_CONTOUR, MESH_FILE, MESH_VERTICES, RIGHT_EYE_CONTOUR,
 };
 pub use photo::{
     fit_shape, read_image, PhotoEye, PhotoFitter, PhotoIdentity, MIN_FACE_HEIGHT_PX, PHOTO_VFOV_DEG,
 };
 pub use pose::{solve_pose, weighted_procrustes, Camera, HeadPose, Similarity};
-pub use probe::{measure_pose_slopes, measure_response, probe_grid};
+pub use probe::{measure_pose_slopes, measure_response, probe_grid, read_frame};
 pub use raster::{DrawStats, Rasterizer, RgbImage, TexturedMesh};
 pub use scene::{EyeImage, FaceScene, FaceState, Framing};
 pub use session::{

@@ -85,6 +85,24 @@ pub fn default_faces_dir() -> PathBuf {
     PathBuf::from(".cache/faces")
 }
 
+/// The face photos `scripts/face-assets.sh` bundles (sources and licenses
+/// in NOTICE): the identities of the full-face mode when a config names
+/// none.
+pub const BUNDLED_FACES: [&str; 6] = [
+    "astronaut.png",
+    "grace_hopper.jpg",
+    "psychopy_face01.jpg",
+    "psychopy_face.jpg",
+    "giunchedi.jpg",
+    "kphotoalbum_jesper.jpg",
+];
+
+/// The bundled photos' paths in [`default_faces_dir`].
+pub fn bundled_faces() -> Vec<PathBuf> {
+    let dir = default_faces_dir();
+    BUNDLED_FACES.iter().map(|n| dir.join(n)).collect()
+}
+
 /// File name of the mesh in the faces folder.
 pub const MESH_FILE: &str = "canonical_face_mesh.binarypb";
 

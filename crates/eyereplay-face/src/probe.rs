@@ -22,6 +22,20 @@ use crate::webcam::{Webcam, WebcamLook};
 use eyereplay_core::NormPos;
 use eyereplay_render::ResponseMap;
 
+/// What the extractor's unmodified still path (detection, landmarks, iris;
+/// [`PhotoFitter::landmarks`]) reads in `frame`: the mean `(nx, ny)` of both
+/// eyes, as in its CSV; `None` without a face or with a degenerate eye.
+pub fn read_frame(fitter: &mut PhotoFitter, frame: &RgbImage) -> Result<Option<NormPos>> {
+    Ok(fitter.landmarks(frame)?.and_then(|face| {
+        let [a, b] = face.eyes.map(|e| e.measure());
+        let n = NormPos {
+            nx: 0.5 * (a.nx + b.nx),
+            ny: 0.5 * (a.ny + b.ny),
+        };
+        (n.nx.is_finite() && n.ny.is_finite()).then_some(n)
+    }))
+}
+
 /// Probe points per axis.
 const GRID: usize = 5;
 /// Smallest probed span per axis (normalized units): a still session
@@ -110,19 +124,8 @@ fn measure_over(
         };
         scene.draw(&state, &mut raster, &mut mesh, &mut frame);
         webcam.apply(&mut frame, 0, [0.0, 0.0]);
-        if let Some(face) = fitter.landmarks(&frame)? {
-            let m: Vec<(f64, f64)> = face
-                .eyes
-                .iter()
-                .map(|e| {
-                    let r = e.measure_against(e.corner_left, e.corner_right);
-                    (r.nx, r.ny)
-                })
-                .collect();
-            let (nx, ny) = (0.5 * (m[0].0 + m[1].0), 0.5 * (m[0].1 + m[1].1));
-            if nx.is_finite() && ny.is_finite() {
-                pairs.push((drawn, NormPos { nx, ny }));
-            }
+        if let Some(n) = read_frame(fitter, &frame)? {
+            pairs.push((drawn, n));
         }
         Ok(())
     };
@@ -184,14 +187,11 @@ pub fn measure_pose_slopes(
             };
             scene.draw(&state, &mut raster, &mut mesh, &mut frame);
             webcam.apply(&mut frame, 0, [0.0, 0.0]);
-            let Some(face) = fitter.landmarks(&frame)? else {
+            let Some(n) = read_frame(fitter, &frame)? else {
                 return Ok(None);
             };
-            for e in &face.eyes {
-                let r = e.measure_against(e.corner_left, e.corner_right);
-                sx += r.nx / 10.0;
-                sy += r.ny / 10.0;
-            }
+            sx += n.nx / pts.len() as f64;
+            sy += n.ny / pts.len() as f64;
         }
         Ok(Some((sx, sy)))
     };

@@ -664,15 +664,7 @@ impl FaceScene {
     /// each way, inside the frame.
     fn screen_box(&self, head: &HeadPose, verts: &[[f32; 3]]) -> [usize; 4] {
         let px = self.project(head, verts.iter().map(|p| Vector3::from(p.map(f64::from))));
-        let (w, h) = (self.width() as f64, self.height() as f64);
-        let lo = |i: usize| px.iter().map(|p| p[i]).fold(f64::MAX, f64::min);
-        let hi = |i: usize| px.iter().map(|p| p[i]).fold(f64::MIN, f64::max);
-        [
-            (lo(0) - 1.0).clamp(0.0, w) as usize,
-            (lo(1) - 1.0).clamp(0.0, h) as usize,
-            (hi(0) + 2.0).clamp(0.0, w) as usize,
-            (hi(1) + 2.0).clamp(0.0, h) as usize,
-        ]
+        self.pixel_box(&px, 1.0)
     }
 
     /// The pixel box around eye `k`'s lid opening as posed.
@@ -683,14 +675,20 @@ impl FaceScene {
         pts.extend(e.rig.upper.iter().map(|&i| v(i)));
         pts.extend(e.rig.lower.iter().map(|&i| v(i)));
         let px = self.project(&state.head, pts.into_iter());
+        self.pixel_box(&px, 2.0)
+    }
+
+    /// `[x0, y0, x1, y1)` covering the points `px` plus `margin` pixels,
+    /// inside the frame.
+    fn pixel_box(&self, px: &[[f64; 2]], margin: f64) -> [usize; 4] {
         let (w, h) = (self.width() as f64, self.height() as f64);
         let lo = |i: usize| px.iter().map(|p| p[i]).fold(f64::MAX, f64::min);
         let hi = |i: usize| px.iter().map(|p| p[i]).fold(f64::MIN, f64::max);
         [
-            (lo(0) - 2.0).clamp(0.0, w) as usize,
-            (lo(1) - 2.0).clamp(0.0, h) as usize,
-            (hi(0) + 3.0).clamp(0.0, w) as usize,
-            (hi(1) + 3.0).clamp(0.0, h) as usize,
+            (lo(0) - margin).clamp(0.0, w) as usize,
+            (lo(1) - margin).clamp(0.0, h) as usize,
+            (hi(0) + margin + 1.0).clamp(0.0, w) as usize,
+            (hi(1) + margin + 1.0).clamp(0.0, h) as usize,
         ]
     }
 

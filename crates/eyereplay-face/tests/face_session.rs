@@ -8,7 +8,7 @@ mod common;
 use eyereplay_core::{Canvas, NormPos};
 use eyereplay_extract::{extract_video_to_csv, ExtractOptions};
 use eyereplay_face::coordination::{CoordinationParams, HeadDynamics, Task, DEFAULT_SWAY_RMS};
-use eyereplay_face::webcam::WebcamRanges;
+use eyereplay_face::webcam::{WebcamLook, WebcamRanges};
 use eyereplay_face::*;
 use eyereplay_render::{reading_trajectory, EncoderSettings, GazeMapping, Identity};
 
@@ -24,22 +24,19 @@ fn pearson(a: &[f64], b: &[f64]) -> (f64, f64) {
     (sab / (saa * sbb).sqrt(), sab / saa)
 }
 
-/// A reading-scale session: the face is found in every frame, the
-/// horizontal eye-in-head signal comes back with r >= 0.9 and a gain inside
-/// 0.8-1.2 (after the extractor-response probe), the head moves, and the
-/// same seed gives the same truth files byte for byte.
-#[test]
-fn full_face_session_reads_back() {
-    let (Some(models), Some(mesh), Some(photo)) = (
-        common::models(),
-        common::mesh(),
-        common::faces_file("astronaut.png"),
-    ) else {
-        return;
-    };
+/// A scene of a bundled photo at 640x480 with the look `look_seed` draws.
+fn scene_of(
+    photo: &str,
+    look_seed: u64,
+) -> Option<(std::path::PathBuf, PhotoFitter, FaceScene, WebcamLook)> {
+    let (models, mesh, photo) = (
+        common::models()?,
+        common::mesh()?,
+        common::faces_file(photo)?,
+    );
     let mut fitter = PhotoFitter::new(&models, mesh.clone()).unwrap();
     let id = fitter.fit(&photo).unwrap();
-    let look = WebcamRanges::default().sample(3);
+    let look = WebcamRanges::default().sample(look_seed);
     let framing = Framing {
         width: 640,
         height: 480,
@@ -47,27 +44,56 @@ fn full_face_session_reads_back() {
         face_height_frac: 0.42,
         light_dir: [0.3, 0.4, 0.9],
     };
-    let scene = FaceScene::new(id, &mesh, Identity::sample(3), &framing);
+    let scene = FaceScene::new(id, &mesh, Identity::sample(look_seed), &framing);
+    Some((models, fitter, scene, look))
+}
+
+/// Session parameters with the default encoder, no blinks and no probes.
+fn params_of(
+    mapping: GazeMapping,
+    look: WebcamLook,
+    task: Task,
+    coordination: CoordinationParams,
+    seed: u64,
+) -> FaceSessionParams {
+    FaceSessionParams {
+        fps: 25.0,
+        mapping,
+        natural_blinks: false,
+        blink_rate_per_min: 0.0,
+        task,
+        coordination,
+        dynamics: HeadDynamics::default(),
+        sway_rms: DEFAULT_SWAY_RMS,
+        look,
+        encoder: EncoderSettings::default(),
+        seed,
+        pose_slopes: None,
+    }
+}
+
+/// A reading-scale session: the face is found in every frame, the
+/// horizontal eye-in-head signal comes back with r >= 0.9 and a gain inside
+/// 0.8-1.2 (after the extractor-response probe), the head moves, and the
+/// same seed gives the same truth files byte for byte.
+#[test]
+fn full_face_session_reads_back() {
+    let Some((models, mut fitter, scene, look)) = scene_of("astronaut.png", 3) else {
+        return;
+    };
     let canvas = Canvas::default();
     let traj = reading_trajectory(150, canvas.width_px as f64, canvas.height_px as f64);
     let mut mapping = GazeMapping::new(canvas);
     let targets: Vec<NormPos> = traj.iter().map(|&c| mapping.target_norm(c)).collect();
     mapping.extractor_response = measure_response(&scene, &look, &mut fitter, &targets).unwrap();
     let map = mapping.extractor_response.expect("a response map");
-    let params = FaceSessionParams {
-        fps: 25.0,
+    let params = params_of(
         mapping,
-        natural_blinks: false,
-        blink_rate_per_min: 0.0,
-        task: Task::Reading,
-        coordination: CoordinationParams::default(),
-        dynamics: HeadDynamics::default(),
-        sway_rms: DEFAULT_SWAY_RMS,
         look,
-        encoder: EncoderSettings::default(),
-        seed: 3,
-        pose_slopes: None,
-    };
+        Task::Reading,
+        CoordinationParams::default(),
+        3,
+    );
     let dir = tempfile::tempdir().unwrap();
     let (mp4, truth, head) = (
         dir.path().join("s.mp4"),
@@ -140,25 +166,11 @@ fn full_face_session_reads_back() {
 /// unknown person's video gets).
 #[test]
 fn head_yaw_from_rendered_video() {
-    let (Some(models), Some(mesh), Some(photo)) = (
-        common::models(),
-        common::mesh(),
-        common::faces_file("grace_hopper.jpg"),
-    ) else {
+    let Some((models, _, scene, look)) = scene_of("grace_hopper.jpg", 8) else {
         return;
     };
-    let mut fitter = PhotoFitter::new(&models, mesh.clone()).unwrap();
-    let id = fitter.fit(&photo).unwrap();
-    let look = WebcamRanges::default().sample(8);
-    let framing = Framing {
-        width: 640,
-        height: 480,
-        vfov_deg: look.vfov_deg,
-        face_height_frac: 0.42,
-        light_dir: [0.3, 0.4, 0.9],
-    };
-    let own = id.shape_cm.clone();
-    let scene = FaceScene::new(id, &mesh, Identity::sample(8), &framing);
+    let mesh = common::mesh().expect("checked by scene_of");
+    let own = scene.identity.shape_cm.clone();
     let canvas = Canvas::default();
     let traj = eyereplay_render::conversation_trajectory(
         200,
@@ -166,23 +178,16 @@ fn head_yaw_from_rendered_video() {
         canvas.height_px as f64,
         8,
     );
-    let params = FaceSessionParams {
-        fps: 25.0,
-        mapping: GazeMapping::new(canvas),
-        natural_blinks: false,
-        blink_rate_per_min: 0.0,
-        task: Task::Saccades,
-        coordination: CoordinationParams {
+    let params = params_of(
+        GazeMapping::new(canvas),
+        look.clone(),
+        Task::Saccades,
+        CoordinationParams {
             e0_deg: 8.0,
             k: 0.8,
         },
-        dynamics: HeadDynamics::default(),
-        sway_rms: DEFAULT_SWAY_RMS,
-        look: look.clone(),
-        encoder: EncoderSettings::default(),
-        seed: 8,
-        pose_slopes: None,
-    };
+        8,
+    );
     let dir = tempfile::tempdir().unwrap();
     let (mp4, head) = (dir.path().join("s.mp4"), dir.path().join("s_head.csv"));
     let stats = render_face_session(

@@ -20,16 +20,6 @@ use rand::SeedableRng;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-/// The photos bundled by `scripts/face-assets.sh` (licenses in NOTICE).
-pub const BUNDLED_FACES: [&str; 6] = [
-    "astronaut.png",
-    "grace_hopper.jpg",
-    "psychopy_face01.jpg",
-    "psychopy_face.jpg",
-    "giunchedi.jpg",
-    "kphotoalbum_jesper.jpg",
-];
-
 /// The photos a face-mode config uses: its `identities` resolved against
 /// the config's folder, or the bundled photos.
 pub fn identity_photos(
@@ -37,8 +27,7 @@ pub fn identity_photos(
     resolve: impl Fn(&Path) -> PathBuf,
 ) -> Vec<PathBuf> {
     if settings.identities.is_empty() {
-        let dir = default_faces_dir();
-        BUNDLED_FACES.iter().map(|n| dir.join(n)).collect()
+        eyereplay_face::bundled_faces()
     } else {
         settings.identities.iter().map(|p| resolve(p)).collect()
     }
@@ -142,15 +131,7 @@ pub(crate) fn render_sessions_face(
     encoder.x264_params = None;
     let photos = identity_photos(settings, |p| p.to_path_buf());
     let ffprobe = eyereplay_render::ffprobe_for(&params.encoder.ffmpeg);
-    let mut sessions = eyereplay_render::list_sessions(out, meta.seed)?;
-    if let Some(s) = shard {
-        sessions = sessions
-            .into_iter()
-            .enumerate()
-            .filter(|(i, _)| s.contains(*i))
-            .map(|(_, j)| j)
-            .collect();
-    }
+    let sessions = crate::render::shard_sessions(out, meta.seed, shard)?;
     let (mesh, identities, mut fitter) = fit_identities(&photos)?;
     let info = eyereplay_render::read_dataset_info(out)?;
     let mut mapping = GazeMapping::new(info.canvas);
@@ -278,23 +259,11 @@ pub(crate) fn render_sessions_face(
         });
         progress.advance(traj.len() as u64);
         match result {
-            Ok(stats) => {
-                summary.rendered += 1;
-                summary.frames += stats.frames;
-                summary.clamped_points += stats.clamped_points;
-            }
-            Err(e) => {
-                let m = format!("{}: {e}", files.file);
-                progress.warn(&format!("error: {m}"));
-                failed.push(m);
-            }
+            Ok(stats) => summary.add(stats.frames, stats.clamped_points),
+            Err(e) => crate::render::fail(&mut failed, &files.file, &e, progress),
         }
     }
-    progress.end(Stage::Render);
-    if !failed.is_empty() {
-        return Err(Error::SessionsFailed(failed));
-    }
-    Ok(summary)
+    crate::render::finish(summary, failed, progress)
 }
 
 /// The full-face mode's speed bench (`eyereplay render --bench --face`): the

@@ -133,15 +133,7 @@ fn render_sessions_browser(
     progress: &dyn Progress,
 ) -> Result<RenderSummary> {
     let ffprobe = eyereplay_render::ffprobe_for(&params.encoder.ffmpeg);
-    let mut sessions = eyereplay_render::list_sessions(out, meta.seed)?;
-    if let Some(s) = shard {
-        sessions = sessions
-            .into_iter()
-            .enumerate()
-            .filter(|(i, _)| s.contains(*i))
-            .map(|(_, j)| j)
-            .collect();
-    }
+    let sessions = shard_sessions(out, meta.seed, shard)?;
     let mut summary = RenderSummary::default();
     let mut todo = Vec::new();
     for job in sessions {
@@ -195,18 +187,61 @@ fn render_sessions_browser(
                             .map(SessionIdentity::eyes_from_corners),
                     }
                     .write(&job.paths.identity_json)?;
-                    summary.rendered += 1;
-                    summary.frames += stats.frames;
-                    summary.clamped_points += stats.clamped_points;
+                    summary.add(stats.frames, stats.clamped_points);
                 }
-                Err(e) => {
-                    let m = format!("{}: {e}", job.paths.file);
-                    progress.warn(&format!("error: {m}"));
-                    failed.push(m);
-                }
+                Err(e) => fail(&mut failed, &job.paths.file, &e, progress),
             }
         }
     }
+    finish(summary, failed, progress)
+}
+
+/// The sessions of `out` in labels.csv order, this shard's only.
+pub(crate) fn shard_sessions(
+    out: &Path,
+    seed: u64,
+    shard: Option<Shard>,
+) -> Result<Vec<eyereplay_render::SessionJob>> {
+    let sessions = eyereplay_render::list_sessions(out, seed)?;
+    Ok(match shard {
+        None => sessions,
+        Some(s) => sessions
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| s.contains(*i))
+            .map(|(_, j)| j)
+            .collect(),
+    })
+}
+
+impl RenderSummary {
+    /// Counts one rendered session.
+    pub(crate) fn add(&mut self, frames: usize, clamped_points: usize) {
+        self.rendered += 1;
+        self.frames += frames;
+        self.clamped_points += clamped_points;
+    }
+}
+
+/// Reports a failed session and keeps its message for the final error.
+pub(crate) fn fail(
+    failed: &mut Vec<String>,
+    file: &str,
+    e: &dyn std::fmt::Display,
+    progress: &dyn Progress,
+) {
+    let m = format!("{file}: {e}");
+    progress.warn(&format!("error: {m}"));
+    failed.push(m);
+}
+
+/// Ends the render stage: the summary, or every failure in one error (the
+/// other sessions are written).
+pub(crate) fn finish(
+    summary: RenderSummary,
+    failed: Vec<String>,
+    progress: &dyn Progress,
+) -> Result<RenderSummary> {
     progress.end(Stage::Render);
     if !failed.is_empty() {
         return Err(Error::SessionsFailed(failed));

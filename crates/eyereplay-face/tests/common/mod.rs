@@ -41,10 +41,5 @@ pub fn mesh() -> Option<eyereplay_face::CanonicalMesh> {
     Some(eyereplay_face::CanonicalMesh::load(&p).expect("mesh parses"))
 }
 
-/// The four bundled photos.
-pub const PHOTOS: [&str; 4] = [
-    "astronaut.png",
-    "grace_hopper.jpg",
-    "psychopy_face01.jpg",
-    "psychopy_face.jpg",
-];
+/// The bundled photos.
+pub const PHOTOS: [&str; 6] = eyereplay_face::BUNDLED_FACES;

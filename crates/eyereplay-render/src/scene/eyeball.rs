@@ -8,7 +8,7 @@
 //! iris and sclera code ([`trace_cornea`], [`sclera_light`]) and the same
 //! identity textures, so the eyes of both modes are the same eyes.
 
-use super::eye_model::{EyeModel, CORNEA_RADIUS_MM};
+use super::eye_model::EyeModel;
 use super::frame::EyeGeoF32;
 use super::shade::{sclera_light, trace_cornea};
 use super::textures::Textures;
@@ -36,14 +36,7 @@ impl Eyeball {
         let t = identity.lighting.tint_rgb;
         Eyeball {
             tex: Textures::new(identity),
-            geo: EyeGeoF32 {
-                radius: m.radius_mm as f32,
-                iris_r: m.iris_radius_mm as f32,
-                limbus_z: m.limbus_z_mm as f32,
-                cornea_z: m.cornea_centre_z_mm as f32,
-                cornea_r: CORNEA_RADIUS_MM as f32,
-                iris_z: m.iris_z_mm as f32,
-            },
+            geo: EyeGeoF32::of(&m),
             light_rgb: f3(t[0], t[1], t[2]) * identity.lighting.key_intensity,
             ambient: identity.lighting.ambient,
             pupil_radius_mm: identity.eye.pupil_radius_mm as f32,

@@ -22,6 +22,20 @@ pub(super) struct EyeGeoF32 {
     pub(super) iris_z: f32,
 }
 
+impl EyeGeoF32 {
+    /// The eye model's dimensions in f32.
+    pub(super) fn of(m: &super::eye_model::EyeModel) -> EyeGeoF32 {
+        EyeGeoF32 {
+            radius: m.radius_mm as f32,
+            iris_r: m.iris_radius_mm as f32,
+            limbus_z: m.limbus_z_mm as f32,
+            cornea_z: m.cornea_centre_z_mm as f32,
+            cornea_r: CORNEA_RADIUS_MM as f32,
+            iris_z: m.iris_z_mm as f32,
+        }
+    }
+}
+
 /// Per-frame, per-eye values shared by all pixels.
 pub(super) struct EyeFrame<'a> {
     pub(super) r: &'a EyeRaster,
@@ -276,14 +290,7 @@ impl Scene {
             dir_down: rot.to_local(cam.down * (1.0 / cam.f_px)).f(),
             cx: cam.cx as f32,
             cy: cam.cy as f32,
-            geo: EyeGeoF32 {
-                radius: m.radius_mm as f32,
-                iris_r: m.iris_radius_mm as f32,
-                limbus_z: m.limbus_z_mm as f32,
-                cornea_z: m.cornea_centre_z_mm as f32,
-                cornea_r: CORNEA_RADIUS_MM as f32,
-                iris_z: m.iris_z_mm as f32,
-            },
+            geo: EyeGeoF32::of(m),
             light: rot.to_local(self.light).f(),
 
             pupil_mm: (self.identity.eye.pupil_radius_mm * pupil_scale) as f32,
