@@ -203,4 +203,24 @@ fn bad_inputs_stop_before_work() {
 
     let e = generate(missing, &["--shard", "3/3"]);
     assert!(e.contains("0-based"), "{e}");
+
+    // The full-face mode checks its own settings and photos before work.
+    let onestop = root().join(".cache/data/onestop_fixations.csv");
+    let face = |render: &str| {
+        format!(
+            "[render]\nbackend = \"face\"\n{render}\n[classes.reading]\nsources = [{{ format = \"fixations\", path = \"{}\", group_columns = [\"participant_id\", \"TRIAL_INDEX\"], amplitude_column = \"NEXT_SAC_AMPLITUDE\", screen_px = [2560, 1440] }}]\n",
+            onestop.display()
+        )
+    };
+    let e = generate(&face("identities = [\"nobody.jpg\"]"), &[]);
+    assert!(e.contains("nobody.jpg") && e.contains("not found"), "{e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    let e = generate(&face("[render.webcam]\nnoise_sigma = [4.0, 2.0]"), &[]);
+    assert!(e.contains("noise_sigma"), "{e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    let e = generate(&face("[render.webcam]\nnoise = [1.0, 2.0]"), &[]);
+    assert!(e.contains("noise"), "{e}");
+    let e = generate(&face("face_height_frac = [0.5, 0.3]"), &[]);
+    assert!(e.contains("face_height_frac"), "{e}");
+    assert!(!out.join("metadata.json").exists());
 }
