@@ -546,82 +546,105 @@ impl FaceScene {
         out.clear();
         out.extend_from_slice(&self.mesh.positions_cm);
         let base = &self.mesh.positions_cm;
-        let (up_f, lo_f) = self.lid_follow;
-        let limbus_cm = self.eyeball.limbus_z_mm() / 10.0;
-        let eased = state.closure.clamp(0.0, 1.0);
-        for (e, pose) in self.eyes.iter().zip(&state.eyes) {
-            let lift = limbus_cm * pose.pitch_rad.sin();
-            let mut moved_up = [[0f32; 3]; 7];
-            let mut moved_lo = [[0f32; 3]; 7];
-            for k in 0..7 {
-                let (u, l) = (e.rig.upper[k] as usize, e.rig.lower[k] as usize);
-                let mut pu = base[u];
-                pu[1] += (up_f * lift) as f32;
-                let mut pl = base[l];
-                pl[1] += (lo_f * lift * (1.0 - 0.15 * eased)) as f32;
-                // Closing moves the upper lid down onto the lower one.
-                let c = (0.97 * eased) as f32;
-                for j in 0..3 {
-                    pu[j] += (pl[j] - pu[j]) * c;
-                }
-                moved_up[k] = pu;
-                moved_lo[k] = pl;
-                out[u] = pu;
-                out[l] = pl;
+        for (k, e) in self.eyes.iter().enumerate() {
+            let (moved_up, moved_lo) = self.lid_margins(k, &state.eyes[k], state.closure);
+            for j in 0..7 {
+                out[e.rig.upper[j] as usize] = moved_up[j];
+                out[e.rig.lower[j] as usize] = moved_lo[j];
             }
-            for &(v, k, upper) in &e.rig.skin {
+            for &(v, j, upper) in &e.rig.skin {
                 let (lid, moved, f) = if upper {
-                    (e.rig.upper[k], moved_up[k], UPPER_SKIN_FOLLOW)
+                    (e.rig.upper[j], moved_up[j], UPPER_SKIN_FOLLOW)
                 } else {
-                    (e.rig.lower[k], moved_lo[k], LOWER_SKIN_FOLLOW)
+                    (e.rig.lower[j], moved_lo[j], LOWER_SKIN_FOLLOW)
                 };
                 let b = base[lid as usize];
-                for j in 0..3 {
-                    out[v as usize][j] = base[v as usize][j] + (moved[j] - b[j]) * f;
+                for c in 0..3 {
+                    out[v as usize][c] = base[v as usize][c] + (moved[c] - b[c]) * f;
                 }
             }
         }
     }
 
+    /// Eye `k`'s upper and lower lid margin vertices (head frame, cm) for
+    /// its rotation and the blink closure: both follow the eye's vertical
+    /// rotation by the identity's follow factors, and closing moves the
+    /// upper lid down onto the lower one.
+    fn lid_margins(
+        &self,
+        k: usize,
+        pose: &EyePose,
+        closure: f64,
+    ) -> ([[f32; 3]; 7], [[f32; 3]; 7]) {
+        let e = &self.eyes[k];
+        let base = &self.mesh.positions_cm;
+        let (up_f, lo_f) = self.lid_follow;
+        let lift = self.eyeball.limbus_z_mm() / 10.0 * pose.pitch_rad.sin();
+        let eased = closure.clamp(0.0, 1.0);
+        let c = (0.97 * eased) as f32;
+        let mut up = [[0f32; 3]; 7];
+        let mut lo = [[0f32; 3]; 7];
+        for j in 0..7 {
+            let mut pu = base[e.rig.upper[j] as usize];
+            pu[1] += (up_f * lift) as f32;
+            let mut pl = base[e.rig.lower[j] as usize];
+            pl[1] += (lo_f * lift * (1.0 - 0.15 * eased)) as f32;
+            for (u, l) in pu.iter_mut().zip(pl) {
+                *u += (l - *u) * c;
+            }
+            up[j] = pu;
+            lo[j] = pl;
+        }
+        (up, lo)
+    }
+
     /// Where each eye's iris centre, corners and lids land in the image
     /// for `state` (image-left eye first).
     pub fn eye_images(&self, state: &FaceState) -> [EyeImage; 2] {
-        let mut verts = Vec::with_capacity(self.mesh.positions_cm.len());
-        self.posed_vertices(state, &mut verts);
+        [0, 1].map(|k| self.eye_image(state, k))
+    }
+
+    /// [`FaceScene::eye_images`] for eye `k` alone (the gaze solver's inner
+    /// loop: only this eye's 17 points are posed and projected).
+    pub fn eye_image(&self, state: &FaceState, k: usize) -> EyeImage {
+        let e = &self.eyes[k];
+        let (up, lo) = self.lid_margins(k, &state.eyes[k], state.closure);
+        let g = Basis::gaze(state.eyes[k].yaw_rad, state.eyes[k].pitch_rad);
         let limbus_cm = self.eyeball.limbus_z_mm() / 10.0;
-        std::array::from_fn(|k| {
-            let e = &self.eyes[k];
-            let g = Basis::gaze(state.eyes[k].yaw_rad, state.eyes[k].pitch_rad);
-            // Render frame (y down) -> head frame (y up).
-            let iris = e.centre_cm + Vector3::new(g.z.x, -g.z.y, g.z.z) * limbus_cm;
-            let v = |i: u32| Vector3::from(verts[i as usize].map(f64::from));
-            let mut pts = vec![iris, v(e.rig.corner_left), v(e.rig.corner_right)];
-            pts.extend(e.rig.upper.iter().map(|&i| v(i)));
-            pts.extend(e.rig.lower.iter().map(|&i| v(i)));
-            let px = self.project(&state.head, pts.into_iter());
-            let ix = px[0][0];
-            let at_x = |line: &[[f64; 2]]| -> [f64; 2] {
-                // The lid polyline (corners included) at the iris's x.
-                let mut l: Vec<[f64; 2]> = vec![px[1], px[2]];
-                l.extend_from_slice(line);
-                l.sort_by(|a, b| a[0].total_cmp(&b[0]));
-                for s in l.windows(2) {
-                    if ix >= s[0][0] && ix <= s[1][0] {
-                        let t = (ix - s[0][0]) / (s[1][0] - s[0][0]).max(1e-9);
-                        return [ix, s[0][1] + t * (s[1][1] - s[0][1])];
-                    }
-                }
-                let c = if ix < l[0][0] { l[0] } else { l[l.len() - 1] };
-                [ix, c[1]]
-            };
-            EyeImage {
-                iris_px: px[0],
-                corner_left_px: px[1],
-                corner_right_px: px[2],
-                upper_px: at_x(&px[3..10]),
-                lower_px: at_x(&px[10..17]),
+        let (m, t) = state.head.to_camera();
+        let project = |p: Vector3<f64>| self.camera.project(m * p + t);
+        let v = |p: [f32; 3]| project(Vector3::from(p.map(f64::from)));
+        // Render frame (y down) -> head frame (y up).
+        let iris = project(e.centre_cm + Vector3::new(g.z.x, -g.z.y, g.z.z) * limbus_cm);
+        let base = &self.mesh.positions_cm;
+        let cl = v(base[e.rig.corner_left as usize]);
+        let cr = v(base[e.rig.corner_right as usize]);
+        let ix = iris[0];
+        // A lid polyline (corners included) at the iris's x.
+        let at_x = |lid: &[[f32; 3]; 7]| -> [f64; 2] {
+            let mut l = [[0.0f64; 2]; 9];
+            l[0] = cl;
+            l[1] = cr;
+            for (d, p) in l[2..].iter_mut().zip(lid) {
+                *d = v(*p);
             }
-        })
+            l.sort_by(|a, b| a[0].total_cmp(&b[0]));
+            for s in l.windows(2) {
+                if ix >= s[0][0] && ix <= s[1][0] {
+                    let t = (ix - s[0][0]) / (s[1][0] - s[0][0]).max(1e-9);
+                    return [ix, s[0][1] + t * (s[1][1] - s[0][1])];
+                }
+            }
+            let c = if ix < l[0][0] { l[0] } else { l[8] };
+            [ix, c[1]]
+        };
+        EyeImage {
+            iris_px: iris,
+            corner_left_px: cl,
+            corner_right_px: cr,
+            upper_px: at_x(&up),
+            lower_px: at_x(&lo),
+        }
     }
 
     /// Draws one frame into `frame` (resized if needed); `raster` and
@@ -940,7 +963,7 @@ impl FaceScene {
                 ..Default::default()
             };
             st.eyes[k] = pose;
-            let (nx, ny, _) = self.eye_images(&st)[k].norm();
+            let (nx, ny, _) = self.eye_image(&st, k).norm();
             (nx, ny)
         };
         std::array::from_fn(|k| {
