@@ -253,29 +253,38 @@ fn draw_frames(
             frames_rx.push(rx);
             spare_tx.push(spare);
             s.spawn(move || {
-                let mut raster = Rasterizer::new(w, h);
-                let mut mesh = TexturedMesh::new(vec![], vec![], vec![]);
-                let mut frame = RgbImage::filled(w, h, [0, 0, 0]);
-                let mut webcam = Webcam::new(look, w, h);
-                for i in (first..solved.len()).step_by(workers) {
-                    let st = &solved[i].state;
-                    scene.draw(st, &mut raster, &mut mesh, &mut frame);
-                    let nose = scene.nose_px(&st.head);
-                    let motion = if i == 0 {
-                        [0.0, 0.0]
-                    } else {
-                        let q = scene.nose_px(&solved[i - 1].state.head);
-                        [(nose[0] - q[0]) as f32, (nose[1] - q[1]) as f32]
-                    };
-                    webcam.apply(&mut frame, i as u64, motion);
-                    let mut yuv = spare_rx
-                        .try_recv()
-                        .unwrap_or_else(|_| vec![0u8; w * h * 3 / 2]);
-                    rgb_to_yuv420(&frame.data, w, [0, 0, w, h], &mut yuv, w, h);
-                    if tx.send(yuv).is_err() {
-                        break; // the writer stopped on an error
+                // Frames are the parallel unit: each worker runs its
+                // frame's data-parallel steps (raster bands, backdrop rows,
+                // webcam bands) in a pool of its own single thread, so they
+                // cost no cross-thread scheduling or idle spinning.
+                let Ok(pool) = rayon::ThreadPoolBuilder::new().num_threads(1).build() else {
+                    return;
+                };
+                pool.install(move || {
+                    let mut raster = Rasterizer::new(w, h);
+                    let mut mesh = TexturedMesh::new(vec![], vec![], vec![]);
+                    let mut frame = RgbImage::filled(w, h, [0, 0, 0]);
+                    let mut webcam = Webcam::new(look, w, h);
+                    for i in (first..solved.len()).step_by(workers) {
+                        let st = &solved[i].state;
+                        scene.draw(st, &mut raster, &mut mesh, &mut frame);
+                        let nose = scene.nose_px(&st.head);
+                        let motion = if i == 0 {
+                            [0.0, 0.0]
+                        } else {
+                            let q = scene.nose_px(&solved[i - 1].state.head);
+                            [(nose[0] - q[0]) as f32, (nose[1] - q[1]) as f32]
+                        };
+                        webcam.apply(&mut frame, i as u64, motion);
+                        let mut yuv = spare_rx
+                            .try_recv()
+                            .unwrap_or_else(|_| vec![0u8; w * h * 3 / 2]);
+                        rgb_to_yuv420(&frame.data, w, [0, 0, w, h], &mut yuv, w, h);
+                        if tx.send(yuv).is_err() {
+                            break; // the writer stopped on an error
+                        }
                     }
-                }
+                });
             });
         }
         for i in 0..solved.len() {
