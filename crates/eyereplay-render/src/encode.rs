@@ -41,6 +41,10 @@ pub struct EncoderSettings {
     /// full-face mode's webcam look. `None`: `crf`.
     #[serde(default)]
     pub bitrate_kbps: Option<u32>,
+    /// x264 tune (`-tune`), e.g. `zerolatency` for a video call's
+    /// real-time encoder (no B-frames, no lookahead).
+    #[serde(default)]
+    pub tune: Option<String>,
     /// The ffmpeg program (a name on PATH or a path).
     pub ffmpeg: PathBuf,
 }
@@ -65,6 +69,7 @@ impl Default for EncoderSettings {
             x264_params: Some(DEFAULT_X264_PARAMS.into()),
             threads: None,
             bitrate_kbps: None,
+            tune: None,
             ffmpeg: PathBuf::from("ffmpeg"),
         }
     }
@@ -148,6 +153,9 @@ impl Encoder {
             (Codec::H264, None) => cmd.args(["-crf", &settings.crf.to_string()]),
             (Codec::Lossless, _) => cmd.args(["-qp", "0"]),
         };
+        if let Some(t) = settings.tune.as_deref().filter(|t| !t.is_empty()) {
+            cmd.args(["-tune", t]);
+        }
         if let Some(p) = settings.x264_params.as_deref().filter(|p| !p.is_empty()) {
             cmd.args(["-x264-params", p]);
         }
