@@ -341,11 +341,30 @@ fn fill(
     for y in ya..=yb {
         let py = y as f32 + 0.5;
         let row = (y - row0) * width;
-        let px0 = s.x0 as f32 + 0.5;
+        // The row's span inside all three edges, widened by a pixel each
+        // way (the edge tests below decide exactly): thin triangles' boxes
+        // are mostly outside them.
+        let (mut xa, mut xb) = (s.x0 as f32, s.x1 as f32);
+        for (e0, ex, ey) in [(e0a, e0x, e0y), (e1a, e1x, e1y), (e2a, e2x, e2y)] {
+            if ex != 0.0 {
+                // w(x) = e0 + ex (x + 0.5) + ey py is 0 at x = at.
+                let at = -(e0 + ey * py) / ex - 0.5;
+                if ex > 0.0 {
+                    xa = xa.max(at.floor() - 1.0);
+                } else {
+                    xb = xb.min(at.ceil() + 1.0);
+                }
+            }
+        }
+        if xa > xb {
+            continue;
+        }
+        let (x_start, x_end) = (xa as usize, xb as usize);
+        let px0 = x_start as f32 + 0.5;
         let mut w0 = e0a + e0x * px0 + e0y * py;
         let mut w1 = e1a + e1x * px0 + e1y * py;
         let mut w2 = e2a + e2x * px0 + e2y * py;
-        for x in s.x0..=s.x1 {
+        for x in x_start..=x_end {
             if w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0 {
                 let (l0, l1, l2) = (w0 * s.inv_area, w1 * s.inv_area, w2 * s.inv_area);
                 let inv_z = l0 * a.inv_z + l1 * b.inv_z + l2 * c.inv_z;
