@@ -158,7 +158,15 @@ for row in "${DEBS[@]}"; do
   fi
   if ! have "$dl/$file" "$debsha"; then
     say "apt-get download $spec (once; kept in $dl)"
-    (cd "$dl" && apt-get download -q=2 "$spec")
+    # apt-get download needs the package lists; an image that cleaned
+    # them (or a machine that never ran apt-get update) gets them first.
+    if ! (cd "$dl" && apt-get download -q=2 "$spec" 2>/dev/null); then
+      sudo_cmd=""
+      [[ $(id -u) -ne 0 ]] && sudo_cmd="sudo"
+      say "apt-get update (package lists for $spec)"
+      $sudo_cmd apt-get update -qq
+      (cd "$dl" && apt-get download -q=2 "$spec")
+    fi
     verify "$dl/$file" "$debsha"
   fi
   dpkg-deb --fsys-tarfile "$dl/$file" | tar -xO "$inner" >"$faces/$name.tmp"
