@@ -6,16 +6,18 @@
 //!
 //! 1. **Backdrop.** The photo itself, mapped into the output frame by a 2D
 //!    similarity fitted once (the face's landmarks at the rest pose against
-//!    their photo positions), gives hair, neck, clothes and room. Around
-//!    the head (a soft ellipse covering hair and neck) it follows the
-//!    head's own image motion, a similarity fitted per frame from the
-//!    projected landmarks; the room beyond stays still. Pixels the photo
-//!    does not cover repeat its edge.
+//!    their photo positions), gives neck, clothes and room. Around the
+//!    head (a soft ellipse covering hair and neck) it follows the head's
+//!    own image motion, a similarity fitted per frame to the skirt's outer
+//!    edge (below); the room beyond stays still. Past the photo's edges it
+//!    is mirrored.
 //! 2. **Face.** The photo-textured mesh ([`PhotoIdentity::textured_mesh`]
-//!    with the eye-opening triangles dropped) under the frame's head pose;
-//!    its lid vertices move with the eye's vertical rotation and close in
-//!    blinks ([`LidRig`]), the skin next to the lids following part of the
-//!    way.
+//!    with the eye-opening triangles dropped) plus a receding skirt around
+//!    the face oval textured from the photo (jaw, ears, hair: [`with_skirt`])
+//!    under the frame's head pose; its lid vertices move with the eye's
+//!    vertical rotation and close in blinks ([`LidRig`]), the skin next to
+//!    the lids following part of the way. The outline is feathered into the
+//!    backdrop.
 //! 3. **Eyes.** Every pixel inside a lid opening that the face left
 //!    uncovered is a ray traced into that eye's eyeball: the same cornea,
 //!    iris and sclera as the close-up renderer ([`Eyeball`]), placed behind
@@ -146,6 +148,52 @@ impl EyeImage {
     }
 }
 
+/// An eye's lid opening in the image for one state: its corners and its
+/// posed lid margins (each from the inner corner outward).
+#[derive(Clone, Copy, Debug)]
+struct Opening {
+    corner_left: [f64; 2],
+    corner_right: [f64; 2],
+    upper: [[f64; 2]; 7],
+    lower: [[f64; 2]; 7],
+}
+
+impl Opening {
+    fn points(&self) -> impl Iterator<Item = [f64; 2]> + '_ {
+        [self.corner_left, self.corner_right]
+            .into_iter()
+            .chain(self.upper)
+            .chain(self.lower)
+    }
+
+    /// The upper (or lower) lid's image y at image x: the polyline through
+    /// the corners and that lid's points, ordered by x; the end point's y
+    /// beyond it.
+    fn lid_y_at(&self, upper: bool, x: f64) -> f64 {
+        let mut l = [[0.0f64; 2]; 9];
+        l[0] = self.corner_left;
+        l[1] = self.corner_right;
+        l[2..].copy_from_slice(if upper { &self.upper } else { &self.lower });
+        l.sort_by(|a, b| a[0].total_cmp(&b[0]));
+        for s in l.windows(2) {
+            if x >= s[0][0] && x <= s[1][0] {
+                let t = (x - s[0][0]) / (s[1][0] - s[0][0]).max(1e-9);
+                return s[0][1] + t * (s[1][1] - s[0][1]);
+            }
+        }
+        if x < l[0][0] {
+            l[0][1]
+        } else {
+            l[8][1]
+        }
+    }
+
+    fn width_px(&self) -> f64 {
+        let (a, b) = (self.corner_left, self.corner_right);
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+    }
+}
+
 /// Framing of the output video.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Framing {
@@ -194,7 +242,7 @@ struct Backdrop {
     weight: Vec<f32>,
     /// Rows and columns where `weight > 0`.
     moving_box: [usize; 4],
-    /// Landmark ids whose projections fit the head's image motion.
+    /// Mesh vertices whose projections fit the head's image motion.
     anchors: Vec<usize>,
     rest_anchors_px: Vec<[f64; 2]>,
 }
@@ -246,12 +294,47 @@ impl Sim2 {
         }
     }
 
-    #[inline(always)]
+    #[cfg(test)]
     fn apply(&self, p: [f64; 2]) -> [f64; 2] {
         [
             self.ar * p[0] - self.ai * p[1] + self.bx,
             self.ai * p[0] + self.ar * p[1] + self.by,
         ]
+    }
+}
+
+/// Where an output pixel samples the photo in one frame: `S0(p) + weight(p)
+/// E(p)`, with `S0` the rest pose's output-to-photo map and `E(p) =
+/// S0(back(p)) - S0(p)` the head's image motion `back` (current -> rest)
+/// carried into the photo; `E` is affine in `p` too, so both are a few f32
+/// multiply-adds per pixel.
+struct Warp {
+    s0: [f32; 4],
+    e: [f32; 4],
+}
+
+impl Warp {
+    fn new(s0: Sim2, back: Sim2) -> Warp {
+        // E's linear part is A0 (B - I), its offset A0 b (complex products).
+        let (ar, ai) = (back.ar - 1.0, back.ai);
+        let e = Sim2 {
+            ar: s0.ar * ar - s0.ai * ai,
+            ai: s0.ar * ai + s0.ai * ar,
+            bx: s0.ar * back.bx - s0.ai * back.by,
+            by: s0.ai * back.bx + s0.ar * back.by,
+        };
+        let f = |m: Sim2| [m.ar as f32, m.ai as f32, m.bx as f32, m.by as f32];
+        Warp { s0: f(s0), e: f(e) }
+    }
+
+    /// The photo's colour for output pixel centre (px, py) following the
+    /// head by `weight` (mirrored past the photo's edges).
+    #[inline(always)]
+    fn sample(&self, tex: &RgbImage, px: f32, py: f32, weight: f32) -> [f32; 3] {
+        let ([sr, si, sx, sy], [er, ei, ex, ey]) = (self.s0, self.e);
+        let rx = sr * px - si * py + sx + weight * (er * px - ei * py + ex);
+        let ry = si * px + sr * py + sy + weight * (ei * px + er * py + ey);
+        tex.sample(mirror(rx, tex.width as f32), mirror(ry, tex.height as f32))
     }
 }
 
@@ -402,8 +485,9 @@ impl FaceScene {
             eye_identity.iris.inner_rgb[c] = (eye_identity.iris.inner_rgb[c] * k).min(1.0);
         }
         let eyeball = Eyeball::new(&eye_identity);
+        let (skirted, skirt_edge) = with_skirt(&identity, mesh);
         let mut scene = FaceScene {
-            mesh: with_skirt(&identity, mesh),
+            mesh: skirted,
             eyes,
             lid_follow: (
                 eye_identity.eye.upper_lid_follow,
@@ -427,7 +511,7 @@ impl FaceScene {
             },
             identity,
         };
-        scene.backdrop = scene.make_backdrop();
+        scene.backdrop = scene.make_backdrop(skirt_edge);
         scene
     }
 
@@ -452,7 +536,10 @@ impl FaceScene {
         pts.map(|p| self.camera.project(m * p + t)).collect()
     }
 
-    fn make_backdrop(&self) -> Backdrop {
+    /// The backdrop for this framing; `anchors` are the mesh vertices whose
+    /// image motion it follows near the head (the skirt's outer edge, so
+    /// the two meet where they join).
+    fn make_backdrop(&self, anchors: Vec<usize>) -> Backdrop {
         let (w, h) = (self.width(), self.height());
         let s = &self.identity.shape_cm;
         let all = self.project(
@@ -466,15 +553,7 @@ impl FaceScene {
             .map(|p| p.map(f64::from))
             .collect();
         let to_photo = Sim2::fit(&all, &photo);
-        // The backdrop around the head moves as the skirt's outer ring does
-        // (the mesh's last vertices), so the two meet where they join.
         let pos = &self.mesh.positions_cm;
-        let ring = if pos.len() > s.len() {
-            (pos.len() - (pos.len() - s.len()) / SKIRT_RINGS.len())..pos.len()
-        } else {
-            0..s.len()
-        };
-        let anchors: Vec<usize> = ring.collect();
         let rest_anchors_px = self.project(
             &self.rest_pose,
             anchors
@@ -515,16 +594,13 @@ impl FaceScene {
         }
         let mut still = vec![0u8; w * h * 3];
         let tex = &self.identity.texture;
+        let still_warp = Warp::new(to_photo, Sim2::IDENTITY);
         still
             .par_chunks_mut(w * 3)
             .enumerate()
             .for_each(|(y, row)| {
                 for x in 0..w {
-                    let q = to_photo.apply([x as f64 + 0.5, y as f64 + 0.5]);
-                    let c = tex.sample(
-                        mirror(q[0] as f32, tex.width as f32),
-                        mirror(q[1] as f32, tex.height as f32),
-                    );
+                    let c = still_warp.sample(tex, x as f32 + 0.5, y as f32 + 0.5, 0.0);
                     for k in 0..3 {
                         row[x * 3 + k] = (c[k] + 0.5) as u8;
                     }
@@ -607,43 +683,34 @@ impl FaceScene {
     /// [`FaceScene::eye_images`] for eye `k` alone (the gaze solver's inner
     /// loop: only this eye's 17 points are posed and projected).
     pub fn eye_image(&self, state: &FaceState, k: usize) -> EyeImage {
-        let e = &self.eyes[k];
-        let (up, lo) = self.lid_margins(k, &state.eyes[k], state.closure);
+        let op = self.opening(state, k);
         let g = Basis::gaze(state.eyes[k].yaw_rad, state.eyes[k].pitch_rad);
         let limbus_cm = self.eyeball.limbus_z_mm() / 10.0;
-        let (m, t) = state.head.to_camera();
-        let project = |p: Vector3<f64>| self.camera.project(m * p + t);
-        let v = |p: [f32; 3]| project(Vector3::from(p.map(f64::from)));
         // Render frame (y down) -> head frame (y up).
-        let iris = project(e.centre_cm + Vector3::new(g.z.x, -g.z.y, g.z.z) * limbus_cm);
-        let base = &self.mesh.positions_cm;
-        let cl = v(base[e.rig.corner_left as usize]);
-        let cr = v(base[e.rig.corner_right as usize]);
+        let centre = self.eyes[k].centre_cm + Vector3::new(g.z.x, -g.z.y, g.z.z) * limbus_cm;
+        let iris = self.project(&state.head, std::iter::once(centre))[0];
         let ix = iris[0];
-        // A lid polyline (corners included) at the iris's x.
-        let at_x = |lid: &[[f32; 3]; 7]| -> [f64; 2] {
-            let mut l = [[0.0f64; 2]; 9];
-            l[0] = cl;
-            l[1] = cr;
-            for (d, p) in l[2..].iter_mut().zip(lid) {
-                *d = v(*p);
-            }
-            l.sort_by(|a, b| a[0].total_cmp(&b[0]));
-            for s in l.windows(2) {
-                if ix >= s[0][0] && ix <= s[1][0] {
-                    let t = (ix - s[0][0]) / (s[1][0] - s[0][0]).max(1e-9);
-                    return [ix, s[0][1] + t * (s[1][1] - s[0][1])];
-                }
-            }
-            let c = if ix < l[0][0] { l[0] } else { l[8] };
-            [ix, c[1]]
-        };
         EyeImage {
             iris_px: iris,
-            corner_left_px: cl,
-            corner_right_px: cr,
-            upper_px: at_x(&up),
-            lower_px: at_x(&lo),
+            corner_left_px: op.corner_left,
+            corner_right_px: op.corner_right,
+            upper_px: [ix, op.lid_y_at(true, ix)],
+            lower_px: [ix, op.lid_y_at(false, ix)],
+        }
+    }
+
+    /// Eye `k`'s lid opening in the image for `state`.
+    fn opening(&self, state: &FaceState, k: usize) -> Opening {
+        let e = &self.eyes[k];
+        let (up, lo) = self.lid_margins(k, &state.eyes[k], state.closure);
+        let (m, t) = state.head.to_camera();
+        let v = |p: [f32; 3]| self.camera.project(m * Vector3::from(p.map(f64::from)) + t);
+        let base = &self.mesh.positions_cm;
+        Opening {
+            corner_left: v(base[e.rig.corner_left as usize]),
+            corner_right: v(base[e.rig.corner_right as usize]),
+            upper: up.map(v),
+            lower: lo.map(v),
         }
     }
 
@@ -675,11 +742,12 @@ impl FaceScene {
             mesh,
             &self.identity.texture,
         );
-        let holes = [0, 1].map(|k| self.eye_rect(state, k, &mesh.positions_cm));
+        let openings = [0, 1].map(|k| self.opening(state, k));
+        let holes = openings.map(|op| self.pixel_box(&op.points().collect::<Vec<_>>(), 2.0));
         let face_box = self.screen_box(&state.head, &mesh.positions_cm);
         self.draw_backdrop(&state.head, raster.inv_depth(), &holes, face_box, frame);
         for k in 0..2 {
-            self.draw_eye(state, k, &mesh.positions_cm, raster.inv_depth(), frame);
+            self.draw_eye(state, k, &openings[k], holes[k], raster.inv_depth(), frame);
         }
     }
 
@@ -688,17 +756,6 @@ impl FaceScene {
     fn screen_box(&self, head: &HeadPose, verts: &[[f32; 3]]) -> [usize; 4] {
         let px = self.project(head, verts.iter().map(|p| Vector3::from(p.map(f64::from))));
         self.pixel_box(&px, 1.0)
-    }
-
-    /// The pixel box around eye `k`'s lid opening as posed.
-    fn eye_rect(&self, state: &FaceState, k: usize, verts: &[[f32; 3]]) -> [usize; 4] {
-        let e = &self.eyes[k];
-        let v = |i: u32| Vector3::from(verts[i as usize].map(f64::from));
-        let mut pts = vec![v(e.rig.corner_left), v(e.rig.corner_right)];
-        pts.extend(e.rig.upper.iter().map(|&i| v(i)));
-        pts.extend(e.rig.lower.iter().map(|&i| v(i)));
-        let px = self.project(&state.head, pts.into_iter());
-        self.pixel_box(&px, 2.0)
     }
 
     /// `[x0, y0, x1, y1)` covering the points `px` plus `margin` pixels,
@@ -737,25 +794,9 @@ impl FaceScene {
         );
         // Image motion of the head: current -> rest.
         let back = Sim2::fit(&now, &b.rest_anchors_px);
-        // Photo position of output pixel p: S0(p) + weight(p) * E(p), with
-        // E(p) = S0(back(p)) - S0(p) affine in p, so both are a few f32
-        // multiply-adds per pixel.
-        let s0 = b.to_photo;
-        let e = {
-            // E = S0 o back - S0 as an affine map: linear part A0 (B - I).
-            let (ar, ai) = (back.ar - 1.0, back.ai);
-            Sim2 {
-                ar: s0.ar * ar - s0.ai * ai,
-                ai: s0.ar * ai + s0.ai * ar,
-                bx: s0.ar * back.bx - s0.ai * back.by,
-                by: s0.ai * back.bx + s0.ar * back.by,
-            }
-        };
-        let f = |m: Sim2| [m.ar as f32, m.ai as f32, m.bx as f32, m.by as f32];
-        let ([sr, si, sx, sy], [er, ei, ex, ey]) = (f(s0), f(e));
+        let warp = Warp::new(b.to_photo, back);
         let [x0, y0, x1, y1] = b.moving_box;
         let tex = &self.identity.texture;
-        let (tw, th) = (tex.width as f32, tex.height as f32);
         frame.data[y0 * w * 3..y1 * w * 3]
             .par_chunks_mut(w * 3)
             .enumerate()
@@ -768,10 +809,7 @@ impl FaceScene {
                     if wt <= 0.0 || covered[k] != 0.0 {
                         continue;
                     }
-                    let px = x as f32 + 0.5;
-                    let rx = sr * px - si * py + sx + wt * (er * px - ei * py + ex);
-                    let ry = si * px + sr * py + sy + wt * (ei * px + er * py + ey);
-                    let c = tex.sample(mirror(rx, tw), mirror(ry, th));
+                    let c = warp.sample(tex, x as f32 + 0.5, py, wt);
                     for ch in 0..3 {
                         row[x * 3 + ch] = (c[ch] + 0.5) as u8;
                     }
@@ -833,10 +871,7 @@ impl FaceScene {
                 }
                 let alpha = ((sum[k] as f32 / full - 0.5) * 2.0).clamp(0.0, 1.0);
                 let wt = b.weight[gy * w + gx];
-                let (px, py) = (gx as f32 + 0.5, gy as f32 + 0.5);
-                let rx = sr * px - si * py + sx + wt * (er * px - ei * py + ex);
-                let ry = si * px + sr * py + sy + wt * (ei * px + er * py + ey);
-                let c = tex.sample(mirror(rx, tw), mirror(ry, th));
+                let c = warp.sample(tex, gx as f32 + 0.5, gy as f32 + 0.5, wt);
                 let o = (gy * w + gx) * 3;
                 for (px, bg) in frame.data[o..o + 3].iter_mut().zip(c) {
                     *px = (bg + (*px as f32 - bg) * alpha + 0.5) as u8;
@@ -845,13 +880,14 @@ impl FaceScene {
         }
     }
 
-    /// Ray-traces eye `k` into the pixels of its lid opening that the face
-    /// left uncovered.
+    /// Ray-traces eye `k` into the pixels of its lid opening (`op`, inside
+    /// the pixel box `rect`) that the face left uncovered.
     fn draw_eye(
         &self,
         state: &FaceState,
         k: usize,
-        verts: &[[f32; 3]],
+        op: &Opening,
+        rect: [usize; 4],
         inv_depth: &[f32],
         frame: &mut RgbImage,
     ) {
@@ -859,45 +895,11 @@ impl FaceScene {
         let w = self.width();
         let (m, t) = state.head.to_camera();
         let mt = m.transpose();
-        // The opening's outline in the image, lids as posed.
-        let v = |i: u32| Vector3::from(verts[i as usize].map(f64::from));
-        let mut outline = vec![v(e.rig.corner_left)];
-        outline.extend(e.rig.upper.iter().map(|&i| v(i)));
-        outline.push(v(e.rig.corner_right));
-        outline.extend(e.rig.lower.iter().map(|&i| v(i)));
-        let px = self.project(&state.head, outline.into_iter());
-        let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
-        for p in &px {
-            x0 = x0.min(p[0]);
-            y0 = y0.min(p[1]);
-            x1 = x1.max(p[0]);
-            y1 = y1.max(p[1]);
-        }
-        let h = self.height();
-        let bx0 = (x0.floor() - 1.0).max(0.0) as usize;
-        let by0 = (y0.floor() - 1.0).max(0.0) as usize;
-        let bx1 = ((x1.ceil() + 1.0).max(0.0) as usize).min(w);
-        let by1 = ((y1.ceil() + 1.0).max(0.0) as usize).min(h);
+        let [bx0, by0, bx1, by1] = rect;
         if bx1 <= bx0 || by1 <= by0 {
             return;
         }
-        // Upper lid per column, for its shadow on the eye.
-        let mut up: Vec<[f64; 2]> = px[..9].to_vec();
-        up.sort_by(|a, b| a[0].total_cmp(&b[0]));
-        let upper_y = |x: f64| -> f64 {
-            for s in up.windows(2) {
-                if x >= s[0][0] && x <= s[1][0] {
-                    let t = (x - s[0][0]) / (s[1][0] - s[0][0]).max(1e-9);
-                    return s[0][1] + t * (s[1][1] - s[0][1]);
-                }
-            }
-            if x < up[0][0] {
-                up[0][1]
-            } else {
-                up[up.len() - 1][1]
-            }
-        };
-        let eye_w = ((px[0][0] - px[8][0]).powi(2) + (px[0][1] - px[8][1]).powi(2)).sqrt();
+        let eye_w = op.width_px();
         let shadow_px = (0.07 * eye_w).max(0.7);
         // Ray basis in the turned eye's frame (mm): the render crate's
         // head frame is this crate's with y flipped, in mm.
@@ -915,7 +917,11 @@ impl FaceScene {
         let (cx, cy) = (self.camera.cx_px as f32, self.camera.cy_px as f32);
         let pupil = state.pupil_scale as f32;
         let beside = f3(0.30, 0.16, 0.14);
-        let corners = [px[0], px[8]];
+        let corners = [op.corner_left, op.corner_right];
+        // The upper lid's y per column of the box, for its shadow.
+        let upper_y: Vec<f64> = (bx0..bx1)
+            .map(|x| op.lid_y_at(true, x as f64 + 0.5))
+            .collect();
         for y in by0..by1 {
             for x in bx0..bx1 {
                 if inv_depth[y * w + x] != 0.0 {
@@ -930,7 +936,7 @@ impl FaceScene {
                     .shade([oo.x, oo.y, oo.z], [d.x, d.y, d.z], light, pupil)
                     .map(|c| f3(c[0], c[1], c[2]))
                     .unwrap_or(beside);
-                let du = (pyf as f64 - upper_y(pxf as f64)).max(0.0);
+                let du = (pyf as f64 - upper_y[x - bx0]).max(0.0);
                 let dc = corners
                     .iter()
                     .map(|q| ((pxf as f64 - q[0]).powi(2) + (pyf as f64 - q[1]).powi(2)).sqrt())
@@ -1021,13 +1027,17 @@ const SKIRT_RINGS: [(f32, f32); 2] = [(1.2, 1.5), (1.5, 4.5)];
 /// around the face (the photo's own ears, hair and jaw line) stays flat in
 /// the backdrop while the face turns, and the landmark model reads a
 /// fraction of the turn (16 deg drawn, 4 deg read on Grace Hopper's photo).
-fn with_skirt(id: &PhotoIdentity, mesh: &CanonicalMesh) -> TexturedMesh {
+///
+/// Also returns the vertex ids of the skirt's outer edge (the face oval's
+/// own, should the mesh have no boundary).
+fn with_skirt(id: &PhotoIdentity, mesh: &CanonicalMesh) -> (TexturedMesh, Vec<usize>) {
     let base = id.textured_mesh(mesh, true);
     let mut pos = base.positions_cm.clone();
     let mut uv = base.uv_px.clone();
     let mut tris = base.triangles.clone();
     let Some(oval) = mesh.boundary_loops().into_iter().max_by_key(|l| l.len()) else {
-        return base;
+        let all = (0..base.positions_cm.len()).collect();
+        return (base, all);
     };
     let n = oval.len();
     let c = oval.iter().fold([0f32; 2], |a, &i| {
@@ -1073,7 +1083,8 @@ fn with_skirt(id: &PhotoIdentity, mesh: &CanonicalMesh) -> TexturedMesh {
         }
         prev = ring;
     }
-    TexturedMesh::new(pos, uv, tris)
+    let edge = prev.iter().map(|&i| i as usize).collect();
+    (TexturedMesh::new(pos, uv, tris), edge)
 }
 
 /// `v` reflected into `[0, n]` (mirror padding: a backdrop wider than the
@@ -1137,4 +1148,100 @@ fn photo_sclera_linear(id: &PhotoIdentity) -> Option<[f32; 3]> {
         }
     }
     Some(sum.map(|v| v / kept.len() as f32))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The least-squares similarity recovers a known one exactly: scale 2,
+    /// rotation 30 deg, shift (5, -3).
+    #[test]
+    fn similarity_fit_recovers_a_known_map() {
+        let (c, s) = (
+            2.0 * 30f64.to_radians().cos(),
+            2.0 * 30f64.to_radians().sin(),
+        );
+        let truth = Sim2 {
+            ar: c,
+            ai: s,
+            bx: 5.0,
+            by: -3.0,
+        };
+        let from = [[0.0, 0.0], [10.0, 0.0], [0.0, 7.0], [4.0, 9.0]];
+        let to: Vec<[f64; 2]> = from.iter().map(|p| truth.apply(*p)).collect();
+        let got = Sim2::fit(&from, &to);
+        for (a, b) in [(got.ar, c), (got.ai, s), (got.bx, 5.0), (got.by, -3.0)] {
+            assert!((a - b).abs() < 1e-12, "{got:?}");
+        }
+    }
+
+    /// With the head at rest the warp is the rest map whatever the weight;
+    /// with the head moved, weight 1 samples where the rest map sends the
+    /// pixel the head came from (1x1 photo texels as coordinates).
+    #[test]
+    fn warp_follows_the_head_by_its_weight() {
+        // A 64x64 texture whose red channel is x and green channel y.
+        let mut tex = RgbImage::filled(64, 64, [0, 0, 0]);
+        for y in 0..64 {
+            for x in 0..64 {
+                let i = (y * 64 + x) * 3;
+                tex.data[i] = x as u8;
+                tex.data[i + 1] = y as u8;
+            }
+        }
+        // Output -> photo: shift by (10, 20).
+        let s0 = Sim2 {
+            ar: 1.0,
+            ai: 0.0,
+            bx: 10.0,
+            by: 20.0,
+        };
+        let still = Warp::new(s0, Sim2::IDENTITY);
+        for wt in [0.0, 0.5, 1.0] {
+            let c = still.sample(&tex, 3.5, 4.5, wt);
+            assert!(
+                (c[0] - 13.0).abs() < 1e-4 && (c[1] - 24.0).abs() < 1e-4,
+                "{c:?}"
+            );
+        }
+        // The head moved 6 px right: back(p) = p - (6, 0).
+        let back = Sim2 {
+            bx: -6.0,
+            ..Sim2::IDENTITY
+        };
+        let moving = Warp::new(s0, back);
+        let c = moving.sample(&tex, 9.5, 4.5, 1.0);
+        assert!((c[0] - 13.0).abs() < 1e-4, "{c:?}");
+        let c = moving.sample(&tex, 9.5, 4.5, 0.5);
+        assert!((c[0] - 16.0).abs() < 1e-4, "{c:?}");
+    }
+
+    /// Mirror padding reflects about both edges and leaves inside points.
+    #[test]
+    fn mirror_reflects_at_the_edges() {
+        assert_eq!(mirror(3.0, 10.0), 3.0);
+        assert_eq!(mirror(-2.0, 10.0), 2.0);
+        assert_eq!(mirror(12.0, 10.0), 8.0);
+        assert_eq!(mirror(23.0, 10.0), 3.0);
+    }
+
+    /// A lid polyline read at x: linear between its points, the end
+    /// points' y beyond the corners.
+    #[test]
+    fn lid_polyline_interpolates() {
+        let upper: [[f64; 2]; 7] = std::array::from_fn(|k| [10.0 + 10.0 * k as f64, 40.0]);
+        let op = Opening {
+            corner_left: [0.0, 50.0],
+            corner_right: [80.0, 50.0],
+            upper,
+            lower: upper.map(|p| [p[0], 60.0]),
+        };
+        assert!((op.lid_y_at(true, 5.0) - 45.0).abs() < 1e-12);
+        assert!((op.lid_y_at(true, 35.0) - 40.0).abs() < 1e-12);
+        assert!((op.lid_y_at(false, 75.0) - 55.0).abs() < 1e-12);
+        assert_eq!(op.lid_y_at(true, -3.0), 50.0);
+        assert_eq!(op.lid_y_at(true, 90.0), 50.0);
+        assert!((op.width_px() - 80.0).abs() < 1e-12);
+    }
 }

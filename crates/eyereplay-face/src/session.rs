@@ -30,8 +30,8 @@ use crate::webcam::{Webcam, WebcamLook};
 use eyereplay_core::CanvasPos;
 use eyereplay_dataset::{EyeTruthRow, TruthRow};
 use eyereplay_render::{
-    check_trajectory, closure_track, cpu_times, rgb_to_yuv420, BenchReport, Encoder,
-    EncoderSettings, FrameSink, GazeMapping,
+    check_trajectory, closure_track, pipeline_frames, rgb_to_yuv420, time_bench, BenchReport,
+    BenchShape, Encoder, EncoderSettings, FrameSink, GazeMapping,
 };
 use rayon::prelude::*;
 use serde::Serialize;
@@ -229,9 +229,8 @@ fn solve_frames(
         .collect()
 }
 
-/// Draws, films and converts every frame, whole frames in parallel (one
-/// worker per core, each frame on one worker, buffers reused), and pipes
-/// them to the encoder in order from the calling thread. Each frame
+/// Draws, films and converts every frame (in parallel by whole frames,
+/// [`pipeline_frames`]) and hands them to `sink` in order. Each frame
 /// depends only on its own state (and the previous frame's head for the
 /// motion blur), so the output does not depend on the number of workers.
 fn draw_frames(
@@ -241,61 +240,35 @@ fn draw_frames(
     sink: &mut (dyn FrameSink + Send),
 ) -> Result<()> {
     let (w, h) = (scene.width(), scene.height());
-    let workers = std::thread::available_parallelism()
-        .map_or(2, |n| n.get())
-        .clamp(1, 16);
-    std::thread::scope(|s| -> Result<()> {
-        let mut frames_rx = Vec::with_capacity(workers);
-        let mut spare_tx = Vec::with_capacity(workers);
-        for first in 0..workers {
-            let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(1);
-            let (spare, spare_rx) = std::sync::mpsc::channel::<Vec<u8>>();
-            frames_rx.push(rx);
-            spare_tx.push(spare);
-            s.spawn(move || {
-                // Frames are the parallel unit: each worker runs its
-                // frame's data-parallel steps (raster bands, backdrop rows,
-                // webcam bands) in a pool of its own single thread, so they
-                // cost no cross-thread scheduling or idle spinning.
-                let Ok(pool) = rayon::ThreadPoolBuilder::new().num_threads(1).build() else {
-                    return;
-                };
-                pool.install(move || {
-                    let mut raster = Rasterizer::new(w, h);
-                    let mut mesh = TexturedMesh::new(vec![], vec![], vec![]);
-                    let mut frame = RgbImage::filled(w, h, [0, 0, 0]);
-                    let mut webcam = Webcam::new(look, w, h);
-                    for i in (first..solved.len()).step_by(workers) {
-                        let st = &solved[i].state;
-                        scene.draw(st, &mut raster, &mut mesh, &mut frame);
-                        let nose = scene.nose_px(&st.head);
-                        let motion = if i == 0 {
-                            [0.0, 0.0]
-                        } else {
-                            let q = scene.nose_px(&solved[i - 1].state.head);
-                            [(nose[0] - q[0]) as f32, (nose[1] - q[1]) as f32]
-                        };
-                        webcam.apply(&mut frame, i as u64, motion);
-                        let mut yuv = spare_rx
-                            .try_recv()
-                            .unwrap_or_else(|_| vec![0u8; w * h * 3 / 2]);
-                        rgb_to_yuv420(&frame.data, w, [0, 0, w, h], &mut yuv, w, h);
-                        if tx.send(yuv).is_err() {
-                            break; // the writer stopped on an error
-                        }
-                    }
-                });
-            });
-        }
-        for i in 0..solved.len() {
-            let buf = frames_rx[i % workers].recv().map_err(|_| {
-                eyereplay_render::RenderError::Input(format!("frame {i}: render worker stopped"))
-            })?;
-            sink.frame(i, &buf)?;
-            let _ = spare_tx[i % workers].send(buf);
-        }
-        Ok(())
-    })
+    let new_state = || {
+        (
+            Rasterizer::new(w, h),
+            TexturedMesh::new(vec![], vec![], vec![]),
+            RgbImage::filled(w, h, [0, 0, 0]),
+            Webcam::new(look, w, h),
+        )
+    };
+    pipeline_frames(
+        solved.len(),
+        &|| vec![0u8; w * h * 3 / 2],
+        &new_state,
+        &|(raster, mesh, frame, webcam), i, yuv| {
+            let st = &solved[i].state;
+            scene.draw(st, raster, mesh, frame);
+            let nose = scene.nose_px(&st.head);
+            let motion = match i.checked_sub(1) {
+                None => [0.0, 0.0],
+                Some(prev) => {
+                    let q = scene.nose_px(&solved[prev].state.head);
+                    [(nose[0] - q[0]) as f32, (nose[1] - q[1]) as f32]
+                }
+            };
+            webcam.apply(frame, i as u64, motion);
+            rgb_to_yuv420(&frame.data, w, [0, 0, w, h], yuv, w, h);
+        },
+        sink,
+    )?;
+    Ok(())
 }
 
 fn write_head_csv(path: &Path, solved: &[Solved]) -> Result<()> {
@@ -338,11 +311,8 @@ pub fn render_face_session(
 ) -> Result<FaceSessionStats> {
     let t0 = Instant::now();
     let (traj, clamped) = check_trajectory(traj, blinks, p.mapping.canvas)?;
-    let (w, h) = (scene.width(), scene.height());
-    let mut enc = p.encoder.clone();
-    // 0 (the identity look): no rate control, the encoder's own CRF.
-    enc.bitrate_kbps = Some(p.look.bitrate_kbps_for(w, h)).filter(|&k| k > 0);
-    let mut encoder = Encoder::start(out_mp4, w, h, p.fps, &enc)?;
+    let enc = session_encoder(scene, p);
+    let mut encoder = Encoder::start(out_mp4, scene.width(), scene.height(), p.fps, &enc)?;
     let solved = solve_frames(scene, &traj, blinks, p);
     let t1 = Instant::now();
     draw_frames(scene, &solved, &p.look, &mut encoder)?;
@@ -375,20 +345,6 @@ pub fn render_face_session(
     })
 }
 
-/// Keeps every frame in memory (the bench's render-only pass).
-struct Keep {
-    frames: Vec<u8>,
-    frame_bytes: usize,
-}
-
-impl FrameSink for Keep {
-    fn frame(&mut self, i: usize, yuv: &[u8]) -> Result<(), eyereplay_render::RenderError> {
-        let n = self.frame_bytes;
-        self.frames[i * n..(i + 1) * n].copy_from_slice(yuv);
-        Ok(())
-    }
-}
-
 /// The full-face mode's speed, measured as the close-up's
 /// ([`eyereplay_render::run_bench`]): render only (frames kept in memory),
 /// encode only (the same frames, the look's bitrate), and end to end
@@ -398,69 +354,46 @@ pub fn run_face_bench(
     traj: &[CanvasPos],
     p: &FaceSessionParams,
 ) -> Result<BenchReport> {
-    let (w, h) = (scene.width(), scene.height());
-    let n = traj.len();
-    let dir = tempfile::tempdir().map_err(|source| crate::FaceError::Io {
-        path: std::env::temp_dir(),
-        source,
-    })?;
     let (traj, _) = check_trajectory(traj, None, p.mapping.canvas)?;
     let solved = solve_frames(scene, &traj, None, p);
-    let frame_bytes = w * h * 3 / 2;
-    let mut keep = Keep {
-        frames: vec![0u8; n * frame_bytes],
-        frame_bytes,
+    let shape = BenchShape {
+        frames: traj.len(),
+        width: scene.width(),
+        height: scene.height(),
+        fps: p.fps,
     };
-    let c0 = cpu_times();
-    let t = Instant::now();
-    draw_frames(scene, &solved, &p.look, &mut keep)?;
-    let render_s = t.elapsed().as_secs_f64();
-    let c1 = cpu_times();
+    time_bench(
+        shape,
+        &session_encoder(scene, p),
+        0.0,
+        |keep| draw_frames(scene, &solved, &p.look, keep),
+        |dir| {
+            render_face_session(
+                scene,
+                &traj,
+                None,
+                p,
+                &dir.join("s.mp4"),
+                &dir.join("s_truth.csv"),
+                &dir.join("s_head.csv"),
+            )
+            .map(|_| ())
+        },
+    )
+}
+
+/// The session's encoder: the params' with the look's video-call bitrate
+/// (none for the identity look, bitrate 0: then the encoder's CRF), and
+/// x264 on one thread under that bitrate cap: its rate control (VBV) with
+/// several threads gave different bytes from run to run (the same raw
+/// frames piped twice, measured here), and the frames are drawn on all
+/// cores anyway.
+fn session_encoder(scene: &FaceScene, p: &FaceSessionParams) -> EncoderSettings {
     let mut enc = p.encoder.clone();
-    // 0 (the identity look): no rate control, the encoder's own CRF.
-    enc.bitrate_kbps = Some(p.look.bitrate_kbps_for(w, h)).filter(|&k| k > 0);
-    let t = Instant::now();
-    let mut encoder = Encoder::start(&dir.path().join("encode_only.mp4"), w, h, p.fps, &enc)?;
-    for f in keep.frames.chunks(frame_bytes) {
-        encoder.write_frame(f)?;
+    enc.bitrate_kbps =
+        Some(p.look.bitrate_kbps_for(scene.width(), scene.height())).filter(|&k| k > 0);
+    if enc.bitrate_kbps.is_some() {
+        enc.threads = Some(1);
     }
-    encoder.finish()?;
-    let encode_s = t.elapsed().as_secs_f64();
-    let c2 = cpu_times();
-    drop(keep);
-    let t = Instant::now();
-    render_face_session(
-        scene,
-        &traj,
-        None,
-        p,
-        &dir.path().join("s.mp4"),
-        &dir.path().join("s_truth.csv"),
-        &dir.path().join("s_head.csv"),
-    )?;
-    let e2e_s = t.elapsed().as_secs_f64();
-    let c3 = cpu_times();
-    let nf = n as f64;
-    let ms = |a: Option<(f64, f64)>, b: Option<(f64, f64)>, pick: fn((f64, f64)) -> f64| {
-        Some((pick(b?) - pick(a?)) * 1000.0 / nf)
-    };
-    let end_to_end_cpu_ms = ms(c2, c3, |c| c.0 + c.1);
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    Ok(BenchReport {
-        frames: n,
-        width: w,
-        height: h,
-        video_fps: p.fps,
-        render_fps: nf / render_s,
-        encode_fps: nf / encode_s,
-        end_to_end_fps: nf / e2e_s,
-        realtime_factor: nf / e2e_s / p.fps,
-        ratio_to_encode: encode_s / e2e_s,
-        scene_setup_s: 0.0,
-        render_cpu_ms: ms(c0, c1, |c| c.0),
-        encode_cpu_ms: ms(c1, c2, |c| c.0 + c.1),
-        end_to_end_cpu_ms,
-        cpu_bound_fps: end_to_end_cpu_ms.map(|m| cores as f64 * 1000.0 / m),
-        cores,
-    })
+    enc
 }

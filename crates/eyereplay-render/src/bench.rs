@@ -1,7 +1,7 @@
 //! The speed benchmark: render only, encode only, and end to end, measured
 //! in one run on the same frames so the ratios mean something.
 
-use crate::encode::Encoder;
+use crate::encode::{Encoder, EncoderSettings};
 use crate::scene::Scene;
 use crate::session::{render_frames, render_session, solve_truth, FrameSink, RenderParams};
 use crate::RenderError;
@@ -151,36 +151,78 @@ pub fn run_bench(params: &RenderParams, frames: usize) -> Result<BenchReport, Re
     params.validate()?;
     let canvas = params.mapping.canvas;
     let traj = reading_trajectory(frames, canvas.width_px as f64, canvas.height_px as f64);
-    let dir = tempfile::tempdir().map_err(|e| RenderError::io(std::env::temp_dir(), e))?;
-
     let t = Instant::now();
     let scene = Scene::new(&params.identity, params.width, params.height);
     let scene_setup_s = t.elapsed().as_secs_f64();
     let truth = solve_truth(&scene, &traj, None, params);
+    let shape = BenchShape {
+        frames,
+        width: params.width,
+        height: params.height,
+        fps: params.fps,
+    };
+    time_bench(
+        shape,
+        &params.encoder,
+        scene_setup_s,
+        |keep| render_frames(&scene, &truth, keep),
+        // End to end, through the public entry point.
+        |dir| {
+            render_session(
+                &traj,
+                None,
+                params,
+                &dir.join("session.mp4"),
+                &dir.join("session_truth.csv"),
+            )
+            .map(|_| ())
+        },
+    )
+}
 
-    // Render only (kept in memory for the encode-only pass; the copy is
-    // timed too, so render-only is slightly pessimistic).
-    let frame_bytes = params.width * params.height * 3 / 2;
+/// What a bench renders: `frames` frames of `width` x `height` at `fps`.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchShape {
+    pub frames: usize,
+    pub width: usize,
+    pub height: usize,
+    pub fps: f64,
+}
+
+/// The three measurements of a renderer's bench, in one run on the same
+/// frames: `render` draws every frame into the sink it is given (kept in
+/// memory; the copy is timed too, so render-only is slightly pessimistic),
+/// the encoder alone is fed those frames with `encoder`, and `end_to_end`
+/// renders the whole session into the folder it is given (a temporary
+/// one). Wall time and CPU time (this process, and ffmpeg) of each.
+pub fn time_bench<E: From<RenderError>>(
+    shape: BenchShape,
+    encoder: &EncoderSettings,
+    scene_setup_s: f64,
+    render: impl FnOnce(&mut (dyn FrameSink + Send)) -> Result<(), E>,
+    end_to_end: impl FnOnce(&std::path::Path) -> Result<(), E>,
+) -> Result<BenchReport, E> {
+    let BenchShape {
+        frames,
+        width,
+        height,
+        fps,
+    } = shape;
+    let dir = tempfile::tempdir().map_err(|e| RenderError::io(std::env::temp_dir(), e))?;
+    let frame_bytes = width * height * 3 / 2;
     let mut keep = Keep {
         frames: vec![1u8; frames * frame_bytes],
         frame_bytes,
     };
     let c0 = cpu_times();
     let t = Instant::now();
-    render_frames(&scene, &truth, &mut keep)?;
+    render(&mut keep)?;
     let render_s = t.elapsed().as_secs_f64();
     let c1 = cpu_times();
 
-    // Encode only.
-    let out = dir.path().join("encode_only.mp4");
     let t = Instant::now();
-    let mut enc = Encoder::start(
-        &out,
-        params.width,
-        params.height,
-        params.fps,
-        &params.encoder,
-    )?;
+    let out = dir.path().join("encode_only.mp4");
+    let mut enc = Encoder::start(&out, width, height, fps, encoder)?;
     for f in keep.frames.chunks(frame_bytes) {
         enc.write_frame(f)?;
     }
@@ -189,15 +231,8 @@ pub fn run_bench(params: &RenderParams, frames: usize) -> Result<BenchReport, Re
     let c2 = cpu_times();
     drop(keep);
 
-    // End to end, through the public entry point.
     let t = Instant::now();
-    render_session(
-        &traj,
-        None,
-        params,
-        &dir.path().join("session.mp4"),
-        &dir.path().join("session_truth.csv"),
-    )?;
+    end_to_end(dir.path())?;
     let e2e_s = t.elapsed().as_secs_f64();
     let c3 = cpu_times();
     let n = frames as f64;
@@ -211,13 +246,13 @@ pub fn run_bench(params: &RenderParams, frames: usize) -> Result<BenchReport, Re
 
     Ok(BenchReport {
         frames,
-        width: params.width,
-        height: params.height,
-        video_fps: params.fps,
+        width,
+        height,
+        video_fps: fps,
         render_fps: n / render_s,
         encode_fps: n / encode_s,
         end_to_end_fps: n / e2e_s,
-        realtime_factor: n / e2e_s / params.fps,
+        realtime_factor: n / e2e_s / fps,
         ratio_to_encode: encode_s / e2e_s,
         scene_setup_s,
         render_cpu_ms,

@@ -62,7 +62,10 @@ mod rng;
 mod scene;
 mod session;
 
-pub use bench::{conversation_trajectory, cpu_times, reading_trajectory, run_bench, BenchReport};
+pub use bench::{
+    conversation_trajectory, cpu_times, reading_trajectory, run_bench, time_bench, BenchReport,
+    BenchShape,
+};
 pub use blink::{closure_at, closure_track};
 pub use dataset::{
     is_complete, list_sessions, read_dataset_info, render_dataset, session_seed, DatasetInfo,
@@ -78,8 +81,8 @@ pub use gaze::{default_calibration, Calibration, GazeMapping, ResponseMap};
 pub use identity::{CameraPose, EyeShape, Identity, IrisStyle, Lighting};
 pub use scene::{EyeGeometry, EyePose, EyeTruth, Eyeball, Scene, Side};
 pub use session::{
-    check_trajectory, render_frames, render_session, render_session_pngs, solve_truth,
-    write_truth_csv, FrameSink, FrameTruth, RenderParams, RenderStats,
+    check_trajectory, pipeline_frames, render_frames, render_session, render_session_pngs,
+    solve_truth, write_truth_csv, FrameSink, FrameTruth, RenderParams, RenderStats,
 };
 
 /// Writes an sRGB frame as PNG.

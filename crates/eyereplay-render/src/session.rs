@@ -209,16 +209,42 @@ pub trait FrameSink {
     fn frame(&mut self, index: usize, yuv: &[u8]) -> Result<(), RenderError>;
 }
 
-/// Renders every frame's yuv420p image and hands them to `sink` in order.
-///
-/// Whole frames are rendered in parallel, one worker thread per core, each
-/// frame on one thread (splitting a frame's rows across threads left cores
-/// idle at every frame's end); the calling thread feeds the sink (the
-/// encoder's pipe) meanwhile. Frames are independent, so the output does not
-/// depend on the number of workers.
+/// Renders every frame's yuv420p image and hands them to `sink` in order
+/// (through [`pipeline_frames`]).
 pub fn render_frames(
     scene: &Scene,
     truth: &[FrameTruth],
+    sink: &mut (dyn FrameSink + Send),
+) -> Result<(), RenderError> {
+    pipeline_frames(
+        truth.len(),
+        &|| scene.background_yuv().to_vec(),
+        &|| (),
+        &|_, i, buf| {
+            let t = &truth[i];
+            let poses = [t.eyes[0].pose, t.eyes[1].pose];
+            scene.render_eyes_yuv_serial(poses, t.closure, t.pupil_scale, buf);
+        },
+        sink,
+    )
+}
+
+/// Draws frames `0..frames` and hands them to `sink` in order: whole frames
+/// in parallel, one worker thread per core, each frame on one worker
+/// (splitting a frame's rows across threads left cores idle at every
+/// frame's end), while the calling thread feeds the sink (the encoder's
+/// pipe). Each worker makes its own state with `new_state` and its frame
+/// buffers with `new_buffer` (they are reused: `draw(state, i, buffer)`
+/// gets one that held an earlier frame of the same worker, or a new one),
+/// and runs `draw` in a rayon pool of its own single thread, so data-
+/// parallel steps inside a frame cost no cross-thread scheduling. Frames
+/// that depend only on their index give output independent of the number
+/// of workers.
+pub fn pipeline_frames<S>(
+    frames: usize,
+    new_buffer: &(dyn Fn() -> Vec<u8> + Sync),
+    new_state: &(dyn Fn() -> S + Sync),
+    draw: &(dyn Fn(&mut S, usize, &mut [u8]) + Sync),
     sink: &mut (dyn FrameSink + Send),
 ) -> Result<(), RenderError> {
     let workers = std::thread::available_parallelism()
@@ -233,19 +259,22 @@ pub fn render_frames(
             frames_rx.push(rx);
             spare_tx.push(spare);
             s.spawn(move || {
-                for t in truth.iter().skip(first).step_by(workers) {
-                    let mut buf = spare_rx
-                        .try_recv()
-                        .unwrap_or_else(|_| scene.background_yuv().to_vec());
-                    let poses = [t.eyes[0].pose, t.eyes[1].pose];
-                    scene.render_eyes_yuv_serial(poses, t.closure, t.pupil_scale, &mut buf);
-                    if tx.send(buf).is_err() {
-                        break; // the writer stopped on an error
+                let Ok(pool) = rayon::ThreadPoolBuilder::new().num_threads(1).build() else {
+                    return; // the writer reports the stopped worker
+                };
+                pool.install(move || {
+                    let mut state = new_state();
+                    for i in (first..frames).step_by(workers) {
+                        let mut buf = spare_rx.try_recv().unwrap_or_else(|_| new_buffer());
+                        draw(&mut state, i, &mut buf);
+                        if tx.send(buf).is_err() {
+                            break; // the writer stopped on an error
+                        }
                     }
-                }
+                });
             });
         }
-        for i in 0..truth.len() {
+        for i in 0..frames {
             let buf = frames_rx[i % workers]
                 .recv()
                 .map_err(|_| RenderError::Input(format!("frame {i}: render worker stopped")))?;
