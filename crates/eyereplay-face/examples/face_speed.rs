@@ -16,7 +16,7 @@ fn main() -> Result<()> {
             height: h,
             vfov_deg: look.vfov_deg,
             face_height_frac: 0.45,
-            light_dir: [0.3, 0.4, 0.9],
+            light_dir: look.light_dir_head(),
         };
         let scene = FaceScene::new(
             id.clone(),

@@ -65,7 +65,9 @@ pub use photo::{
     fit_shape, read_image, PhotoEye, PhotoFitter, PhotoIdentity, MIN_FACE_HEIGHT_PX, PHOTO_VFOV_DEG,
 };
 pub use pose::{solve_pose, weighted_procrustes, Camera, HeadPose, Similarity};
-pub use probe::{measure_pose_slopes, measure_response, probe_grid, read_frame};
+pub use probe::{
+    match_extractor, measure_pose_slopes, measure_response, probe_grid, read_frame, ExtractorMatch,
+};
 pub use raster::{DrawStats, Rasterizer, RgbImage, TexturedMesh};
 pub use scene::{EyeImage, FaceScene, FaceState, Framing};
 pub use session::{

@@ -215,3 +215,32 @@ pub fn measure_pose_slopes(
         ],
     ]))
 }
+
+/// What `match_extractor` measures for one session: the response map
+/// drawn through, and the reading's slopes as the head turns.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ExtractorMatch {
+    pub response: Option<ResponseMap>,
+    pub pose_slopes: Option<[[f64; 2]; 2]>,
+}
+
+/// Both probes of a session whose targets (before any correction) are
+/// `targets`: [`measure_response`], then [`measure_pose_slopes`] about the
+/// centre of the targets as corrected by that response.
+pub fn match_extractor(
+    scene: &FaceScene,
+    look: &WebcamLook,
+    fitter: &mut PhotoFitter,
+    targets: &[NormPos],
+) -> Result<ExtractorMatch> {
+    let response = measure_response(scene, look, fitter, targets)?;
+    let drawn: Vec<NormPos> = match response {
+        Some(m) => targets.iter().map(|&t| m.invert(t)).collect(),
+        None => targets.to_vec(),
+    };
+    let (_, centre) = probe_grid(&drawn);
+    Ok(ExtractorMatch {
+        response,
+        pose_slopes: measure_pose_slopes(scene, look, fitter, centre)?,
+    })
+}

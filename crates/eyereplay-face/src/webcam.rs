@@ -327,6 +327,17 @@ impl WebcamLook {
         }
     }
 
+    /// The side light's direction in the head frame (x toward image right,
+    /// y up, z toward the camera; pointing at the light), for shading what
+    /// is drawn in 3D (the eyes) as the frame's gradient shades the image:
+    /// 45 deg off the camera axis toward where the gradient's light comes
+    /// from (azimuth 0 the top of the frame, +90 the right).
+    pub fn light_dir_head(&self) -> [f64; 3] {
+        let a = self.light_azimuth_deg.to_radians();
+        let off = std::f64::consts::FRAC_PI_4;
+        [off.sin() * a.sin(), off.sin() * a.cos(), off.cos()]
+    }
+
     /// Linear RGB gains of the white balance, green = 1: the camera
     /// divides by the colour of the illuminant it assumes
     /// (`white_balance_k`) while the scene is lit at 6500 K, so the gains
@@ -1106,6 +1117,26 @@ fn pad_row(row: &mut [f32], pad: usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The eyes' light comes from where the frame's gradient does:
+    /// azimuth 0 from above, +90 from the image's right, 45 deg off the
+    /// camera axis, unit length.
+    #[test]
+    fn light_direction_follows_the_azimuth() {
+        let mut l = WebcamLook::identity();
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        for (az, want) in [
+            (0.0, [0.0, s, s]),
+            (90.0, [s, 0.0, s]),
+            (-90.0, [-s, 0.0, s]),
+        ] {
+            l.light_azimuth_deg = az;
+            let d = l.light_dir_head();
+            for k in 0..3 {
+                assert!((d[k] - want[k]).abs() < 1e-12, "{az}: {d:?}");
+            }
+        }
+    }
 
     /// The identity look with some fields changed.
     fn look_with(f: impl FnOnce(&mut WebcamLook)) -> WebcamLook {

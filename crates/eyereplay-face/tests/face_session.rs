@@ -42,7 +42,7 @@ fn scene_of(
         height: 480,
         vfov_deg: look.vfov_deg,
         face_height_frac: 0.42,
-        light_dir: [0.3, 0.4, 0.9],
+        light_dir: look.light_dir_head(),
     };
     let scene = FaceScene::new(id, &mesh, Identity::sample(look_seed), &framing);
     Some((models, fitter, scene, look))

@@ -34,6 +34,20 @@ pub struct SessionJob {
     pub seed: u64,
 }
 
+impl DatasetInfo {
+    /// The gaze mapping of this dataset's sessions: its canvas and
+    /// calibration, with `template`'s gain and viewing distance.
+    pub fn mapping(&self, template: &GazeMapping) -> GazeMapping {
+        let mut m = GazeMapping::new(self.canvas);
+        if let Some(c) = self.calibration {
+            m.calibration = c;
+        }
+        m.gain = template.gain;
+        m.viewing_distance_mm = template.viewing_distance_mm;
+        m
+    }
+}
+
 /// Reads `metadata.json` (canvas, fps, calibration).
 pub fn read_dataset_info(dir: &Path) -> Result<DatasetInfo, RenderError> {
     let meta = read_metadata(dir)?.dataset;
@@ -151,12 +165,7 @@ pub fn render_dataset(
             .map(|(_, j)| j)
             .collect();
     }
-    let mut mapping = GazeMapping::new(info.canvas);
-    if let Some(c) = info.calibration {
-        mapping.calibration = c;
-    }
-    mapping.gain = opts.params.mapping.gain;
-    mapping.viewing_distance_mm = opts.params.mapping.viewing_distance_mm;
+    let mapping = info.mapping(&opts.params.mapping);
     let ffprobe = ffprobe_for(&opts.params.encoder.ffmpeg);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.jobs.max(1))

@@ -12,10 +12,10 @@ use eyereplay_dataset::{DatasetMetadata, RenderSettings, SessionIdentity};
 use eyereplay_face::coordination::{CoordinationParams, HeadDynamics, Task, DEFAULT_SWAY_RMS};
 use eyereplay_face::webcam::{WebcamLook, WebcamRanges};
 use eyereplay_face::{
-    default_faces_dir, CanonicalMesh, FaceScene, FaceSessionParams, Framing, PhotoFitter,
-    PhotoIdentity, MESH_FILE,
+    default_faces_dir, CanonicalMesh, ExtractorMatch, FaceScene, FaceSessionParams, Framing,
+    PhotoFitter, PhotoIdentity, MESH_FILE,
 };
-use eyereplay_render::{GazeMapping, Identity, RenderParams};
+use eyereplay_render::{EncoderSettings, GazeMapping, Identity, RenderParams};
 use rand::SeedableRng;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -45,51 +45,80 @@ pub const FACE_X264_PRESET: &str = "superfast";
 /// rendered session at 800 kbit/s, same size).
 pub const FACE_X264_TUNE: &str = "zerolatency";
 
-/// The `[render.webcam]` table typed and checked: the look's ranges and
-/// the x264 preset (`x264_preset`, default [`FACE_X264_PRESET`]).
-pub fn webcam_settings(settings: &RenderSettings) -> Result<(WebcamRanges, String)> {
-    let mut table = settings.webcam.clone().unwrap_or_default();
-    let preset = match table.remove("x264_preset") {
-        None => FACE_X264_PRESET.to_string(),
-        Some(toml::Value::String(p)) => p,
-        Some(v) => {
+/// The face mode's own settings, typed and checked.
+#[derive(Clone, Debug)]
+pub struct FaceSettings {
+    /// `[render.webcam]`: the look's ranges.
+    pub webcam: WebcamRanges,
+    /// `[render.webcam] x264_preset`, default [`FACE_X264_PRESET`].
+    pub x264_preset: String,
+}
+
+impl FaceSettings {
+    /// `[render.webcam]` typed, and the face mode's `[render]` keys
+    /// (`face_height_frac`, `head_sway`) checked: one-line errors naming
+    /// the key.
+    pub fn from_render(settings: &RenderSettings) -> Result<FaceSettings> {
+        let mut table = settings.webcam.clone().unwrap_or_default();
+        let x264_preset = match table.remove("x264_preset") {
+            None => FACE_X264_PRESET.to_string(),
+            Some(toml::Value::String(p)) => p,
+            Some(v) => {
+                return Err(Error::Setting(format!(
+                    "[render.webcam]: x264_preset must be a string (an x264 preset name), got {v}"
+                )))
+            }
+        };
+        let webcam: WebcamRanges = toml::Value::Table(table)
+            .try_into()
+            .map_err(|e| Error::Setting(format!("[render.webcam]: {}", e.message())))?;
+        webcam.validate().map_err(Error::Setting)?;
+        let [lo, hi] = settings.face_height_frac;
+        if !(lo.is_finite() && hi.is_finite() && 0.15 <= lo && lo <= hi && hi <= 0.8) {
             return Err(Error::Setting(format!(
-                "[render.webcam]: x264_preset must be a string (an x264 preset name), got {v}"
-            )))
+                "[render]: face_height_frac [{lo}, {hi}] must be a range inside [0.15, 0.8]"
+            )));
         }
-    };
-    let r = webcam_ranges_of(table)?;
-    let [lo, hi] = settings.face_height_frac;
-    if !(lo.is_finite() && hi.is_finite() && 0.15 <= lo && lo <= hi && hi <= 0.8) {
-        return Err(Error::Setting(format!(
-            "[render]: face_height_frac [{lo}, {hi}] must be a range inside [0.15, 0.8]"
-        )));
+        if !(settings.head_sway.is_finite() && (0.0..=5.0).contains(&settings.head_sway)) {
+            return Err(Error::Setting(format!(
+                "[render]: head_sway {} must be between 0 and 5",
+                settings.head_sway
+            )));
+        }
+        Ok(FaceSettings {
+            webcam,
+            x264_preset,
+        })
     }
-    if !(settings.head_sway.is_finite() && (0.0..=5.0).contains(&settings.head_sway)) {
-        return Err(Error::Setting(format!(
-            "[render]: head_sway {} must be between 0 and 5",
-            settings.head_sway
-        )));
+
+    /// The face mode's encoder from the renderer's: its preset, tuned as a
+    /// video call's real-time encoder, without the close-up's extra x264
+    /// options (they tune veryfast).
+    pub fn encoder(&self, base: &EncoderSettings) -> EncoderSettings {
+        EncoderSettings {
+            preset: self.x264_preset.clone(),
+            tune: Some(FACE_X264_TUNE.into()),
+            x264_params: None,
+            ..base.clone()
+        }
     }
-    Ok((r, preset))
 }
 
-/// The `[render.webcam]` ranges typed and checked.
-pub fn webcam_ranges(settings: &RenderSettings) -> Result<WebcamRanges> {
-    Ok(webcam_settings(settings)?.0)
+/// A session's framing: the look's field of view, and its side light for
+/// the eyes.
+fn framing(look: &WebcamLook, width: usize, height: usize, face_height_frac: f64) -> Framing {
+    Framing {
+        width,
+        height,
+        vfov_deg: look.vfov_deg,
+        face_height_frac,
+        light_dir: look.light_dir_head(),
+    }
 }
 
-fn webcam_ranges_of(table: toml::Table) -> Result<WebcamRanges> {
-    let r: WebcamRanges = toml::Value::Table(table)
-        .try_into()
-        .map_err(|e| Error::Setting(format!("[render.webcam]: {}", e.message())))?;
-    r.validate().map_err(Error::Setting)?;
-    Ok(r)
-}
-
-/// Checks everything the face mode needs before work starts: the settings,
-/// the canonical mesh, and every photo (read and fitted: a photo without a
-/// usable face fails here, with its name).
+/// The canonical mesh and every photo fitted (a photo without a usable face
+/// fails here, with its name, before any session), and the fitter for the
+/// probes.
 pub fn fit_identities(
     photos: &[PathBuf],
 ) -> Result<(CanonicalMesh, Vec<PhotoIdentity>, PhotoFitter)> {
@@ -129,25 +158,13 @@ pub(crate) fn render_sessions_face(
     shard: Option<Shard>,
     progress: &dyn Progress,
 ) -> Result<RenderSummary> {
-    let (ranges, preset) = webcam_settings(settings)?;
-    let mut encoder = params.encoder.clone();
-    encoder.preset = preset;
-    // The defaults' extra x264 options tune veryfast for the close-up;
-    // the webcam preset stands on its own, tuned as a video call's
-    // real-time encoder.
-    encoder.x264_params = None;
-    encoder.tune = Some(FACE_X264_TUNE.into());
+    let face = FaceSettings::from_render(settings)?;
+    let encoder = face.encoder(&params.encoder);
     let photos = identity_photos(settings, |p| p.to_path_buf());
     let ffprobe = eyereplay_render::ffprobe_for(&params.encoder.ffmpeg);
     let sessions = crate::render::shard_sessions(out, meta.seed, shard)?;
     let (mesh, identities, mut fitter) = fit_identities(&photos)?;
-    let info = eyereplay_render::read_dataset_info(out)?;
-    let mut mapping = GazeMapping::new(info.canvas);
-    if let Some(c) = info.calibration {
-        mapping.calibration = c;
-    }
-    mapping.gain = params.mapping.gain;
-    mapping.viewing_distance_mm = params.mapping.viewing_distance_mm;
+    let mapping = eyereplay_render::read_dataset_info(out)?.mapping(&params.mapping);
     progress.begin(Stage::Render, (sessions.len() * meta.session_frames) as u64);
     let mut summary = RenderSummary::default();
     let mut failed = vec![];
@@ -169,21 +186,13 @@ pub(crate) fn render_sessions_face(
         }
         let seed = job.seed;
         let photo = &identities[(seed % identities.len() as u64) as usize];
-        let look = ranges.sample(seed ^ 0x00ca_3e4a);
+        let look = face.webcam.sample(seed ^ 0x00ca_3e4a);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x4ead);
         let coordination = CoordinationParams::sample(&mut rng);
         let [lo, hi] = settings.face_height_frac;
         let frac = lo + (hi - lo) * rand::Rng::gen::<f64>(&mut rng);
         let eye_identity = Identity::sample(seed);
-        let az = look.light_azimuth_deg.to_radians();
-        let el = 25f64.to_radians();
-        let framing = Framing {
-            width: params.width,
-            height: params.height,
-            vfov_deg: look.vfov_deg,
-            face_height_frac: frac,
-            light_dir: [el.cos() * az.sin(), el.sin(), el.cos() * az.cos()],
-        };
+        let framing = framing(&look, params.width, params.height, frac);
         let scene = FaceScene::new(photo.clone(), &mesh, eye_identity.clone(), &framing);
         let class = files.file.split('/').next().unwrap_or("");
         let task = if class.to_ascii_lowercase().contains("read") {
@@ -193,24 +202,17 @@ pub(crate) fn render_sessions_face(
         };
         // match_extractor: measure how the extractor reads this identity,
         // framing and look, and draw through the inverse.
-        let mut session_mapping = mapping;
-        let response = if settings.match_extractor {
+        let matched = if settings.match_extractor {
             let targets: Vec<NormPos> = traj.iter().map(|&c| mapping.target_norm(c)).collect();
-            eyereplay_face::measure_response(&scene, &look, &mut fitter, &targets)?
+            eyereplay_face::match_extractor(&scene, &look, &mut fitter, &targets)?
         } else {
-            None
+            ExtractorMatch::default()
         };
-        session_mapping.extractor_response = response;
-        let pose_slopes = if settings.match_extractor {
-            let targets: Vec<NormPos> = traj
-                .iter()
-                .map(|&c| session_mapping.target_norm(c))
-                .collect();
-            let (_, centre) = eyereplay_face::probe_grid(&targets);
-            eyereplay_face::measure_pose_slopes(&scene, &look, &mut fitter, centre)?
-        } else {
-            None
+        let session_mapping = GazeMapping {
+            extractor_response: matched.response,
+            ..mapping
         };
+        let pose_slopes = matched.pose_slopes;
         let p = FaceSessionParams {
             fps: meta.fps,
             mapping: session_mapping,
@@ -284,13 +286,7 @@ pub fn bench(width: usize, height: usize, frames: usize) -> Result<eyereplay_ren
     let photos = identity_photos(&RenderSettings::default(), |p| p.to_path_buf());
     let (mesh, ids, _) = fit_identities(&photos[..1])?;
     let look = WebcamRanges::default().sample(1);
-    let framing = Framing {
-        width,
-        height,
-        vfov_deg: look.vfov_deg,
-        face_height_frac: 0.42,
-        light_dir: [0.3, 0.4, 0.9],
-    };
+    let framing = framing(&look, width, height, 0.42);
     let eye_identity = Identity::sample(1);
     let scene = FaceScene::new(ids[0].clone(), &mesh, eye_identity.clone(), &framing);
     let canvas = eyereplay_core::Canvas::default();
@@ -309,12 +305,8 @@ pub fn bench(width: usize, height: usize, frames: usize) -> Result<eyereplay_ren
         dynamics: HeadDynamics::default(),
         sway_rms: DEFAULT_SWAY_RMS,
         look,
-        encoder: eyereplay_render::EncoderSettings {
-            preset: FACE_X264_PRESET.into(),
-            tune: Some(FACE_X264_TUNE.into()),
-            x264_params: None,
-            ..Default::default()
-        },
+        encoder: FaceSettings::from_render(&RenderSettings::default())?
+            .encoder(&EncoderSettings::default()),
         seed: 1,
         pose_slopes: None,
     };

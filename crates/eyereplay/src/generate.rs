@@ -66,7 +66,7 @@ pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shar
     let eyes = settings.backend == eyereplay_dataset::RenderBackend::Eyes;
     let face = settings.backend == eyereplay_dataset::RenderBackend::Face;
     if face {
-        crate::face::webcam_ranges(&settings)
+        crate::face::FaceSettings::from_render(&settings)
             .map_err(|e| Error::input(config_path, e.to_string()))?;
         // Photos resolved against the config's folder, checked now.
         let photos = crate::face::identity_photos(&settings, |p| config.resolve(p));
