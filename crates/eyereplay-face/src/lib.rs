@@ -66,7 +66,7 @@ pub use photo::{
 };
 pub use pose::{solve_pose, weighted_procrustes, Camera, HeadPose, Similarity};
 pub use probe::{
-    match_extractor, measure_pose_slopes, measure_response, probe_grid, read_frame, ExtractorMatch,
+    match_extractor, measure_pose_slopes, measure_response, read_frame, ExtractorMatch,
 };
 pub use raster::{DrawStats, Rasterizer, RgbImage, TexturedMesh};
 pub use scene::{EyeImage, FaceScene, FaceState, Framing};

@@ -20,7 +20,7 @@ use crate::raster::{Rasterizer, RgbImage, TexturedMesh};
 use crate::scene::{FaceScene, FaceState};
 use crate::webcam::{Webcam, WebcamLook};
 use eyereplay_core::NormPos;
-use eyereplay_render::ResponseMap;
+use eyereplay_render::{probe_grid, ResponseMap};
 
 /// What the extractor's unmodified still path (detection, landmarks, iris;
 /// [`PhotoFitter::landmarks`]) reads in `frame`: the mean `(nx, ny)` of both
@@ -42,43 +42,9 @@ const GRID: usize = 5;
 /// still gets a usable slope.
 const MIN_SPAN: f64 = 0.08;
 
-/// The probe grid over the 5th-95th percentiles of `targets`, and its centre.
-pub fn probe_grid(targets: &[NormPos]) -> (Vec<NormPos>, NormPos) {
-    probe_grid_min(targets, MIN_SPAN)
-}
-
-/// [`probe_grid`] with at least `min_span` per axis.
-fn probe_grid_min(targets: &[NormPos], min_span: f64) -> (Vec<NormPos>, NormPos) {
-    let pct = |mut v: Vec<f64>, q: f64| -> f64 {
-        v.sort_by(f64::total_cmp);
-        if v.is_empty() {
-            return 0.5;
-        }
-        v[((v.len() - 1) as f64 * q).round() as usize]
-    };
-    let range = |v: Vec<f64>| -> (f64, f64) {
-        let (lo, hi) = (pct(v.clone(), 0.05), pct(v, 0.95));
-        let mid = 0.5 * (lo + hi);
-        let half = (0.5 * (hi - lo)).max(min_span / 2.0);
-        (mid - half, mid + half)
-    };
-    let (x0, x1) = range(targets.iter().map(|t| t.nx).collect());
-    let (y0, y1) = range(targets.iter().map(|t| t.ny).collect());
-    let mut grid = vec![];
-    for j in 0..GRID {
-        for i in 0..GRID {
-            let f = |k: usize| k as f64 / (GRID - 1) as f64;
-            grid.push(NormPos {
-                nx: x0 + (x1 - x0) * f(i),
-                ny: y0 + (y1 - y0) * f(j),
-            });
-        }
-    }
-    let centre = NormPos {
-        nx: 0.5 * (x0 + x1),
-        ny: 0.5 * (y0 + y1),
-    };
-    (grid, centre)
+/// The probe grid over the session's targets ([`probe_grid`]).
+fn grid(targets: &[NormPos], min_span: f64) -> (Vec<NormPos>, NormPos) {
+    probe_grid(targets, GRID, GRID, min_span)
 }
 
 /// A grid this wide per axis is probed when the session's own range gave
@@ -96,10 +62,10 @@ pub fn measure_response(
     fitter: &mut PhotoFitter,
     targets: &[NormPos],
 ) -> Result<Option<ResponseMap>> {
-    if let Some(m) = measure_over(scene, look, fitter, probe_grid(targets))? {
+    if let Some(m) = measure_over(scene, look, fitter, grid(targets, MIN_SPAN))? {
         return Ok(Some(m));
     }
-    measure_over(scene, look, fitter, probe_grid_min(targets, RETRY_SPAN))
+    measure_over(scene, look, fitter, grid(targets, RETRY_SPAN))
 }
 
 fn measure_over(
@@ -238,7 +204,7 @@ pub fn match_extractor(
         Some(m) => targets.iter().map(|&t| m.invert(t)).collect(),
         None => targets.to_vec(),
     };
-    let (_, centre) = probe_grid(&drawn);
+    let (_, centre) = grid(&drawn, MIN_SPAN);
     Ok(ExtractorMatch {
         response,
         pose_slopes: measure_pose_slopes(scene, look, fitter, centre)?,

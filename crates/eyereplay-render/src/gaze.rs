@@ -163,6 +163,42 @@ impl ResponseMap {
     }
 }
 
+/// Probe targets for measuring a [`ResponseMap`]: an even `n_x` x `n_y`
+/// grid (nx outer, ny inner) over the 5th-95th percentile of a session's
+/// own `targets` per axis (where the response matters for this session),
+/// at least `min_span` wide so a session that hardly moves still gets a
+/// well-conditioned fit; and the grid's centre.
+pub fn probe_grid(
+    targets: &[NormPos],
+    n_x: usize,
+    n_y: usize,
+    min_span: f64,
+) -> (Vec<NormPos>, NormPos) {
+    let span = |v: Vec<f64>| -> (f64, f64) {
+        let q = |p: f64| eyereplay_signal::stats::quantile(&v, p).unwrap_or(0.5);
+        let (lo, hi) = (q(0.05), q(0.95));
+        let mid = 0.5 * (lo + hi);
+        let half = (0.5 * (hi - lo)).max(0.5 * min_span);
+        (mid - half, mid + half)
+    };
+    let (x0, x1) = span(targets.iter().map(|t| t.nx).collect());
+    let (y0, y1) = span(targets.iter().map(|t| t.ny).collect());
+    let step = |a: f64, b: f64, i: usize, n: usize| a + (b - a) * i as f64 / (n.max(2) - 1) as f64;
+    let grid = (0..n_x)
+        .flat_map(|i| {
+            (0..n_y).map(move |j| NormPos {
+                nx: step(x0, x1, i, n_x),
+                ny: step(y0, y1, j, n_y),
+            })
+        })
+        .collect();
+    let centre = NormPos {
+        nx: 0.5 * (x0 + x1),
+        ny: 0.5 * (y0 + y1),
+    };
+    (grid, centre)
+}
+
 /// Solves a 3x3 system by Cramer's rule; `None` when singular.
 fn solve3(m: [[f64; 3]; 3], r: [f64; 3]) -> Option<[f64; 3]> {
     let det = |m: [[f64; 3]; 3]| {

@@ -77,7 +77,7 @@ pub use encode::{
 };
 pub use error::RenderError;
 pub use eyereplay_dataset::{read_blink_column, TRUTH_HEADER};
-pub use gaze::{default_calibration, Calibration, GazeMapping, ResponseMap};
+pub use gaze::{default_calibration, probe_grid, Calibration, GazeMapping, ResponseMap};
 pub use identity::{CameraPose, EyeShape, Identity, IrisStyle, Lighting};
 pub use scene::{EyeGeometry, EyePose, EyeTruth, Eyeball, Scene, Side};
 pub use session::{

@@ -8,8 +8,7 @@ use eyereplay_core::{CanvasPos, NormPos};
 use eyereplay_extract::{
     order_eye_corners, EyeCropTracker, ImageView, Models, Planes, Pt, Rotation, YuvMatrix,
 };
-use eyereplay_render::{RenderParams, ResponseMap, ResponseProbe, Scene};
-use eyereplay_signal::stats::quantile;
+use eyereplay_render::{probe_grid, RenderParams, ResponseMap, ResponseProbe, Scene};
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
@@ -22,36 +21,12 @@ const PROBE_NY: usize = 7;
 /// gets a well-conditioned fit.
 const MIN_SPAN: f64 = 0.08;
 
-/// The probe targets: an even grid over the 5th-95th percentile of the
-/// session's own targets per axis (where the response matters for this
-/// session), at least [`MIN_SPAN`] wide; and the grid's centre.
-fn probe_grid(params: &RenderParams, traj: &[CanvasPos]) -> (Vec<NormPos>, NormPos) {
+/// The probe targets over the range `traj` covers ([`probe_grid`]).
+fn session_probe_grid(params: &RenderParams, traj: &[CanvasPos]) -> (Vec<NormPos>, NormPos) {
     let mut mapping = params.mapping;
     mapping.extractor_response = None;
     let targets: Vec<NormPos> = traj.iter().map(|&c| mapping.target_norm(c)).collect();
-    let span = |v: Vec<f64>| -> (f64, f64) {
-        let q = |p: f64| quantile(&v, p).unwrap_or(0.5);
-        let (lo, hi) = (q(0.05), q(0.95));
-        let mid = 0.5 * (lo + hi);
-        let half = (0.5 * (hi - lo)).max(0.5 * MIN_SPAN);
-        (mid - half, mid + half)
-    };
-    let (x0, x1) = span(targets.iter().map(|t| t.nx).collect());
-    let (y0, y1) = span(targets.iter().map(|t| t.ny).collect());
-    let step = |a: f64, b: f64, i: usize, n: usize| a + (b - a) * i as f64 / (n - 1) as f64;
-    let grid = (0..PROBE_NX)
-        .flat_map(|i| {
-            (0..PROBE_NY).map(move |j| NormPos {
-                nx: step(x0, x1, i, PROBE_NX),
-                ny: step(y0, y1, j, PROBE_NY),
-            })
-        })
-        .collect();
-    let centre = NormPos {
-        nx: 0.5 * (x0 + x1),
-        ny: 0.5 * (y0 + y1),
-    };
-    (grid, centre)
+    probe_grid(&targets, PROBE_NX, PROBE_NY, MIN_SPAN)
 }
 
 /// Renders the probe frames of `params`' identity at its size over the
@@ -69,7 +44,7 @@ pub fn measure_response(
         return Ok(None);
     }
     let scene = Scene::new(&params.identity, params.width, params.height);
-    let (grid, centre) = probe_grid(params, traj);
+    let (grid, centre) = session_probe_grid(params, traj);
     // Pass 1 probes where the geometric targets are; the response there is
     // not quite the response where the corrected eye is then drawn, so pass
     // 2 probes the corrected positions and refines the map.
