@@ -6,24 +6,13 @@
 //!
 //!   cargo run --release -p eyereplay-face --example face_frames -- OUT_DIR [PHOTO...]
 
+mod common;
+
 use eyereplay_face::*;
-use std::path::PathBuf;
 
 fn main() -> Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let out = PathBuf::from(args.first().map(String::as_str).unwrap_or("face_frames"));
-    std::fs::create_dir_all(&out).map_err(|source| FaceError::Io {
-        path: out.clone(),
-        source,
-    })?;
-    let faces = default_faces_dir();
-    let photos: Vec<PathBuf> = if args.len() > 1 {
-        args[1..].iter().map(PathBuf::from).collect()
-    } else {
-        bundled_faces()
-    };
-    let mesh = CanonicalMesh::load(&faces.join(MESH_FILE))?;
-    let mut fitter = PhotoFitter::new(&eyereplay_extract::default_models_dir(), mesh.clone())?;
+    let (out, photos) = common::out_and_photos("face_frames")?;
+    let (mesh, mut fitter) = common::mesh_and_fitter()?;
     for (i, path) in photos.iter().enumerate() {
         let id = fitter.fit(path)?;
         let name = id.name.clone();
@@ -72,38 +61,9 @@ fn main() -> Result<()> {
             match got {
                 None => println!("{name} {label}: NO FACE"),
                 Some(f) => {
-                    let basis: Vec<usize> = mesh.procrustes.iter().map(|p| p.0 as usize).collect();
-                    let wts: Vec<f64> = mesh.procrustes.iter().map(|p| p.1 as f64).collect();
-                    let model: Vec<nalgebra::Vector3<f64>> = basis
-                        .iter()
-                        .map(|&i| {
-                            nalgebra::Vector3::from(scene.identity.shape_cm[i].map(f64::from))
-                        })
-                        .collect();
-                    let obs: Vec<[f64; 2]> = basis
-                        .iter()
-                        .map(|&i| [f.mesh[i].x as f64, f.mesh[i].y as f64])
-                        .collect();
-                    let solved = solve_pose(&scene.camera, &model, &obs, &wts, 20);
-                    let mut plain = RgbImage::filled(640, 480, [118, 124, 132]);
-                    let tmc = scene.identity.textured_mesh(&mesh, false);
-                    Rasterizer::new(640, 480).draw(
-                        &mut plain,
-                        &scene.camera,
-                        &head,
-                        &tmc,
-                        &scene.identity.texture,
-                    );
-                    if let Some(f2) = fitter.landmarks(&plain)? {
-                        let obs2: Vec<[f64; 2]> = basis
-                            .iter()
-                            .map(|&i| [f2.mesh[i].x as f64, f2.mesh[i].y as f64])
-                            .collect();
-                        println!(
-                            "   plain mesh only: solved yaw {:.1}",
-                            solve_pose(&scene.camera, &model, &obs2, &wts, 20).yaw_deg
-                        );
-                    }
+                    let px: Vec<[f64; 2]> =
+                        f.mesh.iter().map(|p| [p.x as f64, p.y as f64]).collect();
+                    let solved = mesh.head_pose(&scene.camera, &scene.identity.shape_cm, &px);
                     println!(
                         "   head yaw drawn {:.1} solved {:.1}; pitch drawn {:.1} solved {:.1}",
                         head.yaw_deg, solved.yaw_deg, head.pitch_deg, solved.pitch_deg
@@ -112,7 +72,7 @@ fn main() -> Result<()> {
                         .eyes
                         .iter()
                         .map(|e| {
-                            let r = e.measure_against(e.corner_left, e.corner_right);
+                            let r = e.measure();
                             (r.nx, r.ny)
                         })
                         .collect();

@@ -8,6 +8,8 @@ use eyereplay_core::{Canvas, CanvasPos};
 use eyereplay_extract::{extract_video_to_csv, ExtractOptions};
 use eyereplay_face::coordination::{CoordinationParams, HeadDynamics, Task};
 use eyereplay_face::webcam::{WebcamLook, WebcamRanges};
+mod common;
+
 use eyereplay_face::*;
 use eyereplay_render::{EncoderSettings, GazeMapping, Identity};
 
@@ -18,8 +20,7 @@ fn sd(v: &[f64]) -> f64 {
 
 fn main() -> Result<()> {
     let faces = default_faces_dir();
-    let mesh = CanonicalMesh::load(&faces.join(MESH_FILE))?;
-    let mut fitter = PhotoFitter::new(&eyereplay_extract::default_models_dir(), mesh.clone())?;
+    let (mesh, mut fitter) = common::mesh_and_fitter()?;
     let dir = std::env::temp_dir().join("eyereplay_face_noise");
     std::fs::create_dir_all(&dir).unwrap();
     for photo in ["astronaut.png", "grace_hopper.jpg"] {

@@ -6,19 +6,13 @@
 //!
 //!   cargo run --release -p eyereplay-face --example face_response -- [PHOTO...]
 
+mod common;
+
 use eyereplay_face::*;
-use std::path::PathBuf;
 
 fn main() -> Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let faces = default_faces_dir();
-    let photos: Vec<PathBuf> = if !args.is_empty() {
-        args.iter().map(PathBuf::from).collect()
-    } else {
-        bundled_faces()
-    };
-    let mesh = CanonicalMesh::load(&faces.join(MESH_FILE))?;
-    let mut fitter = PhotoFitter::new(&eyereplay_extract::default_models_dir(), mesh.clone())?;
+    let photos = common::photos();
+    let (mesh, mut fitter) = common::mesh_and_fitter()?;
     let (w, h) = (640, 480);
     // Extra head yaw (deg) for every probe: how the response changes as
     // the head turns.

@@ -5,8 +5,9 @@
 //!
 //!   cargo run --release -p eyereplay-face --example face_views -- OUT_DIR [PHOTO...]
 
+mod common;
+
 use eyereplay_face::*;
-use std::path::PathBuf;
 use std::time::Instant;
 
 /// A webcam-like framing: 45 deg vertical field of view, the face
@@ -36,20 +37,8 @@ fn psnr_masked(a: &RgbImage, b: &RgbImage, mask: &[f32]) -> (f64, usize) {
 }
 
 fn main() -> Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let out = PathBuf::from(args.first().map(String::as_str).unwrap_or("face_views"));
-    std::fs::create_dir_all(&out).map_err(|source| FaceError::Io {
-        path: out.clone(),
-        source,
-    })?;
-    let faces = default_faces_dir();
-    let photos: Vec<PathBuf> = if args.len() > 1 {
-        args[1..].iter().map(PathBuf::from).collect()
-    } else {
-        bundled_faces()
-    };
-    let mesh = CanonicalMesh::load(&faces.join(MESH_FILE))?;
-    let mut fitter = PhotoFitter::new(&eyereplay_extract::default_models_dir(), mesh.clone())?;
+    let (out, photos) = common::out_and_photos("face_views")?;
+    let (mesh, mut fitter) = common::mesh_and_fitter()?;
     let mut raster_ms = vec![];
     for path in &photos {
         let t0 = Instant::now();

@@ -107,6 +107,31 @@ pub fn bundled_faces() -> Vec<PathBuf> {
 pub const MESH_FILE: &str = "canonical_face_mesh.binarypb";
 
 impl CanonicalMesh {
+    /// The head pose that puts a face of shape `shape_cm` (one point per
+    /// landmark, head frame: an identity's own shape, or this mesh's for an
+    /// unknown person) onto `landmarks_px` (the extractor's 468, pixels)
+    /// seen by `camera`, fitted on this mesh's weighted Procrustes basis
+    /// ([`crate::solve_pose`]).
+    pub fn head_pose(
+        &self,
+        camera: &crate::Camera,
+        shape_cm: &[[f32; 3]],
+        landmarks_px: &[[f64; 2]],
+    ) -> crate::HeadPose {
+        let model: Vec<nalgebra::Vector3<f64>> = self
+            .procrustes
+            .iter()
+            .map(|&(i, _)| nalgebra::Vector3::from(shape_cm[i as usize].map(f64::from)))
+            .collect();
+        let obs: Vec<[f64; 2]> = self
+            .procrustes
+            .iter()
+            .map(|&(i, _)| landmarks_px[i as usize])
+            .collect();
+        let w: Vec<f64> = self.procrustes.iter().map(|&(_, w)| w as f64).collect();
+        crate::solve_pose(camera, &model, &obs, &w, 20)
+    }
+
     /// Reads and checks the mesh file.
     pub fn load(path: &Path) -> Result<CanonicalMesh> {
         let bytes = std::fs::read(path).map_err(|source| FaceError::Io {

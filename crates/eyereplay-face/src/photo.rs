@@ -13,7 +13,7 @@
 
 use crate::error::{FaceError, Result};
 use crate::mesh::{lm, CanonicalMesh, LEFT_EYE_CONTOUR, MESH_VERTICES, RIGHT_EYE_CONTOUR};
-use crate::pose::{solve_pose, Camera, HeadPose};
+use crate::pose::{Camera, HeadPose};
 use crate::raster::{RgbImage, TexturedMesh};
 use eyereplay_extract::{
     Decoder, ExtractError, Face, ImageView, Models, Planes, Rotation, Tracker,
@@ -227,18 +227,8 @@ pub fn fit_shape(
     camera: &Camera,
     landmarks_px: &[[f32; 2]],
 ) -> (HeadPose, Vec<[f32; 3]>) {
-    let model: Vec<Vector3<f64>> = mesh
-        .procrustes
-        .iter()
-        .map(|&(i, _)| Vector3::from(mesh.positions_cm[i as usize].map(f64::from)))
-        .collect();
-    let obs: Vec<[f64; 2]> = mesh
-        .procrustes
-        .iter()
-        .map(|&(i, _)| landmarks_px[i as usize].map(f64::from))
-        .collect();
-    let w: Vec<f64> = mesh.procrustes.iter().map(|&(_, w)| w as f64).collect();
-    let pose = solve_pose(camera, &model, &obs, &w, 20);
+    let px: Vec<[f64; 2]> = landmarks_px.iter().map(|p| p.map(f64::from)).collect();
+    let pose = mesh.head_pose(camera, &mesh.positions_cm, &px);
     let (m, t) = pose.to_camera();
     let shape = mesh
         .positions_cm

@@ -5,9 +5,8 @@
 
 use crate::error::Result;
 use crate::mesh::CanonicalMesh;
-use crate::pose::{solve_pose, Camera, HeadPose};
+use crate::pose::{Camera, HeadPose};
 use eyereplay_extract::{Decoder, Models, Tracker};
-use nalgebra::Vector3;
 use std::ops::ControlFlow;
 use std::path::Path;
 
@@ -26,22 +25,13 @@ pub fn video_head_poses(
 ) -> Result<Vec<Option<HeadPose>>> {
     let mut tracker = Tracker::new(Models::load(models_dir)?, 1);
     let mut dec = Decoder::open(video)?;
-    let basis: Vec<usize> = mesh.procrustes.iter().map(|p| p.0 as usize).collect();
-    let weights: Vec<f64> = mesh.procrustes.iter().map(|p| p.1 as f64).collect();
-    let model: Vec<Vector3<f64>> = basis
-        .iter()
-        .map(|&i| Vector3::from(shape_cm[i].map(f64::from)))
-        .collect();
     let mut out = vec![];
     dec.frames(|_, img| {
         let (w, h) = img.size();
         let cam = Camera::from_vfov(w, h, vfov_deg);
         let pose = tracker.process_with_mesh(img)?.map(|face| {
-            let obs: Vec<[f64; 2]> = basis
-                .iter()
-                .map(|&i| [face.mesh[i].x as f64, face.mesh[i].y as f64])
-                .collect();
-            solve_pose(&cam, &model, &obs, &weights, 20)
+            let px: Vec<[f64; 2]> = face.mesh.iter().map(|p| [p.x as f64, p.y as f64]).collect();
+            mesh.head_pose(&cam, shape_cm, &px)
         });
         out.push(pose);
         Ok(ControlFlow::Continue(()))
