@@ -215,6 +215,11 @@ fn bad_inputs_stop_before_work() {
     let e = generate(&face("identities = [\"nobody.jpg\"]"), &[]);
     assert!(e.contains("nobody.jpg") && e.contains("not found"), "{e}");
     assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    let not_a_photo = dir.path().join("me.jpg");
+    std::fs::write(&not_a_photo, "not an image").unwrap();
+    let e = generate(&face(&format!("identities = [\"{}\"]", not_a_photo.display())), &[]);
+    assert!(e.contains("me.jpg") && e.contains("cannot read the image"), "{e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
     let e = generate(&face("[render.webcam]\nnoise_sigma = [4.0, 2.0]"), &[]);
     assert!(e.contains("noise_sigma"), "{e}");
     assert_eq!(e.trim_end().lines().count(), 1, "{e}");

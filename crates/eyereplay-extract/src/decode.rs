@@ -29,8 +29,11 @@ fn init() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         let _ = ff::init();
-        // Corrupt-frame chatter goes through our own error count instead.
-        ff::util::log::set_level(ff::util::log::Level::Fatal);
+        // FFmpeg's own log lines off: corrupt-frame chatter goes through
+        // our own error count, and a file that is not a video gets our
+        // one-line error. (At `Fatal`, Debian's FFmpeg 5.1 still printed
+        // "[mjpeg @ ...] No JPEG data found in image" for a non-image.)
+        ff::util::log::set_level(ff::util::log::Level::Quiet);
     });
 }
 

@@ -78,7 +78,6 @@ pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shar
                 ));
             }
         }
-        settings.identities = photos;
         let mesh = eyereplay_face::default_faces_dir().join(eyereplay_face::MESH_FILE);
         if !mesh.is_file() {
             return Err(Error::input(
@@ -86,8 +85,15 @@ pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shar
                 "canonical face mesh not found (run scripts/setup.sh)",
             ));
         }
+        check_models()?;
+        // A user's photo without a usable face fails now, before the
+        // dataset is prepared (the bundled ones are known to fit).
+        if !settings.identities.is_empty() {
+            crate::face::fit_identities(&photos)?;
+        }
+        settings.identities = photos;
     }
-    if !video_sources(&config).is_empty() || (eyes && settings.match_extractor) || face {
+    if !video_sources(&config).is_empty() || (eyes && settings.match_extractor) {
         check_models()?;
     }
     check_ffmpeg(&params.encoder.ffmpeg)?;
