@@ -217,8 +217,14 @@ fn bad_inputs_stop_before_work() {
     assert_eq!(e.trim_end().lines().count(), 1, "{e}");
     let not_a_photo = dir.path().join("me.jpg");
     std::fs::write(&not_a_photo, "not an image").unwrap();
-    let e = generate(&face(&format!("identities = [\"{}\"]", not_a_photo.display())), &[]);
-    assert!(e.contains("me.jpg") && e.contains("cannot read the image"), "{e}");
+    let e = generate(
+        &face(&format!("identities = [\"{}\"]", not_a_photo.display())),
+        &[],
+    );
+    assert!(
+        e.contains("me.jpg") && e.contains("cannot read the image"),
+        "{e}"
+    );
     assert_eq!(e.trim_end().lines().count(), 1, "{e}");
     let e = generate(&face("[render.webcam]\nnoise_sigma = [4.0, 2.0]"), &[]);
     assert!(e.contains("noise_sigma"), "{e}");
