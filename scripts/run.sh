@@ -16,3 +16,7 @@ echo "run: cargo build --release"
 cargo build --release --quiet -p eyereplay-cli
 export EYEREPLAY_CACHE="${EYEREPLAY_CACHE:-$root/.cache}"
 "$root/target/release/eyereplay" generate --config examples/default.toml --out "$out"
+# The default reading detector, trained on what the extractor reads from the
+# default's videos (docs/DETECTOR.md): detect your own video with
+#   target/release/eyereplay detect VIDEO --model out/default/detector.json
+"$root/target/release/eyereplay" train "$out" --out "$out/detector.json"

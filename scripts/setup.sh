@@ -38,5 +38,6 @@ fi
 "$here/fetch-data.sh"
 "$here/models.sh"
 "$here/face-assets.sh"
+"$here/detector-data.sh"
 "$here/test-cluster.sh" --setup
 echo "setup: done"

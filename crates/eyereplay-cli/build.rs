@@ -12,6 +12,10 @@ fn main() {
                 ".cache/data/syelink/both_eyes.asc",
             ]),
         ),
+        (
+            "has_detector_data",
+            Prereq::Files(&[".cache/data/detector/manifest.csv"]),
+        ),
         ("has_models", Prereq::Models),
         ("has_ffmpeg", Prereq::Command("ffmpeg")),
     ]);

@@ -37,6 +37,9 @@ enum Command {
     Models(cmd::models::Args),
     Generate(cmd::generate::Args),
     Merge(cmd::merge::Args),
+    Train(cmd::train::Args),
+    Detect(cmd::detect::Args),
+    EvaluateDetector(cmd::evaluate_detector::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -50,6 +53,9 @@ fn main() -> std::process::ExitCode {
         Command::Models(a) => cmd::models::run(a),
         Command::Generate(a) => cmd::generate::run(a),
         Command::Merge(a) => cmd::merge::run(a),
+        Command::Train(a) => cmd::train::run(a),
+        Command::Detect(a) => cmd::detect::run(a),
+        Command::EvaluateDetector(a) => cmd::evaluate_detector::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -558,3 +558,219 @@ pub fn visual_figure(
         |r| draw_visual(r, v, source_n, rendered_n, fps),
     )
 }
+
+/// Gaps (NaN) split a line into pieces so that no segment bridges them.
+fn finite_runs(points: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f64)>> {
+    let mut out: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+    for p in points {
+        if p.1.is_finite() {
+            out.last_mut().expect("non-empty").push(p);
+        } else if !out.last().expect("non-empty").is_empty() {
+            out.push(Vec::new());
+        }
+    }
+    out.retain(|r| !r.is_empty());
+    out
+}
+
+fn draw_detection<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    xy: &[[f64; 2]],
+    fps: f64,
+    windows: &[(f64, f64, f64)],
+    threshold: f64,
+    title: &str,
+) -> DrawResult {
+    let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 / 2);
+    let t_end = (xy.len() as f64 / fps).max(1.0);
+    let finite: Vec<f64> = xy
+        .iter()
+        .flat_map(|p| p.iter().copied())
+        .filter(|v| v.is_finite())
+        .collect();
+    let lo = finite.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let (lo, hi) = padded_range(lo, hi);
+    let mut chart = ChartBuilder::on(&top)
+        .caption(title, (FONT, 17))
+        .margin(10)
+        .x_label_area_size(30)
+        .y_label_area_size(56)
+        .build_cartesian_2d(0.0..t_end, lo..hi)
+        .map_err(s)?;
+    chart
+        .configure_mesh()
+        .y_desc("gaze position")
+        .label_style((FONT, 12))
+        .axis_desc_style((FONT, 13))
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(s)?;
+    for (k, color, name) in [(0, X_COLOR, "x"), (1, Y_COLOR, "y")] {
+        let runs = finite_runs(xy.iter().enumerate().map(|(i, p)| (i as f64 / fps, p[k])));
+        for (ri, run) in runs.into_iter().enumerate() {
+            let series = chart
+                .draw_series(LineSeries::new(run, color.stroke_width(1)))
+                .map_err(s)?;
+            if ri == 0 {
+                series
+                    .label(name)
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
+            }
+        }
+    }
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(s)?;
+    let mut chart = ChartBuilder::on(&bottom)
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(56)
+        .build_cartesian_2d(0.0..t_end, 0.0..1.0)
+        .map_err(s)?;
+    chart
+        .configure_mesh()
+        .x_desc("time (s)")
+        .y_desc("P(reading)")
+        .label_style((FONT, 12))
+        .axis_desc_style((FONT, 13))
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(s)?;
+    chart
+        .draw_series(windows.iter().map(|&(a, b, p)| {
+            let color = if p >= threshold { GEN_COLOR } else { SRC_COLOR };
+            Rectangle::new([(a, 0.0), (b, p)], color.mix(0.6).filled())
+        }))
+        .map_err(s)?;
+    chart
+        .draw_series(DashedLineSeries::new(
+            vec![(0.0, threshold), (t_end, threshold)],
+            6,
+            4,
+            BLACK.stroke_width(1),
+        ))
+        .map_err(s)?
+        .label(format!("threshold {threshold:.2}"))
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK));
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(s)?;
+    Ok(())
+}
+
+/// The detector's view of one recording: the gaze track (x and y over
+/// time, gaps left open) above the reading probability of each window
+/// (orange at or above the threshold, blue below), the threshold dashed.
+pub fn detection_figure(
+    xy: &[[f64; 2]],
+    fps: f64,
+    windows: &[(f64, f64, f64)],
+    threshold: f64,
+    title: &str,
+) -> Result<Figure, EvalError> {
+    render(
+        "detection",
+        (1200, 560),
+        |r| draw_detection(r, xy, fps, windows, threshold, title),
+        |r| draw_detection(r, xy, fps, windows, threshold, title),
+    )
+}
+
+/// One ROC curve of [`roc_figure`]: its label and its points.
+pub struct RocCurve {
+    pub label: String,
+    pub points: Vec<(f64, f64)>,
+}
+
+fn draw_roc<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    curves: &[RocCurve],
+) -> DrawResult {
+    const COLORS: [RGBColor; 6] = [
+        RGBColor(31, 119, 180),
+        RGBColor(255, 127, 14),
+        RGBColor(44, 160, 44),
+        RGBColor(214, 39, 40),
+        RGBColor(148, 103, 189),
+        RGBColor(140, 86, 75),
+    ];
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, (FONT, 16))
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(48)
+        .build_cartesian_2d(0.0..1.0, 0.0..1.0)
+        .map_err(s)?;
+    chart
+        .configure_mesh()
+        .x_desc("false-positive rate")
+        .y_desc("true-positive rate")
+        .label_style((FONT, 12))
+        .axis_desc_style((FONT, 13))
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(s)?;
+    chart
+        .draw_series(DashedLineSeries::new(
+            vec![(0.0, 0.0), (1.0, 1.0)],
+            6,
+            4,
+            BLACK.mix(0.5).stroke_width(1),
+        ))
+        .map_err(s)?;
+    for (i, c) in curves.iter().enumerate() {
+        let color = COLORS[i % COLORS.len()];
+        chart
+            .draw_series(LineSeries::new(c.points.clone(), color.stroke_width(2)))
+            .map_err(s)?
+            .label(c.label.clone())
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
+            });
+    }
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 12))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::LowerRight)
+        .draw()
+        .map_err(s)?;
+    Ok(())
+}
+
+/// ROC curves in one panel per entry of `panels` (title, curves), side by
+/// side; the chance diagonal dashed.
+pub fn roc_figure(name: &str, panels: &[(String, Vec<RocCurve>)]) -> Result<Figure, EvalError> {
+    let n = panels.len().max(1) as u32;
+    render(
+        name,
+        (440 * n, 440),
+        |r| {
+            let areas = r.split_evenly((1, panels.len().max(1)));
+            for (a, (t, c)) in areas.iter().zip(panels) {
+                draw_roc(a, t, c)?;
+            }
+            Ok(())
+        },
+        |r| {
+            let areas = r.split_evenly((1, panels.len().max(1)));
+            for (a, (t, c)) in areas.iter().zip(panels) {
+                draw_roc(a, t, c)?;
+            }
+            Ok(())
+        },
+    )
+}

@@ -20,6 +20,8 @@ pub enum Error {
     Eval(#[from] eyereplay_eval::EvalError),
     #[error(transparent)]
     Face(#[from] eyereplay_face::FaceError),
+    #[error(transparent)]
+    Detect(#[from] eyereplay_detect::DetectError),
     /// A file or folder the job needs is missing or unusable.
     #[error("{path}: {message}")]
     Input { path: PathBuf, message: String },

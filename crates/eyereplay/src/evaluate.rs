@@ -420,7 +420,7 @@ fn row_norm(r: &eyereplay_extract::Row) -> [f64; 2] {
 /// against those fixed corners (camera and head do not move in a close-up
 /// render), `ny` against the model's lids; blinks by the extractor's
 /// aperture rule are NaN.
-fn extract_at_corners(
+pub(crate) fn extract_at_corners(
     video: &Path,
     models: &Path,
     corners: [([f64; 2], [f64; 2]); 2],

@@ -12,6 +12,7 @@
 //! | 6 render each session to MP4 | [`render_sessions`] | [`eyereplay_render`] |
 //! | 7 the dataset on disk | [`finalize`] | [`eyereplay_dataset`] |
 //! | 8 evaluate | [`evaluate`] | [`eyereplay_eval`] |
+//! | the reading detector: train, detect | [`detector`] | [`eyereplay_detect`] |
 //! | all of it, validated first, resumable, shardable | [`plan`] + [`generate`] | |
 //!
 //! Errors are one [`Error`] enum with a variant per layer; every message is
@@ -55,6 +56,9 @@
 //! # }
 //! ```
 
+pub mod detector;
+pub mod detector_eval;
+mod detector_report;
 mod error;
 mod evaluate;
 pub mod face;
@@ -87,8 +91,8 @@ pub use eyereplay_prepare::{DatasetConfig, Prepared};
 
 /// The layers, for what the functions above do not cover.
 pub use {
-    eyereplay_core as core, eyereplay_dataset as dataset, eyereplay_eval as eval,
-    eyereplay_extract as extract, eyereplay_prepare as prepare_stages,
+    eyereplay_core as core, eyereplay_dataset as dataset, eyereplay_detect as detect,
+    eyereplay_eval as eval, eyereplay_extract as extract, eyereplay_prepare as prepare_stages,
     eyereplay_render as render_stage, eyereplay_sources as sources,
 };
 

@@ -1,13 +1,16 @@
 //! One module per subcommand; each exposes `Args` (clap) and `run`. The work
 //! is the `eyereplay` library's; this layer parses arguments and shows
 //! progress.
+pub mod detect;
 pub mod evaluate;
+pub mod evaluate_detector;
 pub mod extract;
 pub mod generate;
 pub mod merge;
 pub mod models;
 pub mod prepare;
 pub mod render;
+pub mod train;
 
 use eyereplay::{Progress, Stage};
 use indicatif::{ProgressBar, ProgressStyle};

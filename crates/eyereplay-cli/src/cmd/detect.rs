@@ -1,0 +1,123 @@
+use super::Bars;
+use eyereplay::detect::DetectorModel;
+use eyereplay::detector::{detect_track, detection_figure, load_track, Detection};
+use std::path::{Path, PathBuf};
+
+/// Is the person in this video reading? Per-window probabilities and a verdict.
+///
+/// INPUT is a video (the iris is extracted first, cached), an 'eyereplay
+/// extract' CSV, or a session CSV (frame,x,y at 25 fps). It is cut into
+/// non-overlapping windows of the model's length; each gets a reading
+/// probability, and the recording a verdict from their mean. Writes
+/// OUT/<name>_detect.json and a plot of the probability over time under
+/// the gaze track (OUT/<name>_detect.png).
+#[derive(clap::Args)]
+#[command(after_help = "Examples:\n  \
+eyereplay detect interview.mp4 --model out/default/detector.json\n  \
+eyereplay detect iris.csv --model m.json --out results/ --json\n\n\
+The bundled default's model: scripts/run.sh trains it into out/default/detector.json.")]
+pub struct Args {
+    /// A video, an 'eyereplay extract' CSV, or a frame,x,y session CSV.
+    pub input: PathBuf,
+    /// A model written by 'eyereplay train'.
+    #[arg(long, value_name = "MODEL")]
+    pub model: PathBuf,
+    /// Folder for the JSON and the plot (default: beside the input).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Also print the JSON to standard output.
+    #[arg(long)]
+    pub json: bool,
+    /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
+    #[arg(long, value_name = "DIR")]
+    pub cache: Option<PathBuf>,
+    /// Time the detector on the loaded track (windows, features, model;
+    /// repeated for at least a second) and print its speed against real
+    /// time (goal: at least 100x). Writes nothing.
+    #[arg(long)]
+    pub bench: bool,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    // The model first: a bad one stops before any extraction.
+    let model = DetectorModel::load(&args.model)?;
+    let cache = eyereplay::cache_dir(args.cache.as_deref());
+    let (track, info) = load_track(&args.input, &cache, &Bars::default())?;
+    if args.bench {
+        return bench(&track, info, &model, &args.model);
+    }
+    let d = detect_track(&track, info, &model, &args.model)?;
+    let out_dir = args.out.clone().unwrap_or_else(|| {
+        args.input
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+    });
+    let stem = args
+        .input
+        .file_stem()
+        .map_or_else(|| "input".into(), |s| s.to_string_lossy().into_owned());
+    let json_path = out_dir.join(format!("{stem}_detect.json"));
+    let png_path = out_dir.join(format!("{stem}_detect.png"));
+    let mut text = serde_json::to_string_pretty(&d)?;
+    text.push('\n');
+    eyereplay::detect::model::write_atomic(&json_path, text.as_bytes())?;
+    let fig = detection_figure(&track, &d)?;
+    eyereplay::detect::model::write_atomic(&png_path, &fig.png)?;
+    print_detection(&d);
+    eprintln!("wrote {} and {}", json_path.display(), png_path.display());
+    if args.json {
+        print!("{text}");
+    }
+    Ok(())
+}
+
+fn print_detection(d: &Detection) {
+    eprintln!(
+        "{:>8} {:>8}  {:>9}  {:>7}",
+        "start_s", "end_s", "P(reading)", "call"
+    );
+    for w in &d.windows {
+        eprintln!(
+            "{:>8.1} {:>8.1}  {:>9.3}  {:>7}",
+            w.start_s,
+            w.end_s,
+            w.reading_probability,
+            if w.reading { "reading" } else { "-" }
+        );
+    }
+    println!(
+        "{}: {} (mean P(reading) {:.3} against threshold {:.3}; {} of {} windows of {} s called reading)",
+        d.input.path,
+        d.verdict,
+        d.reading_probability,
+        d.model.threshold,
+        d.windows.iter().filter(|w| w.reading).count(),
+        d.windows.len(),
+        d.model.window_s
+    );
+}
+
+fn bench(
+    track: &eyereplay::detect::Track,
+    info: eyereplay::detector::TrackInfo,
+    model: &DetectorModel,
+    model_path: &Path,
+) -> anyhow::Result<()> {
+    let started = std::time::Instant::now();
+    let mut runs = 0u32;
+    while runs == 0 || started.elapsed().as_secs_f64() < 1.0 {
+        std::hint::black_box(detect_track(track, info.clone(), model, model_path)?);
+        runs += 1;
+    }
+    let per_run_s = started.elapsed().as_secs_f64() / f64::from(runs);
+    let ratio = track.duration_s() / per_run_s;
+    println!(
+        "detect: {:.1} s of gaze scored in {:.2} ms ({runs} runs): {:.0}x real time (goal >= 100x: {})",
+        track.duration_s(),
+        per_run_s * 1e3,
+        ratio,
+        if ratio >= 100.0 { "met" } else { "NOT met" }
+    );
+    Ok(())
+}

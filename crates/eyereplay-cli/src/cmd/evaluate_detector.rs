@@ -1,0 +1,73 @@
+use super::Bars;
+use eyereplay::detector_eval::evaluate_detector;
+use std::path::PathBuf;
+
+/// Does a detector trained on synthetic video work on real recordings?
+///
+/// Runs the protocol file: generates each fold's synthetic training
+/// datasets (per render mode), renders the real eye-tracker test recordings
+/// in each mode and reads them back, trains the detector per fold, mode
+/// and window length, and scores the held-out real recordings beside the
+/// zero-training rule and a ceiling trained on real data (leave one person
+/// out). Writes OUT/index.html and OUT/detector_eval.json. Resumable: the
+/// generated datasets are kept under OUT/train and OUT/real, and a rerun
+/// skips what is finished.
+#[derive(clap::Args)]
+#[command(after_help = "Examples:\n  \
+scripts/detector-data.sh        # the real test recordings (once)\n  \
+eyereplay evaluate-detector examples/detector/protocol.toml --out out/detector-eval\n\n\
+docs/DETECTOR.md explains the protocol file and how to read the report.")]
+pub struct Args {
+    /// The protocol (TOML): recordings, folds, render modes.
+    pub protocol: PathBuf,
+    /// Output folder.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
+    #[arg(long, value_name = "DIR")]
+    pub cache: Option<PathBuf>,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let cache = eyereplay::cache_dir(args.cache.as_deref());
+    let ev = evaluate_detector(&args.protocol, &args.out, &cache, &Bars::default())?;
+    let f = |a: &Option<eyereplay::detect::AurocCi>| {
+        a.as_ref().map_or("  n/a ".into(), |a| {
+            format!("{:.3} [{:.2}, {:.2}]", a.auroc, a.low, a.high)
+        })
+    };
+    println!(
+        "{:>6} {:<10} {:<12} {:<22} {:<22} {:<22}",
+        "window",
+        "training",
+        "test data",
+        "synthetic-trained",
+        "zero-training rule",
+        "real-trained ceiling"
+    );
+    for c in &ev.conditions {
+        println!(
+            "{:>5}s {:<10} {:<12} {:<22} {:<22} {:<22}",
+            c.window_s,
+            c.mode,
+            c.condition,
+            f(&c.model),
+            f(&c.rule),
+            f(&c.ceiling)
+        );
+    }
+    for w in &ev.webcam {
+        println!(
+            "{:>5}s {:<10} webcam {:<14} fold {:<3} FPR {:.2} ({} windows; rule {:.2})",
+            w.window_s,
+            w.mode,
+            w.recording,
+            w.fold,
+            w.false_positive_rate,
+            w.windows,
+            w.rule_false_positive_rate
+        );
+    }
+    println!("wrote {}", args.out.join("index.html").display());
+    Ok(())
+}

@@ -1,0 +1,92 @@
+use super::Bars;
+use eyereplay::detect::TrainOptions;
+use eyereplay::detector::{train_detector, TrainDetectorOptions, TrainInput};
+use std::path::PathBuf;
+
+/// Train the reading detector on generated datasets.
+///
+/// The detector learns from what it will see in use: the trajectory that
+/// 'eyereplay extract' measures on each session's rendered video (cached,
+/// so a second run does not extract again), cut into windows that overlap
+/// by half, each normalized on its own. The model is a logistic regression
+/// over 14 documented features (docs/DETECTOR.md); its threshold is fixed
+/// on a quarter of the sessions it was not fitted on. Same datasets and
+/// seed give the same model file, byte for byte.
+#[derive(clap::Args)]
+#[command(after_help = "Examples:\n  \
+eyereplay train out/default --out reading.model.json\n  \
+eyereplay train data/a data/b --out m.json --window-s 30\n  \
+eyereplay train data/ --out m.json --input trajectory   # no videos: the session CSVs\n\n\
+Then: eyereplay detect interview.mp4 --model reading.model.json")]
+pub struct Args {
+    /// Dataset folders written by 'eyereplay generate' (labels.csv and the
+    /// sessions' MP4s).
+    #[arg(required = true)]
+    pub datasets: Vec<PathBuf>,
+    /// Where to write the model (JSON).
+    #[arg(long, value_name = "MODEL")]
+    pub out: PathBuf,
+    /// Window length in seconds (10 s is the main size, 30 s the second).
+    #[arg(long, default_value_t = 10.0, value_name = "SECONDS")]
+    pub window_s: f64,
+    /// What to learn from: 'extracted' (the iris that 'eyereplay extract'
+    /// reads from each rendered video, what detect sees) or 'trajectory'
+    /// (the session CSVs that drove the renderer).
+    #[arg(long, value_enum, default_value_t = InputArg::Extracted)]
+    pub input: InputArg,
+    /// Seed of the validation split.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// L2 regularization weight of the logistic regression.
+    #[arg(long, default_value_t = 1.0)]
+    pub alpha: f64,
+    /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
+    #[arg(long, value_name = "DIR")]
+    pub cache: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum InputArg {
+    Extracted,
+    Trajectory,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if !(args.alpha >= 0.0 && args.alpha.is_finite()) {
+        anyhow::bail!("--alpha must be a number >= 0, got {}", args.alpha);
+    }
+    let opts = TrainDetectorOptions {
+        window_s: args.window_s,
+        input: match args.input {
+            InputArg::Extracted => TrainInput::Extracted,
+            InputArg::Trajectory => TrainInput::Trajectory,
+        },
+        train: TrainOptions {
+            alpha: args.alpha,
+            seed: args.seed,
+            ..TrainOptions::default()
+        },
+        cache: eyereplay::cache_dir(args.cache.as_deref()),
+    };
+    let started = std::time::Instant::now();
+    let model = train_detector(&args.datasets, &opts, &Bars::default())?;
+    model.save(&args.out)?;
+    let t = &model.training;
+    println!(
+        "trained on {} + {} windows of {} s (reading + other), validated on {} + {} from sessions it did not see: AUROC {}, threshold {:.3}",
+        t.train_windows_reading,
+        t.train_windows_other,
+        model.window_s,
+        t.validation_windows_reading,
+        t.validation_windows_other,
+        t.validation_auroc
+            .map_or("n/a (too few sessions)".into(), |a| format!("{a:.3}")),
+        model.threshold
+    );
+    println!(
+        "wrote {} in {:.1} s",
+        args.out.display(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}

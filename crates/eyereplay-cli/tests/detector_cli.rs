@@ -1,0 +1,286 @@
+//! `eyereplay train`, `detect` and `evaluate-detector` as a user runs them:
+//! a model from real recordings, its determinism, the mirror invariance of
+//! its scores, one-line errors for bad input, and the protocol's refusals.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .unwrap()
+}
+
+fn eyereplay(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_eyereplay"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .unwrap()
+}
+
+fn ok(o: &Output) -> String {
+    assert!(
+        o.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn one_line_error(o: &Output) -> String {
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    assert!(e.starts_with("error: "), "{e}");
+    e
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A trajectory dataset from real recordings: OneStop reading fixations
+/// against EyeLink samples of another task, 20-s sessions (no rendering).
+fn prepared(dir: &Path) -> PathBuf {
+    let data = root().join(".cache/data");
+    let cfg = dir.join("d.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "session_frames = 500\nseed = 3\n\
+[classes.reading]\nsessions = 8\nsources = [{{ format = \"fixations\", path = \"{}\", group_columns = [\"participant_id\", \"TRIAL_INDEX\"], amplitude_column = \"NEXT_SAC_AMPLITUDE\", screen_px = [2560, 1440] }}]\n\
+[classes.conversation]\nsessions = 8\nsources = [{{ format = \"eyelink\", path = \"{}\" }}]\n",
+            data.join("onestop_fixations.csv").display(),
+            data.join("syelink/both_eyes.asc").display()
+        ),
+    )
+    .unwrap();
+    let out = dir.join("ds");
+    ok(&eyereplay(&[
+        "prepare",
+        "--config",
+        s(&cfg),
+        "--out",
+        s(&out),
+    ]));
+    out
+}
+
+#[test]
+#[cfg_attr(
+    not(has_sample_data),
+    ignore = "needs .cache/data: run scripts/setup.sh"
+)]
+fn train_is_deterministic_and_detect_scores_a_recording_and_its_mirror_alike() {
+    let dir = tempfile::tempdir().unwrap();
+    let ds = prepared(dir.path());
+    let m1 = dir.path().join("m1.json");
+    let m2 = dir.path().join("m2.json");
+    let out = ok(&eyereplay(&[
+        "train",
+        s(&ds),
+        "--out",
+        s(&m1),
+        "--input",
+        "trajectory",
+    ]));
+    assert!(out.contains("validated on"), "{out}");
+    ok(&eyereplay(&[
+        "train",
+        s(&ds),
+        "--out",
+        s(&m2),
+        "--input",
+        "trajectory",
+    ]));
+    assert_eq!(std::fs::read(&m1).unwrap(), std::fs::read(&m2).unwrap());
+    let model: serde_json::Value = serde_json::from_slice(&std::fs::read(&m1).unwrap()).unwrap();
+    // 16 sessions of 20 s, windows of 10 s every 5 s: 3 a session.
+    let t = &model["training"];
+    let windows = [
+        "train_windows_reading",
+        "train_windows_other",
+        "validation_windows_reading",
+        "validation_windows_other",
+    ]
+    .iter()
+    .map(|k| t[k].as_u64().unwrap())
+    .sum::<u64>();
+    assert_eq!(windows, 48);
+    assert_eq!(model["features"].as_array().unwrap().len(), 14);
+
+    // A session, and the same session mirrored left-right on the canvas.
+    let session = ds.join("reading/reading_0002.csv");
+    let text = std::fs::read_to_string(&session).unwrap();
+    let mut mirrored = String::from("frame,x,y\n");
+    for line in text.lines().skip(1) {
+        let c: Vec<&str> = line.split(',').collect();
+        let x: f64 = c[1].parse().unwrap();
+        mirrored += &format!("{},{:.3},{}\n", c[0], 1280.0 - x, c[2]);
+    }
+    let mirror = dir.path().join("mirror.csv");
+    std::fs::write(&mirror, mirrored).unwrap();
+    let res = dir.path().join("res");
+    ok(&eyereplay(&[
+        "detect",
+        s(&session),
+        "--model",
+        s(&m1),
+        "--out",
+        s(&res),
+    ]));
+    ok(&eyereplay(&[
+        "detect",
+        s(&mirror),
+        "--model",
+        s(&m1),
+        "--out",
+        s(&res),
+    ]));
+    let read = |name: &str| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(res.join(name)).unwrap()).unwrap()
+    };
+    let a = read("reading_0002_detect.json");
+    let b = read("mirror_detect.json");
+    let wa = a["windows"].as_array().unwrap();
+    assert_eq!(wa.len(), 2); // 500 frames, 250-frame windows
+    for (x, y) in wa.iter().zip(b["windows"].as_array().unwrap()) {
+        let (p, q) = (
+            x["reading_probability"].as_f64().unwrap(),
+            y["reading_probability"].as_f64().unwrap(),
+        );
+        assert!((0.0..=1.0).contains(&p));
+        assert!((p - q).abs() < 1e-9, "{p} vs mirrored {q}");
+    }
+    // The verdict follows the mean probability and the threshold.
+    let mean = a["reading_probability"].as_f64().unwrap();
+    let thr = a["model"]["threshold"].as_f64().unwrap();
+    assert_eq!(
+        a["verdict"],
+        if mean >= thr {
+            "reading"
+        } else {
+            "not reading"
+        }
+    );
+    assert!(res.join("reading_0002_detect.png").is_file());
+}
+
+#[test]
+#[cfg_attr(
+    not(has_sample_data),
+    ignore = "needs .cache/data: run scripts/setup.sh"
+)]
+fn bad_inputs_fail_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let ds = prepared(dir.path());
+    // Videos are what training reads by default: this dataset has none.
+    let e = one_line_error(&eyereplay(&[
+        "train",
+        s(&ds),
+        "--out",
+        s(&dir.path().join("m.json")),
+    ]));
+    assert!(
+        e.contains("reading_0000.mp4") && e.contains("--input trajectory"),
+        "{e}"
+    );
+    assert!(!dir.path().join("m.json").exists());
+    let e = one_line_error(&eyereplay(&["train", s(dir.path()), "--out", "m.json"]));
+    assert!(e.contains("labels.csv"), "{e}");
+
+    let not_model = dir.path().join("nm.json");
+    std::fs::write(&not_model, "{\"hello\": 1}").unwrap();
+    let session = ds.join("reading/reading_0000.csv");
+    let e = one_line_error(&eyereplay(&[
+        "detect",
+        s(&session),
+        "--model",
+        s(&not_model),
+    ]));
+    assert!(
+        e.contains("nm.json") && e.contains("not a detector model"),
+        "{e}"
+    );
+
+    let m = dir.path().join("m.json");
+    ok(&eyereplay(&[
+        "train",
+        s(&ds),
+        "--out",
+        s(&m),
+        "--input",
+        "trajectory",
+    ]));
+    let junk = dir.path().join("junk.csv");
+    std::fs::write(&junk, "a,b\n1,2\n").unwrap();
+    let e = one_line_error(&eyereplay(&["detect", s(&junk), "--model", s(&m)]));
+    assert!(e.contains("junk.csv") && e.contains("not a video"), "{e}");
+    let short = dir.path().join("short.csv");
+    std::fs::write(&short, "frame,x,y\n0,1,2\n1,2,3\n").unwrap();
+    let e = one_line_error(&eyereplay(&["detect", s(&short), "--model", s(&m)]));
+    assert!(
+        e.contains("short.csv") && e.contains("no 10 s window"),
+        "{e}"
+    );
+    assert!(!dir.path().join("short_detect.json").exists());
+}
+
+#[test]
+#[cfg_attr(
+    not(has_detector_data),
+    ignore = "needs .cache/data/detector: run scripts/detector-data.sh"
+)]
+fn the_protocol_refuses_unknown_names_and_a_test_recording_it_trains_on() {
+    let dir = tempfile::tempdir().unwrap();
+    // The bundled protocol and its configs, copied with absolute data paths.
+    let cache = root().join(".cache").display().to_string();
+    for e in std::fs::read_dir(root().join("examples/detector"))
+        .unwrap()
+        .flatten()
+    {
+        let t = std::fs::read_to_string(e.path()).unwrap();
+        std::fs::write(
+            dir.path().join(e.file_name()),
+            t.replace("../../.cache", &cache),
+        )
+        .unwrap();
+    }
+    let text = std::fs::read_to_string(dir.path().join("protocol.toml")).unwrap();
+    let run = |name: &str, t: String| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, t).unwrap();
+        eyereplay(&[
+            "evaluate-detector",
+            s(&p),
+            "--out",
+            s(&dir.path().join("o")),
+        ])
+    };
+    let e = one_line_error(&run(
+        "unknown.toml",
+        text.replacen(
+            "\"onestop_l7\", \"syelink_left\"",
+            "\"onestop_l8\", \"syelink_left\"",
+            1,
+        ),
+    ));
+    assert!(e.contains("unknown test recording 'onestop_l8'"), "{e}");
+    // Fold A trains on reader l37: testing on l37 there is a leak.
+    let e = one_line_error(&run(
+        "leak.toml",
+        text.replacen(
+            "\"onestop_l7\", \"syelink_left\"",
+            "\"onestop_l37\", \"syelink_left\"",
+            1,
+        ),
+    ));
+    assert!(
+        e.contains("train_a_") && e.contains("'onestop_l37' is also a training source"),
+        "{e}"
+    );
+    assert!(!dir.path().join("o").exists());
+}

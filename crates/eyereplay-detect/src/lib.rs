@@ -1,0 +1,27 @@
+//! # eyereplay-detect
+//!
+//! The reading detector: does a window of gaze show someone reading?
+//!
+//! | step | here |
+//! |---|---|
+//! | a 25 fps gaze series, cut into windows, each normalized and oriented | [`window`] |
+//! | 14 documented features per window | [`features`] |
+//! | logistic regression over them, threshold fixed on validation sessions | [`model`] |
+//! | the zero-training rule (forward-saccade runs) | [`features::rule_score`] |
+//! | AUROC, ROC curve, bootstrap over people | [`metrics`] |
+//!
+//! The detector sees what `eyereplay extract` measures on a video, the same
+//! input in training (on rendered video) and in use (on a real one); the
+//! umbrella crate `eyereplay` wires it to datasets and videos.
+
+mod error;
+pub mod features;
+pub mod metrics;
+pub mod model;
+pub mod window;
+
+pub use error::DetectError;
+pub use features::{features, rule_score, FEATURE_COUNT, FEATURE_NAMES};
+pub use metrics::{auroc, auroc_bootstrap, roc_curve, AurocCi, ScoredWindow};
+pub use model::{train, DetectorModel, Example, TrainOptions};
+pub use window::{windows, Track, Window, WindowSpec, FPS};

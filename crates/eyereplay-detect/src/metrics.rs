@@ -1,0 +1,257 @@
+//! How well scores separate the classes: AUROC, the ROC curve, a
+//! threshold's rates, and confidence intervals from a bootstrap over
+//! people (windows of one person are not independent, and there are few
+//! people, so resampling windows would make the interval far too narrow).
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+/// Area under the ROC curve: the probability that a random positive scores
+/// above a random negative, ties counting half (the Mann-Whitney U over
+/// `n_pos * n_neg`, what scikit-learn's `roc_auc_score` computes). `None`
+/// when a class is empty.
+pub fn auroc(scores: &[f64], labels: &[bool]) -> Option<f64> {
+    let mut idx: Vec<usize> = (0..scores.len().min(labels.len())).collect();
+    idx.sort_by(|&a, &b| scores[a].total_cmp(&scores[b]));
+    let n_pos = idx.iter().filter(|&&i| labels[i]).count();
+    let n_neg = idx.len() - n_pos;
+    if n_pos == 0 || n_neg == 0 {
+        return None;
+    }
+    // Sum of the positives' mid-ranks.
+    let mut rank_sum = 0.0;
+    let mut i = 0;
+    while i < idx.len() {
+        let mut j = i;
+        while j + 1 < idx.len() && scores[idx[j + 1]] == scores[idx[i]] {
+            j += 1;
+        }
+        let mid_rank = (i + j) as f64 / 2.0 + 1.0;
+        rank_sum += mid_rank * idx[i..=j].iter().filter(|&&k| labels[k]).count() as f64;
+        i = j + 1;
+    }
+    let u = rank_sum - (n_pos * (n_pos + 1)) as f64 / 2.0;
+    Some(u / (n_pos * n_neg) as f64)
+}
+
+/// ROC curve points `(false-positive rate, true-positive rate)` from the
+/// highest threshold down, starting at (0, 0) and ending at (1, 1).
+pub fn roc_curve(scores: &[f64], labels: &[bool]) -> Vec<(f64, f64)> {
+    let mut idx: Vec<usize> = (0..scores.len().min(labels.len())).collect();
+    idx.sort_by(|&a, &b| scores[b].total_cmp(&scores[a]));
+    let n_pos = idx.iter().filter(|&&i| labels[i]).count().max(1) as f64;
+    let n_neg = idx.iter().filter(|&&i| !labels[i]).count().max(1) as f64;
+    let mut out = vec![(0.0, 0.0)];
+    let (mut tp, mut fp) = (0.0, 0.0);
+    let mut i = 0;
+    while i < idx.len() {
+        let s = scores[idx[i]];
+        while i < idx.len() && scores[idx[i]] == s {
+            if labels[idx[i]] {
+                tp += 1.0;
+            } else {
+                fp += 1.0;
+            }
+            i += 1;
+        }
+        out.push((fp / n_neg, tp / n_pos));
+    }
+    out
+}
+
+/// The share of `scores` at or above `threshold`: the false-positive rate
+/// on negatives, the true-positive rate on positives.
+pub fn rate_at(scores: &[f64], threshold: f64) -> f64 {
+    if scores.is_empty() {
+        return f64::NAN;
+    }
+    scores.iter().filter(|&&s| s >= threshold).count() as f64 / scores.len() as f64
+}
+
+/// The threshold that maximizes balanced accuracy (Youden's J) on
+/// `scores`: the midpoint between the two scores where it is reached.
+pub fn balanced_threshold(scores: &[f64], labels: &[bool]) -> f64 {
+    let mut v: Vec<(f64, bool)> = scores.iter().copied().zip(labels.iter().copied()).collect();
+    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let n_pos = v.iter().filter(|p| p.1).count().max(1) as f64;
+    let n_neg = v.iter().filter(|p| !p.1).count().max(1) as f64;
+    // Threshold below v[k]: everything from k up is called positive.
+    let (mut best_j, mut best_t) = (f64::NEG_INFINITY, 0.5);
+    let mut neg_below = 0.0;
+    let mut pos_below = 0.0;
+    for k in 0..=v.len() {
+        if k == 0 || k == v.len() || v[k].0 != v[k - 1].0 {
+            let tpr = 1.0 - pos_below / n_pos;
+            let tnr = neg_below / n_neg;
+            let j = tpr + tnr - 1.0;
+            if j > best_j {
+                best_j = j;
+                best_t = match (k, v.len()) {
+                    (0, _) => v.first().map_or(0.5, |p| p.0),
+                    (k, n) if k == n => v[n - 1].0 + 1e-9,
+                    (k, _) => 0.5 * (v[k - 1].0 + v[k].0),
+                };
+            }
+        }
+        if k < v.len() {
+            if v[k].1 {
+                pos_below += 1.0;
+            } else {
+                neg_below += 1.0;
+            }
+        }
+    }
+    best_t
+}
+
+/// A scored window with who it came from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ScoredWindow {
+    /// The person (or recording, where people are not known) it came from.
+    pub unit: String,
+    pub reading: bool,
+    pub score: f64,
+}
+
+/// AUROC with a percentile confidence interval from a bootstrap over units:
+/// each replicate draws, with replacement, as many reading units as there
+/// are and as many non-reading units as there are, and pools their windows.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AurocCi {
+    pub auroc: f64,
+    pub low: f64,
+    pub high: f64,
+    pub level: f64,
+    pub replicates: usize,
+    pub windows_reading: usize,
+    pub windows_other: usize,
+    pub units_reading: usize,
+    pub units_other: usize,
+}
+
+pub fn auroc_bootstrap(
+    windows: &[ScoredWindow],
+    replicates: usize,
+    level: f64,
+    seed: u64,
+) -> Option<AurocCi> {
+    let scores: Vec<f64> = windows.iter().map(|w| w.score).collect();
+    let labels: Vec<bool> = windows.iter().map(|w| w.reading).collect();
+    let point = auroc(&scores, &labels)?;
+    let mut units_r: Vec<&str> = Vec::new();
+    let mut units_o: Vec<&str> = Vec::new();
+    for w in windows {
+        let list = if w.reading {
+            &mut units_r
+        } else {
+            &mut units_o
+        };
+        if !list.contains(&w.unit.as_str()) {
+            list.push(&w.unit);
+        }
+    }
+    let by_unit = |u: &str| -> Vec<usize> {
+        (0..windows.len())
+            .filter(|&i| windows[i].unit == u)
+            .collect()
+    };
+    let groups_r: Vec<Vec<usize>> = units_r.iter().map(|u| by_unit(u)).collect();
+    let groups_o: Vec<Vec<usize>> = units_o.iter().map(|u| by_unit(u)).collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut values = Vec::with_capacity(replicates);
+    for _ in 0..replicates {
+        let (mut s, mut l) = (Vec::new(), Vec::new());
+        for groups in [&groups_r, &groups_o] {
+            for _ in 0..groups.len() {
+                let g = &groups[rng.gen_range(0..groups.len())];
+                for &i in g {
+                    s.push(scores[i]);
+                    l.push(labels[i]);
+                }
+            }
+        }
+        if let Some(a) = auroc(&s, &l) {
+            values.push(a);
+        }
+    }
+    values.sort_by(f64::total_cmp);
+    let alpha = (1.0 - level) / 2.0;
+    let q = |p: f64| eyereplay_signal::stats::quantile_sorted(&values, p).unwrap_or(point);
+    Some(AurocCi {
+        auroc: point,
+        low: q(alpha),
+        high: q(1.0 - alpha),
+        level,
+        replicates,
+        windows_reading: labels.iter().filter(|&&l| l).count(),
+        windows_other: labels.iter().filter(|&&l| !l).count(),
+        units_reading: units_r.len(),
+        units_other: units_o.len(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn auroc_matches_scikit_learn_worked_by_hand() {
+        // sklearn.metrics.roc_auc_score([0, 0, 1, 1], [0.1, 0.4, 0.35, 0.8])
+        // = 0.75: of the 4 positive-negative pairs, (0.35 vs 0.4) is wrong.
+        let a = auroc(&[0.1, 0.4, 0.35, 0.8], &[false, false, true, true]).unwrap();
+        assert!((a - 0.75).abs() < 1e-12);
+        // A tie between classes counts half: pairs (0.5,0.5) tie, (0.5,0.2) right.
+        let t = auroc(&[0.5, 0.5, 0.2], &[true, false, false]).unwrap();
+        assert!((t - 0.75).abs() < 1e-12);
+        assert!(auroc(&[0.1, 0.2], &[true, true]).is_none());
+    }
+
+    #[test]
+    fn roc_curve_runs_from_corner_to_corner_and_its_area_is_the_auroc() {
+        let s = [0.1, 0.4, 0.35, 0.8, 0.7, 0.2];
+        let l = [false, false, true, true, false, true];
+        let c = roc_curve(&s, &l);
+        assert_eq!(c[0], (0.0, 0.0));
+        assert_eq!(*c.last().unwrap(), (1.0, 1.0));
+        let area: f64 = c
+            .windows(2)
+            .map(|p| (p[1].0 - p[0].0) * (p[1].1 + p[0].1) / 2.0)
+            .sum();
+        assert!((area - auroc(&s, &l).unwrap()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn balanced_threshold_separates_separable_scores() {
+        let t = balanced_threshold(
+            &[0.1, 0.2, 0.3, 0.7, 0.8],
+            &[false, false, false, true, true],
+        );
+        assert!((t - 0.5).abs() < 1e-12);
+        assert_eq!(rate_at(&[0.1, 0.6, 0.7, 0.2], 0.5), 0.5);
+    }
+
+    #[test]
+    fn bootstrap_interval_holds_the_point_and_is_reproducible() {
+        let mut w = Vec::new();
+        for (u, reading, base) in [
+            ("a", true, 0.7),
+            ("b", true, 0.5),
+            ("c", false, 0.4),
+            ("d", false, 0.2),
+        ] {
+            for k in 0..10 {
+                w.push(ScoredWindow {
+                    unit: u.into(),
+                    reading,
+                    score: base + 0.02 * k as f64,
+                });
+            }
+        }
+        let ci = auroc_bootstrap(&w, 500, 0.95, 7).unwrap();
+        assert!(ci.low <= ci.auroc && ci.auroc <= ci.high, "{ci:?}");
+        assert_eq!((ci.units_reading, ci.units_other), (2, 2));
+        assert!(ci.low < 1.0 && ci.high == 1.0);
+        assert_eq!(ci, auroc_bootstrap(&w, 500, 0.95, 7).unwrap());
+    }
+}

@@ -1,0 +1,363 @@
+//! The feature model: logistic regression (linfa-logistic, L2) over the
+//! standardized [`features`](crate::features), with the decision threshold
+//! fixed on validation sessions the fit did not see. Saved as one JSON
+//! file that says what it was trained on.
+
+use crate::features::{features, FEATURE_COUNT, FEATURE_NAMES};
+use crate::metrics::{auroc, balanced_threshold};
+use crate::window::Window;
+use crate::DetectError;
+use linfa::prelude::*;
+use linfa_logistic::LogisticRegression;
+use ndarray::{Array1, Array2};
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// What a model file says it is.
+pub const MODEL_FORMAT: &str = "eyereplay-detector";
+pub const MODEL_VERSION: u32 = 1;
+
+/// One training window: its features, its label, and the session it came
+/// from (validation is held out by session, never by window, since
+/// overlapping windows of one session share frames).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Example {
+    pub features: [f64; FEATURE_COUNT],
+    pub reading: bool,
+    pub group: String,
+}
+
+impl Example {
+    pub fn of(w: &Window, reading: bool, group: impl Into<String>) -> Self {
+        Example {
+            features: features(w),
+            reading,
+            group: group.into(),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrainOptions {
+    /// L2 weight on the coefficients (linfa's `alpha`: the penalty is
+    /// `alpha / 2 * |w|^2` next to the summed log-loss).
+    pub alpha: f64,
+    /// Share of sessions of each class held out to fix the threshold.
+    pub validation_fraction: f64,
+    pub seed: u64,
+}
+
+impl Default for TrainOptions {
+    fn default() -> Self {
+        TrainOptions {
+            alpha: 1.0,
+            validation_fraction: 0.25,
+            seed: 1,
+        }
+    }
+}
+
+/// How a model came about, for the user and for the report.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrainingInfo {
+    pub datasets: Vec<String>,
+    /// `extracted` (what `eyereplay extract` reads from each video) or
+    /// `trajectory` (the session CSVs that drove the renderer).
+    pub input: String,
+    pub options: TrainOptions,
+    pub train_windows_reading: usize,
+    pub train_windows_other: usize,
+    pub validation_windows_reading: usize,
+    pub validation_windows_other: usize,
+    /// AUROC on the held-out validation sessions (synthetic).
+    pub validation_auroc: Option<f64>,
+}
+
+/// A trained detector.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DetectorModel {
+    pub format: String,
+    pub version: u32,
+    pub kind: String,
+    pub window_s: f64,
+    pub features: Vec<String>,
+    /// Standardization: `z = (f - mean) / std`.
+    pub mean: Vec<f64>,
+    pub std: Vec<f64>,
+    pub weights: Vec<f64>,
+    pub intercept: f64,
+    /// A window with probability at or above this is called reading; the
+    /// balanced-accuracy point on the validation sessions.
+    pub threshold: f64,
+    pub training: TrainingInfo,
+}
+
+impl DetectorModel {
+    /// Probability that the window shows reading.
+    pub fn probability(&self, w: &Window) -> f64 {
+        self.probability_of(&features(w))
+    }
+
+    pub fn probability_of(&self, f: &[f64; FEATURE_COUNT]) -> f64 {
+        let z: f64 = (0..FEATURE_COUNT)
+            .map(|k| self.weights[k] * (f[k] - self.mean[k]) / self.std[k])
+            .sum::<f64>()
+            + self.intercept;
+        1.0 / (1.0 + (-z).exp())
+    }
+
+    pub fn save(&self, path: &Path) -> Result<(), DetectError> {
+        let mut text = serde_json::to_string_pretty(self).expect("model serializes");
+        text.push('\n');
+        write_atomic(path, text.as_bytes())
+    }
+
+    pub fn load(path: &Path) -> Result<Self, DetectError> {
+        let text = std::fs::read_to_string(path).map_err(|e| DetectError::io(path, e))?;
+        let m: DetectorModel = serde_json::from_str(&text)
+            .map_err(|e| DetectError::file(path, format!("not a detector model: {e}")))?;
+        if m.format != MODEL_FORMAT {
+            return Err(DetectError::file(
+                path,
+                format!("not a detector model (format '{}')", m.format),
+            ));
+        }
+        if m.version != MODEL_VERSION {
+            return Err(DetectError::file(
+                path,
+                format!(
+                    "detector model version {}, but this eyereplay reads version {MODEL_VERSION}; train it again",
+                    m.version
+                ),
+            ));
+        }
+        let names: Vec<&str> = m.features.iter().map(String::as_str).collect();
+        if names != FEATURE_NAMES
+            || m.mean.len() != FEATURE_COUNT
+            || m.std.len() != FEATURE_COUNT
+            || m.weights.len() != FEATURE_COUNT
+        {
+            return Err(DetectError::file(
+                path,
+                "its features are not this eyereplay's; train it again",
+            ));
+        }
+        Ok(m)
+    }
+}
+
+/// Writes through a temporary file in the same folder and renames it, so
+/// an interrupted write never leaves half a file under the final name.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DetectError> {
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(|e| DetectError::io(dir, e))?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
+    std::fs::write(&tmp, bytes).map_err(|e| DetectError::io(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| DetectError::io(path, e))
+}
+
+/// Splits examples into (train, validation) by group, per class, with the
+/// seed; every class keeps at least one group for training.
+pub fn split_by_group(examples: &[Example], fraction: f64, seed: u64) -> (Vec<usize>, Vec<usize>) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut valid_groups: Vec<&str> = Vec::new();
+    for class in [true, false] {
+        let mut groups: Vec<&str> = Vec::new();
+        for e in examples.iter().filter(|e| e.reading == class) {
+            if !groups.contains(&e.group.as_str()) {
+                groups.push(&e.group);
+            }
+        }
+        groups.sort_unstable();
+        groups.shuffle(&mut rng);
+        let k =
+            ((groups.len() as f64 * fraction).round() as usize).min(groups.len().saturating_sub(1));
+        valid_groups.extend(&groups[..k]);
+    }
+    let (mut train, mut valid) = (Vec::new(), Vec::new());
+    for (i, e) in examples.iter().enumerate() {
+        if valid_groups.contains(&e.group.as_str()) {
+            valid.push(i);
+        } else {
+            train.push(i);
+        }
+    }
+    (train, valid)
+}
+
+/// Fits the model on the training sessions and fixes its threshold on the
+/// validation sessions.
+pub fn train(
+    examples: &[Example],
+    window_s: f64,
+    opts: TrainOptions,
+    datasets: Vec<String>,
+    input: &str,
+) -> Result<DetectorModel, DetectError> {
+    let count = |idx: &[usize], c: bool| idx.iter().filter(|&&i| examples[i].reading == c).count();
+    let all: Vec<usize> = (0..examples.len()).collect();
+    if count(&all, true) == 0 || count(&all, false) == 0 {
+        return Err(DetectError::Train(format!(
+            "training needs windows of both classes; found {} reading and {} other (are the sessions at least {window_s} s long?)",
+            count(&all, true),
+            count(&all, false)
+        )));
+    }
+    let (train_idx, valid_idx) = split_by_group(examples, opts.validation_fraction, opts.seed);
+    let mut mean = vec![0.0; FEATURE_COUNT];
+    let mut std = vec![0.0; FEATURE_COUNT];
+    for k in 0..FEATURE_COUNT {
+        let v: Vec<f64> = train_idx.iter().map(|&i| examples[i].features[k]).collect();
+        mean[k] = eyereplay_signal::stats::mean(&v).unwrap_or(0.0);
+        let s = eyereplay_signal::stats::std_pop(&v).unwrap_or(0.0);
+        // A feature that never varies in training carries nothing; a unit
+        // scale keeps it harmless instead of dividing by zero.
+        std[k] = if s > 1e-12 { s } else { 1.0 };
+    }
+    let standardize = |idx: &[usize]| {
+        let mut x = Array2::<f64>::zeros((idx.len(), FEATURE_COUNT));
+        for (r, &i) in idx.iter().enumerate() {
+            for k in 0..FEATURE_COUNT {
+                x[[r, k]] = (examples[i].features[k] - mean[k]) / std[k];
+            }
+        }
+        x
+    };
+    let x = standardize(&train_idx);
+    let y: Array1<usize> = train_idx
+        .iter()
+        .map(|&i| usize::from(examples[i].reading))
+        .collect();
+    let fitted = LogisticRegression::default()
+        .alpha(opts.alpha)
+        .max_iterations(500)
+        .fit(&Dataset::new(x, y))
+        .map_err(|e| DetectError::Train(format!("logistic regression: {e}")))?;
+    let mut model = DetectorModel {
+        format: MODEL_FORMAT.into(),
+        version: MODEL_VERSION,
+        kind: "logistic_regression".into(),
+        window_s,
+        features: FEATURE_NAMES.iter().map(|s| s.to_string()).collect(),
+        mean,
+        std,
+        weights: fitted.params().to_vec(),
+        intercept: fitted.intercept(),
+        threshold: 0.5,
+        training: TrainingInfo {
+            datasets,
+            input: input.into(),
+            options: opts,
+            train_windows_reading: count(&train_idx, true),
+            train_windows_other: count(&train_idx, false),
+            validation_windows_reading: count(&valid_idx, true),
+            validation_windows_other: count(&valid_idx, false),
+            validation_auroc: None,
+        },
+    };
+    let (scores, labels): (Vec<f64>, Vec<bool>) = valid_idx
+        .iter()
+        .map(|&i| {
+            (
+                model.probability_of(&examples[i].features),
+                examples[i].reading,
+            )
+        })
+        .unzip();
+    if labels.iter().any(|&l| l) && labels.iter().any(|&l| !l) {
+        model.threshold = balanced_threshold(&scores, &labels);
+        model.training.validation_auroc = auroc(&scores, &labels);
+    }
+    Ok(model)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Examples whose first feature separates the classes with some overlap.
+    fn examples() -> Vec<Example> {
+        let mut out = Vec::new();
+        for g in 0..8 {
+            for k in 0..20 {
+                let reading = g % 2 == 0;
+                let mut f = [0.0; FEATURE_COUNT];
+                let centre = if reading { 1.0 } else { -1.0 };
+                f[0] = centre + ((k * 7 + g * 3) % 11) as f64 / 5.0 - 1.0;
+                f[1] = ((k * 5 + g) % 13) as f64; // noise
+                out.push(Example {
+                    features: f,
+                    reading,
+                    group: format!("s{g}"),
+                });
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn training_learns_the_separating_feature_and_is_deterministic() {
+        let ex = examples();
+        let m = train(&ex, 10.0, TrainOptions::default(), vec![], "trajectory").unwrap();
+        assert!(m.weights[0] > 1.0, "{:?}", m.weights);
+        assert!(m.weights[0].abs() > 5.0 * m.weights[1].abs());
+        assert!(m.training.validation_auroc.unwrap() > 0.9);
+        let again = train(&ex, 10.0, TrainOptions::default(), vec![], "trajectory").unwrap();
+        assert_eq!(
+            serde_json::to_string(&m).unwrap(),
+            serde_json::to_string(&again).unwrap()
+        );
+        // Validation holds out whole sessions: 2 of 4 per class at 0.25 -> 1 each.
+        assert_eq!(m.training.validation_windows_reading, 20);
+        assert_eq!(m.training.validation_windows_other, 20);
+    }
+
+    #[test]
+    fn one_class_only_is_refused() {
+        let ex: Vec<Example> = examples().into_iter().filter(|e| e.reading).collect();
+        let e = train(&ex, 10.0, TrainOptions::default(), vec![], "trajectory").unwrap_err();
+        assert!(e.to_string().contains("both classes"), "{e}");
+    }
+
+    #[test]
+    fn a_saved_model_loads_back_and_a_foreign_file_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let m = train(
+            &examples(),
+            10.0,
+            TrainOptions::default(),
+            vec![],
+            "trajectory",
+        )
+        .unwrap();
+        let p = dir.path().join("m.json");
+        m.save(&p).unwrap();
+        let back = DetectorModel::load(&p).unwrap();
+        // JSON keeps 17 significant digits; the last bit may round.
+        for (a, b) in back
+            .std
+            .iter()
+            .chain(&back.weights)
+            .zip(m.std.iter().chain(&m.weights))
+        {
+            assert!((a - b).abs() <= 1e-12 * b.abs().max(1.0));
+        }
+        assert!((back.threshold - m.threshold).abs() < 1e-12);
+        std::fs::write(&p, "{\"a\": 1}").unwrap();
+        let e = DetectorModel::load(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("m.json") && e.contains("not a detector model"),
+            "{e}"
+        );
+    }
+}

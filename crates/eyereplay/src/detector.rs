@@ -1,0 +1,592 @@
+//! The reading detector on real inputs: gaze tracks from videos (through
+//! the extractor, cached), from `eyereplay extract` CSVs and from session
+//! CSVs; training on generated datasets; detection on one recording.
+//! The model itself is [`eyereplay_detect`]'s.
+
+use crate::inputs::check_models;
+use crate::progress::{ExtractFrames, Progress, Stage};
+use crate::{Error, Result};
+use eyereplay_core::{NormPos, Sample};
+use eyereplay_detect::{windows, DetectorModel, Example, Track, TrainOptions, WindowSpec, FPS};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Video file extensions `detect` and `train` send through the extractor.
+pub const VIDEO_EXTENSIONS: [&str; 8] = ["mp4", "mov", "avi", "mkv", "webm", "m4v", "mpg", "mpeg"];
+
+/// Frames further apart than this are not interpolated across: the track
+/// gets `NaN` (no gaze) between them.
+const MAX_INTERP_GAP_S: f64 = 0.2;
+
+pub fn is_video(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| VIDEO_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+}
+
+/// The cache file of `video`'s extraction: by content and extractor
+/// version, as for the dataset's video sources.
+pub fn extraction_cache_path(video: &Path, cache: &Path) -> Result<PathBuf> {
+    let sha = eyereplay_core::sha256_file(video)?;
+    Ok(cache
+        .join("extract")
+        .join(format!("{sha}-v{}.csv", eyereplay_core::TOOL_VERSION)))
+}
+
+/// Extracts every video not yet in the cache (all at once, so the
+/// extractor's workers share them) and returns each video's CSV.
+pub fn extract_cached(
+    videos: &[PathBuf],
+    cache: &Path,
+    progress: &dyn Progress,
+) -> Result<Vec<PathBuf>> {
+    let mut csvs = Vec::with_capacity(videos.len());
+    let mut todo: Vec<(PathBuf, PathBuf)> = Vec::new();
+    for v in videos {
+        if !v.is_file() {
+            return Err(Error::input(v, "no such video"));
+        }
+        let csv = extraction_cache_path(v, cache)?;
+        if !csv.is_file() && !todo.iter().any(|(_, c)| *c == csv) {
+            todo.push((v.clone(), csv.clone()));
+        }
+        csvs.push(csv);
+    }
+    if todo.is_empty() {
+        return Ok(csvs);
+    }
+    check_models()?;
+    let paths: Vec<PathBuf> = todo.iter().map(|(v, _)| v.clone()).collect();
+    progress.begin(Stage::Extract, 0);
+    let results = eyereplay_extract::extract_many(
+        &paths,
+        &eyereplay_extract::ExtractOptions::default(),
+        &ExtractFrames(progress),
+    );
+    progress.end(Stage::Extract);
+    for ((_, csv), r) in todo.iter().zip(results) {
+        let ex = r?;
+        eyereplay_extract::save_csv(csv, &ex.rows)?;
+    }
+    Ok(csvs)
+}
+
+/// What a track was made from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrackInfo {
+    pub path: String,
+    /// `video`, `extract` (an `eyereplay extract` CSV) or `session` (a
+    /// `frame,x,y` session CSV at 25 fps).
+    pub kind: String,
+    pub frames: usize,
+    pub gaze_fraction: f64,
+}
+
+/// The 25 fps gaze track of a video (extracted, cached), an `eyereplay
+/// extract` CSV or a session CSV, told apart by extension and header.
+pub fn load_track(
+    path: &Path,
+    cache: &Path,
+    progress: &dyn Progress,
+) -> Result<(Track, TrackInfo)> {
+    if !path.exists() {
+        return Err(Error::input(path, "no such file"));
+    }
+    let (track, kind) = if is_video(path) {
+        let csv = extract_cached(&[path.to_path_buf()], cache, progress)?.remove(0);
+        (extract_csv_track(&csv)?, "video")
+    } else {
+        let head = std::fs::read_to_string(path)
+            .map_err(|e| Error::io(path, e))?
+            .lines()
+            .next()
+            .unwrap_or("")
+            .to_string();
+        let cols: Vec<&str> = head.split(',').map(str::trim).collect();
+        if cols.contains(&"nx") && cols.contains(&"time_s") {
+            (extract_csv_track(path)?, "extract")
+        } else if cols.starts_with(&["frame", "x", "y"]) {
+            (session_csv_track(path)?, "session")
+        } else {
+            return Err(Error::input(
+                path,
+                format!(
+                    "not a video ({}), an 'eyereplay extract' CSV (time_s,...,nx,ny) or a session CSV (frame,x,y); header: {head}",
+                    VIDEO_EXTENSIONS.join(", ")
+                ),
+            ));
+        }
+    };
+    let gaze = track.xy.iter().filter(|p| p[0].is_finite()).count();
+    let info = TrackInfo {
+        path: path.display().to_string(),
+        kind: kind.into(),
+        frames: track.len(),
+        gaze_fraction: gaze as f64 / track.len().max(1) as f64,
+    };
+    Ok((track, info))
+}
+
+/// An `eyereplay extract` CSV, resampled to 25 fps on its timestamps.
+pub fn extract_csv_track(csv: &Path) -> Result<Track> {
+    let spec = eyereplay_sources::SourceSpec::Extract {
+        path: csv.to_path_buf(),
+    };
+    let opts = eyereplay_sources::ReadOptions {
+        // Keep every frame: gaps are handled here, as NaN.
+        max_gap_s: f64::INFINITY,
+        ..Default::default()
+    };
+    let rec = eyereplay_sources::read_source(&spec, &opts)?.remove(0);
+    let samples: Vec<&Sample<NormPos>> = rec.segments.iter().flat_map(|s| s.samples()).collect();
+    Ok(resample_samples(&samples))
+}
+
+/// Linear interpolation at 25 fps between neighbouring samples that both
+/// show gaze and are at most [`MAX_INTERP_GAP_S`] apart; `NaN` elsewhere.
+pub fn resample_samples(samples: &[&Sample<NormPos>]) -> Track {
+    let (Some(first), Some(last)) = (samples.first(), samples.last()) else {
+        return Track::default();
+    };
+    let (t0, t1) = (first.t_s, last.t_s);
+    let n = ((t1 - t0) * FPS + 1e-6).floor() as usize + 1;
+    let mut xy = Vec::with_capacity(n);
+    let mut j = 0;
+    for k in 0..n {
+        let t = t0 + k as f64 / FPS;
+        while j + 1 < samples.len() && samples[j + 1].t_s <= t + 1e-9 {
+            j += 1;
+        }
+        let a = samples[j];
+        let p = if (a.t_s - t).abs() < 1e-9 {
+            a.is_gaze().then_some([a.pos.nx, a.pos.ny])
+        } else if j + 1 < samples.len() {
+            let b = samples[j + 1];
+            (a.is_gaze() && b.is_gaze() && b.t_s - a.t_s <= MAX_INTERP_GAP_S).then(|| {
+                let f = (t - a.t_s) / (b.t_s - a.t_s);
+                [
+                    a.pos.nx + f * (b.pos.nx - a.pos.nx),
+                    a.pos.ny + f * (b.pos.ny - a.pos.ny),
+                ]
+            })
+        } else {
+            None
+        };
+        xy.push(p.unwrap_or([f64::NAN, f64::NAN]));
+    }
+    Track::new(xy)
+}
+
+/// A `frame,x,y[,blink]` session CSV (25 fps canvas px); blink frames are
+/// no gaze.
+pub fn session_csv_track(csv: &Path) -> Result<Track> {
+    let points = eyereplay_core::read_session_csv(csv)?;
+    let blinks = eyereplay_dataset::read_blink_column(csv)?;
+    Ok(Track::new(
+        points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let blink = blinks.as_ref().is_some_and(|b| b.get(i) == Some(&true));
+                if blink {
+                    [f64::NAN, f64::NAN]
+                } else {
+                    [p.x_px, p.y_px]
+                }
+            })
+            .collect(),
+    ))
+}
+
+/// What training reads from each session.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TrainInput {
+    /// What `eyereplay extract` measures on the session's rendered video:
+    /// what the detector sees in use.
+    Extracted,
+    /// The session CSV that drove the renderer (no video needed; for
+    /// trajectory-only datasets and quick experiments).
+    Trajectory,
+}
+
+impl TrainInput {
+    pub fn name(self) -> &'static str {
+        match self {
+            TrainInput::Extracted => "extracted",
+            TrainInput::Trajectory => "trajectory",
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct TrainDetectorOptions {
+    pub window_s: f64,
+    pub input: TrainInput,
+    pub train: TrainOptions,
+    pub cache: PathBuf,
+}
+
+/// One session's track with its label, for training and evaluation.
+#[derive(Clone, Debug)]
+pub struct LabeledTrack {
+    /// `DATASET#reading/reading_0003.csv`.
+    pub id: String,
+    pub reading: bool,
+    /// The source ids the session was cut from (labels.csv).
+    pub sources: Vec<String>,
+    pub track: Track,
+}
+
+/// The tracks of every session of `datasets`, read as `input` says.
+/// Checks every dataset (labels.csv, the videos) before extracting any.
+pub fn dataset_tracks(
+    datasets: &[PathBuf],
+    input: TrainInput,
+    cache: &Path,
+    progress: &dyn Progress,
+) -> Result<Vec<LabeledTrack>> {
+    let mut sessions = Vec::new();
+    for dir in datasets {
+        let labels = eyereplay_dataset::read_labels(dir)?;
+        if labels.is_empty() {
+            return Err(Error::input(dir.join("labels.csv"), "no sessions"));
+        }
+        for row in &labels {
+            let paths = eyereplay_dataset::SessionPaths::new(dir, &row.file)
+                .map_err(|m| Error::input(dir.join("labels.csv"), m))?;
+            let file = match input {
+                TrainInput::Extracted => paths.mp4.clone(),
+                TrainInput::Trajectory => paths.csv.clone(),
+            };
+            if !file.is_file() {
+                let hint = match input {
+                    TrainInput::Extracted => "; render the dataset first ('eyereplay render'), or train on the trajectories with --input trajectory",
+                    TrainInput::Trajectory => "",
+                };
+                return Err(Error::input(&file, format!("missing{hint}")));
+            }
+            sessions.push((
+                format!("{}#{}", dir.display(), row.file),
+                row.label() == 1,
+                row.sources.clone(),
+                file,
+            ));
+        }
+    }
+    let files: Vec<PathBuf> = sessions.iter().map(|s| s.3.clone()).collect();
+    let tracks = match input {
+        TrainInput::Extracted => video_tracks(&files, cache, progress)?,
+        TrainInput::Trajectory => files
+            .iter()
+            .map(|f| session_csv_track(f))
+            .collect::<Result<Vec<_>>>()?,
+    };
+    Ok(sessions
+        .into_iter()
+        .zip(tracks)
+        .map(|((id, reading, sources, _), track)| LabeledTrack {
+            id,
+            reading,
+            sources,
+            track,
+        })
+        .collect())
+}
+
+/// A rendered video whose face is found in fewer frames than this share is
+/// worth a warning: its track is mostly gaps.
+const MIN_FACE_SHARE: f64 = 0.5;
+
+/// The 25 fps tracks of rendered session videos, each extracted once
+/// (cached by content): the extractor's full pipeline, except for a
+/// close-up render (its identity JSON gives the eye corners), which has no
+/// face for the detector and is read as `eyereplay evaluate` reads it: the
+/// iris model on eye crops at the render's known eye corners.
+pub fn video_tracks(
+    videos: &[PathBuf],
+    cache: &Path,
+    progress: &dyn Progress,
+) -> Result<Vec<Track>> {
+    let mut todo: Vec<usize> = Vec::new();
+    let mut paths = Vec::with_capacity(videos.len());
+    for (i, v) in videos.iter().enumerate() {
+        let full = extraction_cache_path(v, cache)?;
+        let corners = full.with_extension("corners.csv");
+        if !full.is_file() && !corners.is_file() {
+            todo.push(i);
+        }
+        paths.push((full, corners));
+    }
+    if !todo.is_empty() {
+        check_models()?;
+    }
+    // Close-ups (their identity JSON gives the eye corners) go straight to
+    // the corner read-back: the face detector would search them in vain.
+    let mut full_todo = Vec::new();
+    let mut corner_todo = Vec::new();
+    for &i in &todo {
+        let identity = eyereplay_dataset::SessionPaths::beside_video(&videos[i]).identity_json;
+        let corners = if identity.is_file() {
+            eyereplay_dataset::SessionIdentity::read(&identity)?.corner_pairs_px()
+        } else {
+            None
+        };
+        match corners {
+            Some(c) => corner_todo.push((i, c)),
+            None => full_todo.push(i),
+        }
+    }
+    {
+        use rayon::prelude::*;
+        // One video a worker: each reads its frames in order.
+        corner_todo
+            .par_iter()
+            .map(|&(i, c)| -> Result<()> {
+                let n = crate::evaluate::extract_at_corners(
+                    &videos[i],
+                    &eyereplay_extract::default_models_dir(),
+                    c,
+                    usize::MAX,
+                )?;
+                save_corner_track(&paths[i].1, &n)?;
+                progress.info(&format!(
+                    "read {} at its eye corners (close-up)",
+                    videos[i].display()
+                ));
+                Ok(())
+            })
+            .collect::<Result<Vec<()>>>()?;
+    }
+    if !full_todo.is_empty() {
+        let list: Vec<PathBuf> = full_todo.iter().map(|&i| videos[i].clone()).collect();
+        progress.begin(Stage::Extract, 0);
+        let results = eyereplay_extract::extract_many(
+            &list,
+            &eyereplay_extract::ExtractOptions::default(),
+            &ExtractFrames(progress),
+        );
+        progress.end(Stage::Extract);
+        for (&i, r) in full_todo.iter().zip(results) {
+            let ex = r?;
+            if ex.detection_rate() < MIN_FACE_SHARE {
+                progress.warn(&format!(
+                    "warning: {}: the face was found in only {:.0} % of its frames",
+                    videos[i].display(),
+                    100.0 * ex.detection_rate()
+                ));
+            }
+            eyereplay_extract::save_csv(&paths[i].0, &ex.rows)?;
+        }
+    }
+    paths
+        .iter()
+        .map(|(full, corners)| {
+            if full.is_file() {
+                extract_csv_track(full)
+            } else {
+                read_corner_track(corners)
+            }
+        })
+        .collect()
+}
+
+/// `frame,nx,ny` per frame, `nan` where no open eye was read.
+fn save_corner_track(path: &Path, n: &[[f64; 2]]) -> Result<()> {
+    let mut text = String::from("frame,nx,ny\n");
+    for (i, p) in n.iter().enumerate() {
+        text += &format!("{i},{},{}\n", p[0], p[1]);
+    }
+    eyereplay_detect::model::write_atomic(path, text.as_bytes())?;
+    Ok(())
+}
+
+fn read_corner_track(path: &Path) -> Result<Track> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let mut xy = Vec::new();
+    for (k, line) in text.lines().enumerate().skip(1) {
+        let cells: Vec<&str> = line.split(',').collect();
+        let num = |c: Option<&&str>| c.and_then(|c| c.trim().parse::<f64>().ok());
+        match (num(cells.get(1)), num(cells.get(2))) {
+            (Some(x), Some(y)) => xy.push([x, y]),
+            _ => {
+                return Err(Error::input(
+                    path,
+                    format!("line {}: expected frame,nx,ny", k + 1),
+                ))
+            }
+        }
+    }
+    Ok(Track::new(xy))
+}
+
+/// Trains the feature model on every session of `datasets`: windows of
+/// `window_s` overlapping by half, validation held out by session.
+pub fn train_detector(
+    datasets: &[PathBuf],
+    opts: &TrainDetectorOptions,
+    progress: &dyn Progress,
+) -> Result<DetectorModel> {
+    if !(opts.window_s >= 2.0 && opts.window_s.is_finite()) {
+        return Err(Error::Setting(format!(
+            "--window-s must be at least 2 s, got {}",
+            opts.window_s
+        )));
+    }
+    let tracks = dataset_tracks(datasets, opts.input, &opts.cache, progress)?;
+    let spec = WindowSpec::half_overlap(opts.window_s);
+    let examples: Vec<Example> = tracks
+        .iter()
+        .flat_map(|t| {
+            windows(&t.track, spec)
+                .into_iter()
+                .map(|w| Example::of(&w, t.reading, t.id.clone()))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let names = datasets.iter().map(|d| d.display().to_string()).collect();
+    Ok(eyereplay_detect::train(
+        &examples,
+        opts.window_s,
+        opts.train,
+        names,
+        opts.input.name(),
+    )?)
+}
+
+/// One scored window of a recording.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WindowScore {
+    pub start_s: f64,
+    pub end_s: f64,
+    pub reading_probability: f64,
+    pub reading: bool,
+    /// The zero-training rule's score (share of saccades in forward runs).
+    pub forward_run_fraction: f64,
+}
+
+/// A recording's detection: per window and as a whole.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Detection {
+    pub input: TrackInfo,
+    pub model: DetectionModelInfo,
+    pub windows: Vec<WindowScore>,
+    /// Mean of the windows' probabilities.
+    pub reading_probability: f64,
+    /// Share of windows called reading.
+    pub reading_window_fraction: f64,
+    /// `reading` when the mean probability reaches the model's threshold.
+    pub verdict: String,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DetectionModelInfo {
+    pub path: String,
+    pub kind: String,
+    pub window_s: f64,
+    pub threshold: f64,
+}
+
+/// Scores a track with non-overlapping windows of the model's length.
+pub fn detect_track(
+    track: &Track,
+    info: TrackInfo,
+    model: &DetectorModel,
+    model_path: &Path,
+) -> Result<Detection> {
+    let spec = WindowSpec::seconds(model.window_s);
+    let ws = windows(track, spec);
+    if ws.is_empty() {
+        return Err(Error::input(
+            &info.path,
+            format!(
+                "{:.1} s of video with gaze in {:.0} % of frames: no {} s window with gaze in at least {:.0} % of its frames to score",
+                track.duration_s(),
+                100.0 * info.gaze_fraction,
+                model.window_s,
+                100.0 * (1.0 - eyereplay_detect::window::MAX_MISSING_FRACTION)
+            ),
+        ));
+    }
+    let scores: Vec<WindowScore> = ws
+        .iter()
+        .map(|w| {
+            let p = model.probability(w);
+            WindowScore {
+                start_s: w.start as f64 / FPS,
+                end_s: (w.start + spec.frames) as f64 / FPS,
+                reading_probability: p,
+                reading: p >= model.threshold,
+                forward_run_fraction: eyereplay_detect::rule_score(w),
+            }
+        })
+        .collect();
+    let n = scores.len() as f64;
+    let mean = scores.iter().map(|s| s.reading_probability).sum::<f64>() / n;
+    let frac = scores.iter().filter(|s| s.reading).count() as f64 / n;
+    Ok(Detection {
+        input: info,
+        model: DetectionModelInfo {
+            path: model_path.display().to_string(),
+            kind: model.kind.clone(),
+            window_s: model.window_s,
+            threshold: model.threshold,
+        },
+        windows: scores,
+        reading_probability: mean,
+        reading_window_fraction: frac,
+        verdict: if mean >= model.threshold {
+            "reading".into()
+        } else {
+            "not reading".into()
+        },
+    })
+}
+
+/// The detection figure: probability over time under the x and y track.
+pub fn detection_figure(track: &Track, d: &Detection) -> Result<eyereplay_eval::plot::Figure> {
+    let windows: Vec<(f64, f64, f64)> = d
+        .windows
+        .iter()
+        .map(|w| (w.start_s, w.end_s, w.reading_probability))
+        .collect();
+    Ok(eyereplay_eval::plot::detection_figure(
+        &track.xy,
+        FPS,
+        &windows,
+        d.model.threshold,
+        &format!("{}: {}", file_label(&d.input.path), d.verdict),
+    )?)
+}
+
+fn file_label(path: &str) -> String {
+    Path::new(path)
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn s(t: f64, x: f64, gaze: bool) -> Sample<NormPos> {
+        let mut v = Sample::new(t, NormPos { nx: x, ny: 0.5 });
+        v.valid = gaze;
+        v
+    }
+
+    #[test]
+    fn resampling_interpolates_between_gaze_and_leaves_gaps_empty() {
+        // 30 fps samples, x = t; one invalid frame at t = 0.1.
+        let samples: Vec<Sample<NormPos>> = (0..31)
+            .map(|i| s(i as f64 / 30.0, i as f64 / 30.0, i != 3))
+            .collect();
+        let refs: Vec<&Sample<NormPos>> = samples.iter().collect();
+        let t = resample_samples(&refs);
+        assert_eq!(t.len(), 26); // 0 .. 1 s at 25 fps
+        assert!((t.xy[1][0] - 0.04).abs() < 1e-12); // between 1/30 and 2/30
+        assert!(t.xy[3][0].is_nan()); // t = 0.12 lies between 0.1 (invalid) and 0.133
+        assert!((t.xy[25][0] - 1.0).abs() < 1e-12);
+    }
+}

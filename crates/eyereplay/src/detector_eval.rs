@@ -1,0 +1,819 @@
+//! Does a detector trained only on synthetic video work on real
+//! recordings? The protocol that answers it (`eyereplay evaluate-detector`).
+//!
+//! A protocol file names real recordings (each with its person, its class
+//! and its task), folds (synthetic training configs per render mode, and
+//! the real recordings held out for testing) and render modes (how a real
+//! eye-tracker recording is rendered to be read back, as a user would).
+//! For each window length, mode and fold, the command generates the
+//! training datasets, trains the feature model on what the extractor reads
+//! from their videos, and scores the fold's held-out recordings:
+//!
+//! - `rendered`: the real eye-tracker recordings rendered in the mode and
+//!   read back by the extractor (the same path as the training data);
+//! - `noise_k`: the real recordings at 25 fps with white noise of `k` times
+//!   the recording's 5-95 % x range per frame (webcam-like degradation);
+//! - webcam: real talking-face videos through `eyereplay extract`
+//!   (negatives only: the false-positive rate at the model's threshold).
+//!
+//! Next to each: the zero-training rule (forward-run fraction) on the same
+//! windows, and a ceiling trained on the real windows themselves, leaving
+//! one person out. AUROC intervals come from a bootstrap over people.
+
+use crate::detector::{dataset_tracks, extract_cached, extract_csv_track, TrainInput};
+use crate::generate::{generate, plan_config, GenerateOptions};
+use crate::progress::Progress;
+use crate::{Error, Result};
+use eyereplay_core::{GazeClass, NormPos, Sample};
+use eyereplay_detect::metrics::{balanced_threshold, rate_at, roc_curve};
+use eyereplay_detect::{
+    auroc_bootstrap, rule_score, windows, AurocCi, DetectorModel, Example, ScoredWindow, Track,
+    TrainOptions, Window, WindowSpec, FPS,
+};
+use eyereplay_prepare::{ClassConfig, DatasetConfig};
+use eyereplay_sources::SourceSpec;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+fn d_seed() -> u64 {
+    1
+}
+fn d_windows() -> Vec<f64> {
+    vec![10.0, 30.0]
+}
+fn d_noise() -> Vec<f64> {
+    vec![0.0, 0.1, 0.2, 0.3]
+}
+fn d_reps() -> usize {
+    2000
+}
+
+/// The protocol file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Protocol {
+    #[serde(default = "d_seed")]
+    pub seed: u64,
+    /// Window lengths to evaluate (s); the first is the main one.
+    #[serde(default = "d_windows")]
+    pub window_s: Vec<f64>,
+    /// Noise levels k of the `noise_k` conditions.
+    #[serde(default = "d_noise")]
+    pub noise_levels: Vec<f64>,
+    #[serde(default = "d_reps")]
+    pub bootstrap_replicates: usize,
+    /// Render modes by name.
+    pub modes: BTreeMap<String, ModeSpec>,
+    pub recording: Vec<RecordingSpec>,
+    pub fold: Vec<FoldSpec>,
+    #[serde(skip)]
+    pub base_dir: PathBuf,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModeSpec {
+    /// A dataset config whose settings (render mode, session length,
+    /// smoothing...) render the real eye-tracker recordings; its classes
+    /// are replaced by the recording.
+    pub render: PathBuf,
+}
+
+/// One real recording.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RecordingSpec {
+    pub name: String,
+    /// Who was recorded: the bootstrap's unit.
+    pub person: String,
+    pub reading: bool,
+    /// What the person was doing (for the report).
+    pub task: String,
+    /// A task so easy to tell from reading (holding fixation) that results
+    /// are also reported without it.
+    #[serde(default)]
+    pub trivial: bool,
+    /// The recording, as a dataset source; a `video` source is a webcam
+    /// clip, scored through `eyereplay extract` (negatives only).
+    pub source: SourceSpec,
+}
+
+impl RecordingSpec {
+    pub fn is_webcam(&self) -> bool {
+        matches!(self.source, SourceSpec::Video { .. })
+    }
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FoldSpec {
+    pub name: String,
+    /// Training dataset config per render mode.
+    pub train: BTreeMap<String, PathBuf>,
+    /// Names of the recordings held out for this fold.
+    pub test: Vec<String>,
+}
+
+impl Protocol {
+    /// Loads and checks a protocol: every file there, names known, and no
+    /// test recording among its fold's training sources.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let mut p: Protocol = toml::from_str(&text)
+            .map_err(|e| Error::input(path, eyereplay_prepare::describe_toml_error(&text, &e)))?;
+        p.base_dir = path
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
+        p.check(path)?;
+        Ok(p)
+    }
+
+    pub fn resolve(&self, p: &Path) -> PathBuf {
+        if p.is_relative() {
+            self.base_dir.join(p)
+        } else {
+            p.to_path_buf()
+        }
+    }
+
+    fn check(&self, path: &Path) -> Result<()> {
+        let bad = |m: String| Err(Error::input(path, m));
+        if self.window_s.is_empty() || self.window_s.iter().any(|w| w.is_nan() || *w < 2.0) {
+            return bad("window_s must list lengths of at least 2 s".into());
+        }
+        if self
+            .noise_levels
+            .iter()
+            .any(|k| !(*k >= 0.0 && k.is_finite()))
+        {
+            return bad("noise_levels must be numbers >= 0".into());
+        }
+        if self.bootstrap_replicates == 0 {
+            return bad("bootstrap_replicates must be at least 1".into());
+        }
+        let mut names = std::collections::BTreeSet::new();
+        for r in &self.recording {
+            if !names.insert(r.name.as_str()) {
+                return bad(format!("recording '{}' is named twice", r.name));
+            }
+            let file = self.resolve(r.source.path());
+            if !file.is_file() {
+                return Err(Error::input(
+                    file,
+                    format!(
+                        "recording '{}' not found (scripts/detector-data.sh fetches the bundled ones)",
+                        r.name
+                    ),
+                ));
+            }
+            if r.is_webcam() && r.reading {
+                return bad(format!(
+                    "recording '{}': a webcam video is scored as a negative only; set reading = false",
+                    r.name
+                ));
+            }
+        }
+        for (m, spec) in &self.modes {
+            let f = self.resolve(&spec.render);
+            if !f.is_file() {
+                return Err(Error::input(f, format!("modes.{m}.render: no such config")));
+            }
+        }
+        for fold in &self.fold {
+            for t in &fold.test {
+                if !names.contains(t.as_str()) {
+                    return bad(format!(
+                        "fold '{}': unknown test recording '{t}'",
+                        fold.name
+                    ));
+                }
+            }
+            for (mode, cfg) in &fold.train {
+                if !self.modes.contains_key(mode) {
+                    return bad(format!(
+                        "fold '{}': training mode '{mode}' is not under [modes]",
+                        fold.name
+                    ));
+                }
+                let cfg_path = self.resolve(cfg);
+                let config = DatasetConfig::load(&cfg_path)?;
+                let train_files: Vec<PathBuf> =
+                    config.source_paths().iter().map(|p| canonical(p)).collect();
+                for t in &fold.test {
+                    let r = self.recording_named(t).expect("checked above");
+                    if train_files.contains(&canonical(&self.resolve(r.source.path()))) {
+                        return Err(Error::input(
+                            cfg_path,
+                            format!(
+                                "fold '{}': its test recording '{t}' is also a training source: the test would not be held out",
+                                fold.name
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
+        if self.fold.is_empty() {
+            return bad("no [[fold]]".into());
+        }
+        Ok(())
+    }
+
+    pub fn recording_named(&self, name: &str) -> Option<&RecordingSpec> {
+        self.recording.iter().find(|r| r.name == name)
+    }
+}
+
+fn canonical(p: &Path) -> PathBuf {
+    p.canonicalize().unwrap_or_else(|_| p.to_path_buf())
+}
+
+/// A recording's 25 fps tracks straight from its samples (one per gap-free
+/// piece), in normalized iris units.
+fn clean_tracks(
+    p: &Protocol,
+    r: &RecordingSpec,
+    read: &eyereplay_sources::ReadOptions,
+) -> Result<Vec<Track>> {
+    let mut spec = r.source.clone();
+    *spec.path_mut() = p.resolve(r.source.path());
+    let recs = eyereplay_sources::read_source(&spec, read)?;
+    let mut out = Vec::new();
+    for rec in &recs {
+        for seg in &rec.segments {
+            let samples: Vec<&Sample<NormPos>> = seg.samples().iter().collect();
+            out.push(crate::detector::resample_samples(&samples));
+        }
+    }
+    Ok(out)
+}
+
+/// White noise of `k` times the recording's 5-95 % x range on both axes,
+/// seeded by the protocol seed, the recording and `k`.
+fn with_noise(tracks: &[Track], k: f64, seed: u64, name: &str) -> Vec<Track> {
+    if k == 0.0 {
+        return tracks.to_vec();
+    }
+    let xs: Vec<f64> = tracks
+        .iter()
+        .flat_map(|t| t.xy.iter().map(|p| p[0]))
+        .filter(|v| v.is_finite())
+        .collect();
+    let range = eyereplay_signal::stats::quantile(&xs, 0.95).unwrap_or(0.0)
+        - eyereplay_signal::stats::quantile(&xs, 0.05).unwrap_or(0.0);
+    let mut h = seed ^ (k * 1e6) as u64;
+    for b in name.bytes() {
+        h = h.wrapping_mul(0x100000001b3).wrapping_add(u64::from(b));
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(h);
+    let normal = Normal::new(0.0, (k * range).max(1e-12)).expect("finite sigma");
+    tracks
+        .iter()
+        .map(|t| {
+            Track::new(
+                t.xy.iter()
+                    .map(|p| {
+                        [
+                            p[0] + normal.sample(&mut rng),
+                            p[1] + normal.sample(&mut rng),
+                        ]
+                    })
+                    .collect(),
+            )
+        })
+        .collect()
+}
+
+/// Windows of every track.
+fn all_windows(tracks: &[Track], spec: WindowSpec) -> Vec<Window> {
+    tracks.iter().flat_map(|t| windows(t, spec)).collect()
+}
+
+/// A scored window of a real recording, with the rule's score beside it.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RealWindow {
+    pub fold: String,
+    pub recording: String,
+    pub person: String,
+    pub reading: bool,
+    pub trivial: bool,
+    pub model: f64,
+    pub rule: f64,
+}
+
+/// AUROC of the model, the rule and the ceiling on one set of windows.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ConditionResult {
+    pub window_s: f64,
+    pub mode: String,
+    /// `rendered` or `noise_<k>`.
+    pub condition: String,
+    pub model: Option<AurocCi>,
+    pub rule: Option<AurocCi>,
+    /// Trained on the real windows, leaving one person out.
+    pub ceiling: Option<AurocCi>,
+    /// The same three without the trivial (fixation-task) negatives.
+    pub model_nontrivial: Option<AurocCi>,
+    pub rule_nontrivial: Option<AurocCi>,
+    pub ceiling_nontrivial: Option<AurocCi>,
+    /// Reading windows called reading, and other windows called reading,
+    /// at each fold model's own threshold.
+    pub true_positive_rate: f64,
+    pub false_positive_rate: f64,
+    /// Mean model probability per recording (and fold).
+    pub per_recording: Vec<RecordingScore>,
+    #[serde(skip)]
+    pub roc_model: Vec<(f64, f64)>,
+    #[serde(skip)]
+    pub roc_rule: Vec<(f64, f64)>,
+    #[serde(skip)]
+    pub roc_ceiling: Vec<(f64, f64)>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RecordingScore {
+    pub fold: String,
+    pub recording: String,
+    pub reading: bool,
+    pub windows: usize,
+    pub mean_probability: f64,
+    pub called_reading: f64,
+}
+
+/// False positives on one real talking-face video.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct WebcamResult {
+    pub window_s: f64,
+    pub mode: String,
+    pub fold: String,
+    pub recording: String,
+    pub windows: usize,
+    /// Share of windows the model calls reading at its threshold.
+    pub false_positive_rate: f64,
+    /// The same for the rule at its threshold fixed on the synthetic
+    /// training windows.
+    pub rule_false_positive_rate: f64,
+}
+
+/// A fold model's training, for the report.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FoldModel {
+    pub window_s: f64,
+    pub mode: String,
+    pub fold: String,
+    pub train_windows: usize,
+    pub validation_auroc: Option<f64>,
+    pub threshold: f64,
+    pub rule_threshold: f64,
+    pub weights: Vec<(String, f64)>,
+}
+
+/// Everything the protocol measured.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct DetectorEvaluation {
+    pub protocol: String,
+    pub seed: u64,
+    pub recordings: Vec<RecordingInfo>,
+    pub models: Vec<FoldModel>,
+    pub conditions: Vec<ConditionResult>,
+    pub webcam: Vec<WebcamResult>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RecordingInfo {
+    pub name: String,
+    pub person: String,
+    pub reading: bool,
+    pub task: String,
+    pub trivial: bool,
+    pub webcam: bool,
+    pub duration_s: f64,
+    pub folds: Vec<String>,
+}
+
+fn class_of(reading: bool) -> GazeClass {
+    if reading {
+        GazeClass::Reading
+    } else {
+        GazeClass::Conversation
+    }
+}
+
+/// Generates a dataset from `config` into `out` (resumable), without its
+/// evaluation report.
+fn generate_into(
+    config: DatasetConfig,
+    label: &Path,
+    out: &Path,
+    cache: &Path,
+    progress: &dyn Progress,
+) -> Result<()> {
+    let job = plan_config(config, label, None)?;
+    let opts = GenerateOptions {
+        out: out.to_path_buf(),
+        shard: None,
+        cache: Some(cache.to_path_buf()),
+        evaluate: None,
+    };
+    generate(&job, &opts, progress)?;
+    Ok(())
+}
+
+/// Runs the protocol into `out`: the generated datasets under `train/` and
+/// `real/`, the results in `detector_eval.json` and `index.html`.
+pub fn evaluate_detector(
+    protocol_path: &Path,
+    out: &Path,
+    cache: &Path,
+    progress: &dyn Progress,
+) -> Result<DetectorEvaluation> {
+    let p = Protocol::load(protocol_path)?;
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let used: Vec<&RecordingSpec> = p
+        .recording
+        .iter()
+        .filter(|r| p.fold.iter().any(|f| f.test.contains(&r.name)))
+        .collect();
+
+    // 1. Synthetic training data, per fold and mode.
+    let mut train_dirs: BTreeMap<(String, String), PathBuf> = BTreeMap::new();
+    for fold in &p.fold {
+        for (mode, cfg) in &fold.train {
+            let cfg_path = p.resolve(cfg);
+            let dir = out.join("train").join(&fold.name).join(mode);
+            progress.info(&format!(
+                "fold {}, {mode}: generating the training data from {} into {}",
+                fold.name,
+                cfg_path.display(),
+                dir.display()
+            ));
+            generate_into(
+                DatasetConfig::load(&cfg_path)?,
+                &cfg_path,
+                &dir,
+                cache,
+                progress,
+            )?;
+            train_dirs.insert((fold.name.clone(), mode.clone()), dir);
+        }
+    }
+
+    // 2. Real recordings: clean tracks, rendered-and-extracted tracks per
+    //    mode, webcam tracks.
+    let read = eyereplay_sources::ReadOptions {
+        seed: p.seed,
+        ..Default::default()
+    };
+    let mut clean: BTreeMap<String, Vec<Track>> = BTreeMap::new();
+    let mut rendered: BTreeMap<(String, String), Vec<Track>> = BTreeMap::new();
+    let mut infos = Vec::new();
+    for r in &used {
+        let tracks = if r.is_webcam() {
+            let video = p.resolve(r.source.path());
+            let csv = extract_cached(&[video], cache, progress)?.remove(0);
+            vec![extract_csv_track(&csv)?]
+        } else {
+            clean_tracks(&p, r, &read)?
+        };
+        let frames: usize = tracks.iter().map(Track::len).sum();
+        infos.push(RecordingInfo {
+            name: r.name.clone(),
+            person: r.person.clone(),
+            reading: r.reading,
+            task: r.task.clone(),
+            trivial: r.trivial,
+            webcam: r.is_webcam(),
+            duration_s: frames as f64 / FPS,
+            folds: p
+                .fold
+                .iter()
+                .filter(|f| f.test.contains(&r.name))
+                .map(|f| f.name.clone())
+                .collect(),
+        });
+        if !r.is_webcam() {
+            for (mode, spec) in &p.modes {
+                let template = p.resolve(&spec.render);
+                let mut cfg = DatasetConfig::load(&template)?;
+                let sessions = (frames / cfg.session_frames.max(1)).max(1);
+                let mut source = r.source.clone();
+                *source.path_mut() = canonical(&p.resolve(r.source.path()));
+                cfg.classes = BTreeMap::from([(
+                    class_of(r.reading),
+                    ClassConfig {
+                        sessions,
+                        speed_scale: None,
+                        sources: vec![source],
+                    },
+                )]);
+                let dir = out.join("real").join(mode).join(&r.name);
+                progress.info(&format!(
+                    "{}: rendering {sessions} session(s) in mode {mode} to read back",
+                    r.name
+                ));
+                generate_into(cfg, &template, &dir, cache, progress)?;
+                let t = dataset_tracks(&[dir], TrainInput::Extracted, cache, progress)?;
+                rendered.insert(
+                    (r.name.clone(), mode.clone()),
+                    t.into_iter().map(|l| l.track).collect(),
+                );
+            }
+        }
+        clean.insert(r.name.clone(), tracks);
+    }
+
+    let mut models = Vec::new();
+    let mut conditions = Vec::new();
+    let mut webcam = Vec::new();
+    let mut train_tracks: BTreeMap<(String, String), Vec<crate::detector::LabeledTrack>> =
+        BTreeMap::new();
+    for (key, dir) in &train_dirs {
+        train_tracks.insert(
+            key.clone(),
+            dataset_tracks(
+                std::slice::from_ref(dir),
+                TrainInput::Extracted,
+                cache,
+                progress,
+            )?,
+        );
+    }
+    let mut conds: Vec<String> = vec!["rendered".into()];
+    conds.extend(p.noise_levels.iter().map(|k| format!("noise_{k}")));
+    for &w in &p.window_s {
+        let score_spec = WindowSpec::seconds(w);
+        for mode in p.modes.keys() {
+            // Real windows per condition, over all folds.
+            let mut per_cond: BTreeMap<String, Vec<RealWindow>> = BTreeMap::new();
+            let mut feats: BTreeMap<
+                String,
+                Vec<(RealWindow, [f64; eyereplay_detect::FEATURE_COUNT])>,
+            > = BTreeMap::new();
+            for fold in &p.fold {
+                let Some(tt) = train_tracks.get(&(fold.name.clone(), mode.clone())) else {
+                    continue;
+                };
+                let examples: Vec<Example> = tt
+                    .iter()
+                    .flat_map(|t| {
+                        windows(&t.track, WindowSpec::half_overlap(w))
+                            .into_iter()
+                            .map(|win| Example::of(&win, t.reading, t.id.clone()))
+                            .collect::<Vec<_>>()
+                    })
+                    .collect();
+                let model = eyereplay_detect::train(
+                    &examples,
+                    w,
+                    TrainOptions {
+                        seed: p.seed,
+                        ..TrainOptions::default()
+                    },
+                    vec![],
+                    "extracted",
+                )?;
+                let (rs, rl): (Vec<f64>, Vec<bool>) = tt
+                    .iter()
+                    .flat_map(|t| {
+                        windows(&t.track, WindowSpec::half_overlap(w))
+                            .into_iter()
+                            .map(|win| (rule_score(&win), t.reading))
+                            .collect::<Vec<_>>()
+                    })
+                    .unzip();
+                let rule_threshold = balanced_threshold(&rs, &rl);
+                models.push(FoldModel {
+                    window_s: w,
+                    mode: mode.clone(),
+                    fold: fold.name.clone(),
+                    train_windows: examples.len(),
+                    validation_auroc: model.training.validation_auroc,
+                    threshold: model.threshold,
+                    rule_threshold,
+                    weights: model
+                        .features
+                        .iter()
+                        .cloned()
+                        .zip(model.weights.iter().copied())
+                        .collect(),
+                });
+                for name in &fold.test {
+                    let r = p.recording_named(name).expect("checked");
+                    let score = |wins: Vec<Window>, m: &DetectorModel| -> Vec<(RealWindow, [f64; eyereplay_detect::FEATURE_COUNT])> {
+                        wins.iter()
+                            .map(|win| {
+                                let f = eyereplay_detect::features(win);
+                                (
+                                    RealWindow {
+                                        fold: fold.name.clone(),
+                                        recording: r.name.clone(),
+                                        person: r.person.clone(),
+                                        reading: r.reading,
+                                        trivial: r.trivial,
+                                        model: m.probability_of(&f),
+                                        rule: rule_score(win),
+                                    },
+                                    f,
+                                )
+                            })
+                            .collect()
+                    };
+                    if r.is_webcam() {
+                        let scored = score(all_windows(&clean[name], score_spec), &model);
+                        let ms: Vec<f64> = scored.iter().map(|s| s.0.model).collect();
+                        let rs: Vec<f64> = scored.iter().map(|s| s.0.rule).collect();
+                        webcam.push(WebcamResult {
+                            window_s: w,
+                            mode: mode.clone(),
+                            fold: fold.name.clone(),
+                            recording: name.clone(),
+                            windows: ms.len(),
+                            false_positive_rate: rate_at(&ms, model.threshold),
+                            rule_false_positive_rate: rate_at(&rs, rule_threshold),
+                        });
+                        continue;
+                    }
+                    for c in &conds {
+                        let tracks = if c == "rendered" {
+                            rendered[&(name.clone(), mode.clone())].clone()
+                        } else {
+                            let k: f64 = c["noise_".len()..].parse().expect("own format");
+                            with_noise(&clean[name], k, p.seed, name)
+                        };
+                        let scored = score(all_windows(&tracks, score_spec), &model);
+                        per_cond
+                            .entry(c.clone())
+                            .or_default()
+                            .extend(scored.iter().map(|s| s.0.clone()));
+                        // The ceiling sees each real window once (not once per fold).
+                        if p.fold.iter().position(|f| f.test.contains(name))
+                            == p.fold.iter().position(|f| f.name == fold.name)
+                        {
+                            feats.entry(c.clone()).or_default().extend(scored);
+                        }
+                    }
+                }
+            }
+            for c in &conds {
+                let rows = per_cond.remove(c).unwrap_or_default();
+                let thresholds: BTreeMap<String, f64> = models
+                    .iter()
+                    .filter(|m| m.window_s == w && &m.mode == mode)
+                    .map(|m| (m.fold.clone(), m.threshold))
+                    .collect();
+                conditions.push(condition_result(
+                    &p,
+                    w,
+                    mode,
+                    c,
+                    &rows,
+                    feats.remove(c).unwrap_or_default(),
+                    &thresholds,
+                ));
+            }
+        }
+    }
+    let eval = DetectorEvaluation {
+        protocol: protocol_path
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+        seed: p.seed,
+        recordings: infos,
+        models,
+        conditions,
+        webcam,
+    };
+    crate::detector_report::write(out, &eval)?;
+    Ok(eval)
+}
+
+fn ci(
+    rows: &[&RealWindow],
+    score: impl Fn(&RealWindow) -> f64,
+    reps: usize,
+    seed: u64,
+) -> Option<AurocCi> {
+    let w: Vec<ScoredWindow> = rows
+        .iter()
+        .map(|r| ScoredWindow {
+            unit: r.person.clone(),
+            reading: r.reading,
+            score: score(r),
+        })
+        .collect();
+    auroc_bootstrap(&w, reps, 0.95, seed)
+}
+
+/// Leave-one-person-out scores of a logistic regression trained on the
+/// real windows themselves: what real training data could reach.
+fn ceiling_scores(
+    rows: &[(RealWindow, [f64; eyereplay_detect::FEATURE_COUNT])],
+    seed: u64,
+) -> Vec<RealWindow> {
+    let mut people: Vec<&str> = rows.iter().map(|r| r.0.person.as_str()).collect();
+    people.sort_unstable();
+    people.dedup();
+    let mut out = Vec::new();
+    for person in people {
+        let train: Vec<Example> = rows
+            .iter()
+            .filter(|r| r.0.person != person)
+            .map(|r| Example {
+                features: r.1,
+                reading: r.0.reading,
+                group: r.0.recording.clone(),
+            })
+            .collect();
+        let Ok(m) = eyereplay_detect::train(
+            &train,
+            0.0,
+            TrainOptions {
+                validation_fraction: 0.0,
+                seed,
+                ..TrainOptions::default()
+            },
+            vec![],
+            "real",
+        ) else {
+            continue; // the others hold one class only: no ceiling for this person
+        };
+        for r in rows.iter().filter(|r| r.0.person == person) {
+            out.push(RealWindow {
+                model: m.probability_of(&r.1),
+                ..r.0.clone()
+            });
+        }
+    }
+    out
+}
+
+fn condition_result(
+    p: &Protocol,
+    w: f64,
+    mode: &str,
+    condition: &str,
+    rows: &[RealWindow],
+    feats: Vec<(RealWindow, [f64; eyereplay_detect::FEATURE_COUNT])>,
+    thresholds: &BTreeMap<String, f64>,
+) -> ConditionResult {
+    let reps = p.bootstrap_replicates;
+    let all: Vec<&RealWindow> = rows.iter().collect();
+    let nontrivial: Vec<&RealWindow> = rows.iter().filter(|r| !r.trivial).collect();
+    let ceiling = ceiling_scores(&feats, p.seed);
+    let ceil_all: Vec<&RealWindow> = ceiling.iter().collect();
+    let ceil_nt: Vec<&RealWindow> = ceiling.iter().filter(|r| !r.trivial).collect();
+    let called = |r: &RealWindow| r.model >= thresholds.get(&r.fold).copied().unwrap_or(0.5);
+    let rate = |reading: bool| {
+        let v: Vec<&&RealWindow> = all.iter().filter(|r| r.reading == reading).collect();
+        v.iter().filter(|r| called(r)).count() as f64 / v.len().max(1) as f64
+    };
+    let mut per_recording = Vec::new();
+    let mut keys: Vec<(String, String)> = rows
+        .iter()
+        .map(|r| (r.fold.clone(), r.recording.clone()))
+        .collect();
+    keys.dedup();
+    keys.sort();
+    keys.dedup();
+    for (fold, rec) in keys {
+        let v: Vec<&RealWindow> = rows
+            .iter()
+            .filter(|r| r.fold == fold && r.recording == rec)
+            .collect();
+        per_recording.push(RecordingScore {
+            reading: v[0].reading,
+            windows: v.len(),
+            mean_probability: v.iter().map(|r| r.model).sum::<f64>() / v.len() as f64,
+            called_reading: v.iter().filter(|r| called(r)).count() as f64 / v.len() as f64,
+            fold,
+            recording: rec,
+        });
+    }
+    let roc = |v: &[&RealWindow], f: &dyn Fn(&RealWindow) -> f64| {
+        let s: Vec<f64> = v.iter().map(|r| f(r)).collect();
+        let l: Vec<bool> = v.iter().map(|r| r.reading).collect();
+        roc_curve(&s, &l)
+    };
+    ConditionResult {
+        window_s: w,
+        mode: mode.to_string(),
+        condition: condition.to_string(),
+        model: ci(&all, |r| r.model, reps, p.seed),
+        rule: ci(&all, |r| r.rule, reps, p.seed),
+        ceiling: ci(&ceil_all, |r| r.model, reps, p.seed),
+        model_nontrivial: ci(&nontrivial, |r| r.model, reps, p.seed),
+        rule_nontrivial: ci(&nontrivial, |r| r.rule, reps, p.seed),
+        ceiling_nontrivial: ci(&ceil_nt, |r| r.model, reps, p.seed),
+        true_positive_rate: rate(true),
+        false_positive_rate: rate(false),
+        per_recording,
+        roc_model: roc(&all, &|r| r.model),
+        roc_rule: roc(&all, &|r| r.rule),
+        roc_ceiling: roc(&ceil_all, &|r| r.model),
+    }
+}

@@ -1,0 +1,304 @@
+//! `evaluate-detector`'s outputs: `detector_eval.json` (every number) and
+//! `index.html` (tables and ROC curves a person can read), plus the
+//! figures as PNG and SVG under `figures/`.
+
+use crate::detector_eval::{ConditionResult, DetectorEvaluation};
+use crate::Result;
+use eyereplay_detect::model::write_atomic;
+use eyereplay_detect::AurocCi;
+use eyereplay_eval::plot::{roc_figure, Figure, RocCurve};
+use std::fmt::Write as _;
+use std::path::Path;
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn auc(a: &Option<AurocCi>) -> String {
+    match a {
+        Some(a) if a.units_reading > 1 || a.units_other > 1 => {
+            format!("{:.3} [{:.2}, {:.2}]", a.auroc, a.low, a.high)
+        }
+        Some(a) => format!("{:.3} (one person a class: no interval)", a.auroc),
+        None => "n/a".into(),
+    }
+}
+
+fn condition_label(c: &str) -> String {
+    match c.strip_prefix("noise_") {
+        Some(k) => format!("clean + noise k = {k}"),
+        None => "rendered, then extracted".into(),
+    }
+}
+
+fn png_b64(f: &Figure) -> String {
+    use base64::Engine;
+    base64::engine::general_purpose::STANDARD.encode(&f.png)
+}
+
+pub(crate) fn write(out: &Path, ev: &DetectorEvaluation) -> Result<()> {
+    let mut json = serde_json::to_string_pretty(ev).expect("evaluation serializes");
+    json.push('\n');
+    write_atomic(&out.join("detector_eval.json"), json.as_bytes())?;
+    let figs_dir = out.join("figures");
+    let mut figs = Vec::new();
+    let mut keys: Vec<(f64, String)> = ev
+        .conditions
+        .iter()
+        .map(|c| (c.window_s, c.mode.clone()))
+        .collect();
+    keys.dedup();
+    for (w, mode) in &keys {
+        let panels: Vec<(String, Vec<RocCurve>)> = ev
+            .conditions
+            .iter()
+            .filter(|c| c.window_s == *w && &c.mode == mode)
+            .map(|c| {
+                let mut curves = Vec::new();
+                for (name, pts, a) in [
+                    ("synthetic-trained", &c.roc_model, &c.model),
+                    ("zero-training rule", &c.roc_rule, &c.rule),
+                    ("real-trained ceiling", &c.roc_ceiling, &c.ceiling),
+                ] {
+                    if let Some(a) = a {
+                        curves.push(RocCurve {
+                            label: format!("{name} {:.2}", a.auroc),
+                            points: pts.clone(),
+                        });
+                    }
+                }
+                (
+                    format!("{} ({} s)", condition_label(&c.condition), w),
+                    curves,
+                )
+            })
+            .collect();
+        let name = format!("roc_{mode}_{w}s");
+        let f = roc_figure(&name, &panels)?;
+        write_atomic(&figs_dir.join(format!("{name}.png")), &f.png)?;
+        write_atomic(&figs_dir.join(format!("{name}.svg")), f.svg.as_bytes())?;
+        figs.push((w, mode.clone(), f));
+    }
+    let html = html(ev, &figs);
+    write_atomic(&out.join("index.html"), html.as_bytes())?;
+    Ok(())
+}
+
+fn table_head(h: &mut String, cols: &[&str]) {
+    h.push_str("<table><tr>");
+    for c in cols {
+        let _ = write!(h, "<th>{c}</th>");
+    }
+    h.push_str("</tr>\n");
+}
+
+fn row(h: &mut String, cells: &[String]) {
+    h.push_str("<tr>");
+    for c in cells {
+        let _ = write!(h, "<td>{c}</td>");
+    }
+    h.push_str("</tr>\n");
+}
+
+fn html(ev: &DetectorEvaluation, figs: &[(&f64, String, Figure)]) -> String {
+    let mut h = String::from(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>eyereplay: the reading detector on real recordings</title>\n<style>\n\
+body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;max-width:1440px;margin:2em auto;padding:0 1em;color:#222}\n\
+table{border-collapse:collapse;margin:0.8em 0}td,th{border:1px solid #ccc;padding:4px 10px;text-align:right}\n\
+th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}\n\
+figure{margin:1em 0}img{max-width:100%;height:auto;border:1px solid #ddd}figcaption{color:#555;font-size:0.9em}\n\
+.note{background:#fff8e1;border-left:4px solid #f0b400;padding:0.6em 1em}code{background:#f3f3f3;padding:0 3px}\n\
+</style></head><body>\n<h1>The reading detector on real recordings</h1>\n",
+    );
+    let _ = writeln!(
+        h,
+        "<p>Protocol <code>{}</code>, seed {}. A logistic regression over 14 gaze features, trained only on synthetic \
+video (what <code>eyereplay extract</code> reads from each rendered session), scored on real recordings it never saw. \
+Beside it on the same windows: the <b>zero-training rule</b> (share of saccades in runs of 3 or more forward saccades) \
+and a <b>ceiling</b> trained on the real windows themselves, leaving one person out. AUROC with a 95 % interval from a \
+bootstrap over people.</p>",
+        esc(&ev.protocol),
+        ev.seed
+    );
+    h.push_str("<h2>AUROC on held-out real eye-tracker recordings</h2>\n");
+    table_head(
+        &mut h,
+        &[
+            "window",
+            "training video",
+            "test data",
+            "synthetic-trained",
+            "zero-training rule",
+            "real-trained ceiling",
+            "TPR / FPR at threshold",
+            "without fixation tasks: synthetic / rule / ceiling",
+        ],
+    );
+    for c in &ev.conditions {
+        row(
+            &mut h,
+            &[
+                format!("{} s", c.window_s),
+                esc(&c.mode),
+                condition_label(&c.condition),
+                auc(&c.model),
+                auc(&c.rule),
+                auc(&c.ceiling),
+                format!("{:.2} / {:.2}", c.true_positive_rate, c.false_positive_rate),
+                format!(
+                    "{} / {} / {}",
+                    auc(&c.model_nontrivial),
+                    auc(&c.rule_nontrivial),
+                    auc(&c.ceiling_nontrivial)
+                ),
+            ],
+        );
+    }
+    h.push_str("</table>\n");
+    h.push_str("<h2>False positives on real talking-face webcam video</h2>\n<p>Only negatives exist here, so the rate of windows called reading at the threshold fixed on synthetic validation data (the rule: at its threshold fixed on the synthetic training windows).</p>\n");
+    table_head(
+        &mut h,
+        &[
+            "window",
+            "training video",
+            "fold",
+            "video",
+            "windows",
+            "synthetic-trained FPR",
+            "rule FPR",
+        ],
+    );
+    for w in &ev.webcam {
+        row(
+            &mut h,
+            &[
+                format!("{} s", w.window_s),
+                esc(&w.mode),
+                esc(&w.fold),
+                esc(&w.recording),
+                w.windows.to_string(),
+                format!("{:.2}", w.false_positive_rate),
+                format!("{:.2}", w.rule_false_positive_rate),
+            ],
+        );
+    }
+    h.push_str("</table>\n<h2>ROC curves</h2>\n");
+    for (w, mode, f) in figs {
+        let _ = writeln!(
+            h,
+            "<figure><img alt=\"ROC curves, {mode}, {w} s\" width=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>ROC, training video {mode}, {w} s windows (<a href=\"figures/{}.svg\">SVG</a>)</figcaption></figure>",
+            f.size.0,
+            png_b64(f),
+            f.name
+        );
+    }
+    h.push_str("<h2>Real recordings</h2>\n");
+    table_head(
+        &mut h,
+        &[
+            "recording",
+            "person",
+            "class",
+            "task",
+            "duration",
+            "held out in fold",
+        ],
+    );
+    for r in &ev.recordings {
+        row(
+            &mut h,
+            &[
+                esc(&r.name),
+                esc(&r.person),
+                if r.reading { "reading" } else { "other" }.into(),
+                format!(
+                    "{}{}{}",
+                    esc(&r.task),
+                    if r.trivial { " (trivial)" } else { "" },
+                    if r.webcam { " (webcam video)" } else { "" }
+                ),
+                format!("{:.0} s", r.duration_s),
+                esc(&r.folds.join(", ")),
+            ],
+        );
+    }
+    h.push_str("</table>\n<h2>Per recording</h2>\n<p>Mean reading probability and the share of windows called reading, by the fold's model.</p>\n");
+    table_head(
+        &mut h,
+        &[
+            "window",
+            "training video",
+            "test data",
+            "fold",
+            "recording",
+            "class",
+            "windows",
+            "mean P(reading)",
+            "called reading",
+        ],
+    );
+    for c in &ev.conditions {
+        per_recording(&mut h, c);
+    }
+    h.push_str("</table>\n<h2>Fold models</h2>\n");
+    table_head(
+        &mut h,
+        &[
+            "window",
+            "training video",
+            "fold",
+            "training windows",
+            "synthetic validation AUROC",
+            "threshold",
+            "rule threshold",
+            "largest weights (standardized features)",
+        ],
+    );
+    for m in &ev.models {
+        let mut w = m.weights.clone();
+        w.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+        let top: Vec<String> = w
+            .iter()
+            .take(4)
+            .map(|(n, v)| format!("{n} {v:+.2}"))
+            .collect();
+        row(
+            &mut h,
+            &[
+                format!("{} s", m.window_s),
+                esc(&m.mode),
+                esc(&m.fold),
+                m.train_windows.to_string(),
+                m.validation_auroc
+                    .map_or("n/a".into(), |a| format!("{a:.3}")),
+                format!("{:.3}", m.threshold),
+                format!("{:.3}", m.rule_threshold),
+                esc(&top.join(", ")),
+            ],
+        );
+    }
+    h.push_str("</table>\n<p>Every number is in <code>detector_eval.json</code> beside this page.</p>\n</body></html>\n");
+    h
+}
+
+fn per_recording(h: &mut String, c: &ConditionResult) {
+    for r in &c.per_recording {
+        row(
+            h,
+            &[
+                format!("{} s", c.window_s),
+                esc(&c.mode),
+                condition_label(&c.condition),
+                esc(&r.fold),
+                esc(&r.recording),
+                if r.reading { "reading" } else { "other" }.into(),
+                r.windows.to_string(),
+                format!("{:.3}", r.mean_probability),
+                format!("{:.2}", r.called_reading),
+            ],
+        );
+    }
+}
