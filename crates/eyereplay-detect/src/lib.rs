@@ -14,6 +14,7 @@
 //! input in training (on rendered video) and in use (on a real one); the
 //! umbrella crate `eyereplay` wires it to datasets and videos.
 
+pub mod cnn;
 mod error;
 pub mod features;
 pub mod metrics;

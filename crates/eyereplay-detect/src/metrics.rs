@@ -255,3 +255,115 @@ mod tests {
         assert_eq!(ci, auroc_bootstrap(&w, 500, 0.95, 7).unwrap());
     }
 }
+
+/// The AUROC of one reading person against one non-reading person, under
+/// one model: what [`pairwise_auroc`] averages.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PairAuroc {
+    pub reader: String,
+    pub other: String,
+    pub auroc: f64,
+    pub other_windows: usize,
+}
+
+/// The AUROC of reading people against non-reading people when each reader
+/// may be scored by a different model (one per fold, or one per held-out
+/// pair): for each reader, the Mann-Whitney AUROC against all non-readers
+/// is the window-weighted mean of its pair AUROCs, which needs no score to
+/// be compared across models; readers are then averaged. The interval
+/// comes from a bootstrap over people: each replicate draws readers and
+/// non-readers with replacement and recomputes the same mean.
+pub fn pairwise_auroc(
+    pairs: &[PairAuroc],
+    replicates: usize,
+    level: f64,
+    seed: u64,
+) -> Option<AurocCi> {
+    let mut readers: Vec<&str> = pairs.iter().map(|p| p.reader.as_str()).collect();
+    readers.sort_unstable();
+    readers.dedup();
+    let mut others: Vec<&str> = pairs.iter().map(|p| p.other.as_str()).collect();
+    others.sort_unstable();
+    others.dedup();
+    if readers.is_empty() || others.is_empty() {
+        return None;
+    }
+    let value = |rs: &[&str], os: &[&str]| -> Option<f64> {
+        let mut per_reader = Vec::new();
+        for r in rs {
+            let (mut num, mut den) = (0.0, 0.0);
+            for o in os {
+                for p in pairs.iter().filter(|p| p.reader == *r && p.other == *o) {
+                    num += p.auroc * p.other_windows as f64;
+                    den += p.other_windows as f64;
+                }
+            }
+            if den > 0.0 {
+                per_reader.push(num / den);
+            }
+        }
+        (!per_reader.is_empty()).then(|| per_reader.iter().sum::<f64>() / per_reader.len() as f64)
+    };
+    let point = value(&readers, &others)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut values = Vec::with_capacity(replicates);
+    for _ in 0..replicates {
+        let rs: Vec<&str> = (0..readers.len())
+            .map(|_| readers[rng.gen_range(0..readers.len())])
+            .collect();
+        let os: Vec<&str> = (0..others.len())
+            .map(|_| others[rng.gen_range(0..others.len())])
+            .collect();
+        if let Some(v) = value(&rs, &os) {
+            values.push(v);
+        }
+    }
+    values.sort_by(f64::total_cmp);
+    let alpha = (1.0 - level) / 2.0;
+    let q = |p: f64| eyereplay_signal::stats::quantile_sorted(&values, p).unwrap_or(point);
+    Some(AurocCi {
+        auroc: point,
+        low: q(alpha),
+        high: q(1.0 - alpha),
+        level,
+        replicates,
+        windows_reading: 0,
+        windows_other: pairs.iter().map(|p| p.other_windows).sum(),
+        units_reading: readers.len(),
+        units_other: others.len(),
+    })
+}
+
+#[cfg(test)]
+mod pair_tests {
+    use super::*;
+
+    #[test]
+    fn pairwise_auroc_is_the_window_weighted_mean_per_reader() {
+        let p = |r: &str, o: &str, a: f64, n: usize| PairAuroc {
+            reader: r.into(),
+            other: o.into(),
+            auroc: a,
+            other_windows: n,
+        };
+        // Reader a: (1.0 * 10 + 0.5 * 30) / 40 = 0.625; reader b: 0.9.
+        let pairs = [
+            p("a", "x", 1.0, 10),
+            p("a", "y", 0.5, 30),
+            p("b", "x", 0.9, 10),
+            p("b", "y", 0.9, 30),
+        ];
+        let ci = pairwise_auroc(&pairs, 300, 0.95, 3).unwrap();
+        assert!((ci.auroc - (0.625 + 0.9) / 2.0).abs() < 1e-12);
+        assert!(ci.low >= 0.5 && ci.high <= 1.0 && ci.low <= ci.auroc && ci.auroc <= ci.high);
+        assert_eq!((ci.units_reading, ci.units_other), (2, 2));
+        // Equal to the pooled AUROC when one model scores everything.
+        let scores = [0.9, 0.8, 0.3, 0.85, 0.2, 0.1];
+        let labels = [true, true, false, false, false, false];
+        let pooled = auroc(&scores, &labels).unwrap();
+        let ax = auroc(&[0.9, 0.8, 0.3, 0.85], &[true, true, false, false]).unwrap();
+        let ay = auroc(&[0.9, 0.8, 0.2, 0.1], &[true, true, false, false]).unwrap();
+        let split = pairwise_auroc(&[p("r", "x", ax, 2), p("r", "y", ay, 2)], 10, 0.95, 1).unwrap();
+        assert!((split.auroc - pooled).abs() < 1e-12);
+    }
+}

@@ -438,10 +438,14 @@ pub fn train_detector(
     let examples: Vec<Example> = tracks
         .iter()
         .flat_map(|t| {
-            windows(&t.track, spec)
-                .into_iter()
-                .map(|w| Example::of(&w, t.reading, t.id.clone()))
-                .collect::<Vec<_>>()
+            eyereplay_detect::model::session_examples(
+                &t.track,
+                t.reading,
+                &t.id,
+                spec,
+                opts.train.noise_copies,
+                opts.train.seed,
+            )
         })
         .collect();
     let names = datasets.iter().map(|d| d.display().to_string()).collect();

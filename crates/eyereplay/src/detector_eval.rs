@@ -24,17 +24,16 @@ use crate::detector::{dataset_tracks, extract_cached, extract_csv_track, TrainIn
 use crate::generate::{generate, plan_config, GenerateOptions};
 use crate::progress::Progress;
 use crate::{Error, Result};
-use eyereplay_core::{GazeClass, NormPos, Sample};
-use eyereplay_detect::metrics::{balanced_threshold, rate_at, roc_curve};
+use eyereplay_core::GazeClass;
+use eyereplay_detect::metrics::{
+    balanced_threshold, pairwise_auroc, rate_at, roc_curve, PairAuroc,
+};
 use eyereplay_detect::{
-    auroc_bootstrap, rule_score, windows, AurocCi, DetectorModel, Example, ScoredWindow, Track,
-    TrainOptions, Window, WindowSpec, FPS,
+    rule_score, windows, AurocCi, DetectorModel, Example, Track, TrainOptions, Window, WindowSpec,
+    FPS,
 };
 use eyereplay_prepare::{ClassConfig, DatasetConfig};
 use eyereplay_sources::SourceSpec;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -51,6 +50,9 @@ fn d_noise() -> Vec<f64> {
 fn d_reps() -> usize {
     2000
 }
+fn d_copies() -> usize {
+    eyereplay_detect::model::AUGMENT_COPIES
+}
 
 /// The protocol file.
 #[derive(Clone, Debug, Deserialize)]
@@ -66,6 +68,11 @@ pub struct Protocol {
     pub noise_levels: Vec<f64>,
     #[serde(default = "d_reps")]
     pub bootstrap_replicates: usize,
+    /// Noisy copies of each training session (`eyereplay train` makes
+    /// [`eyereplay_detect::model::AUGMENT_COPIES`]); 0 trains on the
+    /// rendered sessions alone.
+    #[serde(default = "d_copies")]
+    pub training_noise_copies: usize,
     /// Render modes by name.
     pub modes: BTreeMap<String, ModeSpec>,
     pub recording: Vec<RecordingSpec>,
@@ -221,6 +228,9 @@ impl Protocol {
         if self.fold.is_empty() {
             return bad("no [[fold]]".into());
         }
+        if self.modes.is_empty() {
+            return bad("no [modes]: name at least one render mode".into());
+        }
         Ok(())
     }
 
@@ -233,58 +243,43 @@ fn canonical(p: &Path) -> PathBuf {
     p.canonicalize().unwrap_or_else(|_| p.to_path_buf())
 }
 
-/// A recording's 25 fps tracks straight from its samples (one per gap-free
-/// piece), in normalized iris units.
-fn clean_tracks(
-    p: &Protocol,
-    r: &RecordingSpec,
-    read: &eyereplay_sources::ReadOptions,
-) -> Result<Vec<Track>> {
-    let mut spec = r.source.clone();
-    *spec.path_mut() = p.resolve(r.source.path());
-    let recs = eyereplay_sources::read_source(&spec, read)?;
-    let mut out = Vec::new();
-    for rec in &recs {
-        for seg in &rec.segments {
-            let samples: Vec<&Sample<NormPos>> = seg.samples().iter().collect();
-            out.push(crate::detector::resample_samples(&samples));
-        }
-    }
-    Ok(out)
+/// A recording as the dataset pipeline prepared it (stages 2-5: blink
+/// filter, smoothing, 25 fps, its pieces concatenated, exactly as the
+/// rendered sessions were cut from it), mapped back from canvas px to
+/// normalized iris units with the dataset's calibration: the same
+/// representation as the training data, without the render.
+fn pool_track(dir: &Path, reading: bool) -> Result<Track> {
+    let meta = eyereplay_dataset::read_metadata(dir)?;
+    let d = &meta.dataset;
+    let cal = d
+        .calibration
+        .or_else(|| d.sources.first().map(|s| s.calibration))
+        .ok_or_else(|| Error::input(dir.join("metadata.json"), "no calibration"))?;
+    let pool =
+        eyereplay_dataset::read_pool(&dir.join(eyereplay_dataset::pool_file(class_of(reading))))?;
+    Ok(Track::new(
+        pool.iter()
+            .flat_map(|seg| seg.points.iter())
+            .map(|p| {
+                let n = cal.canvas_to_norm(eyereplay_core::CanvasPos {
+                    x_px: p[0],
+                    y_px: p[1],
+                });
+                [n.nx, n.ny]
+            })
+            .collect(),
+    ))
 }
 
-/// White noise of `k` times the recording's 5-95 % x range on both axes,
-/// seeded by the protocol seed, the recording and `k`.
+/// The `noise_k` degradation of one recording's tracks, seeded by the
+/// protocol seed, the recording and `k`.
 fn with_noise(tracks: &[Track], k: f64, seed: u64, name: &str) -> Vec<Track> {
-    if k == 0.0 {
-        return tracks.to_vec();
-    }
-    let xs: Vec<f64> = tracks
-        .iter()
-        .flat_map(|t| t.xy.iter().map(|p| p[0]))
-        .filter(|v| v.is_finite())
-        .collect();
-    let range = eyereplay_signal::stats::quantile(&xs, 0.95).unwrap_or(0.0)
-        - eyereplay_signal::stats::quantile(&xs, 0.05).unwrap_or(0.0);
-    let mut h = seed ^ (k * 1e6) as u64;
-    for b in name.bytes() {
-        h = h.wrapping_mul(0x100000001b3).wrapping_add(u64::from(b));
-    }
-    let mut rng = ChaCha8Rng::seed_from_u64(h);
-    let normal = Normal::new(0.0, (k * range).max(1e-12)).expect("finite sigma");
     tracks
         .iter()
-        .map(|t| {
-            Track::new(
-                t.xy.iter()
-                    .map(|p| {
-                        [
-                            p[0] + normal.sample(&mut rng),
-                            p[1] + normal.sample(&mut rng),
-                        ]
-                    })
-                    .collect(),
-            )
+        .enumerate()
+        .map(|(i, t)| {
+            let s = eyereplay_detect::window::name_seed(seed ^ k.to_bits(), &format!("{name}#{i}"));
+            eyereplay_detect::window::with_white_noise(t, k, s)
         })
         .collect()
 }
@@ -293,6 +288,9 @@ fn with_noise(tracks: &[Track], k: f64, seed: u64, name: &str) -> Vec<Track> {
 fn all_windows(tracks: &[Track], spec: WindowSpec) -> Vec<Window> {
     tracks.iter().flat_map(|t| windows(t, spec)).collect()
 }
+
+/// A real window's score and its features (for the ceiling).
+type ScoredFeatures = (RealWindow, [f64; eyereplay_detect::FEATURE_COUNT]);
 
 /// A scored window of a real recording, with the rule's score beside it.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -304,6 +302,8 @@ pub struct RealWindow {
     pub trivial: bool,
     pub model: f64,
     pub rule: f64,
+    /// The 1D-CNN's probability.
+    pub cnn: f64,
 }
 
 /// AUROC of the model, the rule and the ceiling on one set of windows.
@@ -314,11 +314,14 @@ pub struct ConditionResult {
     /// `rendered` or `noise_<k>`.
     pub condition: String,
     pub model: Option<AurocCi>,
+    /// The 1D-CNN trained on the same synthetic windows.
+    pub cnn: Option<AurocCi>,
     pub rule: Option<AurocCi>,
     /// Trained on the real windows, leaving one person out.
     pub ceiling: Option<AurocCi>,
     /// The same three without the trivial (fixation-task) negatives.
     pub model_nontrivial: Option<AurocCi>,
+    pub cnn_nontrivial: Option<AurocCi>,
     pub rule_nontrivial: Option<AurocCi>,
     pub ceiling_nontrivial: Option<AurocCi>,
     /// Reading windows called reading, and other windows called reading,
@@ -328,7 +331,7 @@ pub struct ConditionResult {
     /// Mean model probability per recording (and fold).
     pub per_recording: Vec<RecordingScore>,
     #[serde(skip)]
-    pub roc_model: Vec<(f64, f64)>,
+    pub roc_model: Vec<(String, Vec<(f64, f64)>)>,
     #[serde(skip)]
     pub roc_rule: Vec<(f64, f64)>,
     #[serde(skip)]
@@ -358,6 +361,8 @@ pub struct WebcamResult {
     /// The same for the rule at its threshold fixed on the synthetic
     /// training windows.
     pub rule_false_positive_rate: f64,
+    /// The same for the 1D-CNN.
+    pub cnn_false_positive_rate: f64,
 }
 
 /// A fold model's training, for the report.
@@ -370,6 +375,8 @@ pub struct FoldModel {
     pub validation_auroc: Option<f64>,
     pub threshold: f64,
     pub rule_threshold: f64,
+    /// The 1D-CNN's threshold: balanced accuracy on its training windows.
+    pub cnn_threshold: f64,
     pub weights: Vec<(String, f64)>,
 }
 
@@ -465,22 +472,58 @@ pub fn evaluate_detector(
 
     // 2. Real recordings: clean tracks, rendered-and-extracted tracks per
     //    mode, webcam tracks.
-    let read = eyereplay_sources::ReadOptions {
-        seed: p.seed,
-        ..Default::default()
-    };
     let mut clean: BTreeMap<String, Vec<Track>> = BTreeMap::new();
     let mut rendered: BTreeMap<(String, String), Vec<Track>> = BTreeMap::new();
     let mut infos = Vec::new();
     for r in &used {
-        let tracks = if r.is_webcam() {
+        if r.is_webcam() {
             let video = p.resolve(r.source.path());
             let csv = extract_cached(&[video], cache, progress)?.remove(0);
-            vec![extract_csv_track(&csv)?]
-        } else {
-            clean_tracks(&p, r, &read)?
-        };
-        let frames: usize = tracks.iter().map(Track::len).sum();
+            clean.insert(r.name.clone(), vec![extract_csv_track(&csv)?]);
+        }
+        for (mode, spec) in p.modes.iter().filter(|_| !r.is_webcam()) {
+            let template = p.resolve(&spec.render);
+            let mut cfg = DatasetConfig::load(&template)?;
+            let mut source = r.source.clone();
+            *source.path_mut() = canonical(&p.resolve(r.source.path()));
+            let mut spec = source.clone();
+            *spec.path_mut() = canonical(&p.resolve(r.source.path()));
+            // The recording's gaze time, its gap-free pieces at 25 fps.
+            let frames: usize = eyereplay_sources::read_source(&spec, &cfg.read)?
+                .iter()
+                .flat_map(|rec| rec.segments.iter())
+                .map(|seg| {
+                    let v: Vec<&eyereplay_core::Sample<eyereplay_core::NormPos>> =
+                        seg.samples().iter().collect();
+                    crate::detector::resample_samples(&v).len()
+                })
+                .sum();
+            // As many whole sessions as the recording fills (at least one).
+            let sessions = (frames / cfg.session_frames.max(1)).max(1);
+            cfg.classes = BTreeMap::from([(
+                class_of(r.reading),
+                ClassConfig {
+                    sessions,
+                    speed_scale: None,
+                    sources: vec![source],
+                },
+            )]);
+            let dir = out.join("real").join(mode).join(&r.name);
+            progress.info(&format!(
+                "{}: rendering {sessions} session(s) in mode {mode} to read back",
+                r.name
+            ));
+            generate_into(cfg, &template, &dir, cache, progress)?;
+            if !clean.contains_key(&r.name) {
+                clean.insert(r.name.clone(), vec![pool_track(&dir, r.reading)?]);
+            }
+            let t = dataset_tracks(&[dir], TrainInput::Extracted, cache, progress)?;
+            rendered.insert(
+                (r.name.clone(), mode.clone()),
+                t.into_iter().map(|l| l.track).collect(),
+            );
+        }
+        let frames: usize = clean[&r.name].iter().map(Track::len).sum();
         infos.push(RecordingInfo {
             name: r.name.clone(),
             person: r.person.clone(),
@@ -496,35 +539,6 @@ pub fn evaluate_detector(
                 .map(|f| f.name.clone())
                 .collect(),
         });
-        if !r.is_webcam() {
-            for (mode, spec) in &p.modes {
-                let template = p.resolve(&spec.render);
-                let mut cfg = DatasetConfig::load(&template)?;
-                let sessions = (frames / cfg.session_frames.max(1)).max(1);
-                let mut source = r.source.clone();
-                *source.path_mut() = canonical(&p.resolve(r.source.path()));
-                cfg.classes = BTreeMap::from([(
-                    class_of(r.reading),
-                    ClassConfig {
-                        sessions,
-                        speed_scale: None,
-                        sources: vec![source],
-                    },
-                )]);
-                let dir = out.join("real").join(mode).join(&r.name);
-                progress.info(&format!(
-                    "{}: rendering {sessions} session(s) in mode {mode} to read back",
-                    r.name
-                ));
-                generate_into(cfg, &template, &dir, cache, progress)?;
-                let t = dataset_tracks(&[dir], TrainInput::Extracted, cache, progress)?;
-                rendered.insert(
-                    (r.name.clone(), mode.clone()),
-                    t.into_iter().map(|l| l.track).collect(),
-                );
-            }
-        }
-        clean.insert(r.name.clone(), tracks);
     }
 
     let mut models = Vec::new();
@@ -550,10 +564,10 @@ pub fn evaluate_detector(
         for mode in p.modes.keys() {
             // Real windows per condition, over all folds.
             let mut per_cond: BTreeMap<String, Vec<RealWindow>> = BTreeMap::new();
-            let mut feats: BTreeMap<
-                String,
-                Vec<(RealWindow, [f64; eyereplay_detect::FEATURE_COUNT])>,
-            > = BTreeMap::new();
+            let mut feats: BTreeMap<String, Vec<ScoredFeatures>> = BTreeMap::new();
+            // Webcam windows: scored for false positives; the ceiling also
+            // trains on them (more kinds of non-reading), never tests.
+            let mut webcam_rows: Vec<ScoredFeatures> = Vec::new();
             for fold in &p.fold {
                 let Some(tt) = train_tracks.get(&(fold.name.clone(), mode.clone())) else {
                     continue;
@@ -561,10 +575,14 @@ pub fn evaluate_detector(
                 let examples: Vec<Example> = tt
                     .iter()
                     .flat_map(|t| {
-                        windows(&t.track, WindowSpec::half_overlap(w))
-                            .into_iter()
-                            .map(|win| Example::of(&win, t.reading, t.id.clone()))
-                            .collect::<Vec<_>>()
+                        eyereplay_detect::model::session_examples(
+                            &t.track,
+                            t.reading,
+                            &t.id,
+                            WindowSpec::half_overlap(w),
+                            p.training_noise_copies,
+                            p.seed,
+                        )
                     })
                     .collect();
                 let model = eyereplay_detect::train(
@@ -572,6 +590,7 @@ pub fn evaluate_detector(
                     w,
                     TrainOptions {
                         seed: p.seed,
+                        noise_copies: p.training_noise_copies,
                         ..TrainOptions::default()
                     },
                     vec![],
@@ -587,6 +606,31 @@ pub fn evaluate_detector(
                     })
                     .unzip();
                 let rule_threshold = balanced_threshold(&rs, &rl);
+                // The 1D-CNN on the same sessions' windows (no noisy copies).
+                let (cnn_w, cnn_l): (Vec<Window>, Vec<bool>) = tt
+                    .iter()
+                    .flat_map(|t| {
+                        windows(&t.track, WindowSpec::half_overlap(w))
+                            .into_iter()
+                            .map(|win| (win, t.reading))
+                            .collect::<Vec<_>>()
+                    })
+                    .unzip();
+                progress.info(&format!(
+                    "fold {}, {mode}, {w} s: training the 1D-CNN on {} windows",
+                    fold.name,
+                    cnn_w.len()
+                ));
+                let cnn = eyereplay_detect::cnn::train_cnn(
+                    &cnn_w,
+                    &cnn_l,
+                    eyereplay_detect::cnn::CnnOptions {
+                        seed: p.seed,
+                        ..Default::default()
+                    },
+                )?;
+                let cnn_train = cnn.probabilities(&cnn_w.iter().collect::<Vec<_>>())?;
+                let cnn_threshold = balanced_threshold(&cnn_train, &cnn_l);
                 models.push(FoldModel {
                     window_s: w,
                     mode: mode.clone(),
@@ -595,6 +639,7 @@ pub fn evaluate_detector(
                     validation_auroc: model.training.validation_auroc,
                     threshold: model.threshold,
                     rule_threshold,
+                    cnn_threshold,
                     weights: model
                         .features
                         .iter()
@@ -604,29 +649,41 @@ pub fn evaluate_detector(
                 });
                 for name in &fold.test {
                     let r = p.recording_named(name).expect("checked");
-                    let score = |wins: Vec<Window>, m: &DetectorModel| -> Vec<(RealWindow, [f64; eyereplay_detect::FEATURE_COUNT])> {
-                        wins.iter()
-                            .map(|win| {
-                                let f = eyereplay_detect::features(win);
-                                (
-                                    RealWindow {
-                                        fold: fold.name.clone(),
-                                        recording: r.name.clone(),
-                                        person: r.person.clone(),
-                                        reading: r.reading,
-                                        trivial: r.trivial,
-                                        model: m.probability_of(&f),
-                                        rule: rule_score(win),
-                                    },
-                                    f,
-                                )
-                            })
-                            .collect()
-                    };
+                    let score =
+                        |wins: Vec<Window>, m: &DetectorModel| -> Result<Vec<ScoredFeatures>> {
+                            let refs: Vec<&Window> = wins.iter().collect();
+                            let cnn_p = cnn.probabilities(&refs)?;
+                            Ok(wins
+                                .iter()
+                                .zip(cnn_p)
+                                .map(|(win, cnn_p)| {
+                                    let f = eyereplay_detect::features(win);
+                                    (
+                                        RealWindow {
+                                            fold: fold.name.clone(),
+                                            recording: r.name.clone(),
+                                            person: r.person.clone(),
+                                            reading: r.reading,
+                                            trivial: r.trivial,
+                                            model: m.probability_of(&f),
+                                            rule: rule_score(win),
+                                            cnn: cnn_p,
+                                        },
+                                        f,
+                                    )
+                                })
+                                .collect())
+                        };
                     if r.is_webcam() {
-                        let scored = score(all_windows(&clean[name], score_spec), &model);
+                        let scored = score(all_windows(&clean[name], score_spec), &model)?;
+                        if p.fold.iter().position(|f| f.test.contains(name))
+                            == p.fold.iter().position(|f| f.name == fold.name)
+                        {
+                            webcam_rows.extend(scored.iter().cloned());
+                        }
                         let ms: Vec<f64> = scored.iter().map(|s| s.0.model).collect();
                         let rs: Vec<f64> = scored.iter().map(|s| s.0.rule).collect();
+                        let cs: Vec<f64> = scored.iter().map(|s| s.0.cnn).collect();
                         webcam.push(WebcamResult {
                             window_s: w,
                             mode: mode.clone(),
@@ -635,6 +692,7 @@ pub fn evaluate_detector(
                             windows: ms.len(),
                             false_positive_rate: rate_at(&ms, model.threshold),
                             rule_false_positive_rate: rate_at(&rs, rule_threshold),
+                            cnn_false_positive_rate: rate_at(&cs, cnn_threshold),
                         });
                         continue;
                     }
@@ -645,7 +703,7 @@ pub fn evaluate_detector(
                             let k: f64 = c["noise_".len()..].parse().expect("own format");
                             with_noise(&clean[name], k, p.seed, name)
                         };
-                        let scored = score(all_windows(&tracks, score_spec), &model);
+                        let scored = score(all_windows(&tracks, score_spec), &model)?;
                         per_cond
                             .entry(c.clone())
                             .or_default()
@@ -668,11 +726,10 @@ pub fn evaluate_detector(
                     .collect();
                 conditions.push(condition_result(
                     &p,
-                    w,
-                    mode,
-                    c,
+                    (w, mode, c),
                     &rows,
                     feats.remove(c).unwrap_or_default(),
+                    &webcam_rows,
                     &thresholds,
                 ));
             }
@@ -692,81 +749,139 @@ pub fn evaluate_detector(
     Ok(eval)
 }
 
-fn ci(
-    rows: &[&RealWindow],
-    score: impl Fn(&RealWindow) -> f64,
-    reps: usize,
-    seed: u64,
-) -> Option<AurocCi> {
-    let w: Vec<ScoredWindow> = rows
+/// Persons of `rows` by class, sorted.
+fn persons(rows: &[&RealWindow], reading: bool) -> Vec<String> {
+    let mut v: Vec<String> = rows
         .iter()
-        .map(|r| ScoredWindow {
-            unit: r.person.clone(),
-            reading: r.reading,
-            score: score(r),
-        })
+        .filter(|r| r.reading == reading)
+        .map(|r| r.person.clone())
         .collect();
-    auroc_bootstrap(&w, reps, 0.95, seed)
+    v.sort();
+    v.dedup();
+    v
 }
 
-/// Leave-one-person-out scores of a logistic regression trained on the
-/// real windows themselves: what real training data could reach.
-fn ceiling_scores(
-    rows: &[(RealWindow, [f64; eyereplay_detect::FEATURE_COUNT])],
-    seed: u64,
-) -> Vec<RealWindow> {
-    let mut people: Vec<&str> = rows.iter().map(|r| r.0.person.as_str()).collect();
-    people.sort_unstable();
-    people.dedup();
+/// Pair AUROCs (reader against each non-reader, within the fold that
+/// scored the reader) of a score.
+fn pairs_of(
+    rows: &[&RealWindow],
+    score: impl Fn(&RealWindow) -> f64,
+    skip_trivial: bool,
+) -> Vec<PairAuroc> {
     let mut out = Vec::new();
-    for person in people {
-        let train: Vec<Example> = rows
+    for reader in persons(rows, true) {
+        let mine: Vec<&&RealWindow> = rows
             .iter()
-            .filter(|r| r.0.person != person)
-            .map(|r| Example {
-                features: r.1,
-                reading: r.0.reading,
-                group: r.0.recording.clone(),
-            })
+            .filter(|r| r.reading && r.person == reader)
             .collect();
-        let Ok(m) = eyereplay_detect::train(
-            &train,
-            0.0,
-            TrainOptions {
-                validation_fraction: 0.0,
-                seed,
-                ..TrainOptions::default()
-            },
-            vec![],
-            "real",
-        ) else {
-            continue; // the others hold one class only: no ceiling for this person
+        let Some(fold) = mine.first().map(|r| r.fold.clone()) else {
+            continue;
         };
-        for r in rows.iter().filter(|r| r.0.person == person) {
-            out.push(RealWindow {
-                model: m.probability_of(&r.1),
-                ..r.0.clone()
-            });
+        for other in persons(rows, false) {
+            let theirs: Vec<&&RealWindow> = rows
+                .iter()
+                .filter(|r| {
+                    !r.reading
+                        && r.person == other
+                        && r.fold == fold
+                        && !(skip_trivial && r.trivial)
+                })
+                .collect();
+            if theirs.is_empty() {
+                continue;
+            }
+            let s: Vec<f64> = mine.iter().chain(&theirs).map(|r| score(r)).collect();
+            let l: Vec<bool> = mine.iter().chain(&theirs).map(|r| r.reading).collect();
+            if let Some(a) = eyereplay_detect::auroc(&s, &l) {
+                out.push(PairAuroc {
+                    reader: reader.clone(),
+                    other,
+                    auroc: a,
+                    other_windows: theirs.len(),
+                });
+            }
         }
     }
     out
 }
 
+/// The ceiling's pair AUROCs: for each reader and non-reader, a logistic
+/// regression trained on every other real window (the webcam windows
+/// included, as more non-reading) scores the two: leave one pair of people
+/// out.
+fn ceiling_pairs(
+    rows: &[ScoredFeatures],
+    extra_negatives: &[ScoredFeatures],
+    seed: u64,
+    skip_trivial: bool,
+) -> (Vec<PairAuroc>, Vec<(f64, f64)>) {
+    let refs: Vec<&RealWindow> = rows.iter().map(|r| &r.0).collect();
+    let mut out = Vec::new();
+    let (mut all_s, mut all_l) = (Vec::new(), Vec::new());
+    for reader in persons(&refs, true) {
+        for other in persons(&refs, false) {
+            let held = |r: &RealWindow| r.person == reader || r.person == other;
+            let train: Vec<Example> = rows
+                .iter()
+                .chain(extra_negatives)
+                .filter(|r| !held(&r.0))
+                .map(|r| Example {
+                    features: r.1,
+                    reading: r.0.reading,
+                    group: r.0.recording.clone(),
+                })
+                .collect();
+            let Ok(m) = eyereplay_detect::train(
+                &train,
+                0.0,
+                TrainOptions {
+                    validation_fraction: 0.0,
+                    noise_copies: 0,
+                    seed,
+                    ..TrainOptions::default()
+                },
+                vec![],
+                "real",
+            ) else {
+                continue; // the rest holds one class only
+            };
+            let test: Vec<&ScoredFeatures> = rows
+                .iter()
+                .filter(|r| held(&r.0) && !(skip_trivial && r.0.trivial))
+                .collect();
+            let s: Vec<f64> = test.iter().map(|r| m.probability_of(&r.1)).collect();
+            let l: Vec<bool> = test.iter().map(|r| r.0.reading).collect();
+            if let Some(a) = eyereplay_detect::auroc(&s, &l) {
+                out.push(PairAuroc {
+                    reader: reader.clone(),
+                    other: other.clone(),
+                    auroc: a,
+                    other_windows: l.iter().filter(|&&x| !x).count(),
+                });
+                all_s.extend(s);
+                all_l.extend(l);
+            }
+        }
+    }
+    (out, roc_curve(&all_s, &all_l))
+}
+
+/// `(window_s, mode, condition)` of a [`ConditionResult`].
+type ConditionKey<'a> = (f64, &'a str, &'a str);
+
 fn condition_result(
     p: &Protocol,
-    w: f64,
-    mode: &str,
-    condition: &str,
+    (w, mode, condition): ConditionKey,
     rows: &[RealWindow],
-    feats: Vec<(RealWindow, [f64; eyereplay_detect::FEATURE_COUNT])>,
+    feats: Vec<ScoredFeatures>,
+    webcam_rows: &[ScoredFeatures],
     thresholds: &BTreeMap<String, f64>,
 ) -> ConditionResult {
     let reps = p.bootstrap_replicates;
     let all: Vec<&RealWindow> = rows.iter().collect();
-    let nontrivial: Vec<&RealWindow> = rows.iter().filter(|r| !r.trivial).collect();
-    let ceiling = ceiling_scores(&feats, p.seed);
-    let ceil_all: Vec<&RealWindow> = ceiling.iter().collect();
-    let ceil_nt: Vec<&RealWindow> = ceiling.iter().filter(|r| !r.trivial).collect();
+    let ci = |pairs: Vec<PairAuroc>| pairwise_auroc(&pairs, reps, 0.95, p.seed);
+    let (ceil, roc_ceiling) = ceiling_pairs(&feats, webcam_rows, p.seed, false);
+    let (ceil_nt, _) = ceiling_pairs(&feats, webcam_rows, p.seed, true);
     let called = |r: &RealWindow| r.model >= thresholds.get(&r.fold).copied().unwrap_or(0.5);
     let rate = |reading: bool| {
         let v: Vec<&&RealWindow> = all.iter().filter(|r| r.reading == reading).collect();
@@ -777,7 +892,6 @@ fn condition_result(
         .iter()
         .map(|r| (r.fold.clone(), r.recording.clone()))
         .collect();
-    keys.dedup();
     keys.sort();
     keys.dedup();
     for (fold, rec) in keys {
@@ -794,26 +908,40 @@ fn condition_result(
             recording: rec,
         });
     }
-    let roc = |v: &[&RealWindow], f: &dyn Fn(&RealWindow) -> f64| {
-        let s: Vec<f64> = v.iter().map(|r| f(r)).collect();
+    // ROC of each fold's model on its own windows (scores of two models
+    // are not comparable), and of the rule on fold A's windows.
+    let mut roc_model = Vec::new();
+    for fold in &p.fold {
+        let v: Vec<&&RealWindow> = all.iter().filter(|r| r.fold == fold.name).collect();
+        let s: Vec<f64> = v.iter().map(|r| r.model).collect();
         let l: Vec<bool> = v.iter().map(|r| r.reading).collect();
-        roc_curve(&s, &l)
-    };
+        if let Some(a) = eyereplay_detect::auroc(&s, &l) {
+            roc_model.push((format!("fold {} {a:.2}", fold.name), roc_curve(&s, &l)));
+        }
+    }
+    let first = p.fold.first().map(|f| f.name.clone()).unwrap_or_default();
+    let v: Vec<&&RealWindow> = all.iter().filter(|r| r.fold == first).collect();
+    let roc_rule = roc_curve(
+        &v.iter().map(|r| r.rule).collect::<Vec<_>>(),
+        &v.iter().map(|r| r.reading).collect::<Vec<_>>(),
+    );
     ConditionResult {
         window_s: w,
         mode: mode.to_string(),
         condition: condition.to_string(),
-        model: ci(&all, |r| r.model, reps, p.seed),
-        rule: ci(&all, |r| r.rule, reps, p.seed),
-        ceiling: ci(&ceil_all, |r| r.model, reps, p.seed),
-        model_nontrivial: ci(&nontrivial, |r| r.model, reps, p.seed),
-        rule_nontrivial: ci(&nontrivial, |r| r.rule, reps, p.seed),
-        ceiling_nontrivial: ci(&ceil_nt, |r| r.model, reps, p.seed),
+        model: ci(pairs_of(&all, |r| r.model, false)),
+        cnn: ci(pairs_of(&all, |r| r.cnn, false)),
+        rule: ci(pairs_of(&all, |r| r.rule, false)),
+        ceiling: ci(ceil),
+        model_nontrivial: ci(pairs_of(&all, |r| r.model, true)),
+        cnn_nontrivial: ci(pairs_of(&all, |r| r.cnn, true)),
+        rule_nontrivial: ci(pairs_of(&all, |r| r.rule, true)),
+        ceiling_nontrivial: ci(ceil_nt),
         true_positive_rate: rate(true),
         false_positive_rate: rate(false),
         per_recording,
-        roc_model: roc(&all, &|r| r.model),
-        roc_rule: roc(&all, &|r| r.rule),
-        roc_ceiling: roc(&ceil_all, &|r| r.model),
+        roc_model,
+        roc_rule,
+        roc_ceiling,
     }
 }

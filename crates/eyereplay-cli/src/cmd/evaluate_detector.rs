@@ -37,34 +37,37 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         })
     };
     println!(
-        "{:>6} {:<10} {:<12} {:<22} {:<22} {:<22}",
+        "{:>6} {:<10} {:<12} {:<22} {:<22} {:<22} {:<22}",
         "window",
         "training",
         "test data",
-        "synthetic-trained",
+        "synthetic (features)",
+        "synthetic (1D-CNN)",
         "zero-training rule",
         "real-trained ceiling"
     );
     for c in &ev.conditions {
         println!(
-            "{:>5}s {:<10} {:<12} {:<22} {:<22} {:<22}",
+            "{:>5}s {:<10} {:<12} {:<22} {:<22} {:<22} {:<22}",
             c.window_s,
             c.mode,
             c.condition,
             f(&c.model),
+            f(&c.cnn),
             f(&c.rule),
             f(&c.ceiling)
         );
     }
     for w in &ev.webcam {
         println!(
-            "{:>5}s {:<10} webcam {:<14} fold {:<3} FPR {:.2} ({} windows; rule {:.2})",
+            "{:>5}s {:<10} webcam {:<14} fold {:<3} FPR {:.2} ({} windows; 1D-CNN {:.2}, rule {:.2})",
             w.window_s,
             w.mode,
             w.recording,
             w.fold,
             w.false_positive_rate,
             w.windows,
+            w.cnn_false_positive_rate,
             w.rule_false_positive_rate
         );
     }

@@ -40,6 +40,11 @@ pub struct Args {
     /// L2 regularization weight of the logistic regression.
     #[arg(long, default_value_t = 1.0)]
     pub alpha: f64,
+    /// Also train on this many copies of each session with white noise
+    /// (levels drawn up to 0.3 x the session's x range): robust to heavy
+    /// jitter, less accurate on clean video (docs/DETECTOR.md).
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub noise_copies: usize,
     /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
@@ -64,6 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         train: TrainOptions {
             alpha: args.alpha,
             seed: args.seed,
+            noise_copies: args.noise_copies,
             ..TrainOptions::default()
         },
         cache: eyereplay::cache_dir(args.cache.as_deref()),
