@@ -70,29 +70,25 @@ pub fn rate_at(scores: &[f64], threshold: f64) -> f64 {
 }
 
 /// The threshold that maximizes balanced accuracy (Youden's J) on
-/// `scores`: the midpoint between the two scores where it is reached.
+/// `scores`. Where a range of thresholds reaches the best J (classes that
+/// separate cleanly leave a gap between them), the middle of that range:
+/// as far from both classes as the data allow.
 pub fn balanced_threshold(scores: &[f64], labels: &[bool]) -> f64 {
     let mut v: Vec<(f64, bool)> = scores.iter().copied().zip(labels.iter().copied()).collect();
     v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if v.is_empty() {
+        return 0.5;
+    }
     let n_pos = v.iter().filter(|p| p.1).count().max(1) as f64;
     let n_neg = v.iter().filter(|p| !p.1).count().max(1) as f64;
-    // Threshold below v[k]: everything from k up is called positive.
-    let (mut best_j, mut best_t) = (f64::NEG_INFINITY, 0.5);
-    let mut neg_below = 0.0;
-    let mut pos_below = 0.0;
+    // Candidate k: everything from v[k] up is called positive. Its threshold
+    // interval runs from v[k-1] (exclusive) to v[k] (inclusive).
+    let mut cands: Vec<(usize, f64)> = Vec::new();
+    let (mut neg_below, mut pos_below) = (0.0, 0.0);
     for k in 0..=v.len() {
         if k == 0 || k == v.len() || v[k].0 != v[k - 1].0 {
-            let tpr = 1.0 - pos_below / n_pos;
-            let tnr = neg_below / n_neg;
-            let j = tpr + tnr - 1.0;
-            if j > best_j {
-                best_j = j;
-                best_t = match (k, v.len()) {
-                    (0, _) => v.first().map_or(0.5, |p| p.0),
-                    (k, n) if k == n => v[n - 1].0 + 1e-9,
-                    (k, _) => 0.5 * (v[k - 1].0 + v[k].0),
-                };
-            }
+            let j = (1.0 - pos_below / n_pos) + neg_below / n_neg - 1.0;
+            cands.push((k, j));
         }
         if k < v.len() {
             if v[k].1 {
@@ -102,7 +98,33 @@ pub fn balanced_threshold(scores: &[f64], labels: &[bool]) -> f64 {
             }
         }
     }
-    best_t
+    let best = cands.iter().map(|c| c.1).fold(f64::NEG_INFINITY, f64::max);
+    let optimal: Vec<usize> = cands
+        .iter()
+        .filter(|c| c.1 >= best - 1e-12)
+        .map(|c| c.0)
+        .collect();
+    let (k_lo, k_hi) = (optimal[0], optimal[optimal.len() - 1]);
+    let n = v.len();
+    // Lowest and highest thresholds of the optimal range.
+    let lo = if k_lo == 0 {
+        v[0].0
+    } else {
+        0.5 * (v[k_lo - 1].0 + v[k_lo].0.min(v[n - 1].0))
+    };
+    let hi = if k_hi >= n {
+        v[n - 1].0 + 1e-9
+    } else {
+        v[k_hi].0
+    };
+    if k_lo == k_hi {
+        return match k_lo {
+            0 => v[0].0,
+            k if k >= n => v[n - 1].0 + 1e-9,
+            k => 0.5 * (v[k - 1].0 + v[k].0),
+        };
+    }
+    0.5 * (lo + hi)
 }
 
 /// A scored window with who it came from.

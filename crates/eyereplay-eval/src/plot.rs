@@ -648,6 +648,15 @@ fn draw_detection<DB: DrawingBackend>(
             Rectangle::new([(a, 0.0), (b, p)], color.mix(0.6).filled())
         }))
         .map_err(s)?;
+    // A white edge between windows, so that neighbours of equal height
+    // read as separate windows.
+    chart
+        .draw_series(
+            windows
+                .iter()
+                .map(|&(a, b, p)| Rectangle::new([(a, 0.0), (b, p)], WHITE.stroke_width(2))),
+        )
+        .map_err(s)?;
     chart
         .draw_series(DashedLineSeries::new(
             vec![(0.0, threshold), (t_end, threshold)],

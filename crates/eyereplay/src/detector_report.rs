@@ -176,7 +176,8 @@ readers are averaged. 95 % intervals from a bootstrap over people (readers and n
             "fold",
             "video",
             "windows",
-            "synthetic-trained FPR",
+            "synthetic-trained FPR (features)",
+            "1D-CNN FPR",
             "rule FPR",
         ],
     );
