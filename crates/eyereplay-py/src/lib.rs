@@ -74,7 +74,7 @@ fn kind_of(e: &Error) -> Kind {
         }
         Error::Extract(_) | Error::Render(_) | Error::Face(_) => Kind::Video,
         Error::Dataset(_) | Error::Eval(_) | Error::SessionsFailed(_) => Kind::Dataset,
-        Error::Core(_) | Error::Input { .. } => Kind::Other,
+        Error::Core(_) | Error::Input { .. } | Error::Detect(_) => Kind::Other,
     }
 }
 
