@@ -23,6 +23,6 @@ pub mod window;
 
 pub use error::DetectError;
 pub use features::{features, rule_score, FEATURE_COUNT, FEATURE_NAMES};
-pub use metrics::{auroc, auroc_bootstrap, roc_curve, AurocCi, ScoredWindow};
+pub use metrics::{auroc, pairwise_auroc, roc_curve, AurocCi, PairAuroc};
 pub use model::{train, DetectorModel, Example, TrainOptions};
 pub use window::{windows, Track, Window, WindowSpec, FPS};

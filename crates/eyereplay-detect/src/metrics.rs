@@ -127,18 +127,8 @@ pub fn balanced_threshold(scores: &[f64], labels: &[bool]) -> f64 {
     0.5 * (lo + hi)
 }
 
-/// A scored window with who it came from.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ScoredWindow {
-    /// The person (or recording, where people are not known) it came from.
-    pub unit: String,
-    pub reading: bool,
-    pub score: f64,
-}
-
-/// AUROC with a percentile confidence interval from a bootstrap over units:
-/// each replicate draws, with replacement, as many reading units as there
-/// are and as many non-reading units as there are, and pools their windows.
+/// AUROC with a percentile confidence interval from a bootstrap over
+/// people ([`pairwise_auroc`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AurocCi {
     pub auroc: f64,
@@ -146,71 +136,9 @@ pub struct AurocCi {
     pub high: f64,
     pub level: f64,
     pub replicates: usize,
-    pub windows_reading: usize,
     pub windows_other: usize,
     pub units_reading: usize,
     pub units_other: usize,
-}
-
-pub fn auroc_bootstrap(
-    windows: &[ScoredWindow],
-    replicates: usize,
-    level: f64,
-    seed: u64,
-) -> Option<AurocCi> {
-    let scores: Vec<f64> = windows.iter().map(|w| w.score).collect();
-    let labels: Vec<bool> = windows.iter().map(|w| w.reading).collect();
-    let point = auroc(&scores, &labels)?;
-    let mut units_r: Vec<&str> = Vec::new();
-    let mut units_o: Vec<&str> = Vec::new();
-    for w in windows {
-        let list = if w.reading {
-            &mut units_r
-        } else {
-            &mut units_o
-        };
-        if !list.contains(&w.unit.as_str()) {
-            list.push(&w.unit);
-        }
-    }
-    let by_unit = |u: &str| -> Vec<usize> {
-        (0..windows.len())
-            .filter(|&i| windows[i].unit == u)
-            .collect()
-    };
-    let groups_r: Vec<Vec<usize>> = units_r.iter().map(|u| by_unit(u)).collect();
-    let groups_o: Vec<Vec<usize>> = units_o.iter().map(|u| by_unit(u)).collect();
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut values = Vec::with_capacity(replicates);
-    for _ in 0..replicates {
-        let (mut s, mut l) = (Vec::new(), Vec::new());
-        for groups in [&groups_r, &groups_o] {
-            for _ in 0..groups.len() {
-                let g = &groups[rng.gen_range(0..groups.len())];
-                for &i in g {
-                    s.push(scores[i]);
-                    l.push(labels[i]);
-                }
-            }
-        }
-        if let Some(a) = auroc(&s, &l) {
-            values.push(a);
-        }
-    }
-    values.sort_by(f64::total_cmp);
-    let alpha = (1.0 - level) / 2.0;
-    let q = |p: f64| eyereplay_signal::stats::quantile_sorted(&values, p).unwrap_or(point);
-    Some(AurocCi {
-        auroc: point,
-        low: q(alpha),
-        high: q(1.0 - alpha),
-        level,
-        replicates,
-        windows_reading: labels.iter().filter(|&&l| l).count(),
-        windows_other: labels.iter().filter(|&&l| !l).count(),
-        units_reading: units_r.len(),
-        units_other: units_o.len(),
-    })
 }
 
 #[cfg(test)]
@@ -251,30 +179,6 @@ mod tests {
         );
         assert!((t - 0.5).abs() < 1e-12);
         assert_eq!(rate_at(&[0.1, 0.6, 0.7, 0.2], 0.5), 0.5);
-    }
-
-    #[test]
-    fn bootstrap_interval_holds_the_point_and_is_reproducible() {
-        let mut w = Vec::new();
-        for (u, reading, base) in [
-            ("a", true, 0.7),
-            ("b", true, 0.5),
-            ("c", false, 0.4),
-            ("d", false, 0.2),
-        ] {
-            for k in 0..10 {
-                w.push(ScoredWindow {
-                    unit: u.into(),
-                    reading,
-                    score: base + 0.02 * k as f64,
-                });
-            }
-        }
-        let ci = auroc_bootstrap(&w, 500, 0.95, 7).unwrap();
-        assert!(ci.low <= ci.auroc && ci.auroc <= ci.high, "{ci:?}");
-        assert_eq!((ci.units_reading, ci.units_other), (2, 2));
-        assert!(ci.low < 1.0 && ci.high == 1.0);
-        assert_eq!(ci, auroc_bootstrap(&w, 500, 0.95, 7).unwrap());
     }
 }
 
@@ -349,7 +253,6 @@ pub fn pairwise_auroc(
         high: q(1.0 - alpha),
         level,
         replicates,
-        windows_reading: 0,
         windows_other: pairs.iter().map(|p| p.other_windows).sum(),
         units_reading: readers.len(),
         units_other: others.len(),

@@ -34,7 +34,9 @@ pub fn extraction_cache_path(video: &Path, cache: &Path) -> Result<PathBuf> {
 }
 
 /// Extracts every video not yet in the cache (all at once, so the
-/// extractor's workers share them) and returns each video's CSV.
+/// extractor's workers share them) and returns each video's CSV. Cached by
+/// the video's sha256 and the extractor version, so a renamed copy is not
+/// extracted twice and a new extractor does not reuse old results.
 pub fn extract_cached(
     videos: &[PathBuf],
     cache: &Path,
@@ -64,9 +66,16 @@ pub fn extract_cached(
         &ExtractFrames(progress),
     );
     progress.end(Stage::Extract);
-    for ((_, csv), r) in todo.iter().zip(results) {
+    for ((video, csv), r) in todo.iter().zip(results) {
         let ex = r?;
         eyereplay_extract::save_csv(csv, &ex.rows)?;
+        progress.info(&format!(
+            "extracted {}: {} frames, face in {:.1} %, cached as {}",
+            video.display(),
+            ex.rows.len(),
+            100.0 * ex.detection_rate(),
+            csv.display()
+        ));
     }
     Ok(csvs)
 }
@@ -434,20 +443,7 @@ pub fn train_detector(
         )));
     }
     let tracks = dataset_tracks(datasets, opts.input, &opts.cache, progress)?;
-    let spec = WindowSpec::half_overlap(opts.window_s);
-    let examples: Vec<Example> = tracks
-        .iter()
-        .flat_map(|t| {
-            eyereplay_detect::model::session_examples(
-                &t.track,
-                t.reading,
-                &t.id,
-                spec,
-                opts.train.noise_copies,
-                opts.train.seed,
-            )
-        })
-        .collect();
+    let examples = training_examples(&tracks, opts.window_s, &opts.train);
     let names = datasets.iter().map(|d| d.display().to_string()).collect();
     Ok(eyereplay_detect::train(
         &examples,
@@ -456,6 +452,28 @@ pub fn train_detector(
         names,
         opts.input.name(),
     )?)
+}
+
+/// The training windows of labeled session tracks: windows of `window_s`
+/// overlapping by half, plus the noisy copies `train` asks for.
+pub fn training_examples(
+    tracks: &[LabeledTrack],
+    window_s: f64,
+    train: &TrainOptions,
+) -> Vec<Example> {
+    tracks
+        .iter()
+        .flat_map(|t| {
+            eyereplay_detect::model::session_examples(
+                &t.track,
+                t.reading,
+                &t.id,
+                WindowSpec::half_overlap(window_s),
+                train.noise_copies,
+                train.seed,
+            )
+        })
+        .collect()
 }
 
 /// One scored window of a recording.

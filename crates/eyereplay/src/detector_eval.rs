@@ -572,30 +572,13 @@ pub fn evaluate_detector(
                 let Some(tt) = train_tracks.get(&(fold.name.clone(), mode.clone())) else {
                     continue;
                 };
-                let examples: Vec<Example> = tt
-                    .iter()
-                    .flat_map(|t| {
-                        eyereplay_detect::model::session_examples(
-                            &t.track,
-                            t.reading,
-                            &t.id,
-                            WindowSpec::half_overlap(w),
-                            p.training_noise_copies,
-                            p.seed,
-                        )
-                    })
-                    .collect();
-                let model = eyereplay_detect::train(
-                    &examples,
-                    w,
-                    TrainOptions {
-                        seed: p.seed,
-                        noise_copies: p.training_noise_copies,
-                        ..TrainOptions::default()
-                    },
-                    vec![],
-                    "extracted",
-                )?;
+                let train_opts = TrainOptions {
+                    seed: p.seed,
+                    noise_copies: p.training_noise_copies,
+                    ..TrainOptions::default()
+                };
+                let examples = crate::detector::training_examples(tt, w, &train_opts);
+                let model = eyereplay_detect::train(&examples, w, train_opts, vec![], "extracted")?;
                 let (rs, rl): (Vec<f64>, Vec<bool>) = tt
                     .iter()
                     .flat_map(|t| {

@@ -1,7 +1,7 @@
 //! Everything a job needs before work starts: which videos to extract, the
 //! extraction cache, the models, ffmpeg, disk space, and provenance.
 
-use crate::progress::{ExtractFrames, Progress, Stage};
+use crate::progress::Progress;
 use crate::{Error, Result};
 use eyereplay_dataset::{FileDigest, ToolInfo};
 use eyereplay_prepare::{DatasetConfig, PrepareError};
@@ -65,42 +65,11 @@ pub fn extract_videos_cached(
     cache: &Path,
     progress: &dyn Progress,
 ) -> Result<Extracted> {
-    let mut out = Extracted::default();
-    let mut todo: Vec<(PathBuf, PathBuf)> = Vec::new();
-    for v in video_sources(cfg) {
-        let sha = eyereplay_core::sha256_file(&v)?;
-        let csv = cache
-            .join("extract")
-            .join(format!("{sha}-v{}.csv", eyereplay_core::TOOL_VERSION));
-        if !csv.is_file() {
-            todo.push((v.clone(), csv.clone()));
-        }
-        out.csv_of.insert(v, csv);
-    }
-    if todo.is_empty() {
-        return Ok(out);
-    }
-    check_models()?;
-    let paths: Vec<PathBuf> = todo.iter().map(|(v, _)| v.clone()).collect();
-    progress.begin(Stage::Extract, 0);
-    let results = eyereplay_extract::extract_many(
-        &paths,
-        &eyereplay_extract::ExtractOptions::default(),
-        &ExtractFrames(progress),
-    );
-    progress.end(Stage::Extract);
-    for ((video, csv), r) in todo.iter().zip(results) {
-        let ex = r.map_err(|e| Error::input(video, e.to_string()))?;
-        eyereplay_extract::save_csv(csv, &ex.rows)?;
-        progress.info(&format!(
-            "extracted {}: {} frames, face in {:.1} %, cached as {}",
-            video.display(),
-            ex.rows.len(),
-            100.0 * ex.detection_rate(),
-            csv.display()
-        ));
-    }
-    Ok(out)
+    let videos = video_sources(cfg);
+    let csvs = crate::detector::extract_cached(&videos, cache, progress)?;
+    Ok(Extracted {
+        csv_of: videos.into_iter().zip(csvs).collect(),
+    })
 }
 
 /// Downloads (pip, pinned by version and sha256), extracts and converts the
