@@ -16,9 +16,12 @@
 //! - webcam: real talking-face videos through `eyereplay extract`
 //!   (negatives only: the false-positive rate at the model's threshold).
 //!
-//! Next to each: the zero-training rule (forward-run fraction) on the same
-//! windows, and a ceiling trained on the real windows themselves, leaving
-//! one person out. AUROC intervals come from a bootstrap over people.
+//! Next to each: the 1D-CNN trained on the same synthetic windows, the
+//! zero-training rule (forward-run fraction) on the same windows, and a
+//! ceiling trained on the real windows themselves, leaving out the pair of
+//! people it is tested on. AUROC is computed per reader within one model
+//! and averaged ([`eyereplay_detect::pairwise_auroc`]); intervals come from
+//! a bootstrap over people.
 
 use crate::detector::{dataset_tracks, extract_cached, extract_csv_track, TrainInput};
 use crate::generate::{generate, plan_config, GenerateOptions};

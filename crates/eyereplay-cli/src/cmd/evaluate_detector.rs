@@ -6,10 +6,11 @@ use std::path::PathBuf;
 ///
 /// Runs the protocol file: generates each fold's synthetic training
 /// datasets (per render mode), renders the real eye-tracker test recordings
-/// in each mode and reads them back, trains the detector per fold, mode
-/// and window length, and scores the held-out real recordings beside the
-/// zero-training rule and a ceiling trained on real data (leave one person
-/// out). Writes OUT/index.html and OUT/detector_eval.json. Resumable: the
+/// in each mode and reads them back, trains the detector (feature model
+/// and 1D-CNN) per fold, mode and window length, and scores the held-out
+/// real recordings beside the zero-training rule and a ceiling trained on
+/// real data (leaving out the pair of people it is tested on). Writes
+/// OUT/index.html and OUT/detector_eval.json. Resumable: the
 /// generated datasets are kept under OUT/train and OUT/real, and a rerun
 /// skips what is finished.
 #[derive(clap::Args)]
