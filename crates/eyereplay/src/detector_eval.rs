@@ -489,10 +489,8 @@ pub fn evaluate_detector(
             let mut cfg = DatasetConfig::load(&template)?;
             let mut source = r.source.clone();
             *source.path_mut() = canonical(&p.resolve(r.source.path()));
-            let mut spec = source.clone();
-            *spec.path_mut() = canonical(&p.resolve(r.source.path()));
             // The recording's gaze time, its gap-free pieces at 25 fps.
-            let frames: usize = eyereplay_sources::read_source(&spec, &cfg.read)?
+            let frames: usize = eyereplay_sources::read_source(&source, &cfg.read)?
                 .iter()
                 .flat_map(|rec| rec.segments.iter())
                 .map(|seg| {
