@@ -39,5 +39,6 @@ fi
 "$here/models.sh"
 "$here/face-assets.sh"
 "$here/detector-data.sh"
+"$here/carriers.sh"
 "$here/test-cluster.sh" --setup
 echo "setup: done"

@@ -40,6 +40,7 @@ enum Command {
     Train(cmd::train::Args),
     Detect(cmd::detect::Args),
     EvaluateDetector(cmd::evaluate_detector::Args),
+    EvaluateReplay(cmd::evaluate_replay::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -56,6 +57,7 @@ fn main() -> std::process::ExitCode {
         Command::Train(a) => cmd::train::run(a),
         Command::Detect(a) => cmd::detect::run(a),
         Command::EvaluateDetector(a) => cmd::evaluate_detector::run(a),
+        Command::EvaluateReplay(a) => cmd::evaluate_replay::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -81,11 +81,21 @@ impl SessionPaths {
     /// The full-face mode's head ground truth, beside the truth CSV
     /// (`X_head.csv`).
     pub fn head_csv(&self) -> PathBuf {
+        self.beside_truth("_head.csv")
+    }
+
+    /// The replay mode's `<stem>_carrier.csv`: the carrier frame each
+    /// output frame shows, and whether its eyes were redrawn.
+    pub fn carrier_csv(&self) -> PathBuf {
+        self.beside_truth("_carrier.csv")
+    }
+
+    fn beside_truth(&self, suffix: &str) -> PathBuf {
         let name = self
             .truth
             .file_name()
-            .map(|n| n.to_string_lossy().replace("_truth.csv", "_head.csv"))
-            .unwrap_or_else(|| "head.csv".into());
+            .map(|n| n.to_string_lossy().replace("_truth.csv", suffix))
+            .unwrap_or_else(|| suffix.trim_start_matches('_').into());
         self.truth.with_file_name(name)
     }
 

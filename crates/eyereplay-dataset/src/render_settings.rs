@@ -39,7 +39,8 @@ pub struct RenderSettings {
     /// ray-traced eyes, the default) or `browser` (a web page driven frame
     /// by frame in a headless Chromium, as the paper's stage 6 did) or
     /// `face` (a whole face from a real photo in a webcam frame, the head
-    /// moving with the gaze).
+    /// moving with the gaze) or `replay` (a real video of a person, their
+    /// irises redrawn at the trajectory).
     pub backend: RenderBackend,
     /// `[render.browser]`: the browser backend's settings (page URL,
     /// viewport, canvas-to-page mapping, readiness, crop; see
@@ -65,6 +66,12 @@ pub struct RenderSettings {
     /// view, exposure, white balance, noise, blur, light, bitrate); typed
     /// by the library, defaults look like a laptop webcam.
     pub webcam: Option<toml::Table>,
+    /// Real-face replay (`backend = "replay"`): videos of people facing the
+    /// camera whose eyes are given the sessions' movements (relative paths
+    /// from the config's folder); empty = the bundled sample carriers.
+    /// Each session draws one by its seed. The video keeps the carrier's
+    /// size; `width`/`height` do not apply.
+    pub carriers: Vec<std::path::PathBuf>,
 }
 
 /// Which simulator renders the sessions.
@@ -77,6 +84,9 @@ pub enum RenderBackend {
     /// A whole face from a real photo, head moving with the gaze, webcam
     /// look (eyereplay-face).
     Face,
+    /// A real video of a person whose irises are redrawn at the session's
+    /// trajectory (eyereplay-replay).
+    Replay,
 }
 
 impl Default for RenderSettings {
@@ -98,6 +108,7 @@ impl Default for RenderSettings {
             face_height_frac: [0.36, 0.5],
             head_sway: 1.0,
             webcam: None,
+            carriers: vec![],
         }
     }
 }

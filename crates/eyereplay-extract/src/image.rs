@@ -73,8 +73,9 @@ impl YuvMatrix {
             }
         }
     }
+    /// One pixel's RGB (0..255) from its Y, U and V bytes.
     #[inline]
-    fn rgb(&self, y: f32, u: f32, v: f32) -> [f32; 3] {
+    pub fn rgb(&self, y: f32, u: f32, v: f32) -> [f32; 3] {
         let y = (y - self.y_off) * self.y_scale;
         let u = u - 128.0;
         let v = v - 128.0;

@@ -72,7 +72,7 @@ fn kind_of(e: &Error) -> Kind {
         Error::Extract(X::ModelsMissing { .. } | X::ModelChecksum { .. } | X::Runtime(_)) => {
             Kind::Model
         }
-        Error::Extract(_) | Error::Render(_) | Error::Face(_) => Kind::Video,
+        Error::Extract(_) | Error::Render(_) | Error::Face(_) | Error::Replay(_) => Kind::Video,
         Error::Dataset(_) | Error::Eval(_) | Error::SessionsFailed(_) => Kind::Dataset,
         Error::Core(_) | Error::Input { .. } | Error::Detect(_) => Kind::Other,
     }

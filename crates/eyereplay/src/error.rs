@@ -21,6 +21,8 @@ pub enum Error {
     #[error(transparent)]
     Face(#[from] eyereplay_face::FaceError),
     #[error(transparent)]
+    Replay(#[from] eyereplay_replay::ReplayError),
+    #[error(transparent)]
     Detect(#[from] eyereplay_detect::DetectError),
     /// A file or folder the job needs is missing or unusable.
     #[error("{path}: {message}")]

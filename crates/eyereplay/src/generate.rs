@@ -93,6 +93,15 @@ pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shar
         }
         settings.identities = photos;
     }
+    if settings.backend == eyereplay_dataset::RenderBackend::Replay {
+        // Carriers resolved against the config's folder, each measured
+        // (cached), checked and learned now: a carrier that cannot serve
+        // fails before the dataset is prepared.
+        let videos = crate::replay::carrier_videos(&settings, |p| config.resolve(p));
+        check_models()?;
+        crate::replay::prepare_carriers(&videos, &crate::cache_dir(None), &crate::NoProgress)?;
+        settings.carriers = videos;
+    }
     if !video_sources(&config).is_empty() || (eyes && settings.match_extractor) {
         check_models()?;
     }

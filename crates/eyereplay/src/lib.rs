@@ -67,6 +67,8 @@ mod generate;
 mod inputs;
 mod progress;
 mod render;
+pub mod replay;
+pub mod replay_eval;
 mod response;
 mod shard;
 

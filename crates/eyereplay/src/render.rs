@@ -71,6 +71,11 @@ pub fn render_sessions(
     if settings.backend == RenderBackend::Face {
         return crate::face::render_sessions_face(out, &meta, settings, &params, shard, progress);
     }
+    if settings.backend == RenderBackend::Replay {
+        return crate::replay::render_sessions_replay(
+            out, &meta, settings, &params, shard, progress,
+        );
+    }
     match browser_settings(settings)? {
         Some(b) => render_sessions_browser(out, &meta, settings, &b, &params, shard, progress),
         None => render_sessions_eyes(out, &meta, settings, params, shard, progress),

@@ -20,7 +20,8 @@ eyereplay render traj.csv --out s.mp4 --calibration data/metadata.json\n  \
 eyereplay render traj.csv --png-frames frames/                   # lossless stills\n  \
 eyereplay render --dataset data/ --jobs 2                        # every session of a prepared dataset\n  \
 eyereplay render --bench --frames 1000                           # frames/s, real-time factor\n  \
-eyereplay render --bench --face --size 640x480                   # the full-face webcam mode's speed")]
+eyereplay render --bench --face --size 640x480                   # the full-face webcam mode's speed\n  \
+eyereplay render --bench --replay clip.mp4                       # real-face replay's speed on a carrier")]
 pub struct Args {
     /// Session trajectory CSV (frame,x,y in canvas pixels).
     #[arg(required_unless_present_any = ["dataset", "bench"], conflicts_with_all = ["dataset", "bench"])]
@@ -49,8 +50,13 @@ pub struct Args {
     /// With --bench: the full-face webcam mode (render.backend = "face":
     /// the first bundled photo, webcam look, head motion) instead of the
     /// close-up eyes.
-    #[arg(long, requires = "bench")]
+    #[arg(long, requires = "bench", conflicts_with = "replay")]
     pub face: bool,
+    /// With --bench: the real-face replay mode (render.backend = "replay")
+    /// on this carrier video, at its own size (decode, redraw, encode). The
+    /// carrier's one-time measurement (cached) is not timed.
+    #[arg(long, requires = "bench", value_name = "VIDEO")]
+    pub replay: Option<PathBuf>,
     /// Identity seed (face, iris, lighting, camera); 0 is the reference face.
     /// With --dataset, the dataset seed each session's seed is derived from.
     #[arg(long, default_value_t = 0)]
@@ -154,6 +160,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         anyhow::ensure!(args.frames >= 25, "--frames must be at least 25");
         let report = if args.face {
             eyereplay::face::bench(p.width, p.height, args.frames)?
+        } else if let Some(video) = &args.replay {
+            eyereplay::replay::bench(video, args.frames, &p.encoder, &eyereplay::NoProgress)?
         } else {
             run_bench(&p, args.frames)?
         };

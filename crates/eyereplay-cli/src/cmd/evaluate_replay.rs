@@ -1,0 +1,36 @@
+use super::Bars;
+use eyereplay::replay_eval::evaluate_replay;
+use std::path::PathBuf;
+
+/// Checks a real-face replay dataset (render.backend = "replay").
+///
+/// Reads every session video back with the unmodified extractor and prints,
+/// per carrier and class (sessions pooled, frames whose eyes were redrawn
+/// and read as open): r and amplitude ratio of the read-back n against the
+/// trajectory; r against the carrier's own n in the same frames (the
+/// carrier's gaze must be gone: near 0); the face detector's score change;
+/// and PSNR outside the eye regions against the decoded carrier frames
+/// (the rest of the picture untouched, up to encoding). Writes the numbers,
+/// per session too, as JSON with --json.
+#[derive(clap::Args)]
+#[command(after_help = "Examples:\n  \
+eyereplay generate --config examples/replay.toml --out out/replay\n  \
+eyereplay evaluate-replay out/replay --json out/replay/replay_eval.json")]
+pub struct Args {
+    /// A dataset folder rendered with render.backend = "replay".
+    pub dataset: PathBuf,
+    /// Also write every number (per group and per session) here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let ev = evaluate_replay(&args.dataset, &Bars::default())?;
+    println!("{ev}");
+    if let Some(path) = &args.json {
+        let mut text = serde_json::to_string_pretty(&ev)?;
+        text.push('\n');
+        eyereplay_core::atomic_write(path, text.as_bytes())?;
+    }
+    Ok(())
+}

@@ -1,0 +1,312 @@
+//! The replay mode's proofs on a rendered dataset (`eyereplay
+//! evaluate-replay DATASET`): each session video read back with the
+//! unmodified extractor and compared, over the frames whose eyes were
+//! redrawn and read as open, with the trajectory (fidelity), with the
+//! carrier's own gaze in the same frames (removal), with the carrier's
+//! face score (detector unaffected), and, outside the eyes, with the
+//! carrier's decoded frames (PSNR).
+
+use crate::progress::Progress;
+use crate::{Error, Result};
+use eyereplay_eval::visual::{compare_visual, AxisFidelity};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Output frames between PSNR samples.
+const PSNR_EVERY: usize = 10;
+
+/// One session's or one group's numbers.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReplayCheck {
+    pub carrier: String,
+    pub class: String,
+    pub sessions: usize,
+    /// Frames compared (redrawn, and open with a face in the read-back).
+    pub frames: usize,
+    /// Read-back `n` against the trajectory.
+    pub x: AxisFidelity,
+    pub y: AxisFidelity,
+    /// Pearson r of the read-back `n` with the carrier's own `n` in the
+    /// same frames (the carrier's gaze must be gone).
+    pub removal_r_x: Option<f64>,
+    pub removal_r_y: Option<f64>,
+    /// Pearson r of the trajectory with the carrier's own `n` (x): two
+    /// unrelated signals of a few seconds correlate by chance, and the
+    /// read-back inherits that; a removal r near this is no leak.
+    pub chance_r_x: Option<f64>,
+    /// Pearson r of the carrier's own `n` (x) with what the read-back has
+    /// beyond the trajectory (its residual from the least-squares line on
+    /// the trajectory): the leak itself, chance alignment taken out.
+    pub removal_partial_r_x: Option<f64>,
+    /// Mean face score of the read-back and of the carrier's frames shown.
+    pub face_score_output: f64,
+    pub face_score_carrier: f64,
+    /// Outside the eye regions, against the decoded carrier frames.
+    pub psnr_outside_eyes_db: f64,
+}
+
+/// Everything `evaluate-replay` measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReplayEval {
+    pub dataset: String,
+    /// Per carrier and class, sessions pooled.
+    pub groups: Vec<ReplayCheck>,
+    pub sessions: Vec<(String, ReplayCheck)>,
+}
+
+struct Columns {
+    header: Vec<String>,
+    rows: Vec<Vec<String>>,
+}
+
+impl Columns {
+    fn read(path: &Path) -> Result<Columns> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let mut lines = text.lines();
+        let header = lines
+            .next()
+            .ok_or_else(|| Error::input(path, "empty CSV"))?
+            .split(',')
+            .map(str::to_string)
+            .collect();
+        let rows = lines
+            .map(|l| l.split(',').map(str::to_string).collect())
+            .collect();
+        Ok(Columns { header, rows })
+    }
+
+    fn col(&self, path: &Path, name: &str) -> Result<Vec<Option<f64>>> {
+        let i = self
+            .header
+            .iter()
+            .position(|h| h == name)
+            .ok_or_else(|| Error::input(path, format!("no column '{name}'")))?;
+        Ok(self
+            .rows
+            .iter()
+            .map(|r| r.get(i).and_then(|v| v.parse::<f64>().ok()))
+            .collect())
+    }
+}
+
+/// Per-frame values of one session, for pooling.
+#[derive(Default)]
+struct Frames {
+    target: Vec<[f64; 2]>,
+    read: Vec<[f64; 2]>,
+    carrier_n: Vec<[f64; 2]>,
+    score_out: Vec<f64>,
+    score_carrier: Vec<f64>,
+    psnr_db: Vec<f64>,
+    sessions: usize,
+}
+
+fn pearson(a: &[f64], b: &[f64]) -> Option<f64> {
+    eyereplay_extract::pearson(a, b)
+        .is_finite()
+        .then(|| eyereplay_extract::pearson(a, b))
+}
+
+/// `y` minus its least-squares line on `x`.
+fn residual(y: &[f64], x: &[f64]) -> Vec<f64> {
+    let n = x.len().max(1) as f64;
+    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+    let sxx: f64 = x.iter().map(|v| (v - mx).powi(2)).sum();
+    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    x.iter()
+        .zip(y)
+        .map(|(a, v)| v - my - b * (a - mx))
+        .collect()
+}
+
+fn check(carrier: &str, class: &str, f: &Frames) -> Result<ReplayCheck> {
+    let v = compare_visual(&f.target, &f.read, None)?;
+    let col = |v: &[[f64; 2]], k: usize| v.iter().map(|p| p[k]).collect::<Vec<_>>();
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    Ok(ReplayCheck {
+        carrier: carrier.into(),
+        class: class.into(),
+        sessions: f.sessions,
+        frames: v.n_frames,
+        x: v.x,
+        y: v.y,
+        removal_r_x: pearson(&col(&f.read, 0), &col(&f.carrier_n, 0)),
+        removal_r_y: pearson(&col(&f.read, 1), &col(&f.carrier_n, 1)),
+        chance_r_x: pearson(&col(&f.target, 0), &col(&f.carrier_n, 0)),
+        removal_partial_r_x: pearson(
+            &residual(&col(&f.read, 0), &col(&f.target, 0)),
+            &col(&f.carrier_n, 0),
+        ),
+        face_score_output: mean(&f.score_out),
+        face_score_carrier: mean(&f.score_carrier),
+        // Mean squared errors would pool better; sessions have equal
+        // frame counts, so the mean of dB is close and readable.
+        psnr_outside_eyes_db: mean(&f.psnr_db),
+    })
+}
+
+/// Measures every session of a replay dataset.
+pub fn evaluate_replay(dataset: &Path, progress: &dyn Progress) -> Result<ReplayEval> {
+    let meta = eyereplay_dataset::read_metadata(dataset)?;
+    let cfg = &meta.dataset.config;
+    let settings =
+        &eyereplay_dataset::RenderSettings::from_config(cfg, &dataset.join("metadata.json"))?;
+    if settings.backend != eyereplay_dataset::RenderBackend::Replay {
+        return Err(Error::input(
+            dataset.join("metadata.json"),
+            "not a replay dataset (render.backend is not \"replay\")",
+        ));
+    }
+    let cache = crate::cache_dir(None);
+    let labels = eyereplay_dataset::read_labels(dataset)?;
+    let mut carriers: BTreeMap<String, eyereplay_replay::Carrier> = BTreeMap::new();
+    let mut groups: BTreeMap<(String, String), Frames> = BTreeMap::new();
+    let mut sessions = vec![];
+    let videos: Vec<PathBuf> = labels
+        .iter()
+        .map(|l| {
+            eyereplay_dataset::SessionPaths::new(dataset, &l.file)
+                .map(|p| p.mp4)
+                .map_err(|m| Error::input(dataset.join("labels.csv"), m))
+        })
+        .collect::<Result<_>>()?;
+    let csvs = crate::detector::extract_cached(&videos, &cache, progress)?;
+    for (label, read_csv) in labels.iter().zip(&csvs) {
+        let paths = eyereplay_dataset::SessionPaths::new(dataset, &label.file)
+            .map_err(|m| Error::input(dataset.join("labels.csv"), m))?;
+        let ident = eyereplay_dataset::SessionIdentity::read(&paths.identity_json)?;
+        let name = ident.identity["carrier"]
+            .as_str()
+            .ok_or_else(|| Error::input(&paths.identity_json, "no carrier named"))?
+            .to_string();
+        if !carriers.contains_key(&name) {
+            let video = crate::replay::carrier_videos(settings, |p| cfg.resolve(p))
+                .into_iter()
+                .find(|v| v.file_name().is_some_and(|f| f.to_string_lossy() == name))
+                .ok_or_else(|| {
+                    Error::input(&paths.identity_json, format!("carrier {name} not found"))
+                })?;
+            let track = crate::replay::carrier_track(&video, &cache, progress)?;
+            carriers.insert(
+                name.clone(),
+                eyereplay_replay::Carrier::prepare(&video, track)?,
+            );
+        }
+        let carrier = &carriers[&name];
+        let cpath = paths.carrier_csv();
+        let c = Columns::read(&cpath)?;
+        let t = Columns::read(&paths.truth)?;
+        let r = Columns::read(read_csv)?;
+        let (redrawn, cframe) = (c.col(&cpath, "redrawn")?, c.col(&cpath, "carrier_frame")?);
+        let (cnx, cny, cscore) = (
+            c.col(&cpath, "carrier_nx")?,
+            c.col(&cpath, "carrier_ny")?,
+            c.col(&cpath, "face_score")?,
+        );
+        let (tnx, tny) = (
+            t.col(&paths.truth, "left_nx")?,
+            t.col(&paths.truth, "left_ny")?,
+        );
+        let (valid, rnx, rny, rscore) = (
+            r.col(read_csv, "valid")?,
+            r.col(read_csv, "nx")?,
+            r.col(read_csv, "ny")?,
+            r.col(read_csv, "face_score")?,
+        );
+        let mut f = Frames {
+            sessions: 1,
+            ..Default::default()
+        };
+        for k in 0..redrawn.len().min(valid.len()) {
+            f.score_out.push(rscore[k].unwrap_or(0.0));
+            f.score_carrier.push(cscore[k].unwrap_or(0.0));
+            let ok = redrawn[k] == Some(1.0) && valid[k] == Some(1.0);
+            if let (true, Some(a), Some(b), Some(x), Some(y), Some(p), Some(q)) =
+                (ok, tnx[k], tny[k], rnx[k], rny[k], cnx[k], cny[k])
+            {
+                f.target.push([a, b]);
+                f.read.push([x, y]);
+                f.carrier_n.push([p, q]);
+            }
+        }
+        let plan: Vec<usize> = cframe.iter().map(|v| v.unwrap_or(0.0) as usize).collect();
+        f.psnr_db.push(eyereplay_replay::psnr_outside_eyes(
+            carrier, &paths.mp4, &plan, PSNR_EVERY,
+        )?);
+        let class = label.class.to_string();
+        sessions.push((label.file.clone(), check(&name, &class, &f)?));
+        // Per class, and per carrier over both classes.
+        for key in [(name.clone(), class), (name, "both".to_string())] {
+            let g = groups.entry(key).or_default();
+            g.target.extend(&f.target);
+            g.read.extend(&f.read);
+            g.carrier_n.extend(&f.carrier_n);
+            g.score_out.extend(&f.score_out);
+            g.score_carrier.extend(&f.score_carrier);
+            g.psnr_db.extend(&f.psnr_db);
+            g.sessions += 1;
+        }
+    }
+    let groups = groups
+        .iter()
+        .map(|((c, k), f)| check(c, k, f))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(ReplayEval {
+        dataset: dataset.display().to_string(),
+        groups,
+        sessions,
+    })
+}
+
+impl std::fmt::Display for ReplayEval {
+    fn fmt(&self, out: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let o = |v: Option<f64>| v.map_or("n/a".into(), |v| format!("{v:.3}"));
+        writeln!(
+            out,
+            "{:<26} {:<13} {:>3} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8} {:>8} {:>7} {:>8} {:>7} {:>7}",
+            "carrier",
+            "class",
+            "ses",
+            "frames",
+            "r x",
+            "amp x",
+            "r y",
+            "amp y",
+            "rm r x",
+            "rm r y",
+            "chance",
+            "leak x",
+            "d face",
+            "PSNR"
+        )?;
+        for g in &self.groups {
+            writeln!(
+                out,
+                "{:<26} {:<13} {:>3} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8} {:>8} {:>7} {:>8} {:>7.3} {:>7.1}",
+                g.carrier,
+                g.class,
+                g.sessions,
+                g.frames,
+                o(g.x.r),
+                o(g.x.amplitude_ratio),
+                o(g.y.r),
+                o(g.y.amplitude_ratio),
+                o(g.removal_r_x),
+                o(g.removal_r_y),
+                o(g.chance_r_x),
+                o(g.removal_partial_r_x),
+                g.face_score_output - g.face_score_carrier,
+                g.psnr_outside_eyes_db
+            )?;
+        }
+        write!(
+            out,
+            "r/amp: read-back n against the trajectory; rm r: against the carrier's own n (removal); \
+chance: the trajectory against the carrier's own n (x); leak x: the carrier's own n against \
+the read-back's residual from the trajectory; d face: face score output - carrier; \
+PSNR (dB) outside the eyes against the carrier"
+        )
+    }
+}
