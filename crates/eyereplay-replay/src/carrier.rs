@@ -203,27 +203,13 @@ impl CarrierTrack {
     /// Reads a cached track; `None` when the file is missing or from
     /// another format version (it is measured again).
     pub fn load(path: &Path) -> Result<Option<CarrierTrack>> {
-        let text = match std::fs::read(path) {
-            Ok(t) => t,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(e) => return Err(ReplayError::io(path, e)),
-        };
-        let track: CarrierTrack =
-            serde_json::from_slice(&text).map_err(|e| ReplayError::Cache {
-                path: path.to_path_buf(),
-                message: format!("not a carrier track ({e}); delete it to measure again"),
-            })?;
-        Ok((track.format_version == TRACK_FORMAT_VERSION).then_some(track))
+        let track: Option<CarrierTrack> = crate::cache::read_json(path, "carrier track")?;
+        Ok(track.filter(|t| t.format_version == TRACK_FORMAT_VERSION))
     }
 
     /// Writes the track atomically.
     pub fn save(&self, path: &Path) -> Result<()> {
-        let json = serde_json::to_vec(self).map_err(|e| ReplayError::Cache {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        eyereplay_core::atomic_write(path, &json)?;
-        Ok(())
+        crate::cache::write_json(path, self)
     }
 
     /// Presentation times of the frames.

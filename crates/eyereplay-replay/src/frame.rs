@@ -56,6 +56,19 @@ impl RgbFrame {
         }
     }
 
+    /// The frame as the extractor's image type (to read it back).
+    pub fn view(&self) -> ImageView<'_> {
+        ImageView {
+            planes: Planes::Rgb24 {
+                data: &self.data,
+                stride: self.width * 3,
+            },
+            raw_w: self.width,
+            raw_h: self.height,
+            rotation: Rotation::None,
+        }
+    }
+
     #[inline]
     pub fn get(&self, x: usize, y: usize) -> [u8; 3] {
         let i = (y * self.width + x) * 3;

@@ -53,8 +53,9 @@ pub struct Carrier {
     pub offsets: Vec<Option<[f32; 2]>>,
 }
 
-/// Format of a cached [`Calibration`]; bump when its meaning changes.
-pub const CALIBRATION_VERSION: u32 = 2;
+/// Format of a cached [`Calibration`]; bump when its meaning changes, or
+/// when the drawing changes (the calibration measures the drawing).
+pub const CALIBRATION_VERSION: u32 = 4;
 
 /// What [`Carrier::calibrate`] measured, for the cache.
 #[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
@@ -68,25 +69,13 @@ impl Calibration {
     /// Reads a cached calibration; `None` when missing or of another
     /// version.
     pub fn load(path: &Path) -> Result<Option<Calibration>> {
-        let bytes = match std::fs::read(path) {
-            Ok(b) => b,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(e) => return Err(ReplayError::io(path, e)),
-        };
-        let c: Calibration = serde_json::from_slice(&bytes).map_err(|e| ReplayError::Cache {
-            path: path.to_path_buf(),
-            message: format!("not a carrier calibration ({e}); delete it to measure again"),
-        })?;
-        Ok((c.version == CALIBRATION_VERSION).then_some(c))
+        let c: Option<Calibration> = crate::cache::read_json(path, "carrier calibration")?;
+        Ok(c.filter(|c| c.version == CALIBRATION_VERSION))
     }
 
+    /// Writes the calibration atomically.
     pub fn save(&self, path: &Path) -> Result<()> {
-        let json = serde_json::to_vec(self).map_err(|e| ReplayError::Cache {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        eyereplay_core::atomic_write(path, &json)?;
-        Ok(())
+        crate::cache::write_json(path, self)
     }
 }
 
@@ -264,15 +253,7 @@ impl Carrier {
                     if self.redraw_at(&mut f, *i, [nx, ny]).is_err() {
                         continue;
                     }
-                    let view = eyereplay_extract::ImageView {
-                        planes: eyereplay_extract::Planes::Rgb24 {
-                            data: &f.data,
-                            stride: f.width * 3,
-                        },
-                        raw_w: f.width,
-                        raw_h: f.height,
-                        rotation: eyereplay_extract::Rotation::None,
-                    };
+                    let view = f.view();
                     tracker.reset();
                     let face = tracker.process(&view)?;
                     let row = eyereplay_extract::Row::from_face(0, 0.0, face.as_ref());
@@ -341,15 +322,7 @@ impl Carrier {
             }
             let mut f = RgbFrame::from_view(img);
             let drawn = self.redraw_at(&mut f, i, [drawn_x(i), 0.5]).is_ok();
-            let view = eyereplay_extract::ImageView {
-                planes: eyereplay_extract::Planes::Rgb24 {
-                    data: &f.data,
-                    stride: f.width * 3,
-                },
-                raw_w: f.width,
-                raw_h: f.height,
-                rotation: eyereplay_extract::Rotation::None,
-            };
+            let view = f.view();
             let face = tracker.process(&view)?;
             if drawn {
                 let row = eyereplay_extract::Row::from_face(0, 0.0, face.as_ref());

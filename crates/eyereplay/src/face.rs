@@ -172,18 +172,12 @@ pub(crate) fn render_sessions_face(
         progress.status(&format!("{}/{} sessions", n + 1, sessions.len()));
         let files = &job.paths;
         let head_csv = files.head_csv();
-        for target in files.outputs().into_iter().chain([head_csv.as_path()]) {
-            for p in eyereplay_core::stale_temp_files(target) {
-                std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?;
-            }
-        }
-        let traj = eyereplay_core::read_session_csv(&files.csv)?;
-        let blinks = eyereplay_render::read_blink_column(&files.csv)?;
-        if head_csv.exists() && eyereplay_render::is_complete(job, traj.len(), &ffprobe) {
+        let Some(traj) = crate::render::open_session(job, &head_csv, &ffprobe)? else {
             summary.skipped += 1;
-            progress.advance(traj.len() as u64);
+            progress.advance(meta.session_frames as u64);
             continue;
-        }
+        };
+        let blinks = eyereplay_render::read_blink_column(&files.csv)?;
         let seed = job.seed;
         let photo = &identities[(seed % identities.len() as u64) as usize];
         let look = face.webcam.sample(seed ^ 0x00ca_3e4a);

