@@ -15,7 +15,9 @@ out="${1:-out/default}"
 echo "run: cargo build --release"
 cargo build --release --quiet -p eyereplay-cli
 export EYEREPLAY_CACHE="${EYEREPLAY_CACHE:-$root/.cache}"
-"$root/target/release/eyereplay" generate --config examples/default.toml --out "$out"
+# --read-back-all: the report reads every session back with the extractor
+# and tabulates each one (about a minute more).
+"$root/target/release/eyereplay" generate --config examples/default.toml --out "$out" --read-back-all
 # The default reading detector, trained on what the extractor reads from the
 # default's videos (docs/DETECTOR.md): detect your own video with
 #   target/release/eyereplay detect VIDEO --model out/default/detector.json

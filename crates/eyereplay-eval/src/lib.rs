@@ -26,5 +26,6 @@ pub mod plot;
 pub mod report;
 pub use eyereplay_core::Calibration;
 pub use report::{
-    evaluate_dataset, metrics_json, write_report, Evaluation, VisualRun, VisualSection,
+    evaluate_dataset, metrics_json, write_report, Evaluation, SessionReadBack, VisualRun,
+    VisualSection,
 };

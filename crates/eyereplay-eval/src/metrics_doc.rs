@@ -135,6 +135,20 @@ struct Visual<'a> {
     detection_rate: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     render_truth: Option<RenderTruth<'a>>,
+    /// `evaluate --read-back-all`: every session.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    sessions: Vec<SessionRow<'a>>,
+}
+
+#[derive(Serialize)]
+struct SessionRow<'a> {
+    session: &'a str,
+    class: &'a str,
+    n_frames: usize,
+    detection_rate: f64,
+    x: Axis,
+    y: Axis,
+    error: Error,
 }
 
 #[derive(Serialize)]
@@ -290,6 +304,19 @@ fn visual(ev: &Evaluation) -> Visual<'_> {
             .render_truth
             .as_ref()
             .map(|(file, t)| render_truth(file, t)),
+        sessions: ev
+            .sessions_read_back
+            .iter()
+            .map(|r| SessionRow {
+                session: &r.session,
+                class: &r.class,
+                n_frames: r.fidelity.n_frames,
+                detection_rate: r.detection_rate,
+                x: Axis::brief(&r.fidelity.x),
+                y: Axis::brief(&r.fidelity.y),
+                error: Error::of(&r.fidelity.error),
+            })
+            .collect(),
     };
     match &ev.visual {
         VisualSection::NotComputed { reason } => v.reason = Some(reason),

@@ -55,6 +55,20 @@ pub struct Evaluation {
     /// comparison). Set whenever a truth file exists, even when the
     /// extractor cannot read the video.
     pub render_truth: Option<(String, VisualFidelity)>,
+    /// Every rendered session read back whole, when asked for
+    /// (`eyereplay evaluate --read-back-all`); empty otherwise.
+    pub sessions_read_back: Vec<SessionReadBack>,
+}
+
+/// One session's video read back by the extractor, against its source.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SessionReadBack {
+    /// The session CSV, relative to the dataset.
+    pub session: String,
+    pub class: String,
+    /// Frames in which the extractor measured an iris (blinks excluded).
+    pub detection_rate: f64,
+    pub fidelity: VisualFidelity,
 }
 
 /// Why the visual section is empty when no video was compared.
@@ -90,6 +104,7 @@ pub fn evaluate_loaded(ds: &Dataset, cfg: &EvalConfig) -> Evaluation {
             reason: VISUAL_NOT_WIRED.to_string(),
         },
         render_truth: None,
+        sessions_read_back: vec![],
     }
 }
 
@@ -459,6 +474,7 @@ fn visual_html(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
             }
         }
     }
+    sessions_read_back_html(h, &ev.sessions_read_back);
     if let Some((file, t)) = &ev.render_truth {
         let _ = writeln!(
             h,
@@ -468,6 +484,64 @@ fn visual_html(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
             t.summary()
         );
     }
+}
+
+/// The per-session table, with each class's range first.
+fn sessions_read_back_html(h: &mut String, rows: &[SessionReadBack]) {
+    if rows.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        h,
+        "<h3>Every session read back</h3>\n<p>Each rendered session's whole video read by the extractor and compared frame by frame with its source, open-eye frames only ({} sessions). Targets as above: r &ge; {TARGET_R_MIN}, amplitude ratio {}-{}.</p>",
+        rows.len(),
+        TARGET_AMPLITUDE_RATIO.0,
+        TARGET_AMPLITUDE_RATIO.1
+    );
+    let range = |v: Vec<f64>| {
+        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if v.is_empty() {
+            "n/a".to_string()
+        } else {
+            format!("{lo:.3}-{hi:.3}")
+        }
+    };
+    let mut classes: Vec<&str> = rows.iter().map(|r| r.class.as_str()).collect();
+    classes.dedup();
+    h.push_str("<table><tr><th>class</th><th>sessions</th><th>r x</th><th>amplitude ratio x</th><th>r y</th><th>amplitude ratio y</th></tr>\n");
+    for c in classes {
+        let of = |f: &dyn Fn(&SessionReadBack) -> Option<f64>| {
+            range(rows.iter().filter(|r| r.class == c).filter_map(f).collect())
+        };
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(c),
+            rows.iter().filter(|r| r.class == c).count(),
+            of(&|r| r.fidelity.x.r),
+            of(&|r| r.fidelity.x.amplitude_ratio),
+            of(&|r| r.fidelity.y.r),
+            of(&|r| r.fidelity.y.amplitude_ratio)
+        );
+    }
+    h.push_str("</table>\n<table><tr><th>session</th><th>frames</th><th>iris found</th><th>r x</th><th>amplitude ratio x</th><th>r y</th><th>amplitude ratio y</th><th>median error</th></tr>\n");
+    for r in rows {
+        let v = &r.fidelity;
+        let _ = writeln!(
+            h,
+            "<tr><td><code>{}</code></td><td>{}</td><td>{:.1} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td></tr>",
+            esc(&r.session),
+            v.n_frames,
+            100.0 * r.detection_rate,
+            f3(v.x.r),
+            f3(v.x.amplitude_ratio),
+            f3(v.y.r),
+            f3(v.y.amplitude_ratio),
+            v.error.median
+        );
+    }
+    h.push_str("</table>\n");
 }
 
 /// Paths written by [`write_report`].

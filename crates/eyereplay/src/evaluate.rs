@@ -43,6 +43,9 @@ pub struct EvaluateOptions {
     pub visual_seconds: f64,
     /// Folder of the iris models (default: the extractor's default folder).
     pub models: Option<PathBuf>,
+    /// Also read every rendered session back whole and tabulate each one
+    /// (costs one extraction of every video).
+    pub read_back_all: bool,
 }
 
 impl Default for EvaluateOptions {
@@ -52,6 +55,7 @@ impl Default for EvaluateOptions {
             visual: VisualChoice::Auto,
             visual_seconds: 120.0,
             models: None,
+            read_back_all: false,
         }
     }
 }
@@ -75,6 +79,9 @@ pub fn evaluate(dir: &Path, opts: &EvaluateOptions) -> Result<EvaluateOutcome> {
         },
         choice => visual_section(dir, choice, opts, &mut ev)?,
     };
+    if opts.read_back_all {
+        ev.sessions_read_back = sessions_read_back(dir, opts, &ev)?;
+    }
     let (paths, metrics_json) = write_report(dir, &ev)?;
     Ok(EvaluateOutcome {
         evaluation: ev,
@@ -193,7 +200,8 @@ for per-source calibrations compare a dataset session (--visual-session)",
 
 /// Frames where the eyes are closed (the session's or the render's blink
 /// column, widened by two frames each side, since lids are part-closed just
-/// before and after a flagged blink): they carry no iris position.
+/// before and after a flagged blink) or not drawn (a replay carrier's
+/// frames left as they are): they carry no iris position of the session.
 fn closed_frames(target: &VisualTarget, frames: usize) -> Result<Vec<bool>> {
     let mut closed = vec![false; frames];
     let files = std::iter::once(&target.trajectory).chain(target.truth.as_ref());
@@ -202,6 +210,16 @@ fn closed_frames(target: &VisualTarget, frames: usize) -> Result<Vec<bool>> {
             for (c, b) in closed.iter_mut().zip(b) {
                 *c |= b;
             }
+        }
+    }
+    // The replay mode's frames left as the carrier shows them (a blink,
+    // no face, eyes too small, a head turned too far) carry the carrier's
+    // eyes, not the session's.
+    let carrier_csv = SessionPaths::beside_video(&target.video).carrier_csv();
+    if carrier_csv.is_file() {
+        let text = std::fs::read_to_string(&carrier_csv).map_err(|e| Error::io(&carrier_csv, e))?;
+        for (c, line) in closed.iter_mut().zip(text.lines().skip(1)) {
+            *c |= line.split(',').nth(3) == Some("0");
         }
     }
     let flagged = closed.clone();
@@ -283,6 +301,52 @@ fn visual_section(
         video: shown(dir, &target.video),
         eye_locator: locator,
     })))
+}
+
+/// Every rendered session read back whole (as the visual section reads
+/// its one session) and compared with its source, in the report's class
+/// order.
+fn sessions_read_back(
+    dir: &Path,
+    opts: &EvaluateOptions,
+    ev: &Evaluation,
+) -> Result<Vec<eyereplay_eval::SessionReadBack>> {
+    let models = opts
+        .models
+        .clone()
+        .unwrap_or_else(eyereplay_extract::default_models_dir);
+    eyereplay_extract::check_models(&models)?;
+    let mut out = vec![];
+    for class in &ev.classes {
+        for (file, _) in &class.events {
+            let target = match visual_target(dir, &VisualChoice::Session(file.clone()), ev) {
+                Ok(Ok(t)) => t,
+                // A session without its video (a shard not rendered yet).
+                _ => continue,
+            };
+            let input: Vec<CanvasPos> = read_session_csv(&target.trajectory)?;
+            check_frame_count(&target.video, input.len())?;
+            let source = source_norm(dir, &target, &input)?;
+            let closed = closed_frames(&target, input.len())?;
+            let geometry = SessionPaths::beside_video(&target.video).identity_json;
+            let (read, _) =
+                match read_back(dir, &target.video, &models, input.len(), ev.fps, &geometry)? {
+                    Ok(r) => r,
+                    Err(reason) => return Err(Error::input(&target.video, reason)),
+                };
+            let n = read.len().min(input.len());
+            let read = masked(&read[..n], &closed[..n]);
+            let fidelity = compare_visual(&source[..n], &read, None)
+                .map_err(|e| Error::input(&target.video, format!("visual comparison: {e}")))?;
+            out.push(eyereplay_eval::SessionReadBack {
+                session: file.clone(),
+                class: class.class.to_string(),
+                detection_rate: detection_rate(&read),
+                fidelity,
+            });
+        }
+    }
+    Ok(out)
 }
 
 /// The renderer's own iris positions against the source: the simulator's

@@ -59,6 +59,10 @@ pub struct Args {
     /// Folder of the iris models (default: $EYEREPLAY_MODELS or .cache/models).
     #[arg(long, value_name = "DIR")]
     pub models: Option<PathBuf>,
+    /// Also read every rendered session back whole and add a table of
+    /// them to the report (one extraction of every video).
+    #[arg(long)]
+    pub read_back_all: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -91,6 +95,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         visual,
         visual_seconds: args.visual_seconds,
         models: args.models.clone(),
+        read_back_all: args.read_back_all,
     };
     let outcome = eyereplay::evaluate(&args.dataset_dir, &opts)?;
     print_outcome(&outcome, args.json);

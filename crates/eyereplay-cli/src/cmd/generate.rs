@@ -28,7 +28,9 @@ width = 1280        height = 720      # video size (default: the canvas)\n  \
 gain = 1.0                            # trajectory amplification of the iris excursion\n  \
 natural_blinks = true                 # blink at a natural rate\n  \
 preset = \"veryfast\"  crf = 18         # x264\n  \
-jobs = 2                              # sessions rendered at once")]
+jobs = 2                              # sessions rendered at once\n  \
+backend = \"eyes\"                      # or \"face\" (examples/face.toml), \"replay\" (examples/replay.toml), \"browser\"\n  \
+carriers = [\"me.mp4\"]                 # replay: real talking-head clips (default: the bundled ones)")]
 pub struct Args {
     /// Dataset config (TOML); default: the bundled default sample (examples/default.toml).
     #[arg(long, value_name = "TOML")]
@@ -48,6 +50,10 @@ pub struct Args {
     /// Skip the evaluation report.
     #[arg(long)]
     pub no_evaluate: bool,
+    /// In the report, read every rendered session back whole and tabulate
+    /// each one (one extraction of every video).
+    #[arg(long, conflicts_with = "no_evaluate")]
+    pub read_back_all: bool,
     /// Folder for cached extractions (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
@@ -75,7 +81,10 @@ pub fn run(args: Args) -> Result<()> {
         out: args.out.clone(),
         shard,
         cache: Some(eyereplay::cache_dir(args.cache.as_deref())),
-        evaluate: (!args.no_evaluate).then(eyereplay::EvaluateOptions::default),
+        evaluate: (!args.no_evaluate).then(|| eyereplay::EvaluateOptions {
+            read_back_all: args.read_back_all,
+            ..Default::default()
+        }),
     };
     let bars = super::Bars::default();
     let summary = eyereplay::generate(&job, &opts, &bars)?;
