@@ -125,6 +125,21 @@ fn replay_dataset_follows_the_trajectory_keeps_the_carrier_and_is_deterministic(
     assert!(psnr > 35.0, "PSNR outside the eyes {psnr}");
     assert!(face.abs() < 0.05, "face score change {face}");
 
+    // The report's table of every session: four rows, the frames the
+    // carrier kept masked, each against its own source.
+    ok(&eyereplay(&["evaluate", s(&a), "--read-back-all"]));
+    let html = std::fs::read_to_string(a.join("report/index.html")).unwrap();
+    assert!(html.contains("Every session read back"));
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(a.join("report/metrics.json")).unwrap()).unwrap();
+    let rows = m["visual"]["sessions"].as_array().unwrap();
+    assert_eq!(rows.len(), 4);
+    for row in rows {
+        let n = row["n_frames"].as_u64().unwrap();
+        assert!((2..=150).contains(&n), "{row}");
+        assert!(row["x"]["r"].as_f64().unwrap() > 0.5, "{row}");
+    }
+
     // The speed bench prints its ratios.
     let bench = ok(&eyereplay(&[
         "render",
