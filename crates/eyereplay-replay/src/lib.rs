@@ -15,9 +15,11 @@
 //! - [`Carrier::prepare`]: each eye's appearance is learned from up to
 //!   [`APPEARANCE_FRAMES`] of its frames ([`redraw::AppearanceBuilder`]):
 //!   a clean eye opening (sclera, corners, lid shading) in eye-relative
-//!   coordinates from the pixels away from the carrier's iris, and the iris
-//!   (pupil, limbus, colour, highlight) by radius and angle from the pixels
-//!   inside it.
+//!   coordinates from the pixels away from the carrier's iris, the iris
+//!   (pupil, limbus, colour) by radius and angle from the pixels inside it,
+//!   and the corneal highlight where the carrier's eyes show one;
+//! - [`Carrier::calibrate`]: how the extractor reads an iris drawn in this
+//!   carrier (slope, and each frame's own offset), inverted when drawing.
 //!
 //! Per output frame ([`render_replay_session`]): the carrier frame at the
 //! same time in a ping-pong loop ([`plan_frames`]), both eyes redrawn

@@ -23,6 +23,11 @@ const V_BINS: usize = 36;
 const R_BINS: usize = 10;
 /// Angle bins of the iris texture.
 const A_BINS: usize = 32;
+/// A frame's brightest iris pixel this much brighter (luma) than the
+/// iris's mean is a corneal highlight; half the frames must show one.
+const GLINT_CONTRAST: f32 = 40.0;
+/// The drawn highlight's radius, in iris radii (at least 0.6 px).
+const GLINT_RADIUS: f32 = 0.12;
 /// Samples a bin needs before its median counts as seen.
 const MIN_BIN_SAMPLES: usize = 3;
 /// Samples kept per bin (the median of these is the bin's colour).
@@ -168,6 +173,9 @@ pub struct AppearanceBuilder {
     plate: Vec<Vec<[u8; 3]>>,
     iris: Vec<Vec<[u8; 3]>>,
     radius_ratios: Vec<f32>,
+    /// Per frame: the brightest iris pixel's contrast over the iris mean,
+    /// its offset from the iris centre in radii, and its colour.
+    glints: Vec<(f32, [f32; 2], [u8; 3])>,
 }
 
 impl Default for AppearanceBuilder {
@@ -176,6 +184,7 @@ impl Default for AppearanceBuilder {
             plate: vec![vec![]; U_BINS * V_BINS],
             iris: vec![vec![]; R_BINS * A_BINS],
             radius_ratios: vec![],
+            glints: vec![],
         }
     }
 }
@@ -204,6 +213,8 @@ impl AppearanceBuilder {
         let r = e.iris_radius_px.max(1.0);
         self.radius_ratios.push(r / ax.w);
         let [x0, y0, x1, y1] = bounds(&e.lid, BAND_PX + FEATHER_PX + 1.0, w, h);
+        let (mut sum_luma, mut n_iris) = (0.0f32, 0usize);
+        let mut brightest: Option<(f32, [f32; 2], [u8; 3])> = None;
         for y in y0..y1 {
             for x in x0..x1 {
                 let p = [x as f32 + 0.5, y as f32 + 0.5];
@@ -228,8 +239,17 @@ impl AppearanceBuilder {
                     if self.iris[i].len() < MAX_SAMPLES {
                         self.iris[i].push(c8);
                     }
+                    let l = luma(c);
+                    sum_luma += l;
+                    n_iris += 1;
+                    if brightest.is_none_or(|b| l > b.0) {
+                        brightest = Some((l, [d[0] / r, d[1] / r], c8));
+                    }
                 }
             }
+        }
+        if let Some((l, off, c)) = brightest.filter(|_| n_iris >= 4) {
+            self.glints.push((l - sum_luma / n_iris as f32, off, c));
         }
     }
 
@@ -280,6 +300,25 @@ impl AppearanceBuilder {
                 }
             }
         }
+        // A 3x3 mean over the cells: the medians of neighbouring cells come
+        // from different frames, and their patchwork would show.
+        let raw = plate.clone();
+        for iv in 0..V_BINS {
+            for iu in 0..U_BINS {
+                let mut acc = [0.0f32; 3];
+                let mut k = 0.0;
+                for jv in iv.saturating_sub(1)..(iv + 2).min(V_BINS) {
+                    for ju in iu.saturating_sub(1)..(iu + 2).min(U_BINS) {
+                        let c = raw[jv * U_BINS + ju];
+                        for (a, v) in acc.iter_mut().zip(c) {
+                            *a += v;
+                        }
+                        k += 1.0;
+                    }
+                }
+                plate[iv * U_BINS + iu] = acc.map(|a| a / k);
+            }
+        }
         // The sclera's own brightness: the brighter half of the seen cells.
         let mut lum: Vec<f32> = seen_plate.iter().flatten().map(|&c| luma(c)).collect();
         lum.sort_by(f32::total_cmp);
@@ -324,11 +363,34 @@ impl AppearanceBuilder {
         }
         self.radius_ratios.sort_by(f32::total_cmp);
         let radius_ratio = self.radius_ratios[self.radius_ratios.len() / 2];
+        // The corneal highlight: where the frames' brightest iris pixel
+        // stands out clearly, its median place and colour.
+        let bright: Vec<&(f32, [f32; 2], [u8; 3])> = self
+            .glints
+            .iter()
+            .filter(|g| g.0 >= GLINT_CONTRAST)
+            .collect();
+        let glint = (bright.len() * 2 >= self.glints.len() && !bright.is_empty()).then(|| {
+            let med = |mut v: Vec<f32>| {
+                v.sort_by(f32::total_cmp);
+                v[v.len() / 2]
+            };
+            let off = [
+                med(bright.iter().map(|g| g.1[0]).collect()),
+                med(bright.iter().map(|g| g.1[1]).collect()),
+            ];
+            let colour = [0, 1, 2].map(|k| med(bright.iter().map(|g| g.2[k] as f32).collect()));
+            Glint {
+                offset: off,
+                colour,
+            }
+        });
         Some(EyeAppearance {
             plate,
             iris,
             sclera_luma,
             radius_ratio,
+            glint,
         })
     }
 }
@@ -347,6 +409,16 @@ pub struct EyeAppearance {
     pub sclera_luma: f32,
     /// Iris radius over corner-to-corner width (median over the frames).
     pub radius_ratio: f32,
+    /// The corneal highlight, when the carrier's eyes show one.
+    pub glint: Option<Glint>,
+}
+
+/// A corneal highlight learned from the carrier's frames.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Glint {
+    /// From the iris centre, in iris radii (image x right, y down).
+    pub offset: [f32; 2],
+    pub colour: [f32; 3],
 }
 
 impl EyeAppearance {
@@ -471,8 +543,20 @@ pub fn redraw_eye(
                 // extractor reads the iris of a small, blurred eye worse:
                 // r 0.80 instead of 0.95 on jwpIntro's conversation.)
                 let shade = (luma(clean) / app.sclera_luma.max(1.0)).clamp(0.55, 1.0);
-                let iris = app.iris_at((dist / r).min(0.999), d[1].atan2(d[0]));
-                [0, 1, 2].map(|k| clean[k] + a * (iris[k] * shade - clean[k]))
+                let mut iris = app.iris_at((dist / r).min(0.999), d[1].atan2(d[0]));
+                for v in &mut iris {
+                    *v *= shade;
+                }
+                if let Some(g) = &app.glint {
+                    let gc = [c[0] + g.offset[0] * r, c[1] + g.offset[1] * r];
+                    let gr = (GLINT_RADIUS * r).max(0.6);
+                    let gd2 = ((p[0] - gc[0]).powi(2) + (p[1] - gc[1]).powi(2)) / (gr * gr);
+                    let w = 0.9 * (-gd2).exp();
+                    for (v, gc) in iris.iter_mut().zip(g.colour) {
+                        *v += w * (gc - *v);
+                    }
+                }
+                [0, 1, 2].map(|k| clean[k] + a * (iris[k] - clean[k]))
             } else {
                 clean
             };

@@ -55,7 +55,7 @@ pub struct Carrier {
 
 /// Format of a cached [`Calibration`]; bump when its meaning changes, or
 /// when the drawing changes (the calibration measures the drawing).
-pub const CALIBRATION_VERSION: u32 = 4;
+pub const CALIBRATION_VERSION: u32 = 5;
 
 /// What [`Carrier::calibrate`] measured, for the cache.
 #[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
