@@ -150,6 +150,21 @@ fn replay_dataset_follows_the_trajectory_keeps_the_carrier_and_is_deterministic(
         "50",
     ]));
     assert!(bench.contains("real-time factor"), "{bench}");
+
+    // A carrier moved since: found by its content with --carrier, and
+    // without it a one-line error that says so.
+    let moved = dir.path().join("moved.mp4");
+    std::fs::rename(&clip, &moved).unwrap();
+    let e = one_line_error(&eyereplay(&["evaluate-replay", s(&a)]));
+    assert!(e.contains("carrier clip.mp4 (sha256 "), "{e}");
+    assert!(e.contains("pass it with --carrier PATH"), "{e}");
+    let again = ok(&eyereplay(&[
+        "evaluate-replay",
+        s(&a),
+        "--carrier",
+        s(&moved),
+    ]));
+    assert_eq!(again, table, "the same numbers from the moved carrier");
 }
 
 #[test]

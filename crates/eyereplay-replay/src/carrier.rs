@@ -16,6 +16,11 @@ pub const TRACK_FORMAT_VERSION: u32 = 1;
 /// iris model's own read-back of a drawn iris is no longer reliable.
 pub const MIN_EYE_WIDTH_PX: f64 = 16.0;
 
+/// A frame whose narrower eye is narrower than this is left as it is (the
+/// clip as a whole needs [`MIN_EYE_WIDTH_PX`]; single frames may dip a
+/// little below, as a head moves back).
+pub const MIN_FRAME_EYE_WIDTH_PX: f64 = 0.8 * MIN_EYE_WIDTH_PX;
+
 /// A frame whose narrower eye is less than this fraction of the wider one
 /// shows a head turned about 35 degrees or more (a turned eye foreshortens
 /// as the cosine of the turn, and the far eye more): the frontal lid model
@@ -239,7 +244,7 @@ impl CarrierTrack {
             return Some(Skip::NoFace);
         };
         let (a, b) = (eyes[0].width_px(), eyes[1].width_px());
-        if a.min(b) < MIN_EYE_WIDTH_PX * 0.8 {
+        if a.min(b) < MIN_FRAME_EYE_WIDTH_PX {
             return Some(Skip::SmallEyes);
         }
         if a.min(b) < MIN_EYE_WIDTH_RATIO * a.max(b) {

@@ -22,6 +22,13 @@ pub enum ReplayError {
     },
     #[error("{}: {message}", path.display())]
     Cache { path: PathBuf, message: String },
+    /// A carrier CSV that is not one (line 1 is the header).
+    #[error("{}: line {line}: {message}", path.display())]
+    CarrierCsv {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
 }
 
 impl ReplayError {

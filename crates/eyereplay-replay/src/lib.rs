@@ -38,12 +38,12 @@ mod session;
 
 pub use carrier::{
     CarrierEye, CarrierFrame, CarrierTrack, CarrierUsage, Skip, MIN_EYE_WIDTH_PX,
-    MIN_EYE_WIDTH_RATIO, MIN_USABLE_FRACTION, TRACK_FORMAT_VERSION,
+    MIN_EYE_WIDTH_RATIO, MIN_FRAME_EYE_WIDTH_PX, MIN_USABLE_FRACTION, TRACK_FORMAT_VERSION,
 };
 pub use error::{ReplayError, Result};
 pub use frame::RgbFrame;
 pub use session::{
-    plan_frames, psnr_outside_eyes, render_replay_session, run_replay_bench, start_frame,
-    Calibration, Carrier, ReplayStats, Response, APPEARANCE_FRAMES, CALIBRATION_VERSION,
-    CARRIER_CSV_HEADER, GEOMETRY_SMOOTHING_HALF,
+    plan_frames, psnr_outside_eyes, read_carrier_csv, render_replay_session, run_replay_bench,
+    start_frame, Calibration, Carrier, CarrierCsvRow, ReplayStats, Response, APPEARANCE_FRAMES,
+    CALIBRATION_VERSION, CARRIER_CSV_HEADER, GEOMETRY_SMOOTHING_HALF,
 };

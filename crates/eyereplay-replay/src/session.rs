@@ -13,6 +13,7 @@ use eyereplay_extract::Decoder;
 use eyereplay_render::{
     rgb_to_yuv420, time_bench, BenchReport, BenchShape, Encoder, EncoderSettings, FrameSink,
 };
+use eyereplay_signal::stats::linear_fit;
 use serde::Serialize;
 use std::io::Write;
 use std::ops::ControlFlow;
@@ -30,6 +31,56 @@ pub const GEOMETRY_SMOOTHING_HALF: usize = 1;
 /// carrier's own gaze in that frame as the extractor read it.
 pub const CARRIER_CSV_HEADER: &str = "frame,carrier_frame,carrier_time_s,redrawn,skip,\
 face_score,carrier_nx,carrier_ny,left_iris_x_px,left_iris_y_px,right_iris_x_px,right_iris_y_px";
+
+/// The columns of `<session>_carrier.csv` that readers use.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CarrierCsvRow {
+    pub carrier_frame: usize,
+    /// False where the frame was left as the carrier shows it.
+    pub redrawn: bool,
+    pub face_score: f64,
+    /// The carrier's own gaze as the extractor read it (`None`: no face).
+    pub carrier_n: Option<[f64; 2]>,
+}
+
+/// Reads a carrier CSV written by [`render_replay_session`]; errors name
+/// the file and line.
+pub fn read_carrier_csv(path: &Path) -> Result<Vec<CarrierCsvRow>> {
+    let text = std::fs::read_to_string(path).map_err(|e| ReplayError::io(path, e))?;
+    let bad = |line: usize, message: String| ReplayError::CarrierCsv {
+        path: path.to_path_buf(),
+        line,
+        message,
+    };
+    let mut lines = text.lines();
+    if lines.next() != Some(CARRIER_CSV_HEADER) {
+        return Err(bad(1, format!("header must be {CARRIER_CSV_HEADER}")));
+    }
+    lines
+        .enumerate()
+        .map(|(i, l)| {
+            let f: Vec<&str> = l.split(',').collect();
+            let num = |k: usize| -> Result<Option<f64>> {
+                match f.get(k) {
+                    Some(&"") => Ok(None),
+                    Some(v) => v
+                        .parse()
+                        .map(Some)
+                        .map_err(|_| bad(i + 2, format!("column {} is not a number: {v}", k + 1))),
+                    None => Err(bad(i + 2, format!("{} columns, expected 12", f.len()))),
+                }
+            };
+            let need =
+                |k: usize| num(k)?.ok_or_else(|| bad(i + 2, format!("column {} is empty", k + 1)));
+            Ok(CarrierCsvRow {
+                carrier_frame: need(1)? as usize,
+                redrawn: need(3)? == 1.0,
+                face_score: need(5)?,
+                carrier_n: num(6)?.zip(num(7)?).map(|(x, y)| [x, y]),
+            })
+        })
+        .collect()
+}
 
 /// A carrier ready to replay: its geometry, and each eye's appearance.
 #[derive(Clone, Debug)]
@@ -122,20 +173,14 @@ impl Response {
     }
 }
 
-/// Least-squares `[offset, slope]` of `read` on `drawn`.
+/// Least-squares `[offset, slope]` of `read` on `drawn` (`(drawn, read)`
+/// pairs; at least 3).
 fn fit_line(pairs: &[(f64, f64)]) -> Option<[f64; 2]> {
-    let n = pairs.len() as f64;
-    if pairs.len() < 3 {
-        return None;
-    }
-    let mx = pairs.iter().map(|p| p.0).sum::<f64>() / n;
-    let my = pairs.iter().map(|p| p.1).sum::<f64>() / n;
-    let sxx: f64 = pairs.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    let sxy: f64 = pairs.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    (sxx > 0.0).then(|| {
-        let b = sxy / sxx;
-        [my - b * mx, b]
-    })
+    let (x, y): (Vec<f64>, Vec<f64>) = pairs.iter().copied().unzip();
+    (pairs.len() >= 3)
+        .then(|| linear_fit(&x, &y))
+        .flatten()
+        .map(|(slope, offset)| [offset, slope])
 }
 
 impl Carrier {
@@ -551,12 +596,7 @@ pub fn render_replay_session(
             iris_px: [iris[0] as f64, iris[1] as f64],
             nx: targets[k][0],
             ny: targets[k][1],
-            aperture: geometry.map_or(0.0, |e| {
-                let e = &e[side];
-                let gap = ((e.lower_lid[0] - e.upper_lid[0]) as f64)
-                    .hypot((e.lower_lid[1] - e.upper_lid[1]) as f64);
-                gap / e.width_px().max(1e-6)
-            }),
+            aperture: geometry.map_or(0.0, |e| e[side].aperture()),
         };
         let irises = match r.drawn {
             Ok(p) => {
@@ -755,6 +795,55 @@ mod tests {
         assert!(p.windows(2).all(|w| w[0].abs_diff(w[1]) <= 1));
         // Starting later shifts the same timeline.
         assert_eq!(&plan_frames(&t, 2, 3, 10.0)[..], &[2, 3, 4]);
+    }
+
+    #[test]
+    fn fit_line_gives_offset_and_slope() {
+        // read = 1 + 2 drawn, exactly.
+        assert_eq!(
+            fit_line(&[(0.0, 1.0), (1.0, 3.0), (2.0, 5.0)]),
+            Some([1.0, 2.0])
+        );
+        assert_eq!(fit_line(&[(0.0, 1.0), (1.0, 3.0)]), None);
+        assert_eq!(fit_line(&[(1.0, 1.0), (1.0, 3.0), (1.0, 2.0)]), None);
+    }
+
+    #[test]
+    fn carrier_csv_reads_back_and_refuses_another_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("s_carrier.csv");
+        std::fs::write(
+            &p,
+            format!(
+                "{CARRIER_CSV_HEADER}\n0,12,0.480000,1,,0.9990,0.5100,0.4400,1.00,2.00,3.00,4.00\n\
+1,13,0.520000,0,blink,0.0000,,,,,,\n"
+            ),
+        )
+        .unwrap();
+        let rows = read_carrier_csv(&p).unwrap();
+        assert_eq!(
+            rows,
+            vec![
+                CarrierCsvRow {
+                    carrier_frame: 12,
+                    redrawn: true,
+                    face_score: 0.999,
+                    carrier_n: Some([0.51, 0.44]),
+                },
+                CarrierCsvRow {
+                    carrier_frame: 13,
+                    redrawn: false,
+                    face_score: 0.0,
+                    carrier_n: None,
+                },
+            ]
+        );
+        std::fs::write(&p, "frame,x,y\n0,1,2\n").unwrap();
+        let e = read_carrier_csv(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("s_carrier.csv: line 1: header must be frame,carrier_frame"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -217,9 +217,11 @@ fn closed_frames(target: &VisualTarget, frames: usize) -> Result<Vec<bool>> {
     // eyes, not the session's.
     let carrier_csv = SessionPaths::beside_video(&target.video).carrier_csv();
     if carrier_csv.is_file() {
-        let text = std::fs::read_to_string(&carrier_csv).map_err(|e| Error::io(&carrier_csv, e))?;
-        for (c, line) in closed.iter_mut().zip(text.lines().skip(1)) {
-            *c |= line.split(',').nth(3) == Some("0");
+        for (c, row) in closed
+            .iter_mut()
+            .zip(eyereplay_replay::read_carrier_csv(&carrier_csv)?)
+        {
+            *c |= !row.redrawn;
         }
     }
     let flagged = closed.clone();

@@ -8,6 +8,7 @@
 
 use crate::progress::Progress;
 use crate::{Error, Result};
+use eyereplay_eval::stats::{linear_fit, mean, pearson};
 use eyereplay_eval::visual::{compare_visual, AxisFidelity};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -102,29 +103,19 @@ struct Frames {
     sessions: usize,
 }
 
-fn pearson(a: &[f64], b: &[f64]) -> Option<f64> {
-    eyereplay_extract::pearson(a, b)
-        .is_finite()
-        .then(|| eyereplay_extract::pearson(a, b))
-}
-
-/// `y` minus its least-squares line on `x`.
+/// `y` minus its least-squares line on `x` (unchanged when x is constant).
 fn residual(y: &[f64], x: &[f64]) -> Vec<f64> {
-    let n = x.len().max(1) as f64;
-    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
-    let sxx: f64 = x.iter().map(|v| (v - mx).powi(2)).sum();
-    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
-    let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    let (slope, icept) = linear_fit(x, y).unwrap_or((0.0, mean(y).unwrap_or(0.0)));
     x.iter()
         .zip(y)
-        .map(|(a, v)| v - my - b * (a - mx))
+        .map(|(a, v)| v - icept - slope * a)
         .collect()
 }
 
 fn check(carrier: &str, class: &str, f: &Frames) -> Result<ReplayCheck> {
     let v = compare_visual(&f.target, &f.read, None)?;
     let col = |v: &[[f64; 2]], k: usize| v.iter().map(|p| p[k]).collect::<Vec<_>>();
-    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let mean = |v: &[f64]| mean(v).unwrap_or(f64::NAN);
     Ok(ReplayCheck {
         carrier: carrier.into(),
         class: class.into(),
@@ -147,68 +138,89 @@ fn check(carrier: &str, class: &str, f: &Frames) -> Result<ReplayCheck> {
     })
 }
 
-/// Measures every session of a replay dataset.
-pub fn evaluate_replay(dataset: &Path, progress: &dyn Progress) -> Result<ReplayEval> {
+/// Finds the carrier video whose sha256 the session's identity file
+/// records, among `candidates` (hashed once each).
+fn find_carrier(
+    sha: &str,
+    candidates: &[PathBuf],
+    hashes: &mut BTreeMap<PathBuf, String>,
+) -> Result<Option<PathBuf>> {
+    for c in candidates.iter().filter(|c| c.is_file()) {
+        if !hashes.contains_key(c) {
+            hashes.insert(c.clone(), eyereplay_core::sha256_file(c)?);
+        }
+        if hashes[c] == sha {
+            return Ok(Some(c.clone()));
+        }
+    }
+    Ok(None)
+}
+
+/// Measures every session of a replay dataset. Each session's carrier is
+/// found by the sha256 its identity file records, among `carriers` (for
+/// clips elsewhere), the config's carriers (paths as written, from the
+/// current folder: metadata.json keeps them as the config had them) and
+/// the bundled ones.
+pub fn evaluate_replay(
+    dataset: &Path,
+    carriers: &[PathBuf],
+    progress: &dyn Progress,
+) -> Result<ReplayEval> {
+    let meta_path = dataset.join(eyereplay_dataset::layout::METADATA_FILE);
     let meta = eyereplay_dataset::read_metadata(dataset)?;
-    let cfg = &meta.dataset.config;
     let settings =
-        &eyereplay_dataset::RenderSettings::from_config(cfg, &dataset.join("metadata.json"))?;
+        eyereplay_dataset::RenderSettings::from_config(&meta.dataset.config, &meta_path)?;
     if settings.backend != eyereplay_dataset::RenderBackend::Replay {
         return Err(Error::input(
-            dataset.join("metadata.json"),
+            &meta_path,
             "not a replay dataset (render.backend is not \"replay\")",
         ));
     }
+    let mut candidates = carriers.to_vec();
+    candidates.extend(settings.carriers.iter().cloned());
+    candidates.extend(crate::replay::carrier_videos(
+        &eyereplay_dataset::RenderSettings::default(),
+        |p| p.to_path_buf(),
+    ));
     let cache = crate::cache_dir(None);
     let labels = eyereplay_dataset::read_labels(dataset)?;
-    let mut carriers: BTreeMap<String, eyereplay_replay::Carrier> = BTreeMap::new();
-    let mut groups: BTreeMap<(String, String), Frames> = BTreeMap::new();
-    let mut sessions = vec![];
-    let videos: Vec<PathBuf> = labels
+    let paths: Vec<eyereplay_dataset::SessionPaths> = labels
         .iter()
         .map(|l| {
             eyereplay_dataset::SessionPaths::new(dataset, &l.file)
-                .map(|p| p.mp4)
                 .map_err(|m| Error::input(dataset.join("labels.csv"), m))
         })
         .collect::<Result<_>>()?;
+    let videos: Vec<PathBuf> = paths.iter().map(|p| p.mp4.clone()).collect();
     let csvs = crate::detector::extract_cached(&videos, &cache, progress)?;
-    for (label, read_csv) in labels.iter().zip(&csvs) {
-        let paths = eyereplay_dataset::SessionPaths::new(dataset, &label.file)
-            .map_err(|m| Error::input(dataset.join("labels.csv"), m))?;
+    let mut hashes = BTreeMap::new();
+    let mut prepared: BTreeMap<String, eyereplay_replay::Carrier> = BTreeMap::new();
+    let mut groups: BTreeMap<(String, String), Frames> = BTreeMap::new();
+    let mut sessions = vec![];
+    for ((label, paths), read_csv) in labels.iter().zip(&paths).zip(&csvs) {
         let ident = eyereplay_dataset::SessionIdentity::read(&paths.identity_json)?;
-        let name = ident.identity["carrier"]
-            .as_str()
-            .ok_or_else(|| Error::input(&paths.identity_json, "no carrier named"))?
-            .to_string();
-        if !carriers.contains_key(&name) {
-            let video = crate::replay::carrier_videos(settings, |p| cfg.resolve(p))
-                .into_iter()
-                .find(|v| v.file_name().is_some_and(|f| f.to_string_lossy() == name))
-                .ok_or_else(|| {
-                    Error::input(&paths.identity_json, format!("carrier {name} not found"))
-                })?;
+        let field = |k: &str| {
+            ident.identity[k]
+                .as_str()
+                .map(str::to_string)
+                .ok_or_else(|| Error::input(&paths.identity_json, format!("no {k}")))
+        };
+        let (name, sha) = (field("carrier")?, field("carrier_sha256")?);
+        if !prepared.contains_key(&sha) {
+            let video = find_carrier(&sha, &candidates, &mut hashes)?.ok_or_else(|| {
+                Error::input(
+                    &paths.identity_json,
+                    format!("carrier {name} (sha256 {sha}) not found; pass it with --carrier PATH"),
+                )
+            })?;
             let track = crate::replay::carrier_track(&video, &cache, progress)?;
-            carriers.insert(
-                name.clone(),
-                eyereplay_replay::Carrier::prepare(&video, track)?,
-            );
+            let carrier = eyereplay_replay::Carrier::prepare(&video, track)?;
+            prepared.insert(sha.clone(), carrier);
         }
-        let carrier = &carriers[&name];
-        let cpath = paths.carrier_csv();
-        let c = Columns::read(&cpath)?;
-        let t = Columns::read(&paths.truth)?;
+        let carrier = &prepared[&sha];
+        let kept = eyereplay_replay::read_carrier_csv(&paths.carrier_csv())?;
+        let truth = eyereplay_dataset::read_truth_csv(&paths.truth)?;
         let r = Columns::read(read_csv)?;
-        let (redrawn, cframe) = (c.col(&cpath, "redrawn")?, c.col(&cpath, "carrier_frame")?);
-        let (cnx, cny, cscore) = (
-            c.col(&cpath, "carrier_nx")?,
-            c.col(&cpath, "carrier_ny")?,
-            c.col(&cpath, "face_score")?,
-        );
-        let (tnx, tny) = (
-            t.col(&paths.truth, "left_nx")?,
-            t.col(&paths.truth, "left_ny")?,
-        );
         let (valid, rnx, rny, rscore) = (
             r.col(read_csv, "valid")?,
             r.col(read_csv, "nx")?,
@@ -219,26 +231,24 @@ pub fn evaluate_replay(dataset: &Path, progress: &dyn Progress) -> Result<Replay
             sessions: 1,
             ..Default::default()
         };
-        for k in 0..redrawn.len().min(valid.len()) {
+        for (k, (c, t)) in kept.iter().zip(&truth).enumerate().take(valid.len()) {
             f.score_out.push(rscore[k].unwrap_or(0.0));
-            f.score_carrier.push(cscore[k].unwrap_or(0.0));
-            let ok = redrawn[k] == Some(1.0) && valid[k] == Some(1.0);
-            if let (true, Some(a), Some(b), Some(x), Some(y), Some(p), Some(q)) =
-                (ok, tnx[k], tny[k], rnx[k], rny[k], cnx[k], cny[k])
-            {
-                f.target.push([a, b]);
+            f.score_carrier.push(c.face_score);
+            let ok = c.redrawn && valid[k] == Some(1.0);
+            if let (true, Some(x), Some(y), Some(own)) = (ok, rnx[k], rny[k], c.carrier_n) {
+                f.target.push(t.mean_norm());
                 f.read.push([x, y]);
-                f.carrier_n.push([p, q]);
+                f.carrier_n.push(own);
             }
         }
-        let plan: Vec<usize> = cframe.iter().map(|v| v.unwrap_or(0.0) as usize).collect();
+        let plan: Vec<usize> = kept.iter().map(|c| c.carrier_frame).collect();
         f.psnr_db.push(eyereplay_replay::psnr_outside_eyes(
             carrier, &paths.mp4, &plan, PSNR_EVERY,
         )?);
         let class = label.class.to_string();
         sessions.push((label.file.clone(), check(&name, &class, &f)?));
         // Per class, and per carrier over both classes.
-        for key in [(name.clone(), class), (name, "both".to_string())] {
+        for key in [(name.clone(), class), (name.clone(), "both".to_string())] {
             let g = groups.entry(key).or_default();
             g.target.extend(&f.target);
             g.read.extend(&f.read);

@@ -22,10 +22,14 @@ pub struct Args {
     /// Also write every number (per group and per session) here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// A carrier video outside the config's paths and the bundled ones
+    /// (found by the sha256 the sessions record); repeat for several.
+    #[arg(long, value_name = "VIDEO")]
+    pub carrier: Vec<PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let ev = evaluate_replay(&args.dataset, &Bars::default())?;
+    let ev = evaluate_replay(&args.dataset, &args.carrier, &Bars::default())?;
     println!("{ev}");
     if let Some(path) = &args.json {
         let mut text = serde_json::to_string_pretty(&ev)?;
