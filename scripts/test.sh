@@ -8,28 +8,35 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
+# Each phase's wall time, so a slow CI run shows where the time went.
+phase_start=$SECONDS
+phase() {
+  echo "test: $1   [previous step: $((SECONDS - phase_start)) s]"
+  phase_start=$SECONDS
+}
 "$root/scripts/setup.sh"
 export CI="${CI:-1}"
-echo "test: cargo fmt --check"
+phase "setup done; cargo fmt --check"
 cargo fmt --all -- --check
-echo "test: cargo clippy"
+phase "cargo clippy"
 cargo clippy --workspace --all-targets --quiet -- -D warnings
-echo "test: cargo test"
+phase "cargo test"
 mkdir -p target
 set +e
 cargo test --workspace 2>&1 | tee target/test.log
 status=${PIPESTATUS[0]}
 set -e
-echo "test: Python package (wheel in a fresh venv, pytest)"
+phase "Python package (wheel in a fresh venv, pytest)"
 set +e
 bash scripts/python-test.sh --profile dev 2>&1 | tee target/test-python.log
 [[ ${PIPESTATUS[0]} -eq 0 ]] || status=1
 set -e
-echo "test: cluster (single-node Slurm on loopback)"
+phase "cluster (single-node Slurm on loopback)"
 set +e
 bash scripts/test-cluster.sh 2>&1 | tee target/test-cluster.log
 [[ ${PIPESTATUS[0]} -eq 0 ]] || status=1
 set -e
+phase "done"
 # One closing line over both runners.
 passed=$(grep -oE 'test result: [a-zA-Z]+\. [0-9]+ passed' target/test.log | awk '{s+=$4} END {print s+0}')
 failed=$(grep -oE 'test result: [a-zA-Z]+\. [0-9]+ passed; [0-9]+ failed' target/test.log | awk '{s+=$6} END {print s+0}')

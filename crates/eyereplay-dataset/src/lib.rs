@@ -41,7 +41,7 @@ pub use metadata::{
     FileDigest, Metadata, RenderMetadata, SessionEntry, ToolInfo, FORMAT_VERSION,
 };
 pub use pool::{frame_sources, read_pool, write_pool, Segment, POOL_HEADER};
-pub use render_settings::{RenderBackend, RenderSettings};
+pub use render_settings::{HeadMotion, RenderBackend, RenderSettings};
 pub use session::{
     read_blink_column, read_session_csv, session_calibrations, write_session_csv,
     write_session_csv_with_blinks,

@@ -1,14 +1,14 @@
-//! `pool/<class>.csv`: `frame,x,y,source`, the class's concatenated,
-//! normalized source pool (evaluation's reference), with the index of the
-//! source each frame came from.
+//! `pool/<class>.csv`: `frame,x,y,source,source_t_s`, the class's
+//! concatenated, normalized source pool (evaluation's reference), with the
+//! index of the source each frame came from and its time in that source.
 
 use crate::error::read_text;
 use crate::table::Table;
 use crate::DatasetError;
-use eyereplay_core::{atomic_write_with, push_point_row, push_u64, CanvasPos};
+use eyereplay_core::{atomic_write_with, push_fixed3, push_point_row, push_u64, CanvasPos};
 use std::path::Path;
 
-pub const POOL_HEADER: &str = "frame,x,y,source";
+pub const POOL_HEADER: &str = "frame,x,y,source,source_t_s";
 
 /// A continuous stretch of the source pool: one source recording.
 #[derive(Clone, Debug, PartialEq)]
@@ -26,16 +26,23 @@ pub fn frame_sources(pool: &[Segment]) -> Vec<u32> {
 }
 
 /// Writes a pool CSV atomically.
-pub fn write_pool(path: &Path, points: &[CanvasPos], sources: &[u32]) -> Result<(), DatasetError> {
+pub fn write_pool(
+    path: &Path,
+    points: &[CanvasPos],
+    sources: &[u32],
+    times_s: &[f64],
+) -> Result<(), DatasetError> {
     atomic_write_with(path, |w| {
         w.write_all(POOL_HEADER.as_bytes())?;
         w.write_all(b"\n")?;
         let mut line = Vec::with_capacity(48);
-        for (i, (p, s)) in points.iter().zip(sources).enumerate() {
+        for (i, ((p, s), t)) in points.iter().zip(sources).zip(times_s).enumerate() {
             line.clear();
             push_point_row(&mut line, i as u64, *p);
             line.push(b',');
             push_u64(&mut line, *s as u64);
+            line.push(b',');
+            push_fixed3(&mut line, *t);
             line.push(b'\n');
             w.write_all(&line)?;
         }

@@ -62,6 +62,12 @@ pub struct RenderSettings {
     /// Full-face mode: scale of the head's drift and sway (0 = none, 1 =
     /// the documented default RMS).
     pub head_sway: f64,
+    /// Full-face mode: what moves the head. `model` (default): the eye-head
+    /// coordination model plus drift and sway; `source`: where a session's
+    /// frame comes from a video source, that video's own head pose at that
+    /// moment (solved from its landmarks, relative to its median pose),
+    /// the model elsewhere.
+    pub head_motion: HeadMotion,
     /// `[render.webcam]`: the full-face mode's camera-look ranges (field of
     /// view, exposure, white balance, noise, blur, light, bitrate); typed
     /// by the library, defaults look like a laptop webcam.
@@ -72,6 +78,17 @@ pub struct RenderSettings {
     /// Each session draws one by its seed. The video keeps the carrier's
     /// size; `width`/`height` do not apply.
     pub carriers: Vec<std::path::PathBuf>,
+}
+
+/// What moves the full-face mode's head (`render.head_motion`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HeadMotion {
+    /// Eye-head coordination from the gaze, plus drift and sway.
+    #[default]
+    Model,
+    /// A video source's own head pose where the frame comes from one.
+    Source,
 }
 
 /// Which simulator renders the sessions.
@@ -107,6 +124,7 @@ impl Default for RenderSettings {
             identities: vec![],
             face_height_frac: [0.36, 0.5],
             head_sway: 1.0,
+            head_motion: HeadMotion::Model,
             webcam: None,
             carriers: vec![],
         }
@@ -181,6 +199,12 @@ mod tests {
         );
         let s = RenderSettings::from_config(&cfg("[render]\ngain = 2.0\njobs = 3"), p).unwrap();
         assert_eq!((s.gain, s.jobs, s.crf), (2.0, 3, 18));
+        let s = RenderSettings::from_config(&cfg("[render]\nhead_motion = \"source\""), p).unwrap();
+        assert_eq!(s.head_motion, HeadMotion::Source);
+        let e = RenderSettings::from_config(&cfg("[render]\nhead_motion = \"video\""), p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("head_motion") && e.contains("source"), "{e}");
         let e = RenderSettings::from_config(&cfg("[render]\ngian = 2.0"), p)
             .unwrap_err()
             .to_string();

@@ -81,7 +81,12 @@ pub fn write_dataset(
     })?;
 
     for c in &prepared.classes {
-        write_pool(&out.join(pool_file(c.class)), &c.pool, &c.pool_source)?;
+        write_pool(
+            &out.join(pool_file(c.class)),
+            &c.pool,
+            &c.pool_source,
+            &c.pool_time_s,
+        )?;
     }
 
     let ids: Vec<&str> = prepared.sources.iter().map(|s| s.id.as_str()).collect();

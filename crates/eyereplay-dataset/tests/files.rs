@@ -40,7 +40,8 @@ fn write_all(dir: &Path) {
         })
         .collect();
     let src: Vec<u32> = (0..10).map(|i| (i >= 6) as u32).collect();
-    write_pool(&dir.join(pool_file(GazeClass::Reading)), &pts, &src).unwrap();
+    let t_s: Vec<f64> = (0..10).map(|i| 0.04 * i as f64).collect();
+    write_pool(&dir.join(pool_file(GazeClass::Reading)), &pts, &src, &t_s).unwrap();
     write_session_csv_with_blinks(
         &dir.join(session_file(GazeClass::Reading, 0)),
         &pts[..4],
@@ -63,6 +64,11 @@ fn readers_return_what_writers_wrote() {
     assert_eq!(pool.len(), 2);
     assert_eq!((pool[0].points.len(), pool[1].source), (6, 1));
     assert_eq!(frame_sources(&pool).len(), 10);
+    // Each frame's time in its source, three decimals like the positions.
+    let text = std::fs::read_to_string(d.join("pool/reading.csv")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "frame,x,y,source,source_t_s");
+    assert_eq!(lines[7], "6,106.000,200.500,1,0.240");
     let csv = d.join("reading/reading_0000.csv");
     assert_eq!(
         read_blink_column(&csv).unwrap(),

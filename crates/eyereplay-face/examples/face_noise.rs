@@ -63,6 +63,7 @@ fn main() -> Result<()> {
                     encoder: EncoderSettings::default(),
                     seed: 1,
                     pose_slopes: None,
+                    source_head: None,
                 };
                 let mp4 = dir.join("n.mp4");
                 render_face_session(

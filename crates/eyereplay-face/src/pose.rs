@@ -65,7 +65,7 @@ impl Camera {
 }
 
 /// Head orientation and position in the camera frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct HeadPose {
     pub yaw_deg: f64,
     pub pitch_deg: f64,

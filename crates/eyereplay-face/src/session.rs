@@ -51,6 +51,12 @@ head_x_cm,head_y_cm,head_z_cm,eye_yaw_deg,eye_pitch_deg,gaze_yaw_deg,gaze_pitch_
 /// and the photo's own head shows beside the turned one).
 pub const HEAD_YAW_LIMIT_DEG: f64 = 12.0;
 pub const HEAD_PITCH_LIMIT_DEG: f64 = 8.0;
+/// Roll and translation limits for a head driven by a source video
+/// (`source_head`): a person leaning far out of a webcam's frame or tilting
+/// their head on a shoulder would take the photo's face past what its
+/// backdrop can follow. Per axis: roll (deg), x, y, z (cm).
+pub const HEAD_ROLL_LIMIT_DEG: f64 = 10.0;
+pub const HEAD_TRANSLATION_LIMIT_CM: [f64; 3] = [5.0, 4.0, 8.0];
 
 /// What a session varies besides the identity.
 #[derive(Clone, Debug)]
@@ -71,6 +77,11 @@ pub struct FaceSessionParams {
     /// [`crate::measure_pose_slopes`]); subtracted per frame. `None`: no
     /// correction.
     pub pose_slopes: Option<[[f64; 2]; 2]>,
+    /// The head per frame from a source video (relative to its rest pose,
+    /// [`crate::SourceHeadTrack`]), in place of the coordination model and
+    /// sway; frames with `None` (or beyond its end) use the model. Turns
+    /// are clamped to the mode's limits.
+    pub source_head: Option<Vec<Option<HeadPose>>>,
 }
 
 /// What a session render did.
@@ -82,6 +93,8 @@ pub struct FaceSessionStats {
     /// Largest head turn from the rest pose in the session (deg).
     pub max_head_yaw_deg: f64,
     pub max_head_pitch_deg: f64,
+    /// Frames whose head came from the source video.
+    pub source_head_frames: usize,
     pub render_s: f64,
     pub total_s: f64,
 }
@@ -93,6 +106,8 @@ struct Solved {
     /// The head relative to the rest pose, and the mean eye-in-head angles.
     head: HeadPose,
     eye_deg: (f64, f64),
+    /// The head came from the source video.
+    from_source: bool,
 }
 
 /// The gaze angle (deg) whose eye-in-head share is `eye_deg` on one axis:
@@ -157,23 +172,43 @@ fn solve_frames(
     (0..n)
         .into_par_iter()
         .map(|i| {
-            let s = sway.at(i as f64 / p.fps);
-            let (hh, hv) = track.head_deg[i];
-            let rel = HeadPose {
-                yaw_deg: (hh + s[0]).clamp(-HEAD_YAW_LIMIT_DEG, HEAD_YAW_LIMIT_DEG),
-                pitch_deg: (hv + s[1]).clamp(-HEAD_PITCH_LIMIT_DEG, HEAD_PITCH_LIMIT_DEG),
-                roll_deg: s[2],
-                translation_cm: [s[3], s[4], s[5]],
+            let source = p
+                .source_head
+                .as_ref()
+                .and_then(|h| h.get(i).copied().flatten());
+            let rel = match source {
+                Some(src) => {
+                    let t = src.translation_cm;
+                    let l = HEAD_TRANSLATION_LIMIT_CM;
+                    HeadPose {
+                        yaw_deg: src.yaw_deg.clamp(-HEAD_YAW_LIMIT_DEG, HEAD_YAW_LIMIT_DEG),
+                        pitch_deg: src
+                            .pitch_deg
+                            .clamp(-HEAD_PITCH_LIMIT_DEG, HEAD_PITCH_LIMIT_DEG),
+                        roll_deg: src
+                            .roll_deg
+                            .clamp(-HEAD_ROLL_LIMIT_DEG, HEAD_ROLL_LIMIT_DEG),
+                        translation_cm: std::array::from_fn(|k| t[k].clamp(-l[k], l[k])),
+                    }
+                }
+                None => {
+                    let s = sway.at(i as f64 / p.fps);
+                    let (hh, hv) = track.head_deg[i];
+                    HeadPose {
+                        yaw_deg: (hh + s[0]).clamp(-HEAD_YAW_LIMIT_DEG, HEAD_YAW_LIMIT_DEG),
+                        pitch_deg: (hv + s[1]).clamp(-HEAD_PITCH_LIMIT_DEG, HEAD_PITCH_LIMIT_DEG),
+                        roll_deg: s[2],
+                        translation_cm: [s[3], s[4], s[5]],
+                    }
+                }
             };
             let head = HeadPose {
                 yaw_deg: rest.yaw_deg + rel.yaw_deg,
                 pitch_deg: rest.pitch_deg + rel.pitch_deg,
                 roll_deg: rest.roll_deg + rel.roll_deg,
-                translation_cm: [
-                    rest.translation_cm[0] + s[3],
-                    rest.translation_cm[1] + s[4],
-                    rest.translation_cm[2] + s[5],
-                ],
+                translation_cm: std::array::from_fn(|k| {
+                    rest.translation_cm[k] + rel.translation_cm[k]
+                }),
             };
             // The extractor reads a turned head's eye a little off: draw
             // against that, in drawn units (through the response's gains).
@@ -224,6 +259,7 @@ fn solve_frames(
                 row,
                 head: rel,
                 eye_deg,
+                from_source: source.is_some(),
             }
         })
         .collect()
@@ -340,6 +376,7 @@ pub fn render_face_session(
             .iter()
             .map(|s| s.head.pitch_deg.abs())
             .fold(0.0, f64::max),
+        source_head_frames: solved.iter().filter(|s| s.from_source).count(),
         render_s,
         total_s: t0.elapsed().as_secs_f64(),
     })

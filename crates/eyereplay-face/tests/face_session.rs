@@ -69,6 +69,7 @@ fn params_of(
         encoder: EncoderSettings::default(),
         seed,
         pose_slopes: None,
+        source_head: None,
     }
 }
 
@@ -208,9 +209,17 @@ fn head_yaw_from_rendered_video() {
         .map(|l| l.split(',').nth(1).unwrap().parse::<f64>().unwrap())
         .collect();
     for (name, shape) in [("own", &own), ("canonical", &mesh.positions_cm)] {
-        let poses = video_head_poses(&mp4, &models, &mesh, shape, look.vfov_deg).unwrap();
+        let poses = video_head_poses(
+            &mp4,
+            &models,
+            &mesh,
+            shape,
+            look.vfov_deg,
+            &eyereplay_extract::NoProgress,
+        )
+        .unwrap();
         let (mut a, mut b) = (vec![], vec![]);
-        for (p, t) in poses.iter().zip(&truth) {
+        for ((_, p), t) in poses.iter().zip(&truth) {
             if let Some(p) = p {
                 a.push(*t);
                 b.push(p.yaw_deg);

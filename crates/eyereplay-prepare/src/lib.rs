@@ -31,7 +31,8 @@ pub use config::{
 pub use error::PrepareError;
 pub use load::{check_source_files, load_sources};
 pub use resample::{
-    is_linear_rate, resample_recording, scale_about_centroid, ResampleMethod, SpeedCorrectionReport,
+    is_linear_rate, resample_recording, resampled_times, scale_about_centroid, ResampleMethod,
+    SpeedCorrectionReport,
 };
 pub use slice::{normalize_to, reuse_ratio, slice_index, slice_session, stride};
 
@@ -42,8 +43,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-/// One source after stage 3: frames, their blink flags, and its report.
-type SourceFrames = (Vec<CanvasPos>, Vec<bool>, SourceReport);
+/// One source after stage 3: frames, their blink flags, each frame's time
+/// in the source recording, and its report.
+type SourceFrames = (Vec<CanvasPos>, Vec<bool>, Vec<f64>, SourceReport);
 
 /// `[[lo_x, hi_x], [lo_y, hi_y]]`: the percentile ranges behind an auto calibration.
 pub type PercentileRanges = [[f64; 2]; 2];
@@ -90,6 +92,10 @@ pub struct ClassOutput {
     pub pool: Vec<CanvasPos>,
     /// Source index of each pool frame.
     pub pool_source: Vec<u32>,
+    /// Time of each pool frame in its source recording (s, the recording's
+    /// own clock): where a frame came from, e.g. to look up the source
+    /// video's head pose at that moment.
+    pub pool_time_s: Vec<f64>,
     pub speed_scale: f64,
     pub stride: usize,
     pub reuse_ratio: f64,
@@ -120,13 +126,14 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
     let Resampled {
         mut frames,
         blink_flags,
+        times_s,
         mut reports,
     } = resample_sources(cfg, inputs, &filtered, &calibrations)?;
     let global_mean = normalize(cfg, &mut frames, &mut reports);
     let mut warnings = Vec::new();
     let mut classes = Vec::new();
     for (class, cc) in &cfg.classes {
-        let pool = concatenate(*class, inputs, &frames, &blink_flags);
+        let pool = concatenate(*class, inputs, &frames, &blink_flags, &times_s);
         let (out, warning) = slice_class(cfg, *class, cc, pool)?;
         warnings.extend(warning);
         classes.push(out);
@@ -262,6 +269,8 @@ struct Resampled {
     frames: Vec<Vec<CanvasPos>>,
     /// Per frame: the source blinked here.
     blink_flags: Vec<Vec<bool>>,
+    /// Per frame: its time in the source recording (s).
+    times_s: Vec<Vec<f64>>,
     reports: Vec<SourceReport>,
 }
 
@@ -288,6 +297,8 @@ fn resample_sources(
             let smoothing = smooth(cfg, s.recording.kind, &mut canvas)?;
             let (frames, blinks, speed) =
                 resample_recording(&canvas, s.recording.rate_hz, cfg.fps, &cfg.resample);
+            let times = resampled_times(&canvas, cfg.fps);
+            debug_assert_eq!(times.len(), frames.len());
             if frames.len() < 2 {
                 return Err(PrepareError::Source {
                     id: s.recording.id.clone(),
@@ -318,21 +329,24 @@ fn resample_sources(
                 speed_correction: speed,
                 normalization_shift_px: [0.0, 0.0],
             };
-            Ok((frames, blinks, rep))
+            Ok((frames, blinks, times, rep))
         })
         .collect();
     let mut frames = Vec::with_capacity(per_source.len());
     let mut blink_flags = Vec::with_capacity(per_source.len());
+    let mut times_s = Vec::with_capacity(per_source.len());
     let mut reports = Vec::with_capacity(per_source.len());
     for r in per_source {
-        let (f, b, rep) = r?;
+        let (f, b, t, rep) = r?;
         frames.push(f);
         blink_flags.push(b);
+        times_s.push(t);
         reports.push(rep);
     }
     Ok(Resampled {
         frames,
         blink_flags,
+        times_s,
         reports,
     })
 }
@@ -398,6 +412,8 @@ struct Pool {
     source: Vec<u32>,
     /// Whether the source blinked at each frame.
     blink: Vec<bool>,
+    /// Each frame's time in its source recording (s).
+    time_s: Vec<f64>,
 }
 
 /// Paper stage 4, concatenation: the normalized frames of one class's
@@ -407,16 +423,19 @@ fn concatenate(
     inputs: &[SourceInput],
     frames: &[Vec<CanvasPos>],
     blink_flags: &[Vec<bool>],
+    times_s: &[Vec<f64>],
 ) -> Pool {
     let mut pool = Pool {
         frames: Vec::new(),
         source: Vec::new(),
         blink: Vec::new(),
+        time_s: Vec::new(),
     };
     for (i, f) in frames.iter().enumerate() {
         if inputs[i].class == class {
             pool.frames.extend_from_slice(f);
             pool.blink.extend_from_slice(&blink_flags[i]);
+            pool.time_s.extend_from_slice(&times_s[i]);
             pool.source.extend(std::iter::repeat_n(i as u32, f.len()));
         }
     }
@@ -473,6 +492,7 @@ fn slice_class(
             class,
             pool: pool.frames,
             pool_source: pool.source,
+            pool_time_s: pool.time_s,
             speed_scale: scale,
             stride: stride(t, n),
             reuse_ratio: reuse,

@@ -106,6 +106,21 @@ pub fn resample_recording(
     )
 }
 
+/// The time in the recording of each frame [`resample_recording`] makes
+/// from `segments`: `k / fps` from each segment's first timestamp, segments
+/// joined (the same grid, so the two line up frame by frame).
+pub fn resampled_times(segments: &[Trajectory<CanvasPos>], fps: f64) -> Vec<f64> {
+    segments
+        .iter()
+        .flat_map(|seg| {
+            let s = seg.samples();
+            let first = s.first().map_or(0.0, |x| x.t_s);
+            let last = s.last().map_or(first, |x| x.t_s);
+            resample_times(first, last, fps)
+        })
+        .collect()
+}
+
 /// Relative tolerance of the rate rule. Rates are measured from timestamps
 /// (`1 / median interval`), which carry rounding: a 50 fps video whose
 /// timestamps start 10 s in measures 50.000000000001 Hz. 1e-6 is far above
@@ -152,6 +167,41 @@ pub fn scale_about_centroid(points: &mut [CanvasPos], a: f64) {
 mod tests {
     use super::*;
     use eyereplay_core::Sample;
+
+    #[test]
+    fn resampled_times_line_up_with_the_resampled_frames() {
+        // Two segments, 2.5 s at 30 Hz from t = 10 s and 1.0 s from t = 20 s:
+        // frames at 10 + k/25 for k = 0..=62, then 20 + k/25 for k = 0..=25
+        // (an end that is a whole number of periods is kept).
+        let seg = |t0: f64, n: usize| {
+            let s: Vec<Sample<CanvasPos>> = (0..n)
+                .map(|i| {
+                    Sample::new(
+                        t0 + i as f64 / 30.0,
+                        CanvasPos {
+                            x_px: i as f64,
+                            y_px: 0.0,
+                        },
+                    )
+                })
+                .collect();
+            Trajectory::new(s).unwrap()
+        };
+        let segs = [seg(10.0, 76), seg(20.0, 31)];
+        let cfg = ResampleConfig {
+            speed_correction: SpeedCorrection::Never,
+            ..ResampleConfig::default()
+        };
+        let (frames, _, _) = resample_recording(&segs, 30.0, 25.0, &cfg);
+        let t = resampled_times(&segs, 25.0);
+        assert_eq!(t.len(), frames.len());
+        assert_eq!(t.len(), 63 + 26);
+        assert!((t[62] - 12.48).abs() < 1e-9, "{}", t[62]);
+        assert_eq!(t[63], 20.0);
+        assert!((t[88] - 21.0).abs() < 1e-9, "{}", t[88]);
+        // Linear resampling (no speed correction) of x = 30 (t - 10).
+        assert!((frames[25].x_px - 30.0).abs() < 1e-6, "{}", frames[25].x_px);
+    }
 
     #[test]
     fn speed_correction_restores_path_length() {

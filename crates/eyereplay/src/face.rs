@@ -8,7 +8,7 @@ use crate::render::RenderSummary;
 use crate::shard::Shard;
 use crate::{Error, Result};
 use eyereplay_core::NormPos;
-use eyereplay_dataset::{DatasetMetadata, RenderSettings, SessionIdentity};
+use eyereplay_dataset::{DatasetMetadata, HeadMotion, RenderSettings, SessionIdentity};
 use eyereplay_face::coordination::{CoordinationParams, HeadDynamics, Task, DEFAULT_SWAY_RMS};
 use eyereplay_face::webcam::{WebcamLook, WebcamRanges};
 use eyereplay_face::{
@@ -18,6 +18,7 @@ use eyereplay_face::{
 use eyereplay_render::{EncoderSettings, GazeMapping, Identity, RenderParams};
 use rand::SeedableRng;
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The photos a face-mode config uses: its `identities` resolved against
@@ -147,6 +148,10 @@ struct FaceIdentityRecord<'a> {
     max_head_pitch_deg: f64,
     /// d(nx, ny)/d(head yaw, pitch) per degree, subtracted per frame.
     pose_slopes: Option<[[f64; 2]; 2]>,
+    /// `render.head_motion`: `model` or `source`.
+    head_motion: HeadMotion,
+    /// Frames whose head came from the source video (head_motion = source).
+    source_head_frames: usize,
 }
 
 /// Renders the unfinished sessions of `out` in the full-face mode.
@@ -165,6 +170,16 @@ pub(crate) fn render_sessions_face(
     let sessions = crate::render::shard_sessions(out, meta.seed, shard)?;
     let (mesh, identities, mut fitter) = fit_identities(&photos)?;
     let mapping = eyereplay_render::read_dataset_info(out)?.mapping(&params.mapping);
+    // head_motion = source: every class's pool of source head poses.
+    let mut pool_heads = BTreeMap::new();
+    if settings.head_motion == HeadMotion::Source {
+        for c in &meta.classes {
+            pool_heads.insert(
+                c.class,
+                crate::source_head::read_source_heads(out, c.class)?,
+            );
+        }
+    }
     progress.begin(Stage::Render, (sessions.len() * meta.session_frames) as u64);
     let mut summary = RenderSummary::default();
     let mut failed = vec![];
@@ -207,6 +222,15 @@ pub(crate) fn render_sessions_face(
             ..mapping
         };
         let pose_slopes = matched.pose_slopes;
+        let source_head = if settings.head_motion == HeadMotion::Source {
+            Some(crate::source_head::session_heads(
+                meta,
+                &files.file,
+                &pool_heads,
+            )?)
+        } else {
+            None
+        };
         let p = FaceSessionParams {
             fps: meta.fps,
             mapping: session_mapping,
@@ -220,6 +244,7 @@ pub(crate) fn render_sessions_face(
             encoder: encoder.clone(),
             seed,
             pose_slopes,
+            source_head,
         };
         let result = eyereplay_face::render_face_session(
             &scene,
@@ -251,6 +276,8 @@ pub(crate) fn render_sessions_face(
                     max_head_yaw_deg: stats.max_head_yaw_deg,
                     max_head_pitch_deg: stats.max_head_pitch_deg,
                     pose_slopes,
+                    head_motion: settings.head_motion,
+                    source_head_frames: stats.source_head_frames,
                 },
                 mapping: &session_mapping,
                 width: params.width,
@@ -303,6 +330,7 @@ pub fn bench(width: usize, height: usize, frames: usize) -> Result<eyereplay_ren
             .encoder(&EncoderSettings::default()),
         seed: 1,
         pose_slopes: None,
+        source_head: None,
     };
     Ok(eyereplay_face::run_face_bench(&scene, &traj, &p)?)
 }

@@ -65,6 +65,20 @@ pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shar
     eyereplay_prepare::check_source_files(&config)?;
     let eyes = settings.backend == eyereplay_dataset::RenderBackend::Eyes;
     let face = settings.backend == eyereplay_dataset::RenderBackend::Face;
+    if settings.head_motion == eyereplay_dataset::HeadMotion::Source {
+        if !face {
+            return Err(Error::input(
+                config_path,
+                "[render]: head_motion = \"source\" applies to backend = \"face\" only",
+            ));
+        }
+        if video_sources(&config).is_empty() {
+            return Err(Error::input(
+                config_path,
+                "[render]: head_motion = \"source\" needs at least one source with format = \"video\" (its head pose drives the head)",
+            ));
+        }
+    }
     if face {
         crate::face::FaceSettings::from_render(&settings)
             .map_err(|e| Error::input(config_path, e.to_string()))?;
@@ -177,7 +191,18 @@ pub fn generate(
     // Extract (cached) and prepare: every shard writes identical files.
     let t = Instant::now();
     let cache = opts.cache.clone().unwrap_or_else(|| cache_dir(None));
-    prepare_dataset(&job.config, out, &cache, progress)?;
+    let prepared = prepare_dataset(&job.config, out, &cache, progress)?;
+    if job.settings.backend == eyereplay_dataset::RenderBackend::Face
+        && job.settings.head_motion == eyereplay_dataset::HeadMotion::Source
+    {
+        crate::source_head::write_source_heads(
+            out,
+            &job.config,
+            &prepared.prepared,
+            &cache,
+            progress,
+        )?;
+    }
     stage("extract+prepare", t, &mut log);
 
     // Render this shard's sessions (the renderer first removes what a

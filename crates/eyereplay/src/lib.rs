@@ -71,6 +71,7 @@ pub mod replay;
 pub mod replay_eval;
 mod response;
 mod shard;
+pub mod source_head;
 
 pub use error::{Error, Result};
 pub use evaluate::{evaluate, EvaluateOptions, EvaluateOutcome, VisualChoice};
