@@ -23,6 +23,11 @@ pub(crate) fn chroma(sum4: i32) -> u8 {
 }
 
 /// Converts a region of a full-frame RGB image into yuv420p planes.
+///
+/// Two image rows at a time through row slices (no per-pixel index
+/// arithmetic or bounds checks in the inner loop: at 1280x720 this was
+/// 2-3 ms a frame the per-pixel way); the arithmetic is [`yuv_of`] and
+/// [`chroma`] per 2x2 block, so the bytes are the same.
 pub fn rgb_to_yuv420(
     rgb: &[u8],
     stride_px: usize,
@@ -34,19 +39,36 @@ pub fn rgb_to_yuv420(
     let [x0, y0, x1, y1] = region;
     let (yp, rest) = yuv.split_at_mut(w * h);
     let (up, vp) = rest.split_at_mut((w / 2) * (h / 2));
+    let (cx0, cx1) = (x0 / 2, x1 / 2);
+    if cx1 <= cx0 {
+        return;
+    }
+    let cw = w / 2;
     for cy in y0 / 2..y1 / 2 {
-        for cx in x0 / 2..x1 / 2 {
-            let (mut su, mut sv) = (0, 0);
-            for (dy, dx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
-                let (x, y) = (cx * 2 + dx, cy * 2 + dy);
-                let i = (y * stride_px + x) * 3;
-                let (yy, u, v) = yuv_of(rgb[i] as i32, rgb[i + 1] as i32, rgb[i + 2] as i32);
-                yp[y * w + x] = yy;
-                su += u;
-                sv += v;
-            }
-            up[cy * (w / 2) + cx] = chroma(su);
-            vp[cy * (w / 2) + cx] = chroma(sv);
+        let (ya, yb) = (2 * cy, 2 * cy + 1);
+        let src_a = &rgb[(ya * stride_px + 2 * cx0) * 3..(ya * stride_px + 2 * cx1) * 3];
+        let src_b = &rgb[(yb * stride_px + 2 * cx0) * 3..(yb * stride_px + 2 * cx1) * 3];
+        let (ly_a, ly_b) = yp[ya * w..(yb + 1) * w].split_at_mut(w);
+        let ly_a = &mut ly_a[2 * cx0..2 * cx1];
+        let ly_b = &mut ly_b[2 * cx0..2 * cx1];
+        let u_row = &mut up[cy * cw + cx0..cy * cw + cx1];
+        let v_row = &mut vp[cy * cw + cx0..cy * cw + cx1];
+        let blocks = src_a
+            .chunks_exact(6)
+            .zip(src_b.chunks_exact(6))
+            .zip(ly_a.chunks_exact_mut(2).zip(ly_b.chunks_exact_mut(2)))
+            .zip(u_row.iter_mut().zip(v_row.iter_mut()));
+        for (((a, b), (oa, ob)), (u, v)) in blocks {
+            let (y00, u00, v00) = yuv_of(a[0] as i32, a[1] as i32, a[2] as i32);
+            let (y01, u01, v01) = yuv_of(a[3] as i32, a[4] as i32, a[5] as i32);
+            let (y10, u10, v10) = yuv_of(b[0] as i32, b[1] as i32, b[2] as i32);
+            let (y11, u11, v11) = yuv_of(b[3] as i32, b[4] as i32, b[5] as i32);
+            oa[0] = y00;
+            oa[1] = y01;
+            ob[0] = y10;
+            ob[1] = y11;
+            *u = chroma(u00 + u01 + u10 + u11);
+            *v = chroma(v00 + v01 + v10 + v11);
         }
     }
 }
@@ -54,6 +76,52 @@ pub fn rgb_to_yuv420(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The per-pixel form the row form replaced: the reference.
+    fn reference(
+        rgb: &[u8],
+        stride_px: usize,
+        region: [usize; 4],
+        yuv: &mut [u8],
+        w: usize,
+        h: usize,
+    ) {
+        let [x0, y0, x1, y1] = region;
+        let (yp, rest) = yuv.split_at_mut(w * h);
+        let (up, vp) = rest.split_at_mut((w / 2) * (h / 2));
+        for cy in y0 / 2..y1 / 2 {
+            for cx in x0 / 2..x1 / 2 {
+                let (mut su, mut sv) = (0, 0);
+                for (dy, dx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                    let (x, y) = (cx * 2 + dx, cy * 2 + dy);
+                    let i = (y * stride_px + x) * 3;
+                    let (yy, u, v) = yuv_of(rgb[i] as i32, rgb[i + 1] as i32, rgb[i + 2] as i32);
+                    yp[y * w + x] = yy;
+                    su += u;
+                    sv += v;
+                }
+                up[cy * (w / 2) + cx] = chroma(su);
+                vp[cy * (w / 2) + cx] = chroma(sv);
+            }
+        }
+    }
+
+    #[test]
+    fn rows_give_the_per_pixel_bytes() {
+        // Pseudo-random pixels in a wider image; a whole frame and an
+        // off-origin region (even bounds, as the callers pass).
+        let (stride, w, h) = (70usize, 64usize, 40usize);
+        let rgb: Vec<u8> = (0..stride * h * 3)
+            .map(|i| ((i as u64).wrapping_mul(2654435761) >> 7) as u8)
+            .collect();
+        for region in [[0, 0, w, h], [6, 4, 40, 30]] {
+            let mut a = vec![7u8; w * h * 3 / 2];
+            let mut b = a.clone();
+            rgb_to_yuv420(&rgb, stride, region, &mut a, w, h);
+            reference(&rgb, stride, region, &mut b, w, h);
+            assert_eq!(a, b, "{region:?}");
+        }
+    }
 
     #[test]
     fn bt709_white_black_and_red() {
