@@ -245,5 +245,13 @@ fn bad_inputs_stop_before_work() {
         &[],
     );
     assert!(e.contains("head_motion") && e.contains("face"), "{e}");
+    // One class only: the evaluation would fail after the rendering.
+    let e = generate(&face("").replace("backend = \"face\"", ""), &[]);
+    assert!(
+        e.contains("'conversation' has no sessions") && e.contains("--no-evaluate"),
+        "{e}"
+    );
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    assert!(!out.join("metadata.json").exists());
     assert!(!out.join("metadata.json").exists());
 }

@@ -72,6 +72,6 @@ pub use raster::{DrawStats, Rasterizer, RgbImage, TexturedMesh};
 pub use scene::{EyeImage, FaceScene, FaceState, Framing};
 pub use session::{
     render_face_session, run_face_bench, FaceSessionParams, FaceSessionStats, HEAD_PITCH_LIMIT_DEG,
-    HEAD_TRUTH_HEADER, HEAD_YAW_LIMIT_DEG,
+    HEAD_ROLL_LIMIT_DEG, HEAD_TRUTH_HEADER, HEAD_YAW_LIMIT_DEG,
 };
 pub use video_pose::{video_head_poses, SourceHeadTrack, SOURCE_HEAD_SMOOTHING_S, SOURCE_VFOV_DEG};

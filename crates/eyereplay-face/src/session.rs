@@ -51,12 +51,10 @@ head_x_cm,head_y_cm,head_z_cm,eye_yaw_deg,eye_pitch_deg,gaze_yaw_deg,gaze_pitch_
 /// and the photo's own head shows beside the turned one).
 pub const HEAD_YAW_LIMIT_DEG: f64 = 12.0;
 pub const HEAD_PITCH_LIMIT_DEG: f64 = 8.0;
-/// Roll and translation limits for a head driven by a source video
-/// (`source_head`): a person leaning far out of a webcam's frame or tilting
-/// their head on a shoulder would take the photo's face past what its
-/// backdrop can follow. Per axis: roll (deg), x, y, z (cm).
+/// Roll limit for a head driven by a source video (`source_head`): a head
+/// tilted onto a shoulder would take the photo's face past what its
+/// backdrop can follow.
 pub const HEAD_ROLL_LIMIT_DEG: f64 = 10.0;
-pub const HEAD_TRANSLATION_LIMIT_CM: [f64; 3] = [5.0, 4.0, 8.0];
 
 /// What a session varies besides the identity.
 #[derive(Clone, Debug)]
@@ -78,9 +76,13 @@ pub struct FaceSessionParams {
     /// correction.
     pub pose_slopes: Option<[[f64; 2]; 2]>,
     /// The head per frame from a source video (relative to its rest pose,
-    /// [`crate::SourceHeadTrack`]), in place of the coordination model and
-    /// sway; frames with `None` (or beyond its end) use the model. Turns
-    /// are clamped to the mode's limits.
+    /// [`crate::SourceHeadTrack`]): its rotation replaces the coordination
+    /// model's and the sway's, clamped to the mode's limits; frames with
+    /// `None` (or beyond its end) use the model. Its translation is not
+    /// used: the photo's body and room are a still backdrop, and a source
+    /// leaning in or out by centimetres would scale the head alone against
+    /// them (it looked like a head floating over a still body); the sway's
+    /// small drift moves the head instead.
     pub source_head: Option<Vec<Option<HeadPose>>>,
 }
 
@@ -176,23 +178,19 @@ fn solve_frames(
                 .source_head
                 .as_ref()
                 .and_then(|h| h.get(i).copied().flatten());
+            let s = sway.at(i as f64 / p.fps);
             let rel = match source {
-                Some(src) => {
-                    let t = src.translation_cm;
-                    let l = HEAD_TRANSLATION_LIMIT_CM;
-                    HeadPose {
-                        yaw_deg: src.yaw_deg.clamp(-HEAD_YAW_LIMIT_DEG, HEAD_YAW_LIMIT_DEG),
-                        pitch_deg: src
-                            .pitch_deg
-                            .clamp(-HEAD_PITCH_LIMIT_DEG, HEAD_PITCH_LIMIT_DEG),
-                        roll_deg: src
-                            .roll_deg
-                            .clamp(-HEAD_ROLL_LIMIT_DEG, HEAD_ROLL_LIMIT_DEG),
-                        translation_cm: std::array::from_fn(|k| t[k].clamp(-l[k], l[k])),
-                    }
-                }
+                Some(src) => HeadPose {
+                    yaw_deg: src.yaw_deg.clamp(-HEAD_YAW_LIMIT_DEG, HEAD_YAW_LIMIT_DEG),
+                    pitch_deg: src
+                        .pitch_deg
+                        .clamp(-HEAD_PITCH_LIMIT_DEG, HEAD_PITCH_LIMIT_DEG),
+                    roll_deg: src
+                        .roll_deg
+                        .clamp(-HEAD_ROLL_LIMIT_DEG, HEAD_ROLL_LIMIT_DEG),
+                    translation_cm: [s[3], s[4], s[5]],
+                },
                 None => {
-                    let s = sway.at(i as f64 / p.fps);
                     let (hh, hv) = track.head_deg[i];
                     HeadPose {
                         yaw_deg: (hh + s[0]).clamp(-HEAD_YAW_LIMIT_DEG, HEAD_YAW_LIMIT_DEG),

@@ -166,6 +166,26 @@ pub fn generate(
     progress: &dyn Progress,
 ) -> Result<GenerateSummary> {
     let out = &opts.out;
+    // The evaluation compares each class with its sources and the classes
+    // with each other: a class without sessions would fail it only after
+    // every session is rendered.
+    if opts.evaluate.is_some() && job.shard.is_none() {
+        for class in eyereplay_core::GazeClass::ALL {
+            if job
+                .config
+                .classes
+                .get(&class)
+                .is_none_or(|c| c.sessions == 0)
+            {
+                return Err(Error::input(
+                    &job.config_path,
+                    format!(
+                        "class '{class}' has no sessions, and the evaluation needs both classes: add [classes.{class}], or skip the evaluation (--no-evaluate)"
+                    ),
+                ));
+            }
+        }
+    }
     std::fs::create_dir_all(out).map_err(|e| Error::input(out, format!("cannot create: {e}")))?;
     if let Some(free) = free_bytes(out) {
         if free < job.video_bytes {
