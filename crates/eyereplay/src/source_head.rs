@@ -88,7 +88,9 @@ fn source_tracks(
     let videos: Vec<_> = prepared
         .sources
         .iter()
-        .filter(|s| s.kind == RecordingKind::Video)
+        // A video file, not an `extract` CSV (also of kind video): its
+        // frames are needed.
+        .filter(|s| s.kind == RecordingKind::Video && s.format == "video")
         .collect();
     let mut tracks = BTreeMap::new();
     if videos.is_empty() {
