@@ -40,6 +40,13 @@ pub fn head_pool_file(class: GazeClass) -> String {
     format!("pool/{}_head.csv", class.name())
 }
 
+/// Where a video's per-frame head poses are cached.
+fn cache_file(cache: &Path, sha256: &str) -> PathBuf {
+    cache.join("head").join(format!(
+        "{sha256}-v{HEAD_CACHE_VERSION}-vfov{SOURCE_VFOV_DEG}.json"
+    ))
+}
+
 /// A video's raw per-frame head poses, from the cache or solved now (and
 /// cached). Both paths return what the cache file holds, so a first run and
 /// a rerun give identical values.
@@ -50,10 +57,8 @@ fn video_poses(
     mesh: &CanonicalMesh,
     progress: &dyn Progress,
 ) -> Result<Vec<(f64, Option<HeadPose>)>> {
+    let file = cache_file(cache, sha256);
     let dir = cache.join("head");
-    let file = dir.join(format!(
-        "{sha256}-v{HEAD_CACHE_VERSION}-vfov{SOURCE_VFOV_DEG}.json"
-    ));
     if let Ok(text) = std::fs::read_to_string(&file) {
         if let Ok(poses) = serde_json::from_str(&text) {
             return Ok(poses);
@@ -98,7 +103,13 @@ fn source_tracks(
     }
     let mesh_path = default_faces_dir().join(MESH_FILE);
     let mesh = CanonicalMesh::load(&mesh_path)?;
-    progress.begin(Stage::Extract, 0);
+    // A progress bar only when some video is not cached yet.
+    let solving = videos
+        .iter()
+        .any(|s| !cache_file(cache, &s.sha256).is_file());
+    if solving {
+        progress.begin(Stage::Extract, 0);
+    }
     // One pose track per video file, shared by its recordings (a video's
     // recordings differ only by eye or segment).
     let mut by_sha: BTreeMap<&str, Option<SourceHeadTrack>> = BTreeMap::new();
@@ -119,7 +130,9 @@ fn source_tracks(
             tracks.insert(s.index as u32, t.clone());
         }
     }
-    progress.end(Stage::Extract);
+    if solving {
+        progress.end(Stage::Extract);
+    }
     Ok(tracks)
 }
 
