@@ -13,6 +13,32 @@ pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<(), CoreError> {
     atomic_write_with(path, |w| w.write_all(bytes))
 }
 
+/// Reads a value cached as JSON (measured once, e.g. per video); `None`
+/// when the file is missing. A file that is not one (`what`) is an error
+/// that says how to get rid of it.
+pub fn read_json_cache<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    what: &str,
+) -> Result<Option<T>, CoreError> {
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(CoreError::io(path, e)),
+    };
+    serde_json::from_slice(&bytes).map(Some).map_err(|e| {
+        CoreError::invalid(
+            path,
+            format!("not a {what} ({e}); delete it to measure again"),
+        )
+    })
+}
+
+/// Writes a value as JSON, atomically ([`atomic_write`]).
+pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), CoreError> {
+    let json = serde_json::to_vec(value).map_err(|e| CoreError::invalid(path, e.to_string()))?;
+    atomic_write(path, &json)
+}
+
 /// Like [`atomic_write`], with the content produced by a closure writing to a
 /// buffered stream. On any error the temporary file is removed.
 pub fn atomic_write_with(

@@ -19,7 +19,8 @@ pub use calibration::Calibration;
 pub use class::GazeClass;
 pub use error::CoreError;
 pub use fsio::{
-    atomic_write, atomic_write_with, find_upwards, sha256_file, sha256_hex, stale_temp_files,
+    atomic_write, atomic_write_with, find_upwards, read_json_cache, sha256_file, sha256_hex,
+    stale_temp_files, write_json,
 };
 pub use position::{Canvas, CanvasPos, NormPos, PlanePos, ScreenPos, ScreenSize};
 pub use session_csv::{

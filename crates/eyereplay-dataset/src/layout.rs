@@ -5,6 +5,7 @@
 //! DIR/
 //!   labels.csv, metadata.json
 //!   pool/<class>.csv
+//!   pool/<class>_head.csv                 source head pose per pool frame (face mode, head_motion = "source")
 //!   <class>/<class>_NNNN.csv              the session trajectory
 //!   <class>/<class>_NNNN.mp4              its rendered video
 //!   <class>/<class>_NNNN_truth.csv        the renderer's per-frame ground truth
@@ -28,6 +29,13 @@ pub fn session_file(class: GazeClass, index: usize) -> String {
 /// `pool/<class>.csv`, relative to the dataset folder.
 pub fn pool_file(class: GazeClass) -> String {
     format!("pool/{}.csv", class.name())
+}
+
+/// `pool/<class>_head.csv`, relative to the dataset folder: the head pose
+/// of each pool frame's source (full-face mode with `head_motion =
+/// "source"`).
+pub fn pool_head_file(class: GazeClass) -> String {
+    format!("pool/{}_head.csv", class.name())
 }
 
 /// The files of one session, from its CSV path relative to the dataset

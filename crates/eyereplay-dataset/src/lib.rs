@@ -7,6 +7,7 @@
 //! | `labels.csv` | [`LabelRow`] | [`read_labels`] / [`write_labels`] |
 //! | `metadata.json` | [`Metadata`] ([`DatasetMetadata`] + render section) | [`read_metadata`] / [`write_metadata`] |
 //! | `pool/<class>.csv` | [`Segment`] | [`read_pool`] / [`write_pool`] |
+//! | `pool/<class>_head.csv` | [`PoseRow`] | [`read_pool_heads`] / [`write_pool_heads`] |
 //! | `<class>/<class>_NNNN.csv` | canvas px + optional blink | [`read_session_csv`], [`read_blink_column`] |
 //! | `<stem>_truth.csv` | [`TruthRow`] | [`read_truth_csv`] / [`write_truth_csv`] |
 //! | `<stem>_identity.json` | [`SessionIdentity`], [`EyeGeometry`] | [`SessionIdentity::read`] / [`SessionIdentity::write`] |
@@ -35,12 +36,15 @@ mod write;
 pub use error::DatasetError;
 pub use identity::{EyeGeometry, SessionIdentity, Side};
 pub use labels::{read_labels, session_paths_of, write_labels, LabelRow, LABELS_HEADER};
-pub use layout::{pool_file, session_file, SessionPaths};
+pub use layout::{pool_file, pool_head_file, session_file, SessionPaths};
 pub use metadata::{
     metadata_bytes, parse_metadata, read_metadata, write_metadata, ClassMetadata, DatasetMetadata,
     FileDigest, Metadata, RenderMetadata, SessionEntry, ToolInfo, FORMAT_VERSION,
 };
-pub use pool::{frame_sources, read_pool, write_pool, Segment, POOL_HEADER};
+pub use pool::{
+    frame_sources, read_pool, read_pool_heads, write_pool, write_pool_heads, PoseRow, Segment,
+    POOL_HEADER, POOL_HEAD_HEADER,
+};
 pub use render_settings::{HeadMotion, RenderBackend, RenderSettings};
 pub use session::{
     read_blink_column, read_session_csv, session_calibrations, write_session_csv,

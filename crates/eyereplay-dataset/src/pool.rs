@@ -87,3 +87,68 @@ pub fn read_pool(path: &Path) -> Result<Vec<Segment>, DatasetError> {
     }
     Ok(segs)
 }
+
+/// Columns of `pool/<class>_head.csv`: per pool frame (the rows of
+/// `pool/<class>.csv`, in order), its source's head pose at that moment
+/// relative to the source's median pose: yaw, pitch, roll (deg), x, y, z
+/// (cm, camera frame x right, y down, z away); the pose fields are empty
+/// where the source has none (an eye tracker, no face found).
+pub const POOL_HEAD_HEADER: &str =
+    "frame,head_yaw_deg,head_pitch_deg,head_roll_deg,head_x_cm,head_y_cm,head_z_cm";
+
+/// A head pose as `[yaw, pitch, roll, x, y, z]` (deg, cm).
+pub type PoseRow = [f64; 6];
+
+/// Writes a pool head CSV atomically, one row per pool frame.
+pub fn write_pool_heads(path: &Path, poses: &[Option<PoseRow>]) -> Result<(), DatasetError> {
+    atomic_write_with(path, |w| {
+        writeln!(w, "{POOL_HEAD_HEADER}")?;
+        for (i, p) in poses.iter().enumerate() {
+            match p {
+                Some(p) => writeln!(
+                    w,
+                    "{i},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+                    p[0], p[1], p[2], p[3], p[4], p[5]
+                )?,
+                None => writeln!(w, "{i},,,,,,")?,
+            }
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
+/// Reads a pool head CSV: each pool frame's pose, `None` where empty.
+pub fn read_pool_heads(path: &Path) -> Result<Vec<Option<PoseRow>>, DatasetError> {
+    let text = read_text(path)?;
+    let t = Table::parse(&text, path)?;
+    let expected = format!(" (expected {POOL_HEAD_HEADER})");
+    let cols: Vec<usize> = POOL_HEAD_HEADER
+        .split(',')
+        .map(|name| t.col(name, &expected))
+        .collect::<Result<_, _>>()?;
+    let mut out = Vec::with_capacity(t.records.len());
+    for (k, (line, rec)) in t.records.iter().enumerate() {
+        if t.number(rec, *line, cols[0])? != k as f64 {
+            return Err(DatasetError::invalid(
+                path,
+                format!("line {line}: frame out of order (expected {k})"),
+            ));
+        }
+        let mut v = [None; 6];
+        for (x, &c) in v.iter_mut().zip(&cols[1..]) {
+            *x = t.optional_number(rec, *line, c)?;
+        }
+        out.push(match v {
+            [Some(a), Some(b), Some(c), Some(d), Some(e), Some(f)] => Some([a, b, c, d, e, f]),
+            [None, None, None, None, None, None] => None,
+            _ => {
+                return Err(DatasetError::invalid(
+                    path,
+                    format!("line {line}: a pose has all six fields or none"),
+                ))
+            }
+        });
+    }
+    Ok(out)
+}

@@ -64,6 +64,19 @@ impl<'a> Table<'a> {
             })
     }
 
+    /// A number, or `None` where the field is empty.
+    pub fn optional_number(
+        &self,
+        rec: &csv::StringRecord,
+        line: usize,
+        c: usize,
+    ) -> Result<Option<f64>, DatasetError> {
+        if rec.get(c).is_none_or(|s| s.trim().is_empty()) {
+            return Ok(None);
+        }
+        self.number(rec, line, c).map(Some)
+    }
+
     pub fn text<'r>(&self, rec: &'r csv::StringRecord, c: usize) -> &'r str {
         rec.get(c).unwrap_or("").trim()
     }

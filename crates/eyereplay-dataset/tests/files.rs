@@ -231,3 +231,30 @@ fn mutated_files_give_clean_errors_never_panics() {
         std::fs::write(&path, &good).unwrap();
     }
 }
+
+#[test]
+fn pool_heads_read_back_with_empty_rows_and_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join(pool_head_file(GazeClass::Conversation));
+    std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+    let poses = [Some([2.5, -1.0, 0.25, 0.1, 0.0, -0.5]), None];
+    write_pool_heads(&p, &poses).unwrap();
+    let text = std::fs::read_to_string(&p).unwrap();
+    assert_eq!(
+        text,
+        format!("{POOL_HEAD_HEADER}\n0,2.5000,-1.0000,0.2500,0.1000,0.0000,-0.5000\n1,,,,,,\n")
+    );
+    assert_eq!(read_pool_heads(&p).unwrap(), poses.to_vec());
+    for (body, want) in [
+        ("0,x,,,,,\n", "line 2: column 2 is not a finite number"),
+        ("0,1,2,,,,\n", "line 2: a pose has all six fields or none"),
+        ("1,,,,,,\n", "line 2: frame out of order (expected 0)"),
+    ] {
+        std::fs::write(&p, format!("{POOL_HEAD_HEADER}\n{body}")).unwrap();
+        let e = read_pool_heads(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("conversation_head.csv") && e.contains(want),
+            "{e}"
+        );
+    }
+}

@@ -80,6 +80,23 @@ fn flip() -> Matrix3<f64> {
 }
 
 impl HeadPose {
+    /// The pose as `[yaw, pitch, roll, x, y, z]` (deg, cm): the order of
+    /// the dataset's pool head rows (`eyereplay_dataset::PoseRow`).
+    pub fn components(&self) -> [f64; 6] {
+        let [x, y, z] = self.translation_cm;
+        [self.yaw_deg, self.pitch_deg, self.roll_deg, x, y, z]
+    }
+
+    /// The inverse of [`HeadPose::components`].
+    pub fn from_components(c: [f64; 6]) -> HeadPose {
+        HeadPose {
+            yaw_deg: c[0],
+            pitch_deg: c[1],
+            roll_deg: c[2],
+            translation_cm: [c[3], c[4], c[5]],
+        }
+    }
+
     /// The head's rotation in its own frame (see the module doc).
     pub fn head_rotation(&self) -> Matrix3<f64> {
         let ry = Rotation3::from_axis_angle(&Vector3::y_axis(), self.yaw_deg.to_radians());

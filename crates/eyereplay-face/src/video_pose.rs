@@ -56,27 +56,6 @@ pub fn video_head_poses(
     Ok(out)
 }
 
-/// A pose as `[yaw, pitch, roll, x, y, z]` (deg, cm).
-fn components(p: &HeadPose) -> [f64; 6] {
-    [
-        p.yaw_deg,
-        p.pitch_deg,
-        p.roll_deg,
-        p.translation_cm[0],
-        p.translation_cm[1],
-        p.translation_cm[2],
-    ]
-}
-
-fn from_components(c: [f64; 6]) -> HeadPose {
-    HeadPose {
-        yaw_deg: c[0],
-        pitch_deg: c[1],
-        roll_deg: c[2],
-        translation_cm: [c[3], c[4], c[5]],
-    }
-}
-
 /// A source video's head motion relative to its own rest pose (the median
 /// of each component over the frames with a face), smoothed over time, to
 /// be looked up at any time of the source.
@@ -99,7 +78,7 @@ impl SourceHeadTrack {
     pub fn from_poses(poses: &[(f64, Option<HeadPose>)], sigma_s: f64) -> Option<SourceHeadTrack> {
         let found: Vec<(f64, [f64; 6])> = poses
             .iter()
-            .filter_map(|(t, p)| p.as_ref().map(|p| (*t, components(p))))
+            .filter_map(|(t, p)| p.as_ref().map(|p| (*t, p.components())))
             .collect();
         if found.is_empty() {
             return None;
@@ -131,13 +110,13 @@ impl SourceHeadTrack {
                     }
                     wsum += w;
                 }
-                (wsum > 0.0).then(|| from_components(sum.map(|s| s / wsum)))
+                (wsum > 0.0).then(|| HeadPose::from_components(sum.map(|s| s / wsum)))
             })
             .collect();
         Some(SourceHeadTrack {
             t_s: poses.iter().map(|(t, _)| *t).collect(),
             rel,
-            rest: from_components(rest),
+            rest: HeadPose::from_components(rest),
         })
     }
 
@@ -167,8 +146,8 @@ impl SourceHeadTrack {
         let (a, b) = (self.rel[j - 1]?, self.rel[j]?);
         let (t0, t1) = (self.t_s[j - 1], self.t_s[j]);
         let f = if t1 > t0 { (t_s - t0) / (t1 - t0) } else { 0.0 };
-        let (ca, cb) = (components(&a), components(&b));
-        Some(from_components(std::array::from_fn(|k| {
+        let (ca, cb) = (a.components(), b.components());
+        Some(HeadPose::from_components(std::array::from_fn(|k| {
             ca[k] + f * (cb[k] - ca[k])
         })))
     }

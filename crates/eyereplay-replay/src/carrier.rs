@@ -208,13 +208,13 @@ impl CarrierTrack {
     /// Reads a cached track; `None` when the file is missing or from
     /// another format version (it is measured again).
     pub fn load(path: &Path) -> Result<Option<CarrierTrack>> {
-        let track: Option<CarrierTrack> = crate::cache::read_json(path, "carrier track")?;
+        let track: Option<CarrierTrack> = eyereplay_core::read_json_cache(path, "carrier track")?;
         Ok(track.filter(|t| t.format_version == TRACK_FORMAT_VERSION))
     }
 
     /// Writes the track atomically.
     pub fn save(&self, path: &Path) -> Result<()> {
-        crate::cache::write_json(path, self)
+        Ok(eyereplay_core::write_json(path, self)?)
     }
 
     /// Presentation times of the frames.

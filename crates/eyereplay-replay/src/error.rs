@@ -20,8 +20,6 @@ pub enum ReplayError {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("{}: {message}", path.display())]
-    Cache { path: PathBuf, message: String },
     /// A carrier CSV that is not one (line 1 is the header).
     #[error("{}: line {line}: {message}", path.display())]
     CarrierCsv {

@@ -29,7 +29,6 @@
 //! ([`redraw::place`]); outside the contour the frame is the carrier's.
 //! Then x264, as every mode.
 
-mod cache;
 mod carrier;
 mod error;
 pub mod frame;

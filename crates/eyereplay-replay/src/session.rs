@@ -120,13 +120,13 @@ impl Calibration {
     /// Reads a cached calibration; `None` when missing or of another
     /// version.
     pub fn load(path: &Path) -> Result<Option<Calibration>> {
-        let c: Option<Calibration> = crate::cache::read_json(path, "carrier calibration")?;
+        let c: Option<Calibration> = eyereplay_core::read_json_cache(path, "carrier calibration")?;
         Ok(c.filter(|c| c.version == CALIBRATION_VERSION))
     }
 
     /// Writes the calibration atomically.
     pub fn save(&self, path: &Path) -> Result<()> {
-        crate::cache::write_json(path, self)
+        Ok(eyereplay_core::write_json(path, self)?)
     }
 }
 

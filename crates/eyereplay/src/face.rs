@@ -170,16 +170,8 @@ pub(crate) fn render_sessions_face(
     let sessions = crate::render::shard_sessions(out, meta.seed, shard)?;
     let (mesh, identities, mut fitter) = fit_identities(&photos)?;
     let mapping = eyereplay_render::read_dataset_info(out)?.mapping(&params.mapping);
-    // head_motion = source: every class's pool of source head poses.
+    // head_motion = source: each class's source head poses, read once.
     let mut pool_heads = BTreeMap::new();
-    if settings.head_motion == HeadMotion::Source {
-        for c in &meta.classes {
-            pool_heads.insert(
-                c.class,
-                crate::source_head::read_source_heads(out, c.class)?,
-            );
-        }
-    }
     progress.begin(Stage::Render, (sessions.len() * meta.session_frames) as u64);
     let mut summary = RenderSummary::default();
     let mut failed = vec![];
@@ -224,9 +216,10 @@ pub(crate) fn render_sessions_face(
         let pose_slopes = matched.pose_slopes;
         let source_head = if settings.head_motion == HeadMotion::Source {
             Some(crate::source_head::session_heads(
+                out,
                 meta,
                 &files.file,
-                &pool_heads,
+                &mut pool_heads,
             )?)
         } else {
             None

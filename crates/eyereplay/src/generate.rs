@@ -212,9 +212,8 @@ pub fn generate(
     let t = Instant::now();
     let cache = opts.cache.clone().unwrap_or_else(|| cache_dir(None));
     let prepared = prepare_dataset(&job.config, out, &cache, progress)?;
-    if job.settings.backend == eyereplay_dataset::RenderBackend::Face
-        && job.settings.head_motion == eyereplay_dataset::HeadMotion::Source
-    {
+    // (`plan` allows head_motion = source with the face backend only.)
+    if job.settings.head_motion == eyereplay_dataset::HeadMotion::Source {
         crate::source_head::write_source_heads(
             out,
             &job.config,

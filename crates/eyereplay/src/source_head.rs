@@ -15,30 +15,19 @@
 use crate::progress::{ExtractFrames, Progress, Stage};
 use crate::{Error, Result};
 use eyereplay_core::GazeClass;
-use eyereplay_dataset::DatasetMetadata;
+use eyereplay_dataset::{pool_head_file, DatasetMetadata, PoseRow};
 use eyereplay_face::{
     default_faces_dir, video_head_poses, CanonicalMesh, HeadPose, SourceHeadTrack, MESH_FILE,
     SOURCE_HEAD_SMOOTHING_S, SOURCE_VFOV_DEG,
 };
 use eyereplay_prepare::{DatasetConfig, Prepared};
 use eyereplay_sources::RecordingKind;
-use std::collections::BTreeMap;
+use std::collections::btree_map::Entry;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
-
-/// Columns of `pool/<class>_head.csv`: per pool frame, its source and time
-/// in it, and that source video's head pose there relative to its median
-/// pose (deg; cm, camera frame x right, y down, z away); the pose fields
-/// are empty where there is none.
-pub const HEAD_POOL_HEADER: &str = "frame,source,source_t_s,head_yaw_deg,head_pitch_deg,\
-head_roll_deg,head_x_cm,head_y_cm,head_z_cm";
 
 /// Version of the cached per-frame poses: bump when the solve changes.
 const HEAD_CACHE_VERSION: u32 = 1;
-
-/// `pool/<class>_head.csv`, relative to the dataset folder.
-pub fn head_pool_file(class: GazeClass) -> String {
-    format!("pool/{}_head.csv", class.name())
-}
 
 /// Where a video's per-frame head poses are cached.
 fn cache_file(cache: &Path, sha256: &str) -> PathBuf {
@@ -58,11 +47,9 @@ fn video_poses(
     progress: &dyn Progress,
 ) -> Result<Vec<(f64, Option<HeadPose>)>> {
     let file = cache_file(cache, sha256);
-    let dir = cache.join("head");
-    if let Ok(text) = std::fs::read_to_string(&file) {
-        if let Ok(poses) = serde_json::from_str(&text) {
-            return Ok(poses);
-        }
+    const WHAT: &str = "head pose cache";
+    if let Some(poses) = eyereplay_core::read_json_cache(&file, WHAT)? {
+        return Ok(poses);
     }
     progress.info(&format!(
         "head pose of {}: solving every frame's landmarks (once; cached)",
@@ -76,20 +63,22 @@ fn video_poses(
         SOURCE_VFOV_DEG,
         &ExtractFrames(progress),
     )?;
-    let text = serde_json::to_string(&poses).map_err(|e| Error::input(&file, e.to_string()))?;
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    eyereplay_core::atomic_write_with(&file, |w| w.write_all(text.as_bytes()))?;
-    serde_json::from_str(&text).map_err(|e| Error::input(&file, e.to_string()))
+    eyereplay_core::write_json(&file, &poses)?;
+    eyereplay_core::read_json_cache(&file, WHAT)?
+        .ok_or_else(|| Error::input(&file, "vanished right after it was written"))
 }
 
-/// Every video source's head track, by source index (sources whose video
-/// shows no face at all are left out, so their frames use the model).
+/// Every video source's head track (by the video's sha256; a video that
+/// shows no face at all has none, so its frames use the model), and the
+/// sha256 of each video source by source index.
+type Tracks = (BTreeMap<String, SourceHeadTrack>, BTreeMap<u32, String>);
+
 fn source_tracks(
     config: &DatasetConfig,
     prepared: &Prepared,
     cache: &Path,
     progress: &dyn Progress,
-) -> Result<BTreeMap<u32, SourceHeadTrack>> {
+) -> Result<Tracks> {
     let videos: Vec<_> = prepared
         .sources
         .iter()
@@ -97,12 +86,11 @@ fn source_tracks(
         // frames are needed.
         .filter(|s| s.kind == RecordingKind::Video && s.format == "video")
         .collect();
-    let mut tracks = BTreeMap::new();
+    let (mut tracks, mut sha_of) = (BTreeMap::new(), BTreeMap::new());
     if videos.is_empty() {
-        return Ok(tracks);
+        return Ok((tracks, sha_of));
     }
-    let mesh_path = default_faces_dir().join(MESH_FILE);
-    let mesh = CanonicalMesh::load(&mesh_path)?;
+    let mesh = CanonicalMesh::load(&default_faces_dir().join(MESH_FILE))?;
     // A progress bar only when some video is not cached yet.
     let solving = videos
         .iter()
@@ -110,36 +98,34 @@ fn source_tracks(
     if solving {
         progress.begin(Stage::Extract, 0);
     }
-    // One pose track per video file, shared by its recordings (a video's
-    // recordings differ only by eye or segment).
-    let mut by_sha: BTreeMap<&str, Option<SourceHeadTrack>> = BTreeMap::new();
+    let mut done = BTreeSet::new();
     for s in videos {
-        if !by_sha.contains_key(s.sha256.as_str()) {
-            let path: PathBuf = config.resolve(Path::new(&s.file));
-            let poses = video_poses(&path, &s.sha256, cache, &mesh, progress)?;
-            let track = SourceHeadTrack::from_poses(&poses, SOURCE_HEAD_SMOOTHING_S);
-            if track.is_none() {
-                progress.warn(&format!(
-                    "warning: {}: no face found for a head pose; its frames use the head model",
-                    s.file
-                ));
-            }
-            by_sha.insert(s.sha256.as_str(), track);
+        sha_of.insert(s.index as u32, s.sha256.clone());
+        // One track per video file, shared by its recordings.
+        if !done.insert(s.sha256.clone()) {
+            continue;
         }
-        if let Some(Some(t)) = by_sha.get(s.sha256.as_str()) {
-            tracks.insert(s.index as u32, t.clone());
+        let path = config.resolve(Path::new(&s.file));
+        let poses = video_poses(&path, &s.sha256, cache, &mesh, progress)?;
+        match SourceHeadTrack::from_poses(&poses, SOURCE_HEAD_SMOOTHING_S) {
+            Some(t) => {
+                tracks.insert(s.sha256.clone(), t);
+            }
+            None => progress.warn(&format!(
+                "warning: {}: no face found for a head pose; its frames use the head model",
+                s.file
+            )),
         }
     }
     if solving {
         progress.end(Stage::Extract);
     }
-    Ok(tracks)
+    Ok((tracks, sha_of))
 }
 
-/// Writes `pool/<class>_head.csv` for every class of `prepared` into `out`
-/// (atomically): each pool frame's source head pose, solved (cached) from
-/// the config's video sources. Deterministic: the same inputs give the
-/// same bytes.
+/// Writes `pool/<class>_head.csv` for every class of `prepared` into `out`:
+/// each pool frame's source head pose, solved (cached) from the config's
+/// video sources. Deterministic: the same inputs give the same bytes.
 pub fn write_source_heads(
     out: &Path,
     config: &DatasetConfig,
@@ -147,98 +133,48 @@ pub fn write_source_heads(
     cache: &Path,
     progress: &dyn Progress,
 ) -> Result<()> {
-    let tracks = source_tracks(config, prepared, cache, progress)?;
+    let (tracks, sha_of) = source_tracks(config, prepared, cache, progress)?;
     for c in &prepared.classes {
-        let path = out.join(head_pool_file(c.class));
-        eyereplay_core::atomic_write_with(&path, |w| {
-            writeln!(w, "{HEAD_POOL_HEADER}")?;
-            for (i, (&src, &t)) in c.pool_source.iter().zip(&c.pool_time_s).enumerate() {
-                write!(w, "{i},{src},{t:.3}")?;
-                match tracks.get(&src).and_then(|tr| tr.at(t)) {
-                    Some(p) => writeln!(
-                        w,
-                        ",{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
-                        p.yaw_deg,
-                        p.pitch_deg,
-                        p.roll_deg,
-                        p.translation_cm[0],
-                        p.translation_cm[1],
-                        p.translation_cm[2]
-                    )?,
-                    None => writeln!(w, ",,,,,,")?,
-                }
-            }
-            Ok(())
-        })?;
+        let poses: Vec<Option<PoseRow>> = c
+            .pool_source
+            .iter()
+            .zip(&c.pool_time_s)
+            .map(|(src, &t)| {
+                let track = sha_of.get(src).and_then(|sha| tracks.get(sha))?;
+                track.at(t).map(|p| p.components())
+            })
+            .collect();
+        eyereplay_dataset::write_pool_heads(&out.join(pool_head_file(c.class)), &poses)?;
     }
     Ok(())
 }
 
-/// Reads `pool/<class>_head.csv` of the dataset in `out`: the source head
-/// pose of each pool frame (`None` where empty).
-pub fn read_source_heads(out: &Path, class: GazeClass) -> Result<Vec<Option<HeadPose>>> {
-    let path = out.join(head_pool_file(class));
-    let text = std::fs::read_to_string(&path).map_err(|e| {
-        Error::input(
-            &path,
-            format!(
-                "{e} (render.head_motion = \"source\" needs it: written by `eyereplay generate`)"
-            ),
-        )
-    })?;
-    let mut lines = text.lines();
-    if lines.next() != Some(HEAD_POOL_HEADER) {
-        return Err(Error::input(
-            &path,
-            format!("line 1: expected header {HEAD_POOL_HEADER}"),
-        ));
-    }
-    let mut out = vec![];
-    for (k, line) in lines.enumerate() {
-        let bad = |m: &str| Error::input(&path, format!("line {}: {m}", k + 2));
-        let f: Vec<&str> = line.split(',').collect();
-        if f.len() != 9 {
-            return Err(bad(&format!("expected 9 fields, found {}", f.len())));
-        }
-        if f[0].parse::<usize>() != Ok(k) {
-            return Err(bad(&format!("frame {} out of order (expected {k})", f[0])));
-        }
-        if f[3..].iter().all(|x| x.is_empty()) {
-            out.push(None);
-            continue;
-        }
-        let mut v = [0.0f64; 6];
-        for (x, s) in v.iter_mut().zip(&f[3..]) {
-            *x = s
-                .parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| bad(&format!("'{s}' is not a number")))?;
-        }
-        out.push(Some(HeadPose {
-            yaw_deg: v[0],
-            pitch_deg: v[1],
-            roll_deg: v[2],
-            translation_cm: [v[3], v[4], v[5]],
-        }));
-    }
-    Ok(out)
-}
-
-/// The source head pose of each frame of the session `file` of `meta`:
-/// pool frame `(pool_start + j) mod T` of its class (`pools`: each class's
-/// poses read by [`read_source_heads`]).
+/// The source head pose of each frame of the session `file` of the dataset
+/// in `out` (metadata `meta`): pool frame `(pool_start + j) mod T` of its
+/// class's `pool/<class>_head.csv`. `pools` keeps each class's file once
+/// read.
 pub fn session_heads(
+    out: &Path,
     meta: &DatasetMetadata,
     file: &str,
-    pools: &BTreeMap<GazeClass, Vec<Option<HeadPose>>>,
+    pools: &mut BTreeMap<GazeClass, Vec<Option<PoseRow>>>,
 ) -> Result<Vec<Option<HeadPose>>> {
     let entry = meta
         .sessions
         .iter()
         .find(|s| s.file == file)
         .ok_or_else(|| Error::input(file, "not listed in metadata.json's sessions"))?;
-    let heads = pools.get(&entry.class).map_or(&[][..], |h| &h[..]);
+    let path = out.join(pool_head_file(entry.class));
+    if let Entry::Vacant(slot) = pools.entry(entry.class) {
+        if !path.is_file() {
+            return Err(Error::input(
+                &path,
+                "not found (render.head_motion = \"source\" reads it; `eyereplay generate` writes it)",
+            ));
+        }
+        slot.insert(eyereplay_dataset::read_pool_heads(&path)?);
+    }
+    let heads = &pools[&entry.class];
     let expected = meta
         .classes
         .iter()
@@ -246,7 +182,7 @@ pub fn session_heads(
         .map_or(0, |c| c.pool_frames);
     if heads.is_empty() || heads.len() != expected {
         return Err(Error::input(
-            head_pool_file(entry.class),
+            &path,
             format!(
                 "{} frames where the pool has {expected}: written for another dataset (rerun `eyereplay generate`)",
                 heads.len()
@@ -254,47 +190,6 @@ pub fn session_heads(
         ));
     }
     Ok((0..meta.session_frames)
-        .map(|j| heads[(entry.pool_start + j) % heads.len()])
+        .map(|j| heads[(entry.pool_start + j) % heads.len()].map(HeadPose::from_components))
         .collect())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn head_pool_reads_back_with_empty_rows_and_clear_errors() {
-        let dir = tempfile::tempdir().unwrap();
-        let d = dir.path();
-        std::fs::create_dir_all(d.join("pool")).unwrap();
-        let path = d.join(head_pool_file(GazeClass::Conversation));
-        std::fs::write(
-            &path,
-            format!("{HEAD_POOL_HEADER}\n0,3,1.000,2.5000,-1.0000,0.2500,0.1000,0.0000,-0.5000\n1,0,0.040,,,,,,\n"),
-        )
-        .unwrap();
-        let h = read_source_heads(d, GazeClass::Conversation).unwrap();
-        assert_eq!(h.len(), 2);
-        let p = h[0].unwrap();
-        assert_eq!(
-            (p.yaw_deg, p.pitch_deg, p.translation_cm[2]),
-            (2.5, -1.0, -0.5)
-        );
-        assert_eq!(h[1], None);
-        std::fs::write(&path, format!("{HEAD_POOL_HEADER}\n0,3,1.0,x,,,,,\n")).unwrap();
-        let e = read_source_heads(d, GazeClass::Conversation)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("conversation_head.csv: line 2") && e.contains("'x'"),
-            "{e}"
-        );
-        let e = read_source_heads(d, GazeClass::Reading)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("reading_head.csv") && e.contains("eyereplay generate"),
-            "{e}"
-        );
-    }
 }

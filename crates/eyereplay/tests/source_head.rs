@@ -81,7 +81,7 @@ sources = [{{ format = "video", path = "{}" }}]
     let pool = out.join("pool/conversation_head.csv");
     let pool_yaw = column(&pool, "head_yaw_deg");
     let pool_pitch = column(&pool, "head_pitch_deg");
-    let pool_t = column(&pool, "source_t_s");
+    let pool_t = column(&out.join("pool/conversation.csv"), "source_t_s");
     let frames = column(&out.join("pool/conversation.csv"), "frame").len();
     assert_eq!(pool_yaw.len(), frames);
     let with_pose = pool_yaw.iter().filter(|y| y.is_finite()).count();
@@ -166,4 +166,21 @@ sources = [{{ format = "video", path = "{}" }}]
     );
     assert!(r >= 0.9, "r {r}");
     assert!((0.7..=1.3).contains(&slope), "slope {slope}");
+
+    // Without the pool's head file, the renderer says which file and who
+    // writes it.
+    std::fs::remove_file(&pool).unwrap();
+    let e = eyereplay::source_head::session_heads(
+        &out,
+        &meta,
+        &meta.sessions[0].file,
+        &mut Default::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("conversation_head.csv") && e.contains("eyereplay generate"),
+        "{e}"
+    );
+    assert!(!e.contains('\n'), "{e}");
 }
