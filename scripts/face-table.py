@@ -11,7 +11,17 @@ the session's drawn truth mapped through its `extractor_response` (the
 renderer draws the inverse of that map, so this is the trajectory's own
 normalized position). Prints face detection, r, amplitude ratio
 (std ratio) and gain (slope) per axis, the head's yaw range, and a summary
-per class. Exit status 0; it measures, it does not judge.
+per class.
+
+With --vertical, a second table says where the vertical read-back's error
+comes from, per session: the vertical movement to be read in image pixels
+(the source's ny std times the extracted lid-to-lid height, mean of both
+eyes), the extractor's own error on the iris centre's height (std of the
+extracted minus the drawn iris centre, px, mean of both eyes), and the
+vertical r again with the drawn iris centre put in place of the extracted
+one (lids and corners still the extractor's): what r would be if the iris
+network found the iris centre exactly. Exit status 0; it measures, it does
+not judge.
 """
 import argparse, csv, json, math, os, subprocess, sys
 
@@ -32,12 +42,15 @@ def main():
     ap.add_argument("dataset")
     here = os.path.dirname(os.path.abspath(__file__))
     ap.add_argument("--eyereplay", default=os.path.join(here, "..", "target", "release", "eyereplay"))
+    ap.add_argument("--vertical", action="store_true",
+                    help="also the vertical error budget per session (see above)")
     a = ap.parse_args()
     d = a.dataset
     labels = list(csv.DictReader(open(os.path.join(d, "labels.csv"))))
     out = os.path.join(d, ".readback")
     os.makedirs(out, exist_ok=True)
     rows = []
+    budget = []
     for lab in labels:
         f = lab.get("file") or lab.get("path") or list(lab.values())[0]
         stem = os.path.join(d, f[:-4])
@@ -70,6 +83,8 @@ def main():
         cls = f.split("/")[0]
         photo = idn.get("identity", {}).get("photo", "?")
         rows.append((f, cls, photo, face, len(pts), rx, ry, min(yaw), max(yaw)))
+        if a.vertical:
+            budget.append((f, vertical_budget(ex, tr, closed, cal, g)))
     print(f"{'session':<34} {'photo':<20} {'face':>6} {'n':>5} {'x r':>6} {'x ratio':>7} {'x gain':>6} {'y r':>6} {'y ratio':>7} {'y gain':>6} {'yaw deg':>12}")
     for f, cls, photo, face, n, rx, ry, y0, y1 in rows:
         print(f"{f:<34} {photo:<20} {100*face:5.1f}% {n:5d} {rx[0]:6.3f} {rx[1]:7.2f} {rx[2]:6.2f} {ry[0]:6.3f} {ry[1]:7.2f} {ry[2]:6.2f} {y0:5.1f}..{y1:4.1f}")
@@ -79,6 +94,48 @@ def main():
         print(f"{cls}: {len(sel)} sessions, face {100*min(r[3] for r in sel):.1f}-{100*max(r[3] for r in sel):.1f} %, "
               f"x r {rng(5,0)[0]:.3f}-{rng(5,0)[1]:.3f}, x ratio {rng(5,1)[0]:.2f}-{rng(5,1)[1]:.2f}, "
               f"y r {rng(6,0)[0]:.3f}-{rng(6,0)[1]:.3f}, y ratio {rng(6,1)[0]:.2f}-{rng(6,1)[1]:.2f}")
+    if budget:
+        print()
+        print(f"{'session':<34} {'y r':>6} {'signal px':>9} {'iris err px':>11} {'y r, drawn iris':>15}")
+        for (f, (sig, err, r_alt)), row in zip(budget, rows):
+            print(f"{f:<34} {row[6][0]:6.3f} {sig:9.2f} {err:11.2f} {r_alt:15.3f}")
+
+
+def std(v):
+    m = sum(v) / len(v)
+    return math.sqrt(sum((x - m) ** 2 for x in v) / len(v))
+
+
+def vertical_budget(ex, tr, closed, cal, g):
+    """(signal px, iris error px, r with the drawn iris centre) of one
+    session, open-eye frames with a valid read-back."""
+    sig, err, target, alt = [], [], [], []
+    per_eye = {}
+    for side in ("left", "right"):
+        ap_px, dy, ny_alt = [], [], []
+        for e, t, c in zip(ex, tr, closed):
+            if e["valid"] != "1" or c:
+                continue
+            # Lid-to-lid height in px: the aperture is in eye widths.
+            w = math.hypot(float(e[f"{side}_eye_right_corner_x_px"]) - float(e[f"{side}_eye_left_corner_x_px"]),
+                           float(e[f"{side}_eye_right_corner_y_px"]) - float(e[f"{side}_eye_left_corner_y_px"]))
+            h = float(e[f"aperture_{side}"]) * w
+            d = float(t[f"{side}_iris_y_px"]) - float(e[f"iris_{side}_y_px"])
+            ap_px.append(h)
+            dy.append(d)
+            # ny moves by dy / h when the iris centre moves by dy px.
+            ny_alt.append(float(e[f"ny_{side}"]) + d / h if h > 0 else float(e[f"ny_{side}"]))
+        per_eye[side] = (ap_px, dy, ny_alt)
+    for e, t, c in zip(ex, tr, closed):
+        if e["valid"] == "1" and not c:
+            target.append(0.5 + g * (float(t["y"]) - cal["mu_y"]) / cal["s_y"])
+    if len(target) < 3:
+        return float("nan"), float("nan"), float("nan")
+    height = sum(sum(per_eye[s][0]) / len(per_eye[s][0]) for s in per_eye) / 2
+    sig = std(target) * height
+    err = sum(std(per_eye[s][1]) for s in per_eye) / 2
+    alt = [(l + r) / 2 for l, r in zip(per_eye["left"][2], per_eye["right"][2])]
+    return sig, err, pearson(target, alt)[0]
 
 
 if __name__ == "__main__":
