@@ -7,6 +7,13 @@
 #
 #   scripts/ffmpeg-static.sh            -> $EYEREPLAY_CACHE/ffmpeg-static (FFMPEG_DIR for the build)
 #
+# The build itself goes to a cache shared by every checkout on the machine,
+# ${XDG_CACHE_HOME:-~/.cache}/eyereplay/ffmpeg-static-<version>-<flags hash>
+# (EYEREPLAY_SHARED_CACHE overrides the folder), and
+# $EYEREPLAY_CACHE/ffmpeg-static links to it: it depends only on the pinned
+# source and the configure flags below, and each fresh clone (CI's among
+# them) would otherwise spend 3-4 minutes building the same bytes again.
+#
 # The source is Debian's own FFmpeg 5.1 (the same release as its libav*
 # packages that the command line builds against), fetched with apt-get
 # source from the machine's configured Debian mirror, with a private sources
@@ -20,10 +27,33 @@ VERSION=5.1.9
 DEB_VERSION=7:5.1.9-0+deb12u1
 ORIG=ffmpeg_${VERSION}.orig.tar.xz
 ORIG_SHA=d9b593bb2ba93d4b50f74177e0cdcd41747e708596367deed0c30348a71dd176
-dest="$cache/ffmpeg-static"
+# What ./configure is given (below): part of the shared build's name, so
+# changing a flag builds a new one instead of reusing the old.
+CONFIGURE_FLAGS=(--enable-static --disable-shared --enable-pic
+  --disable-programs --disable-doc --disable-network --disable-autodetect
+  --disable-everything --disable-avdevice --disable-avfilter --disable-swresample
+  --disable-postproc --enable-avcodec --enable-avformat --enable-swscale
+  --enable-decoder=h264,hevc,vp8,vp9,mpeg4,h263,mjpeg,mpeg1video,mpeg2video,prores,dnxhd,vp3,theora,msmpeg4v2,msmpeg4v3,rawvideo,png
+  --enable-demuxer=mov,matroska,avi,mpegts,mpegps,flv,h264,hevc,m4v,mjpeg,ivf,ogg,rawvideo,image2
+  --enable-parser=h264,hevc,mpeg4video,mpegvideo,vp8,vp9,mjpeg,vp3,png
+  --enable-protocol=file,pipe)
+flags_hash="$(printf '%s\n' "$ORIG_SHA" "${CONFIGURE_FLAGS[@]}" | sha256sum | cut -c1-12)"
+shared="${EYEREPLAY_SHARED_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/eyereplay}"
+dest="$shared/ffmpeg-static-$VERSION-$flags_hash"
+link="$cache/ffmpeg-static"
 stamp="$dest/.built-$VERSION"
 say() { echo "ffmpeg-static: $*"; }
+# $link -> $dest (a folder left there by an older version of this script
+# is replaced).
+link_cache() {
+  mkdir -p "$cache"
+  if [[ "$(readlink "$link" 2>/dev/null)" != "$dest" ]]; then
+    rm -rf "$link"
+    ln -s "$dest" "$link"
+  fi
+}
 if [[ -f "$stamp" ]]; then
+  link_cache
   say "have FFmpeg $VERSION in $dest"
   exit 0
 fi
@@ -36,12 +66,12 @@ if ! command -v nasm >/dev/null; then
   DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends nasm >/dev/null
 fi
 
-src="$cache/ffmpeg-src"
+src="$shared/ffmpeg-src"
 mkdir -p "$src"
 if [[ ! -f "$src/$ORIG" || "$(sha256sum "$src/$ORIG" | cut -d' ' -f1)" != "$ORIG_SHA" ]]; then
   # deb-src twins of the deb entries the system already uses (same
   # mirrors, suites and keys).
-  apt_dir="$cache/apt-src"
+  apt_dir="$shared/apt-src"
   rm -rf "$apt_dir/parts"
   mkdir -p "$apt_dir/parts" "$apt_dir/lists/partial"
   for f in /etc/apt/sources.list.d/*.sources; do
@@ -70,21 +100,16 @@ if [[ ! -f "$src/$ORIG" || "$(sha256sum "$src/$ORIG" | cut -d' ' -f1)" != "$ORIG
   fi
 fi
 
-build="$src/build-$VERSION"
+build="$src/build-$VERSION-$flags_hash"
 rm -rf "$build" "$dest"
 mkdir -p "$build"
 tar -xJf "$src/$ORIG" -C "$build" --strip-components=1
 say "configure + make (static, decoders only)"
 cd "$build"
-./configure --prefix="$dest" --enable-static --disable-shared --enable-pic \
-  --disable-programs --disable-doc --disable-network --disable-autodetect \
-  --disable-everything --disable-avdevice --disable-avfilter --disable-swresample \
-  --disable-postproc --enable-avcodec --enable-avformat --enable-swscale \
-  --enable-decoder=h264,hevc,vp8,vp9,mpeg4,h263,mjpeg,mpeg1video,mpeg2video,prores,dnxhd,vp3,theora,msmpeg4v2,msmpeg4v3,rawvideo,png \
-  --enable-demuxer=mov,matroska,avi,mpegts,mpegps,flv,h264,hevc,m4v,mjpeg,ivf,ogg,rawvideo,image2 \
-  --enable-parser=h264,hevc,mpeg4video,mpegvideo,vp8,vp9,mjpeg,vp3,png \
-  --enable-protocol=file,pipe >/dev/null
+./configure --prefix="$dest" "${CONFIGURE_FLAGS[@]}" >/dev/null
 make -j"$(nproc)" >"$build/make.log" 2>&1 || { tail -20 "$build/make.log" >&2; exit 1; }
 make install >>"$build/make.log" 2>&1
+# The stamp last: a build killed half-way is redone, never half-used.
 touch "$stamp"
+link_cache
 say "installed FFmpeg $VERSION (static) in $dest"

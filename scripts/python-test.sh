@@ -23,6 +23,12 @@ export EYEREPLAY_CACHE="${EYEREPLAY_CACHE:-$root/.cache}"
 py="${PYTHON:-python3}"
 
 echo "python-test: cargo build --profile $profile -p eyereplay-cli"
+# The wheel's build reuses the workspace build's compiled crates only where
+# both resolve a crate with the same features (eyereplay-py's Cargo.toml).
+if ! differ=$("$py" "$root/scripts/dev/wheel_features.py"); then
+  echo "python-test: note: the wheel's build compiles these crates again, with other features than the workspace's (add them to crates/eyereplay-py/Cargo.toml):"
+  echo "$differ"
+fi
 cargo build --quiet --profile "$profile" -p eyereplay-cli
 bash "$root/scripts/python-wheel.sh" --profile "$profile"
 

@@ -30,7 +30,8 @@ else
 fi
 # FFmpeg linked statically (decoders only), so the wheel needs no libav*.
 bash "$root/scripts/ffmpeg-static.sh"
-export FFMPEG_DIR="$cache/ffmpeg-static"
+# The shared build behind the link (scripts/ffmpeg-static.sh).
+export FFMPEG_DIR="$(readlink -f "$cache/ffmpeg-static")"
 rm -f target/wheels/eyereplay-*.whl
 echo "python-wheel: maturin build --profile $profile"
 # manylinux_2_35: the extension links only glibc (2.35 or later: Ubuntu
