@@ -23,7 +23,9 @@ cargo clippy --workspace --all-targets --quiet -- -D warnings
 phase "cargo test"
 mkdir -p target
 set +e
-cargo test --workspace 2>&1 | tee target/test.log
+# --no-fail-fast: every test binary runs, so one failure does not hide
+# the others (nor shrink the count below).
+cargo test --workspace --no-fail-fast 2>&1 | tee target/test.log
 status=${PIPESTATUS[0]}
 set -e
 phase "Python package (wheel in a fresh venv, pytest)"
