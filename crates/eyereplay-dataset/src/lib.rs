@@ -50,5 +50,7 @@ pub use session::{
     read_blink_column, read_session_csv, session_calibrations, write_session_csv,
     write_session_csv_with_blinks,
 };
-pub use truth::{read_truth_csv, write_truth_csv, EyeTruthRow, TruthRow, TRUTH_HEADER};
+pub use truth::{
+    read_head_yaw_csv, read_truth_csv, write_truth_csv, EyeTruthRow, TruthRow, TRUTH_HEADER,
+};
 pub use write::{write_dataset, WriteSummary};

@@ -86,6 +86,19 @@ pub fn write_truth_csv(path: &Path, rows: &[TruthRow]) -> Result<(), DatasetErro
     Ok(())
 }
 
+/// The drawn head's yaw per frame (degrees, relative to the rest pose)
+/// from a full-face session's `_head.csv` (`frame,head_yaw_deg,...`, as
+/// the face renderer writes it); errors name the file and line.
+pub fn read_head_yaw_csv(path: &Path) -> Result<Vec<f64>, DatasetError> {
+    let text = read_text(path)?;
+    let t = crate::table::Table::parse(&text, path)?;
+    let c = t.col("head_yaw_deg", " (a full-face session's _head.csv)")?;
+    t.records
+        .iter()
+        .map(|(line, rec)| t.number(rec, *line, c))
+        .collect()
+}
+
 /// Reads a truth CSV (columns by name, so added columns do not break it).
 pub fn read_truth_csv(path: &Path) -> Result<Vec<TruthRow>, DatasetError> {
     let text = read_text(path)?;

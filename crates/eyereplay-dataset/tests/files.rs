@@ -258,3 +258,33 @@ fn pool_heads_read_back_with_empty_rows_and_line_errors() {
         );
     }
 }
+
+#[test]
+fn head_yaw_reads_its_column_by_name_and_names_bad_lines() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("s_head.csv");
+    // The face renderer's header (eyereplay_face::HEAD_TRUTH_HEADER), two
+    // frames; the yaw is the second column.
+    let header = "frame,head_yaw_deg,head_pitch_deg,head_roll_deg,head_x_cm,head_y_cm,head_z_cm,\
+eye_yaw_deg,eye_pitch_deg,gaze_yaw_deg,gaze_pitch_deg";
+    std::fs::write(
+        &p,
+        format!("{header}\n0,-1.2500,0.5,0,0,0,0,3,1,1.75,1.5\n1,2.0000,0,0,0,0,0,0,0,2,0\n"),
+    )
+    .unwrap();
+    assert_eq!(read_head_yaw_csv(&p).unwrap(), vec![-1.25, 2.0]);
+    for (text, want) in [
+        (
+            format!("{header}\n0,nan,0,0,0,0,0,0,0,0,0\n"),
+            "line 2: column 2 is not a finite number",
+        ),
+        (
+            "frame,x,y\n0,1,2\n".to_string(),
+            "missing column 'head_yaw_deg'",
+        ),
+    ] {
+        std::fs::write(&p, text).unwrap();
+        let e = read_head_yaw_csv(&p).unwrap_err().to_string();
+        assert!(e.contains("s_head.csv") && e.contains(want), "{e}");
+    }
+}

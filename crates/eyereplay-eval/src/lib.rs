@@ -26,6 +26,6 @@ pub mod plot;
 pub mod report;
 pub use eyereplay_core::Calibration;
 pub use report::{
-    evaluate_dataset, metrics_json, write_report, Evaluation, SessionReadBack, VisualRun,
-    VisualSection,
+    evaluate_dataset, metrics_json, write_report, Evaluation, HeadYawReadBack, SessionReadBack,
+    VisualRun, VisualSection, HEAD_YAW_READ_BACK_S, TARGET_HEAD_YAW_R_MIN,
 };

@@ -149,6 +149,9 @@ struct SessionRow<'a> {
     x: Axis,
     y: Axis,
     error: Error,
+    /// Full-face sessions only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    head_yaw: Option<crate::HeadYawReadBack>,
 }
 
 #[derive(Serialize)]
@@ -315,6 +318,7 @@ fn visual(ev: &Evaluation) -> Visual<'_> {
                 x: Axis::brief(&r.fidelity.x),
                 y: Axis::brief(&r.fidelity.y),
                 error: Error::of(&r.fidelity.error),
+                head_yaw: r.head_yaw,
             })
             .collect(),
     };

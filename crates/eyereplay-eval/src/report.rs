@@ -69,7 +69,35 @@ pub struct SessionReadBack {
     /// Frames in which the extractor measured an iris (blinks excluded).
     pub detection_rate: f64,
     pub fidelity: VisualFidelity,
+    /// Full-face sessions (a `_head.csv` beside the video): the head's yaw
+    /// solved from the landmarks the extractor finds, against the drawn one.
+    pub head_yaw: Option<HeadYawReadBack>,
 }
+
+/// A rendered head's yaw read back from its video against its ground
+/// truth (both relative to their own means, so the fixed offset between
+/// the photo's rest pose and the canonical face shape drops out).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct HeadYawReadBack {
+    /// Frames compared (those in which a face was found).
+    pub frames: usize,
+    /// Frames read (the first [`HEAD_YAW_READ_BACK_S`] seconds at most).
+    pub frames_read: usize,
+    /// Pearson r, read against drawn; `None` when either is constant.
+    pub r: Option<f64>,
+    /// Least-squares slope of read on drawn.
+    pub slope: Option<f64>,
+    /// Standard deviation of the drawn yaw over those frames, degrees.
+    pub truth_sd_deg: f64,
+}
+
+/// How much of each full-face session's video the head yaw read-back
+/// solves (the landmarks on every frame cost about as much as the iris
+/// read-back itself).
+pub const HEAD_YAW_READ_BACK_S: f64 = 12.0;
+
+/// The target for [`HeadYawReadBack::r`].
+pub const TARGET_HEAD_YAW_R_MIN: f64 = 0.9;
 
 /// Why the visual section is empty when no video was compared.
 pub const VISUAL_NOT_WIRED: &str = "not computed: no rendered video was compared. \
@@ -507,16 +535,34 @@ fn sessions_read_back_html(h: &mut String, rows: &[SessionReadBack]) {
             format!("{lo:.3}-{hi:.3}")
         }
     };
+    // Full-face sessions also read back the head's yaw.
+    let heads = rows.iter().any(|r| r.head_yaw.is_some());
+    if heads {
+        let _ = writeln!(
+            h,
+            "<p>Head yaw: solved from the 468 landmarks the extractor finds in the first {HEAD_YAW_READ_BACK_S:.0} s of each full-face video (the canonical face shape), against the drawn head, each relative to its mean; target r &ge; {TARGET_HEAD_YAW_R_MIN}. The slope departs from 1 as far as the photo's face departs from the canonical shape; r is lower where the head moved little (its drawn yaw sd, last column, against the landmarks' frame-to-frame jitter of a few tenths of a degree).</p>"
+        );
+    }
+    let head_th = if heads {
+        "<th>head yaw r</th><th>head yaw slope</th><th>drawn yaw sd (deg)</th>"
+    } else {
+        ""
+    };
     let mut classes: Vec<&str> = rows.iter().map(|r| r.class.as_str()).collect();
     classes.dedup();
-    h.push_str("<table><tr><th>class</th><th>sessions</th><th>r x</th><th>amplitude ratio x</th><th>r y</th><th>amplitude ratio y</th></tr>\n");
+    let _ = writeln!(h, "<table><tr><th>class</th><th>sessions</th><th>r x</th><th>amplitude ratio x</th><th>r y</th><th>amplitude ratio y</th>{}</tr>", if heads { "<th>head yaw r</th>" } else { "" });
     for c in classes {
         let of = |f: &dyn Fn(&SessionReadBack) -> Option<f64>| {
             range(rows.iter().filter(|r| r.class == c).filter_map(f).collect())
         };
+        let head = if heads {
+            format!("<td>{}</td>", of(&|r| r.head_yaw.and_then(|y| y.r)))
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             h,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>{head}</tr>",
             esc(c),
             rows.iter().filter(|r| r.class == c).count(),
             of(&|r| r.fidelity.x.r),
@@ -525,12 +571,22 @@ fn sessions_read_back_html(h: &mut String, rows: &[SessionReadBack]) {
             of(&|r| r.fidelity.y.amplitude_ratio)
         );
     }
-    h.push_str("</table>\n<table><tr><th>session</th><th>frames</th><th>iris found</th><th>r x</th><th>amplitude ratio x</th><th>r y</th><th>amplitude ratio y</th><th>median error</th></tr>\n");
+    let _ = writeln!(h, "</table>\n<table><tr><th>session</th><th>frames</th><th>iris found</th><th>r x</th><th>amplitude ratio x</th><th>r y</th><th>amplitude ratio y</th><th>median error</th>{head_th}</tr>");
     for r in rows {
         let v = &r.fidelity;
+        let head = match (heads, r.head_yaw) {
+            (false, _) => String::new(),
+            (true, None) => "<td>n/a</td><td>n/a</td><td>n/a</td>".to_string(),
+            (true, Some(y)) => format!(
+                "<td>{}</td><td>{}</td><td>{:.2}</td>",
+                f3(y.r),
+                f3(y.slope),
+                y.truth_sd_deg
+            ),
+        };
         let _ = writeln!(
             h,
-            "<tr><td><code>{}</code></td><td>{}</td><td>{:.1} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td></tr>",
+            "<tr><td><code>{}</code></td><td>{}</td><td>{:.1} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td>{head}</tr>",
             esc(&r.session),
             v.n_frames,
             100.0 * r.detection_rate,
@@ -605,4 +661,55 @@ pub fn metric_keys() -> [&'static str; 3] {
         Metric::FixationDuration.key(),
         Metric::SaccadeAmplitude.key(),
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::compare_visual;
+
+    fn row(session: &str, head_yaw: Option<HeadYawReadBack>) -> SessionReadBack {
+        let src: Vec<[f64; 2]> = (0..50)
+            .map(|i| [0.5 + 0.01 * (i as f64).sin(), 0.5 + 0.01 * (i as f64).cos()])
+            .collect();
+        SessionReadBack {
+            session: session.into(),
+            class: "reading".into(),
+            detection_rate: 1.0,
+            fidelity: compare_visual(&src, &src, None).unwrap(),
+            head_yaw,
+        }
+    }
+
+    /// Full-face sessions get head-yaw columns (a session without a head
+    /// reads n/a); a dataset without any has none.
+    #[test]
+    fn head_yaw_columns_only_where_a_session_has_a_head() {
+        let yaw = HeadYawReadBack {
+            frames: 300,
+            frames_read: 300,
+            r: Some(0.9871),
+            slope: Some(0.8123),
+            truth_sd_deg: 2.0,
+        };
+        let mut h = String::new();
+        sessions_read_back_html(
+            &mut h,
+            &[row("reading/a.csv", Some(yaw)), row("reading/b.csv", None)],
+        );
+        assert!(
+            h.contains("<th>head yaw r</th><th>head yaw slope</th><th>drawn yaw sd (deg)</th>"),
+            "{h}"
+        );
+        assert!(
+            h.contains("<td>0.987</td><td>0.812</td><td>2.00</td>"),
+            "{h}"
+        );
+        assert!(h.contains("<td>n/a</td><td>n/a</td><td>n/a</td>"), "{h}");
+        // The class row's range covers the one session that has a head.
+        assert!(h.contains("<td>0.987-0.987</td></tr>"), "{h}");
+        let mut h = String::new();
+        sessions_read_back_html(&mut h, &[row("reading/a.csv", None)]);
+        assert!(!h.contains("head yaw"), "{h}");
+    }
 }

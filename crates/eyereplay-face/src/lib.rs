@@ -74,4 +74,7 @@ pub use session::{
     render_face_session, run_face_bench, FaceSessionParams, FaceSessionStats, HEAD_PITCH_LIMIT_DEG,
     HEAD_ROLL_LIMIT_DEG, HEAD_TRUTH_HEADER, HEAD_YAW_LIMIT_DEG,
 };
-pub use video_pose::{video_head_poses, SourceHeadTrack, SOURCE_HEAD_SMOOTHING_S, SOURCE_VFOV_DEG};
+pub use video_pose::{
+    video_head_poses, video_head_poses_upto, SourceHeadTrack, SOURCE_HEAD_SMOOTHING_S,
+    SOURCE_VFOV_DEG,
+};

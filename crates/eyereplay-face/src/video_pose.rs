@@ -38,11 +38,32 @@ pub fn video_head_poses(
     vfov_deg: f64,
     progress: &dyn Progress,
 ) -> Result<Vec<(f64, Option<HeadPose>)>> {
+    video_head_poses_upto(video, models_dir, mesh, shape_cm, vfov_deg, None, progress)
+}
+
+/// [`video_head_poses`] for the first `max_frames` frames (all with `None`).
+pub fn video_head_poses_upto(
+    video: &Path,
+    models_dir: &Path,
+    mesh: &CanonicalMesh,
+    shape_cm: &[[f32; 3]],
+    vfov_deg: f64,
+    max_frames: Option<usize>,
+    progress: &dyn Progress,
+) -> Result<Vec<(f64, Option<HeadPose>)>> {
     let mut tracker = Tracker::new(Models::load(models_dir)?, 1);
     let mut dec = Decoder::open(video)?;
-    progress.start(0, dec.info.frames_estimate);
+    let total = match (dec.info.frames_estimate, max_frames) {
+        (Some(e), Some(m)) => Some(e.min(m as u64)),
+        (None, Some(m)) => Some(m as u64),
+        (e, None) => e,
+    };
+    progress.start(0, total);
     let mut out = vec![];
     dec.frames(|t_s, img| {
+        if max_frames.is_some_and(|m| out.len() >= m) {
+            return Ok(ControlFlow::Break(()));
+        }
         progress.advance(0, 1);
         let (w, h) = img.size();
         let cam = Camera::from_vfov(w, h, vfov_deg);

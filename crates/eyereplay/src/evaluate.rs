@@ -340,11 +340,25 @@ fn sessions_read_back(
             let read = masked(&read[..n], &closed[..n]);
             let fidelity = compare_visual(&source[..n], &read, None)
                 .map_err(|e| Error::input(&target.video, format!("visual comparison: {e}")))?;
+            // A full-face session also has its drawn head to compare.
+            let head_csv = SessionPaths::beside_video(&target.video).head_csv();
+            let head_yaw = if head_csv.is_file() {
+                Some(crate::face::head_yaw_read_back(
+                    &target.video,
+                    &head_csv,
+                    &geometry,
+                    &models,
+                    ev.fps,
+                )?)
+            } else {
+                None
+            };
             out.push(eyereplay_eval::SessionReadBack {
                 session: file.clone(),
                 class: class.class.to_string(),
                 detection_rate: detection_rate(&read),
                 fidelity,
+                head_yaw,
             });
         }
     }

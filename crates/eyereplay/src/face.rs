@@ -327,3 +327,59 @@ pub fn bench(width: usize, height: usize, frames: usize) -> Result<eyereplay_ren
     };
     Ok(eyereplay_face::run_face_bench(&scene, &traj, &p)?)
 }
+
+/// A full-face session's head yaw read back: the head pose solved from the
+/// landmarks the extractor finds in the first
+/// [`eyereplay_eval::HEAD_YAW_READ_BACK_S`] seconds of `video` (the
+/// canonical face shape, the session's own field of view from its identity
+/// file), against the drawn yaw in `head_csv`, each relative to its mean
+/// over the frames compared.
+pub fn head_yaw_read_back(
+    video: &Path,
+    head_csv: &Path,
+    identity_json: &Path,
+    models_dir: &Path,
+    fps: f64,
+) -> Result<eyereplay_eval::HeadYawReadBack> {
+    let truth = eyereplay_dataset::read_head_yaw_csv(head_csv)?;
+    let ident = SessionIdentity::read(identity_json)?;
+    let vfov_deg = ident.identity["webcam"]["vfov_deg"]
+        .as_f64()
+        .ok_or_else(|| {
+            Error::input(
+                identity_json,
+                "no identity.webcam.vfov_deg: not a full-face session",
+            )
+        })?;
+    let mesh = CanonicalMesh::load(&default_faces_dir().join(MESH_FILE))?;
+    let max_frames =
+        ((eyereplay_eval::HEAD_YAW_READ_BACK_S * fps).round() as usize).min(truth.len());
+    let poses = eyereplay_face::video_head_poses_upto(
+        video,
+        models_dir,
+        &mesh,
+        &mesh.positions_cm,
+        vfov_deg,
+        Some(max_frames),
+        &eyereplay_extract::NoProgress,
+    )?;
+    let (drawn, read): (Vec<f64>, Vec<f64>) = poses
+        .iter()
+        .zip(&truth)
+        .filter_map(|((_, p), t)| p.map(|p| (*t, p.yaw_deg)))
+        .unzip();
+    let centred = |v: &[f64]| -> Vec<f64> {
+        let m = v.iter().sum::<f64>() / v.len().max(1) as f64;
+        v.iter().map(|x| x - m).collect()
+    };
+    let (drawn, read) = (centred(&drawn), centred(&read));
+    let truth_sd_deg =
+        (drawn.iter().map(|x| x * x).sum::<f64>() / drawn.len().max(1) as f64).sqrt();
+    Ok(eyereplay_eval::HeadYawReadBack {
+        frames: drawn.len(),
+        frames_read: poses.len(),
+        r: eyereplay_signal::stats::pearson(&drawn, &read),
+        slope: eyereplay_signal::stats::linear_fit(&drawn, &read).map(|(slope, _)| slope),
+        truth_sd_deg,
+    })
+}

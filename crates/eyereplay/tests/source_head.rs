@@ -144,8 +144,32 @@ sources = [{{ format = "video", path = "{}" }}]
             .unzip();
         let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
         let (mt, mr) = (mean(&t), mean(&r));
-        truth_all.extend(t.iter().map(|x| x - mt));
-        read_all.extend(r.iter().map(|x| x - mr));
+        let (t, r): (Vec<f64>, Vec<f64>) = (
+            t.iter().map(|x| x - mt).collect(),
+            r.iter().map(|x| x - mr).collect(),
+        );
+        // The evaluation report's per-session read-back (the first 12 s,
+        // so all 200 frames here) is this same measurement.
+        let report = eyereplay::face::head_yaw_read_back(
+            &out.join(format!("{stem}.mp4")),
+            &head_csv,
+            &out.join(format!("{stem}_identity.json")),
+            &eyereplay_extract::default_models_dir(),
+            25.0,
+        )
+        .unwrap();
+        assert_eq!((report.frames, report.frames_read), (t.len(), 200));
+        let (want_r, (want_slope, _)) = (pearson(&t, &r).unwrap(), linear_fit(&t, &r).unwrap());
+        assert!(
+            (report.r.unwrap() - want_r).abs() < 1e-9,
+            "{report:?} vs r {want_r}"
+        );
+        assert!(
+            (report.slope.unwrap() - want_slope).abs() < 1e-9,
+            "{report:?}"
+        );
+        truth_all.extend(t);
+        read_all.extend(r);
     }
     assert!(
         truth_all.len() >= 594,
