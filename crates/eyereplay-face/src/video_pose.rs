@@ -41,7 +41,8 @@ pub fn video_head_poses(
     video_head_poses_upto(video, models_dir, mesh, shape_cm, vfov_deg, None, progress)
 }
 
-/// [`video_head_poses`] for the first `max_frames` frames (all with `None`).
+/// [`video_head_poses`] for the first `max_frames` frames of the video
+/// (every frame with `None`): decoding stops there.
 pub fn video_head_poses_upto(
     video: &Path,
     models_dir: &Path,

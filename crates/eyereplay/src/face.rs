@@ -368,18 +368,20 @@ pub fn head_yaw_read_back(
         .zip(&truth)
         .filter_map(|((_, p), t)| p.map(|p| (*t, p.yaw_deg)))
         .unzip();
+    use eyereplay_signal::stats::{linear_fit, mean, pearson, std_pop};
+    // Each relative to its own mean: the canonical shape's rest pose is not
+    // the photo's (r and slope do not depend on it; the stored yaws are
+    // then centred too, for whoever reads them).
     let centred = |v: &[f64]| -> Vec<f64> {
-        let m = v.iter().sum::<f64>() / v.len().max(1) as f64;
+        let m = mean(v).unwrap_or(0.0);
         v.iter().map(|x| x - m).collect()
     };
     let (drawn, read) = (centred(&drawn), centred(&read));
-    let truth_sd_deg =
-        (drawn.iter().map(|x| x * x).sum::<f64>() / drawn.len().max(1) as f64).sqrt();
     Ok(eyereplay_eval::HeadYawReadBack {
         frames: drawn.len(),
         frames_read: poses.len(),
-        r: eyereplay_signal::stats::pearson(&drawn, &read),
-        slope: eyereplay_signal::stats::linear_fit(&drawn, &read).map(|(slope, _)| slope),
-        truth_sd_deg,
+        r: pearson(&drawn, &read),
+        slope: linear_fit(&drawn, &read).map(|(slope, _)| slope),
+        truth_sd_deg: std_pop(&drawn).unwrap_or(0.0),
     })
 }
