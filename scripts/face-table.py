@@ -70,12 +70,13 @@ def main():
         # just before and after), as `eyereplay evaluate` does.
         blink = [t["blink"] == "1" for t in tr]
         closed = [any(blink[max(0, k - 2):k + 3]) for k in range(len(blink))]
+        # The compared frames: a valid read-back, eyes open.
+        kept = [(e, t) for e, t, c in zip(ex, tr, closed) if e["valid"] == "1" and not c]
         pts = []
-        for e, t, c in zip(ex, tr, closed):
-            if e["valid"] == "1" and not c:
-                sx = 0.5 + g * (float(t["x"]) - cal["mu_x"]) / cal["s_x"]
-                sy = 0.5 + g * (float(t["y"]) - cal["mu_y"]) / cal["s_y"]
-                pts.append((sx, sy, float(e["nx"]), float(e["ny"])))
+        for e, t in kept:
+            sx = 0.5 + g * (float(t["x"]) - cal["mu_x"]) / cal["s_x"]
+            sy = 0.5 + g * (float(t["y"]) - cal["mu_y"]) / cal["s_y"]
+            pts.append((sx, sy, float(e["nx"]), float(e["ny"])))
         face = sum(1 for e in ex if e["face"] == "1") / max(1, len(ex))
         rx = pearson([p[0] for p in pts], [p[2] for p in pts])
         ry = pearson([p[1] for p in pts], [p[3] for p in pts])
@@ -84,7 +85,7 @@ def main():
         photo = idn.get("identity", {}).get("photo", "?")
         rows.append((f, cls, photo, face, len(pts), rx, ry, min(yaw), max(yaw)))
         if a.vertical:
-            budget.append((f, vertical_budget(ex, tr, closed, cal, g)))
+            budget.append((f, vertical_budget(kept, [p[1] for p in pts])))
     print(f"{'session':<34} {'photo':<20} {'face':>6} {'n':>5} {'x r':>6} {'x ratio':>7} {'x gain':>6} {'y r':>6} {'y ratio':>7} {'y gain':>6} {'yaw deg':>12}")
     for f, cls, photo, face, n, rx, ry, y0, y1 in rows:
         print(f"{f:<34} {photo:<20} {100*face:5.1f}% {n:5d} {rx[0]:6.3f} {rx[1]:7.2f} {rx[2]:6.2f} {ry[0]:6.3f} {ry[1]:7.2f} {ry[2]:6.2f} {y0:5.1f}..{y1:4.1f}")
@@ -106,36 +107,32 @@ def std(v):
     return math.sqrt(sum((x - m) ** 2 for x in v) / len(v))
 
 
-def vertical_budget(ex, tr, closed, cal, g):
+def vertical_budget(kept, target):
     """(signal px, iris error px, r with the drawn iris centre) of one
-    session, open-eye frames with a valid read-back."""
-    sig, err, target, alt = [], [], [], []
-    per_eye = {}
+    session: `kept` the compared (read-back row, truth row) pairs, `target`
+    the source's ny at each."""
+    if len(target) < 3:
+        return float("nan"), float("nan"), float("nan")
+    heights, errors, ny_alt = [], [], []
     for side in ("left", "right"):
-        ap_px, dy, ny_alt = [], [], []
-        for e, t, c in zip(ex, tr, closed):
-            if e["valid"] != "1" or c:
-                continue
+        h_px, dy, alt = [], [], []
+        for e, t in kept:
             # Lid-to-lid height in px: the aperture is in eye widths.
             w = math.hypot(float(e[f"{side}_eye_right_corner_x_px"]) - float(e[f"{side}_eye_left_corner_x_px"]),
                            float(e[f"{side}_eye_right_corner_y_px"]) - float(e[f"{side}_eye_left_corner_y_px"]))
             h = float(e[f"aperture_{side}"]) * w
             d = float(t[f"{side}_iris_y_px"]) - float(e[f"iris_{side}_y_px"])
-            ap_px.append(h)
+            h_px.append(h)
             dy.append(d)
-            # ny moves by dy / h when the iris centre moves by dy px.
-            ny_alt.append(float(e[f"ny_{side}"]) + d / h if h > 0 else float(e[f"ny_{side}"]))
-        per_eye[side] = (ap_px, dy, ny_alt)
-    for e, t, c in zip(ex, tr, closed):
-        if e["valid"] == "1" and not c:
-            target.append(0.5 + g * (float(t["y"]) - cal["mu_y"]) / cal["s_y"])
-    if len(target) < 3:
-        return float("nan"), float("nan"), float("nan")
-    height = sum(sum(per_eye[s][0]) / len(per_eye[s][0]) for s in per_eye) / 2
-    sig = std(target) * height
-    err = sum(std(per_eye[s][1]) for s in per_eye) / 2
-    alt = [(l + r) / 2 for l, r in zip(per_eye["left"][2], per_eye["right"][2])]
-    return sig, err, pearson(target, alt)[0]
+            # ny moves by d / h when the iris centre moves by d px (an open
+            # eye: `kept` holds no blink frames, so h > 0).
+            alt.append(float(e[f"ny_{side}"]) + d / h)
+        heights.append(sum(h_px) / len(h_px))
+        errors.append(std(dy))
+        ny_alt.append(alt)
+    sig = std(target) * sum(heights) / 2
+    alt = [(l + r) / 2 for l, r in zip(*ny_alt)]
+    return sig, sum(errors) / 2, pearson(target, alt)[0]
 
 
 if __name__ == "__main__":

@@ -25,7 +25,9 @@ py="${PYTHON:-python3}"
 echo "python-test: cargo build --profile $profile -p eyereplay-cli"
 # The wheel's build reuses the workspace build's compiled crates only where
 # both resolve a crate with the same features (eyereplay-py's Cargo.toml).
-if ! differ=$("$py" "$root/scripts/dev/wheel_features.py"); then
+rc=0
+differ=$("$py" "$root/scripts/dev/wheel_features.py") || rc=$?
+if [[ $rc -eq 1 ]]; then
   echo "python-test: note: the wheel's build compiles these crates again, with other features than the workspace's (add them to crates/eyereplay-py/Cargo.toml):"
   echo "$differ"
 fi

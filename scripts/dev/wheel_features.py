@@ -2,7 +2,7 @@
 """Shared dependencies that the wheel's build would compile with other
 features than `cargo test --workspace` does.
 
-    python3 scripts/dev/wheel_features.py        # prints them; exit 1 if any
+    python3 scripts/dev/wheel_features.py        # prints them; exit 1 if any, 2 if cargo tree fails
 
 `scripts/test.sh` builds the workspace's tests, then the Python wheel
 (crates/eyereplay-py, through maturin) into the same target folder. Cargo
@@ -34,9 +34,15 @@ def tree(args):
 
 
 def main():
-    ws = tree(["--workspace", "-e", "normal,build,dev"])
-    py = tree(["-p", "eyereplay-py", "--features", "pyo3/extension-module,static-ffmpeg",
-               "-e", "normal,build"])
+    try:
+        ws = tree(["--workspace", "-e", "normal,build,dev"])
+        py = tree(["-p", "eyereplay-py", "--features", "pyo3/extension-module,static-ffmpeg",
+                   "-e", "normal,build"])
+    except (OSError, subprocess.CalledProcessError) as e:
+        # Cannot tell: not a drift (exit 1 means one).
+        detail = (getattr(e, "stderr", None) or str(e)).strip().splitlines()
+        print(f"wheel_features: cargo tree failed: {detail[-1] if detail else e}", file=sys.stderr)
+        return 2
     differ = []
     for key, feats in sorted(py.items()):
         if key[0] in EXPECTED or key not in ws:

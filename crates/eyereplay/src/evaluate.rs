@@ -349,6 +349,7 @@ fn sessions_read_back(
                     &geometry,
                     &models,
                     ev.fps,
+                    input.len(),
                 )?)
             } else {
                 None

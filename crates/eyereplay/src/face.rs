@@ -333,15 +333,23 @@ pub fn bench(width: usize, height: usize, frames: usize) -> Result<eyereplay_ren
 /// [`eyereplay_eval::HEAD_YAW_READ_BACK_S`] seconds of `video` (the
 /// canonical face shape, the session's own field of view from its identity
 /// file), against the drawn yaw in `head_csv`, each relative to its mean
-/// over the frames compared.
+/// over the frames compared. `frames` is the session's length: a head CSV
+/// of another length is refused (one line naming it).
 pub fn head_yaw_read_back(
     video: &Path,
     head_csv: &Path,
     identity_json: &Path,
     models_dir: &Path,
     fps: f64,
+    frames: usize,
 ) -> Result<eyereplay_eval::HeadYawReadBack> {
     let truth = eyereplay_dataset::read_head_yaw_csv(head_csv)?;
+    if truth.len() != frames {
+        return Err(Error::input(
+            head_csv,
+            format!("{} frames, but its trajectory has {frames}", truth.len()),
+        ));
+    }
     let ident = SessionIdentity::read(identity_json)?;
     let vfov_deg = ident.identity["webcam"]["vfov_deg"]
         .as_f64()

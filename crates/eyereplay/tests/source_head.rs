@@ -97,6 +97,17 @@ sources = [{{ format = "video", path = "{}" }}]
         &eyereplay_face::default_faces_dir().join(eyereplay_face::MESH_FILE),
     )
     .unwrap();
+    // The evaluation report's head read-back of session `stem` (200 frames).
+    let report_head = |stem: &str| {
+        eyereplay::face::head_yaw_read_back(
+            &out.join(format!("{stem}.mp4")),
+            &out.join(format!("{stem}_head.csv")),
+            &out.join(format!("{stem}_identity.json")),
+            &eyereplay_extract::default_models_dir(),
+            25.0,
+            200,
+        )
+    };
     for s in &meta.sessions {
         let stem = s.file.trim_end_matches(".csv");
         let head_csv = out.join(format!("{stem}_head.csv"));
@@ -150,14 +161,7 @@ sources = [{{ format = "video", path = "{}" }}]
         );
         // The evaluation report's per-session read-back (the first 12 s,
         // so all 200 frames here) is this same measurement.
-        let report = eyereplay::face::head_yaw_read_back(
-            &out.join(format!("{stem}.mp4")),
-            &head_csv,
-            &out.join(format!("{stem}_identity.json")),
-            &eyereplay_extract::default_models_dir(),
-            25.0,
-        )
-        .unwrap();
+        let report = report_head(stem).unwrap();
         assert_eq!((report.frames, report.frames_read), (t.len(), 200));
         let (want_r, (want_slope, _)) = (pearson(&t, &r).unwrap(), linear_fit(&t, &r).unwrap());
         assert!(
@@ -190,6 +194,20 @@ sources = [{{ format = "video", path = "{}" }}]
     );
     assert!(r >= 0.9, "r {r}");
     assert!((0.7..=1.3).contains(&slope), "slope {slope}");
+
+    // A head CSV that lost rows is refused before any decoding, in one
+    // line naming it.
+    let stem = meta.sessions[0].file.trim_end_matches(".csv");
+    let head_csv = out.join(format!("{stem}_head.csv"));
+    let text = std::fs::read_to_string(&head_csv).unwrap();
+    let short: String = text.lines().take(101).map(|l| format!("{l}\n")).collect();
+    std::fs::write(&head_csv, short).unwrap();
+    let e = report_head(stem).unwrap_err().to_string();
+    assert!(
+        e.contains("_head.csv") && e.contains("100 frames, but its trajectory has 200"),
+        "{e}"
+    );
+    assert!(!e.contains('\n'), "{e}");
 
     // Without the pool's head file, the renderer says which file and who
     // writes it.
