@@ -59,7 +59,7 @@ impl Default for ExtractOptions {
             preview_every_s: 5.0,
             mesh_every: DEFAULT_MESH_EVERY,
             profile: false,
-            device: Device::Auto,
+            device: Device::default(),
         }
     }
 }

@@ -632,3 +632,11 @@ fn cuda_request_falls_back_to_the_cpu_with_identical_results() {
         assert_eq!(a.rows, b.rows);
     }
 }
+
+/// The CPU is the default device, also for a library that has CUDA: these
+/// networks ran slower on a GPU (README, "Where extraction's CPU time goes").
+#[test]
+fn the_default_device_is_the_cpu() {
+    assert_eq!(Device::default(), Device::Cpu);
+    assert_eq!(ExtractOptions::default().device, Device::Cpu);
+}

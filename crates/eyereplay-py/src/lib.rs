@@ -244,7 +244,7 @@ fn device_of(name: &str) -> PyResult<ex::Device> {
 /// are also saved where the command would put them (atomically).
 #[pyfunction]
 #[pyo3(signature = (videos, out=None, models=None, threads=0, blink_ratio=ex::DEFAULT_BLINK_RATIO,
-    max_seconds=None, mesh_every=ex::DEFAULT_MESH_EVERY, device="auto", progress=None))]
+    max_seconds=None, mesh_every=ex::DEFAULT_MESH_EVERY, device="cpu", progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn extract<'py>(
     py: Python<'py>,

@@ -26,6 +26,16 @@ def test_not_a_video_is_a_video_error(tmp_path):
     assert not (tmp_path / "fake.csv").exists()
 
 
+def test_unknown_device_is_a_config_error_and_cpu_is_the_default(tmp_path):
+    import inspect
+
+    with pytest.raises(eyereplay.ConfigError) as e:
+        eyereplay.extract(DATA / "franck.mp4", device="gpu", progress=False)
+    assert "'gpu'" in str(e.value) and "\n" not in str(e.value)
+    for f in (eyereplay.extract, eyereplay.extract_many):
+        assert inspect.signature(f).parameters["device"].default == "cpu"
+
+
 def test_missing_models_is_a_model_error(tmp_path):
     with pytest.raises(eyereplay.ModelError) as e:
         eyereplay.extract(DATA / "franck.mp4", models=tmp_path, progress=False)

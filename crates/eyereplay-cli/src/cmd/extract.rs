@@ -58,9 +58,12 @@ pub struct Args {
     /// detection rate, Pearson r per axis and |difference| (one video only).
     #[arg(long)]
     pub compare: Option<PathBuf>,
-    /// Where the networks run: auto (CUDA when the ONNX Runtime library has it, else
-    /// CPU), cpu, or cuda (falls back to the CPU with a warning).
-    #[arg(long, value_enum, default_value_t = DeviceArg::Auto)]
+    /// Where the networks run: cpu; cuda (needs EYEREPLAY_ORT_LIB pointing at an
+    /// onnxruntime-gpu build's libonnxruntime.so; falls back to the CPU with a
+    /// warning); or auto (CUDA when that library has it, else the CPU). The CPU is the
+    /// default because these small networks ran slower on a GPU (H200: 2.3x the
+    /// wall time, 2x the CPU time per frame).
+    #[arg(long, value_enum, default_value_t = DeviceArg::Cpu)]
     pub device: DeviceArg,
     /// Print the CPU time per frame of each stage (decode, crops, each network,
     /// post-processing, CSV writing, set-up), summing to the process's CPU time.

@@ -115,7 +115,7 @@ def extract(
     blink_ratio: float = 0.6,
     max_seconds: Optional[float] = None,
     mesh_every: int = 2,
-    device: str = "auto",
+    device: str = "cpu",
     progress: Any = True,
 ):
     """Stage 1: the iris position in the eye aperture, one row per decoded
@@ -129,8 +129,10 @@ def extract(
     frames without a face have ``valid == 0`` and NaN positions. With
     ``out``, the CSV is also written there, byte-identical to the command's.
 
-    ``device`` is ``"auto"`` (CUDA when the ONNX Runtime library has it),
-    ``"cpu"`` or ``"cuda"``; the other options are the command's flags.
+    ``device`` is ``"cpu"`` (the default: these small networks ran slower
+    on a GPU), ``"cuda"`` (with ``EYEREPLAY_ORT_LIB`` pointing at an
+    onnxruntime-gpu build's ``libonnxruntime.so``) or ``"auto"`` (CUDA when
+    that library has it); the other options are the command's flags.
     Raises :class:`VideoError` for an unreadable video or one with no face,
     :class:`ModelError` when the models are missing (see :func:`fetch_models`).
     """
@@ -159,7 +161,7 @@ def extract_many(
     blink_ratio: float = 0.6,
     max_seconds: Optional[float] = None,
     mesh_every: int = 2,
-    device: str = "auto",
+    device: str = "cpu",
     progress: Any = True,
 ) -> list:
     """:func:`extract` on several videos at once (in parallel), one table

@@ -19,7 +19,7 @@ def extract(
     blink_ratio: float = 0.6,
     max_seconds: Optional[float] = None,
     mesh_every: int = 2,
-    device: str = "auto",
+    device: str = "cpu",
     progress: Any = None,
 ) -> List[Dict[str, Any]]: ...
 def prepare(

@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# Checks extraction's CUDA path against the CPU on a machine with an NVIDIA
+# GPU: the same video with --device cpu and --device cuda, 1 and 2 workers,
+# printing wall time, CPU time per frame by stage, and how far the CUDA rows
+# are from the CPU's (open-eye frames).
+#
+#   scripts/dev/cuda-check.sh ORT_GPU_LIB [VIDEO]
+#
+# ORT_GPU_LIB: the libonnxruntime.so.<version> of an onnxruntime-gpu install
+# (for example `pip install onnxruntime-gpu==1.31.1`, built for CUDA 13: its
+# onnxruntime/capi/ folder), with the CUDA and cuDNN libraries it needs on
+# LD_LIBRARY_PATH. VIDEO defaults to the bundled .cache/data/franck.mp4.
+# The binary is target/release/eyereplay (cargo build --release).
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+lib="${1:?usage: cuda-check.sh ORT_GPU_LIB [VIDEO]}"
+video="${2:-$root/.cache/data/franck.mp4}"
+bin="${EYEREPLAY_BIN:-$root/target/release/eyereplay}"
+[[ -f "$lib" ]] || { echo "cuda-check: $lib: no such file" >&2; exit 1; }
+[[ -f "$video" ]] || { echo "cuda-check: $video: no such file" >&2; exit 1; }
+[[ -x "$bin" ]] || { echo "cuda-check: $bin: not built (cargo build --release)" >&2; exit 1; }
+out="$(mktemp -d)"
+trap 'rm -rf "$out"' EXIT
+run() { # name threads device [env...]
+  local name=$1 threads=$2 device=$3
+  shift 3
+  local t0 t1
+  t0=$(date +%s.%N)
+  "$@" "$bin" extract "$video" --out "$out/$name.csv" --device "$device" --threads "$threads" \
+    --profile --quiet >"$out/$name.log" 2>&1 || { cat "$out/$name.log"; exit 1; }
+  t1=$(date +%s.%N)
+  echo "== $name: wall $(python3 -c "print(round($t1 - $t0, 2))") s"
+  grep -E "networks on|WARN|network|total" "$out/$name.log"
+}
+gpu=(env "EYEREPLAY_ORT_LIB=$lib")
+run cpu_t2 2 cpu env
+run cuda_t2 2 cuda "${gpu[@]}"
+run cpu_t1 1 cpu env
+run cuda_t1 1 cuda "${gpu[@]}"
+python3 - "$out" <<'PY'
+import csv, sys
+d = sys.argv[1]
+def load(n):
+    with open(f"{d}/{n}.csv") as f:
+        return list(csv.DictReader(f))
+for base, other in [("cpu_t2", "cuda_t2"), ("cpu_t1", "cuda_t1")]:
+    a, b = load(base), load(other)
+    assert len(a) == len(b), (len(a), len(b))
+    flips = sum(x["valid"] != y["valid"] for x, y in zip(a, b))
+    parts = []
+    for c in ["nx", "ny"]:
+        diff = sorted(abs(float(x[c]) - float(y[c])) for x, y in zip(a, b)
+                      if x["valid"] == "1" and y["valid"] == "1")
+        parts.append(f"{c} |d| median {diff[len(diff) // 2]:.1e}, "
+                     f"p99 {diff[int(len(diff) * 0.99)]:.1e}, max {diff[-1]:.1e}")
+    print(f"{other} vs {base}: valid flags differ in {flips} of {len(a)} frames; "
+          "open-eye frames: " + "; ".join(parts))
+PY
