@@ -20,8 +20,10 @@ eyes), the extractor's own error on the iris centre's height (std of the
 extracted minus the drawn iris centre, px, mean of both eyes), and the
 vertical r again with the drawn iris centre put in place of the extracted
 one (lids and corners still the extractor's): what r would be if the iris
-network found the iris centre exactly. Exit status 0; it measures, it does
-not judge.
+network found the iris centre exactly. --horizontal gives the same table
+for x: the movement is the source's nx std times the extracted
+corner-to-corner width, the error is taken along the corner-to-corner axis.
+Exit status 0; it measures, it does not judge.
 """
 import argparse, csv, json, math, os, subprocess, sys
 
@@ -44,6 +46,8 @@ def main():
     ap.add_argument("--eyereplay", default=os.path.join(here, "..", "target", "release", "eyereplay"))
     ap.add_argument("--vertical", action="store_true",
                     help="also the vertical error budget per session (see above)")
+    ap.add_argument("--horizontal", action="store_true",
+                    help="also the horizontal error budget per session (see above)")
     a = ap.parse_args()
     d = a.dataset
     labels = list(csv.DictReader(open(os.path.join(d, "labels.csv"))))
@@ -51,6 +55,7 @@ def main():
     os.makedirs(out, exist_ok=True)
     rows = []
     budget = []
+    budget_x = []
     for lab in labels:
         f = lab.get("file") or lab.get("path") or list(lab.values())[0]
         stem = os.path.join(d, f[:-4])
@@ -86,6 +91,8 @@ def main():
         rows.append((f, cls, photo, face, len(pts), rx, ry, min(yaw), max(yaw)))
         if a.vertical:
             budget.append((f, vertical_budget(kept, [p[1] for p in pts])))
+        if a.horizontal:
+            budget_x.append((f, horizontal_budget(kept, [p[0] for p in pts])))
     print(f"{'session':<34} {'photo':<20} {'face':>6} {'n':>5} {'x r':>6} {'x ratio':>7} {'x gain':>6} {'y r':>6} {'y ratio':>7} {'y gain':>6} {'yaw deg':>12}")
     for f, cls, photo, face, n, rx, ry, y0, y1 in rows:
         print(f"{f:<34} {photo:<20} {100*face:5.1f}% {n:5d} {rx[0]:6.3f} {rx[1]:7.2f} {rx[2]:6.2f} {ry[0]:6.3f} {ry[1]:7.2f} {ry[2]:6.2f} {y0:5.1f}..{y1:4.1f}")
@@ -100,6 +107,11 @@ def main():
         print(f"{'session':<34} {'y r':>6} {'signal px':>9} {'iris err px':>11} {'y r, drawn iris':>15}")
         for (f, (sig, err, r_alt)), row in zip(budget, rows):
             print(f"{f:<34} {row[6][0]:6.3f} {sig:9.2f} {err:11.2f} {r_alt:15.3f}")
+    if budget_x:
+        print()
+        print(f"{'session':<34} {'x r':>6} {'signal px':>9} {'iris err px':>11} {'x r, drawn iris':>15}")
+        for (f, (sig, err, r_alt)), row in zip(budget_x, rows):
+            print(f"{f:<34} {row[5][0]:6.3f} {sig:9.2f} {err:11.2f} {r_alt:15.3f}")
 
 
 def std(v):
@@ -132,6 +144,33 @@ def vertical_budget(kept, target):
         ny_alt.append(alt)
     sig = std(target) * sum(heights) / 2
     alt = [(l + r) / 2 for l, r in zip(*ny_alt)]
+    return sig, sum(errors) / 2, pearson(target, alt)[0]
+
+
+def horizontal_budget(kept, target):
+    """`vertical_budget` along x: (signal px, iris error px, r with the
+    drawn iris centre), the error and the movement taken along each eye's
+    corner-to-corner axis, the length nx is measured in."""
+    if len(target) < 3:
+        return float("nan"), float("nan"), float("nan")
+    widths, errors, nx_alt = [], [], []
+    for side in ("left", "right"):
+        w_px, dx, alt = [], [], []
+        for e, t in kept:
+            ux = float(e[f"{side}_eye_right_corner_x_px"]) - float(e[f"{side}_eye_left_corner_x_px"])
+            uy = float(e[f"{side}_eye_right_corner_y_px"]) - float(e[f"{side}_eye_left_corner_y_px"])
+            w = math.hypot(ux, uy)
+            # The drawn minus the extracted iris centre, along the corner axis.
+            d = ((float(t[f"{side}_iris_x_px"]) - float(e[f"iris_{side}_x_px"])) * ux
+                 + (float(t[f"{side}_iris_y_px"]) - float(e[f"iris_{side}_y_px"])) * uy) / w
+            w_px.append(w)
+            dx.append(d)
+            alt.append(float(e[f"nx_{side}"]) + d / w)
+        widths.append(sum(w_px) / len(w_px))
+        errors.append(std(dx))
+        nx_alt.append(alt)
+    sig = std(target) * sum(widths) / 2
+    alt = [(l + r) / 2 for l, r in zip(*nx_alt)]
     return sig, sum(errors) / 2, pearson(target, alt)[0]
 
 
