@@ -160,7 +160,7 @@ pub fn init_runtime(dir: &Path) -> Result<()> {
 /// provider's per-inference launch, copy and synchronisation cost exceeds
 /// the CPU's whole inference. Measured on an NVIDIA H200 with onnxruntime-gpu
 /// 1.31.1 (README, "Where extraction's CPU time goes"): 2.3x the wall time
-/// and 2x the CPU time per frame of the CPU path with 2 workers.
+/// and 1.8-2x the CPU time per frame of the CPU path with 2 workers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Device {
     /// CUDA when the loaded ONNX Runtime library has its CUDA execution
