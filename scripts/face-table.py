@@ -90,9 +90,9 @@ def main():
         photo = idn.get("identity", {}).get("photo", "?")
         rows.append((f, cls, photo, face, len(pts), rx, ry, min(yaw), max(yaw)))
         if a.vertical:
-            budget.append((f, vertical_budget(kept, [p[1] for p in pts])))
+            budget.append((f, error_budget(kept, [p[1] for p in pts], "y")))
         if a.horizontal:
-            budget_x.append((f, horizontal_budget(kept, [p[0] for p in pts])))
+            budget_x.append((f, error_budget(kept, [p[0] for p in pts], "x")))
     print(f"{'session':<34} {'photo':<20} {'face':>6} {'n':>5} {'x r':>6} {'x ratio':>7} {'x gain':>6} {'y r':>6} {'y ratio':>7} {'y gain':>6} {'yaw deg':>12}")
     for f, cls, photo, face, n, rx, ry, y0, y1 in rows:
         print(f"{f:<34} {photo:<20} {100*face:5.1f}% {n:5d} {rx[0]:6.3f} {rx[1]:7.2f} {rx[2]:6.2f} {ry[0]:6.3f} {ry[1]:7.2f} {ry[2]:6.2f} {y0:5.1f}..{y1:4.1f}")
@@ -119,58 +119,41 @@ def std(v):
     return math.sqrt(sum((x - m) ** 2 for x in v) / len(v))
 
 
-def vertical_budget(kept, target):
+def error_budget(kept, target, axis):
     """(signal px, iris error px, r with the drawn iris centre) of one
-    session: `kept` the compared (read-back row, truth row) pairs, `target`
-    the source's ny at each."""
+    session along `axis` ("x" or "y"): `kept` the compared (read-back row,
+    truth row) pairs, `target` the source's n on that axis at each.
+
+    x: nx is measured along each eye's corner-to-corner axis in eye widths,
+    so the movement and the iris error are taken along that axis. y: ny is
+    measured in lid-to-lid heights (the aperture is in eye widths), the error
+    on the image's y."""
     if len(target) < 3:
         return float("nan"), float("nan"), float("nan")
-    heights, errors, ny_alt = [], [], []
+    lengths, errors, n_alt = [], [], []
     for side in ("left", "right"):
-        h_px, dy, alt = [], [], []
-        for e, t in kept:
-            # Lid-to-lid height in px: the aperture is in eye widths.
-            w = math.hypot(float(e[f"{side}_eye_right_corner_x_px"]) - float(e[f"{side}_eye_left_corner_x_px"]),
-                           float(e[f"{side}_eye_right_corner_y_px"]) - float(e[f"{side}_eye_left_corner_y_px"]))
-            h = float(e[f"aperture_{side}"]) * w
-            d = float(t[f"{side}_iris_y_px"]) - float(e[f"iris_{side}_y_px"])
-            h_px.append(h)
-            dy.append(d)
-            # ny moves by d / h when the iris centre moves by d px (an open
-            # eye: `kept` holds no blink frames, so h > 0).
-            alt.append(float(e[f"ny_{side}"]) + d / h)
-        heights.append(sum(h_px) / len(h_px))
-        errors.append(std(dy))
-        ny_alt.append(alt)
-    sig = std(target) * sum(heights) / 2
-    alt = [(l + r) / 2 for l, r in zip(*ny_alt)]
-    return sig, sum(errors) / 2, pearson(target, alt)[0]
-
-
-def horizontal_budget(kept, target):
-    """`vertical_budget` along x: (signal px, iris error px, r with the
-    drawn iris centre), the error and the movement taken along each eye's
-    corner-to-corner axis, the length nx is measured in."""
-    if len(target) < 3:
-        return float("nan"), float("nan"), float("nan")
-    widths, errors, nx_alt = [], [], []
-    for side in ("left", "right"):
-        w_px, dx, alt = [], [], []
+        len_px, dev, alt = [], [], []
         for e, t in kept:
             ux = float(e[f"{side}_eye_right_corner_x_px"]) - float(e[f"{side}_eye_left_corner_x_px"])
             uy = float(e[f"{side}_eye_right_corner_y_px"]) - float(e[f"{side}_eye_left_corner_y_px"])
             w = math.hypot(ux, uy)
-            # The drawn minus the extracted iris centre, along the corner axis.
-            d = ((float(t[f"{side}_iris_x_px"]) - float(e[f"iris_{side}_x_px"])) * ux
-                 + (float(t[f"{side}_iris_y_px"]) - float(e[f"iris_{side}_y_px"])) * uy) / w
-            w_px.append(w)
-            dx.append(d)
-            alt.append(float(e[f"nx_{side}"]) + d / w)
-        widths.append(sum(w_px) / len(w_px))
-        errors.append(std(dx))
-        nx_alt.append(alt)
-    sig = std(target) * sum(widths) / 2
-    alt = [(l + r) / 2 for l, r in zip(*nx_alt)]
+            # The drawn minus the extracted iris centre.
+            dx = float(t[f"{side}_iris_x_px"]) - float(e[f"iris_{side}_x_px"])
+            dy = float(t[f"{side}_iris_y_px"]) - float(e[f"iris_{side}_y_px"])
+            if axis == "x":
+                length, d = w, (dx * ux + dy * uy) / w
+            else:
+                length, d = float(e[f"aperture_{side}"]) * w, dy
+            len_px.append(length)
+            dev.append(d)
+            # n moves by d / length when the iris centre moves by d px (an
+            # open eye: `kept` holds no blink frames, so length > 0).
+            alt.append(float(e[f"n{axis}_{side}"]) + d / length)
+        lengths.append(sum(len_px) / len(len_px))
+        errors.append(std(dev))
+        n_alt.append(alt)
+    sig = std(target) * sum(lengths) / 2
+    alt = [(l + r) / 2 for l, r in zip(*n_alt)]
     return sig, sum(errors) / 2, pearson(target, alt)[0]
 
 

@@ -1,0 +1,71 @@
+"""scripts/face-table.py's error budget, against cases worked by hand."""
+
+import importlib.util
+import math
+
+import pytest
+
+from conftest import ROOT
+
+
+def face_table():
+    spec = importlib.util.spec_from_file_location("face_table", ROOT / "scripts" / "face-table.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def pair(corner_a, corner_b, iris, drawn, n, aperture=0.25):
+    """One (read-back row, truth row) pair with both eyes alike: corners and
+    iris centre as extracted, the drawn iris centre, and the eyes' n."""
+    e, t = {}, {}
+    for side in ("left", "right"):
+        e[f"{side}_eye_left_corner_x_px"], e[f"{side}_eye_left_corner_y_px"] = corner_a
+        e[f"{side}_eye_right_corner_x_px"], e[f"{side}_eye_right_corner_y_px"] = corner_b
+        e[f"iris_{side}_x_px"], e[f"iris_{side}_y_px"] = iris
+        t[f"{side}_iris_x_px"], t[f"{side}_iris_y_px"] = drawn
+        e[f"nx_{side}"], e[f"ny_{side}"] = n
+        e[f"aperture_{side}"] = aperture
+    return e, t
+
+
+# Movement s px and iris error d px per frame: std(s) = sqrt(10 / 4), std(d)
+# = 1, and r(s, s + d) = 8 / sqrt(10 * 10) = 0.8.
+S = [-2.0, -1.0, 1.0, 2.0]
+D = [1.0, -1.0, 1.0, -1.0]
+
+
+def test_horizontal_budget_along_a_level_eye():
+    ft = face_table()
+    w = 40.0
+    kept = [pair((0, 0), (w, 0), (20 + s, 5), (20 + s + d, 5), (0.5 + s / w, 0.4)) for s, d in zip(S, D)]
+    target = [0.5 + s / w for s in S]
+    sig, err, r = ft.error_budget(kept, target, "x")
+    assert sig == pytest.approx(math.sqrt(10 / 4))
+    assert err == pytest.approx(1.0)
+    assert r == pytest.approx(0.8)
+
+
+def test_horizontal_budget_takes_the_error_along_the_corner_axis():
+    ft = face_table()
+    # An eye turned 90 degrees: its corner axis is the image's y, so an
+    # error on the image's x does not move nx and one on y does.
+    w = 40.0
+    kept = [pair((0, 0), (0, w), (5, 20 + s), (5 + 3.0, 20 + s + d), (0.5 + s / w, 0.4)) for s, d in zip(S, D)]
+    target = [0.5 + s / w for s in S]
+    sig, err, r = ft.error_budget(kept, target, "x")
+    assert sig == pytest.approx(math.sqrt(10 / 4))
+    assert err == pytest.approx(1.0)
+    assert r == pytest.approx(0.8)
+
+
+def test_vertical_budget_in_lid_to_lid_heights():
+    ft = face_table()
+    # Eye 40 px wide, aperture 0.25 of its width: lid to lid 10 px.
+    w, h = 40.0, 10.0
+    kept = [pair((0, 0), (w, 0), (20, 5 + s), (20, 5 + s + d), (0.5, 0.5 + s / h)) for s, d in zip(S, D)]
+    target = [0.5 + s / h for s in S]
+    sig, err, r = ft.error_budget(kept, target, "y")
+    assert sig == pytest.approx(math.sqrt(10 / 4))
+    assert err == pytest.approx(1.0)
+    assert r == pytest.approx(0.8)
