@@ -138,7 +138,16 @@ fn replay_dataset_follows_the_trajectory_keeps_the_carrier_and_is_deterministic(
         let n = row["n_frames"].as_u64().unwrap();
         assert!((2..=150).contains(&n), "{row}");
         assert!(row["x"]["r"].as_f64().unwrap() > 0.5, "{row}");
+        // Movement against the extractor's error, over the same frames.
+        let b = &row["budget"];
+        assert_eq!(b["frames"].as_u64(), Some(n), "{row}");
+        for axis in ["x", "y"] {
+            let m = b[axis]["movement_px"].as_f64().unwrap();
+            let e = b[axis]["iris_error_px"].as_f64().unwrap();
+            assert!(m > 0.0 && e > 0.0 && e < 10.0, "{row}");
+        }
     }
+    assert!(html.contains("Movement against the extractor's error"));
 
     // The speed bench prints its ratios.
     let bench = ok(&eyereplay(&[

@@ -21,7 +21,9 @@ pub use ks::{ks_2samp, KsMethod, KsResult};
 pub use metrics::{
     detect_events, speeds_px_per_frame, Event, EventKind, IvtThresholds, MetricSamples,
 };
-pub use visual::{compare_visual, VisualFidelity};
+pub use visual::{
+    compare_visual, read_back_budget, AxisBudget, EyeReadBack, ReadBackBudget, VisualFidelity,
+};
 pub mod plot;
 pub mod report;
 pub use eyereplay_core::Calibration;

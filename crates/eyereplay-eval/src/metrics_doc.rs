@@ -152,6 +152,9 @@ struct SessionRow<'a> {
     /// Full-face sessions only.
     #[serde(skip_serializing_if = "Option::is_none")]
     head_yaw: Option<crate::HeadYawReadBack>,
+    /// Sessions read by the face detector's pipeline with a truth CSV.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    budget: Option<crate::ReadBackBudget>,
 }
 
 #[derive(Serialize)]
@@ -319,6 +322,7 @@ fn visual(ev: &Evaluation) -> Visual<'_> {
                 y: Axis::brief(&r.fidelity.y),
                 error: Error::of(&r.fidelity.error),
                 head_yaw: r.head_yaw,
+                budget: r.budget,
             })
             .collect(),
     };

@@ -72,6 +72,9 @@ pub struct SessionReadBack {
     /// Full-face sessions (a `_head.csv` beside the video): the head's yaw
     /// solved from the landmarks the extractor finds, against the drawn one.
     pub head_yaw: Option<HeadYawReadBack>,
+    /// Sessions read by the face detector's pipeline with a truth CSV:
+    /// the movement to be read against the extractor's own error.
+    pub budget: Option<crate::ReadBackBudget>,
 }
 
 /// A rendered head's yaw read back from its video against its ground
@@ -598,6 +601,38 @@ fn sessions_read_back_html(h: &mut String, rows: &[SessionReadBack]) {
         );
     }
     h.push_str("</table>\n");
+    budget_html(h, rows);
+}
+
+/// Movement against the extractor's error, for the sessions that have it.
+fn budget_html(h: &mut String, rows: &[SessionReadBack]) {
+    let with: Vec<(&SessionReadBack, crate::ReadBackBudget)> = rows
+        .iter()
+        .filter_map(|r| r.budget.map(|b| (r, b)))
+        .collect();
+    if with.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        h,
+        "<h3>Movement against the extractor's error</h3>\n<p>Why a read-back r can be low whatever the renderer draws: how far each session's eyes move (the source's n std times the length it is measured in, the corner-to-corner width for x and the lid-to-lid height for y), against the extractor's own error on the iris centre (std of the drawn minus the read centre), both in image pixels, mean of both eyes, over the compared frames. For an error independent of the movement, r is about m / sqrt(m<sup>2</sup> + e<sup>2</sup>) (movement m, error e): an error half the movement caps r near 0.9; an error that follows the movement, as a gain does, costs less. \"r, drawn iris\" puts the drawn iris centre in place of the read one (corners and lids still as read): where it rises well above r, the iris centre's error is the limit; where it does not, the corners or lids are.</p>\n<table><tr><th>session</th><th>r x</th><th>movement x (px)</th><th>iris error x (px)</th><th>r x, drawn iris</th><th>r y</th><th>movement y (px)</th><th>iris error y (px)</th><th>r y, drawn iris</th></tr>"
+    );
+    for (r, b) in with {
+        let _ = writeln!(
+            h,
+            "<tr><td><code>{}</code></td><td>{}</td><td>{:.2}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.2}</td><td>{}</td></tr>",
+            esc(&r.session),
+            f3(r.fidelity.x.r),
+            b.x.movement_px,
+            b.x.iris_error_px,
+            f3(b.x.r_drawn_iris),
+            f3(r.fidelity.y.r),
+            b.y.movement_px,
+            b.y.iris_error_px,
+            f3(b.y.r_drawn_iris)
+        );
+    }
+    h.push_str("</table>\n");
 }
 
 /// Paths written by [`write_report`].
@@ -678,6 +713,7 @@ mod tests {
             detection_rate: 1.0,
             fidelity: compare_visual(&src, &src, None).unwrap(),
             head_yaw,
+            budget: None,
         }
     }
 
@@ -711,5 +747,40 @@ mod tests {
         let mut h = String::new();
         sessions_read_back_html(&mut h, &[row("reading/a.csv", None)]);
         assert!(!h.contains("head yaw"), "{h}");
+    }
+
+    /// The budget table lists the sessions that have one, with their r and
+    /// the four pixel figures; none at all writes no table.
+    #[test]
+    fn budget_table_only_for_sessions_with_a_budget() {
+        let b = crate::ReadBackBudget {
+            frames: 600,
+            x: crate::AxisBudget {
+                movement_px: 0.654,
+                iris_error_px: 0.236,
+                r_drawn_iris: Some(0.9391),
+            },
+            y: crate::AxisBudget {
+                movement_px: 0.281,
+                iris_error_px: 0.427,
+                r_drawn_iris: None,
+            },
+        };
+        let mut with = row("conversation/c.csv", None);
+        with.budget = Some(b);
+        let mut h = String::new();
+        sessions_read_back_html(&mut h, &[with, row("reading/a.csv", None)]);
+        assert!(h.contains("Movement against the extractor's error"), "{h}");
+        assert!(
+            h.contains("<tr><td><code>conversation/c.csv</code></td><td>1.000</td><td>0.65</td><td>0.24</td><td>0.939</td><td>1.000</td><td>0.28</td><td>0.43</td><td>n/a</td></tr>"),
+            "{h}"
+        );
+        assert!(
+            !h.contains("<tr><td><code>reading/a.csv</code></td><td>1.000</td><td>"),
+            "{h}"
+        );
+        let mut h = String::new();
+        sessions_read_back_html(&mut h, &[row("reading/a.csv", None)]);
+        assert!(!h.contains("Movement against"), "{h}");
     }
 }

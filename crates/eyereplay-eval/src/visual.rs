@@ -180,6 +180,105 @@ pub fn compare_visual(
     })
 }
 
+/// One eye in one compared frame, for [`read_back_budget`]: what the
+/// extractor read from the video and where the renderer drew the iris.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EyeReadBack {
+    /// Iris centre as read, image px.
+    pub iris_px: [f64; 2],
+    /// The eye's corners on the image's left and right, as read.
+    pub corner_left_px: [f64; 2],
+    pub corner_right_px: [f64; 2],
+    /// Lid gap over corner-to-corner width, as read.
+    pub aperture: f64,
+    /// This eye's `(nx, ny)` as read.
+    pub n: [f64; 2],
+    /// Iris centre as drawn (the render's ground truth), image px.
+    pub drawn_iris_px: [f64; 2],
+}
+
+/// One axis of a [`ReadBackBudget`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct AxisBudget {
+    /// How far the eye moves: the std of the source's n on this axis times
+    /// the length n is measured in (x: the corner-to-corner width; y: the
+    /// lid-to-lid height), image px, mean of both eyes.
+    pub movement_px: f64,
+    /// The extractor's own error on the iris centre: the std of the drawn
+    /// minus the read centre (x: along the corner-to-corner axis; y: the
+    /// image's y), image px, mean of both eyes.
+    pub iris_error_px: f64,
+    /// Pearson r against the source with the drawn iris centre put in place
+    /// of the read one (corners and lids as read), mean n of both eyes:
+    /// what r would be if the iris network found the centre exactly.
+    pub r_drawn_iris: Option<f64>,
+}
+
+/// Why a read-back r can be low: per axis, the movement to be read against
+/// the extractor's error on the iris centre, both in image pixels. Where
+/// the error is a sizeable fraction of the movement, r falls whatever the
+/// renderer draws (r is about `m / sqrt(m^2 + e^2)` for movement `m` and an
+/// error `e` independent of it; an error that follows the movement, as a
+/// gain does, costs r less).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ReadBackBudget {
+    /// Frames compared.
+    pub frames: usize,
+    pub x: AxisBudget,
+    pub y: AxisBudget,
+}
+
+/// The [`ReadBackBudget`] of the compared frames: `source[i]` the source's
+/// `(nx, ny)` and `eyes[i]` both eyes (image-left first) of frame `i`.
+/// `None` with fewer than 3 frames or lengths that differ.
+pub fn read_back_budget(source: &[[f64; 2]], eyes: &[[EyeReadBack; 2]]) -> Option<ReadBackBudget> {
+    if source.len() != eyes.len() || source.len() < 3 {
+        return None;
+    }
+    let axis = |k: usize| -> Option<AxisBudget> {
+        let target: Vec<f64> = source.iter().map(|s| s[k]).collect();
+        let (mut lengths, mut errors) = (0.0, 0.0);
+        let mut n_drawn = vec![0.0; eyes.len()];
+        for side in 0..2 {
+            let (mut len_px, mut dev) = (Vec::new(), Vec::new());
+            for e in eyes.iter().map(|f| &f[side]) {
+                let (ux, uy) = (
+                    e.corner_right_px[0] - e.corner_left_px[0],
+                    e.corner_right_px[1] - e.corner_left_px[1],
+                );
+                let w = ux.hypot(uy);
+                let (dx, dy) = (
+                    e.drawn_iris_px[0] - e.iris_px[0],
+                    e.drawn_iris_px[1] - e.iris_px[1],
+                );
+                let (length, d) = if k == 0 {
+                    (w, (dx * ux + dy * uy) / w)
+                } else {
+                    (e.aperture * w, dy)
+                };
+                len_px.push(length);
+                dev.push(d);
+            }
+            // n moves by d / length when the iris centre moves by d px.
+            for (i, f) in eyes.iter().enumerate() {
+                n_drawn[i] += 0.5 * (f[side].n[k] + dev[i] / len_px[i]);
+            }
+            lengths += mean(&len_px)?;
+            errors += std_pop(&dev)?;
+        }
+        Some(AxisBudget {
+            movement_px: std_pop(&target)? * lengths / 2.0,
+            iris_error_px: errors / 2.0,
+            r_drawn_iris: pearson(&target, &n_drawn),
+        })
+    };
+    Some(ReadBackBudget {
+        frames: source.len(),
+        x: axis(0)?,
+        y: axis(1)?,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -258,5 +357,88 @@ mod tests {
     fn length_mismatch_is_an_error() {
         let e = compare_visual(&[[0.0, 0.0]; 3], &[[0.0, 0.0]; 2], None).unwrap_err();
         assert!(e.to_string().contains("3 frames"), "{e}");
+    }
+
+    /// Movement s px and iris error d px per frame, worked by hand: std(s)
+    /// = sqrt(10 / 4) and std(d) = 1 (the cases of face-table.py's test).
+    const S: [f64; 4] = [-2.0, -1.0, 1.0, 2.0];
+    const D: [f64; 4] = [1.0, -1.0, 1.0, -1.0];
+
+    /// Both eyes alike; n as read from `iris` between corners `a` and `b`
+    /// (x) and a 10-px lid gap whose upper lid is at y = 0 (y).
+    fn eye(a: [f64; 2], b: [f64; 2], iris: [f64; 2], drawn: [f64; 2]) -> [EyeReadBack; 2] {
+        let (ux, uy) = (b[0] - a[0], b[1] - a[1]);
+        let w2 = ux * ux + uy * uy;
+        let e = EyeReadBack {
+            iris_px: iris,
+            corner_left_px: a,
+            corner_right_px: b,
+            aperture: 0.25,
+            n: [
+                ((iris[0] - a[0]) * ux + (iris[1] - a[1]) * uy) / w2,
+                iris[1] / 10.0,
+            ],
+            drawn_iris_px: drawn,
+        };
+        [e, e]
+    }
+
+    #[test]
+    fn budget_of_a_level_eye_worked_by_hand() {
+        // 40 px wide, lid to lid 0.25 x 40 = 10 px; the iris moves s px
+        // along x and the read is off by d px on both axes.
+        let eyes: Vec<_> = S
+            .iter()
+            .zip(D)
+            .map(|(&s, d)| {
+                eye(
+                    [0.0, 0.0],
+                    [40.0, 0.0],
+                    [20.0 + s, 5.0 + s],
+                    [20.0 + s + d, 5.0 + s + d],
+                )
+            })
+            .collect();
+        let source: Vec<[f64; 2]> = S
+            .iter()
+            .map(|&s| [0.5 + s / 40.0, 0.5 + s / 10.0])
+            .collect();
+        let b = read_back_budget(&source, &eyes).unwrap();
+        assert_eq!(b.frames, 4);
+        for axis in [b.x, b.y] {
+            assert!((axis.movement_px - 2.5f64.sqrt()).abs() < 1e-12, "{b:?}");
+            assert!((axis.iris_error_px - 1.0).abs() < 1e-12, "{b:?}");
+        }
+    }
+
+    #[test]
+    fn budget_takes_x_along_the_corner_axis() {
+        // An eye turned 90 degrees: its corner axis is the image's y, so a
+        // read off by 3 px on the image's x is no error along it.
+        let eyes: Vec<_> = S
+            .iter()
+            .zip(D)
+            .map(|(&s, d)| {
+                eye(
+                    [0.0, 0.0],
+                    [0.0, 40.0],
+                    [5.0, 20.0 + s],
+                    [8.0, 20.0 + s + d],
+                )
+            })
+            .collect();
+        let source: Vec<[f64; 2]> = S.iter().map(|&s| [0.5 + s / 40.0, 0.5]).collect();
+        let b = read_back_budget(&source, &eyes).unwrap();
+        assert!((b.x.movement_px - 2.5f64.sqrt()).abs() < 1e-12, "{b:?}");
+        assert!((b.x.iris_error_px - 1.0).abs() < 1e-12, "{b:?}");
+        assert!((b.x.r_drawn_iris.unwrap() - 0.8).abs() < 1e-12, "{b:?}");
+        assert_eq!(b.y.movement_px, 0.0);
+    }
+
+    #[test]
+    fn budget_needs_three_matching_frames() {
+        let e = eye([0.0, 0.0], [40.0, 0.0], [20.0, 5.0], [20.0, 5.0]);
+        assert!(read_back_budget(&[[0.5, 0.5]; 2], &[e; 2]).is_none());
+        assert!(read_back_budget(&[[0.5, 0.5]; 3], &[e; 4]).is_none());
     }
 }

@@ -281,7 +281,7 @@ fn visual_section(
     let geometry = SessionPaths::beside_video(&target.video).identity_json;
     let (rendered_n, locator) = match read_back(dir, &target.video, &models, n, ev.fps, &geometry)?
     {
-        Ok(r) => r,
+        Ok(r) => (r.n, r.how),
         Err(reason) => return not_computed(reason),
     };
     let n = n.min(rendered_n.len());
@@ -331,13 +331,13 @@ fn sessions_read_back(
             let source = source_norm(dir, &target, &input)?;
             let closed = closed_frames(&target, input.len())?;
             let geometry = SessionPaths::beside_video(&target.video).identity_json;
-            let (read, _) =
-                match read_back(dir, &target.video, &models, input.len(), ev.fps, &geometry)? {
-                    Ok(r) => r,
-                    Err(reason) => return Err(Error::input(&target.video, reason)),
-                };
-            let n = read.len().min(input.len());
-            let read = masked(&read[..n], &closed[..n]);
+            let back = match read_back(dir, &target.video, &models, input.len(), ev.fps, &geometry)?
+            {
+                Ok(r) => r,
+                Err(reason) => return Err(Error::input(&target.video, reason)),
+            };
+            let n = back.n.len().min(input.len());
+            let read = masked(&back.n[..n], &closed[..n]);
             let fidelity = compare_visual(&source[..n], &read, None)
                 .map_err(|e| Error::input(&target.video, format!("visual comparison: {e}")))?;
             // A full-face session also has its drawn head to compare.
@@ -354,16 +354,56 @@ fn sessions_read_back(
             } else {
                 None
             };
+            let budget = match (&back.rows, &target.truth) {
+                (Some(rows), Some(truth)) => {
+                    read_back_budget(truth, &rows[..n], &source[..n], &read)?
+                }
+                _ => None,
+            };
             out.push(eyereplay_eval::SessionReadBack {
                 session: file.clone(),
                 class: class.class.to_string(),
                 detection_rate: detection_rate(&read),
                 fidelity,
                 head_yaw,
+                budget,
             });
         }
     }
     Ok(out)
+}
+
+/// The movement against the extractor's error over the compared frames
+/// (`read` finite: an iris read with the eyes open), from the extractor's
+/// `rows` and the drawn iris centres of the session's `truth` CSV.
+fn read_back_budget(
+    truth: &Path,
+    rows: &[eyereplay_extract::Row],
+    source: &[[f64; 2]],
+    read: &[[f64; 2]],
+) -> Result<Option<eyereplay_eval::ReadBackBudget>> {
+    let drawn = read_truth_csv(truth)?;
+    let px = |p: eyereplay_extract::Pt| [p.x as f64, p.y as f64];
+    let (mut src, mut eyes) = (vec![], vec![]);
+    for (i, (row, r)) in rows.iter().zip(read).enumerate() {
+        let (Some(e), Some(t)) = (&row.eyes, drawn.get(i)) else {
+            continue;
+        };
+        if !(r[0].is_finite() && r[1].is_finite()) {
+            continue;
+        }
+        let eye = |k: usize| eyereplay_eval::EyeReadBack {
+            iris_px: px(e[k].iris),
+            corner_left_px: px(e[k].corner_left),
+            corner_right_px: px(e[k].corner_right),
+            aperture: e[k].aperture,
+            n: [e[k].nx, e[k].ny],
+            drawn_iris_px: t.eyes[k].iris_px,
+        };
+        src.push(source[i]);
+        eyes.push([eye(0), eye(1)]);
+    }
+    Ok(eyereplay_eval::read_back_budget(&src, &eyes))
 }
 
 /// The renderer's own iris positions against the source: the simulator's
@@ -410,17 +450,18 @@ fn read_back(
     let trial = (4.0 * fps).round() as usize;
     let detected = if geometry.is_file() && n > trial {
         match extract_with_detector(video, models, trial, fps) {
-            Ok(r) if detection_rate(&r) < 0.5 => Ok(r),
+            Ok(r) if rows_detection_rate(&r) < 0.5 => Ok(r),
             _ => extract_with_detector(video, models, n, fps),
         }
     } else {
         extract_with_detector(video, models, n, fps)
     };
     match detected {
-        Ok(r) if detection_rate(&r) >= 0.5 || !geometry.is_file() => Ok(Ok((
-            r,
-            "face detector, face mesh and iris model (eyereplay-extract)".to_string(),
-        ))),
+        Ok(r) if rows_detection_rate(&r) >= 0.5 || !geometry.is_file() => Ok(Ok(ReadBack {
+            n: r.iter().map(row_norm).collect(),
+            how: "face detector, face mesh and iris model (eyereplay-extract)".to_string(),
+            rows: Some(r),
+        })),
         first => {
             if !geometry.is_file() {
                 let e = first.expect_err("handled above");
@@ -438,24 +479,39 @@ fn read_back(
             };
             let r = extract_at_corners(video, models, corners, n)?;
             let seen = match &first {
-                Ok(r) => format!("{:.0} %", 100.0 * detection_rate(r)),
+                Ok(r) => format!("{:.0} %", 100.0 * rows_detection_rate(r)),
                 Err(_) => "none".to_string(),
             };
-            Ok(Ok((
-                r,
-                format!(
+            Ok(Ok(ReadBack {
+                n: r,
+                how: format!(
                     "iris model on eye crops placed from the render's known geometry ({}; \
 nx against its fixed eye corners, ny against the model's lids), \
 because the face detector found the face in {seen} of the compared frames",
                     shown(dir, geometry)
                 ),
-            )))
+                rows: None,
+            }))
         }
     }
 }
 
-/// Per-frame `(nx, ny)` read back from a video, and how the eyes were found.
-type ReadBack = (Vec<[f64; 2]>, String);
+/// What [`read_back`] read from a video.
+struct ReadBack {
+    /// Per-frame `(nx, ny)`, NaN where no open eyes were found.
+    n: Vec<[f64; 2]>,
+    /// How the eyes were found.
+    how: String,
+    /// The extractor's rows, when its own pipeline found the eyes.
+    rows: Option<Vec<eyereplay_extract::Row>>,
+}
+
+fn rows_detection_rate(rows: &[eyereplay_extract::Row]) -> f64 {
+    rows.iter()
+        .filter(|r| r.valid() && r.mean_n().is_some())
+        .count() as f64
+        / rows.len().max(1) as f64
+}
 
 fn detection_rate(n: &[[f64; 2]]) -> f64 {
     n.iter()
@@ -464,14 +520,13 @@ fn detection_rate(n: &[[f64; 2]]) -> f64 {
         / n.len().max(1) as f64
 }
 
-/// Mean `(nx, ny)` of both eyes per frame for the first `n_max` frames by
-/// the extractor's full pipeline; NaN where it found no open eyes.
+/// The extractor's rows for the first `n_max` frames by its full pipeline.
 fn extract_with_detector(
     video: &Path,
     models: &Path,
     n_max: usize,
     fps: f64,
-) -> Result<Vec<[f64; 2]>> {
+) -> Result<Vec<eyereplay_extract::Row>> {
     let opts = eyereplay_extract::ExtractOptions {
         models_dir: models.to_path_buf(),
         max_duration_s: Some(n_max as f64 / fps),
@@ -485,7 +540,9 @@ fn extract_with_detector(
     .pop()
     .expect("one result per video")
     .map_err(|e| Error::input(video, format!("extracting the iris: {e}")))?;
-    Ok(ext.rows.iter().take(n_max).map(row_norm).collect())
+    let mut rows = ext.rows;
+    rows.truncate(n_max);
+    Ok(rows)
 }
 
 fn row_norm(r: &eyereplay_extract::Row) -> [f64; 2] {
