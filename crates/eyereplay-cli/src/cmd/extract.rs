@@ -61,7 +61,7 @@ pub struct Args {
     /// Where the networks run: cpu; cuda (needs EYEREPLAY_ORT_LIB pointing at an
     /// onnxruntime-gpu build's libonnxruntime.so; falls back to the CPU with a
     /// warning); or auto (CUDA when that library has it, else the CPU). The CPU is the
-    /// default because these small networks ran slower on a GPU (H200: 2.3x the
+    /// default because these small networks ran slower on a GPU (H200: 2.2-2.5x the
     /// wall time, 1.8-2x the CPU time per frame).
     #[arg(long, value_enum, default_value_t = DeviceArg::Cpu)]
     pub device: DeviceArg,
