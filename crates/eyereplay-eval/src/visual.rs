@@ -383,22 +383,20 @@ mod tests {
         [e, e]
     }
 
+    /// Frame k: corners `a`, `b`; the iris read at `read(S[k])` and drawn
+    /// at `read(S[k] + D[k])`.
+    fn frames(a: [f64; 2], b: [f64; 2], read: impl Fn(f64) -> [f64; 2]) -> Vec<[EyeReadBack; 2]> {
+        S.iter()
+            .zip(D)
+            .map(|(&s, d)| eye(a, b, read(s), read(s + d)))
+            .collect()
+    }
+
     #[test]
     fn budget_of_a_level_eye_worked_by_hand() {
-        // 40 px wide, lid to lid 0.25 x 40 = 10 px; the iris moves s px
-        // along x and the read is off by d px on both axes.
-        let eyes: Vec<_> = S
-            .iter()
-            .zip(D)
-            .map(|(&s, d)| {
-                eye(
-                    [0.0, 0.0],
-                    [40.0, 0.0],
-                    [20.0 + s, 5.0 + s],
-                    [20.0 + s + d, 5.0 + s + d],
-                )
-            })
-            .collect();
+        // 40 px wide, lid to lid 0.25 x 40 = 10 px; the iris moves s px on
+        // both axes and the read is off by d px on both.
+        let eyes = frames([0.0, 0.0], [40.0, 0.0], |s| [20.0 + s, 5.0 + s]);
         let source: Vec<[f64; 2]> = S
             .iter()
             .map(|&s| [0.5 + s / 40.0, 0.5 + s / 10.0])
@@ -408,23 +406,22 @@ mod tests {
         for axis in [b.x, b.y] {
             assert!((axis.movement_px - 2.5f64.sqrt()).abs() < 1e-12, "{b:?}");
             assert!((axis.iris_error_px - 1.0).abs() < 1e-12, "{b:?}");
+            // The drawn centre moves s + d: r(s, s + d) = 8 / sqrt(10 * 10).
+            assert!((axis.r_drawn_iris.unwrap() - 0.8).abs() < 1e-12, "{b:?}");
         }
     }
 
     #[test]
     fn budget_takes_x_along_the_corner_axis() {
         // An eye turned 90 degrees: its corner axis is the image's y, so a
-        // read off by 3 px on the image's x is no error along it.
-        let eyes: Vec<_> = S
-            .iter()
-            .zip(D)
-            .map(|(&s, d)| {
-                eye(
-                    [0.0, 0.0],
-                    [0.0, 40.0],
-                    [5.0, 20.0 + s],
-                    [8.0, 20.0 + s + d],
-                )
+        // read off on the image's x (by 3 px here) is no error along it.
+        let eyes: Vec<_> = frames([0.0, 0.0], [0.0, 40.0], |s| [5.0, 20.0 + s])
+            .into_iter()
+            .map(|f| {
+                f.map(|e| EyeReadBack {
+                    drawn_iris_px: [e.drawn_iris_px[0] + 3.0, e.drawn_iris_px[1]],
+                    ..e
+                })
             })
             .collect();
         let source: Vec<[f64; 2]> = S.iter().map(|&s| [0.5 + s / 40.0, 0.5]).collect();
