@@ -16,6 +16,7 @@ use eyereplay_eval::{
     compare_visual, evaluate_dataset, write_report, EvalConfig, Evaluation, VisualRun,
     VisualSection,
 };
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 /// Which video the visual-fidelity section compares.
@@ -319,6 +320,9 @@ fn sessions_read_back(
         .unwrap_or_else(eyereplay_extract::default_models_dir);
     eyereplay_extract::check_models(&models)?;
     let mut out = vec![];
+    // (row in `out`, video, head CSV, identity JSON, frames) of each
+    // full-face session.
+    let mut heads: Vec<(usize, PathBuf, PathBuf, PathBuf, usize)> = vec![];
     for class in &ev.classes {
         for (file, _) in &class.events {
             let target = match visual_target(dir, &VisualChoice::Session(file.clone()), ev) {
@@ -340,20 +344,18 @@ fn sessions_read_back(
             let read = masked(&back.n[..n], &closed[..n]);
             let fidelity = compare_visual(&source[..n], &read, None)
                 .map_err(|e| Error::input(&target.video, format!("visual comparison: {e}")))?;
-            // A full-face session also has its drawn head to compare.
+            // A full-face session also has its drawn head to compare (read
+            // below, all sessions at once).
             let head_csv = SessionPaths::beside_video(&target.video).head_csv();
-            let head_yaw = if head_csv.is_file() {
-                Some(crate::face::head_yaw_read_back(
-                    &target.video,
-                    &head_csv,
-                    &geometry,
-                    &models,
-                    ev.fps,
+            if head_csv.is_file() {
+                heads.push((
+                    out.len(),
+                    target.video.clone(),
+                    head_csv,
+                    geometry.clone(),
                     input.len(),
-                )?)
-            } else {
-                None
-            };
+                ));
+            }
             let budget = match (&back.rows, &target.truth) {
                 (Some(rows), Some(truth)) => {
                     read_back_budget(truth, &rows[..n], &source[..n], &read)?
@@ -365,10 +367,22 @@ fn sessions_read_back(
                 class: class.class.to_string(),
                 detection_rate: detection_rate(&read),
                 fidelity,
-                head_yaw,
+                head_yaw: None,
                 budget,
             });
         }
+    }
+    // The head read-back decodes each video once more on one thread: the
+    // sessions in parallel keep every core busy (each result depends on its
+    // own video only, so the order of work does not change it).
+    let yaws: Vec<Result<eyereplay_eval::HeadYawReadBack>> = heads
+        .par_iter()
+        .map(|(_, video, head_csv, geometry, frames)| {
+            crate::face::head_yaw_read_back(video, head_csv, geometry, &models, ev.fps, *frames)
+        })
+        .collect();
+    for ((k, ..), yaw) in heads.iter().zip(yaws) {
+        out[*k].head_yaw = Some(yaw?);
     }
     Ok(out)
 }

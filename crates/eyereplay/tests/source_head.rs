@@ -159,8 +159,8 @@ sources = [{{ format = "video", path = "{}" }}]
             t.iter().map(|x| x - mt).collect(),
             r.iter().map(|x| x - mr).collect(),
         );
-        // The evaluation report's per-session read-back (the first 12 s,
-        // so all 200 frames here) is this same measurement.
+        // The evaluation report's per-session read-back (whole sessions up
+        // to 60 s, so all 200 frames here) is this same measurement.
         let report = report_head(stem).unwrap();
         assert_eq!((report.frames, report.frames_read), (t.len(), 200));
         let (want_r, (want_slope, _)) = (pearson(&t, &r).unwrap(), linear_fit(&t, &r).unwrap());
