@@ -21,16 +21,21 @@ pub const TEST_PAGE_HTML: &str = include_str!("../assets/test_eye.html");
 pub const INITIAL_VIRTUAL_TIME_S: f64 = 1_704_067_200.0;
 
 /// Injected before any page script (research note, "Determinism"): virtual
-/// time advances exactly one frame interval per frame, but Chromium still
-/// adds about 0.1 ms of timer jitter to `performance.now()` and the rAF
-/// timestamp; rounding both to whole ms makes reruns bit-identical.
-/// `Math.random` becomes a seeded generator (mulberry32) for the same reason.
+/// time advances exactly one frame interval per frame, but Chromium adds
+/// about 0.1 ms of random timer jitter (a secret drawn per browser process)
+/// to `performance.now()` and the rAF timestamp. Rounding those to whole ms
+/// was not enough: a frame whose true time fell within the jitter of a
+/// half-ms rounded differently on a rerun, and the page's clock-driven
+/// drawing with it. `Date.now()` runs on the same virtual time without the
+/// jitter, in whole ms, so the page's clock is built on it: ms since this
+/// document started. `Math.random` becomes a seeded generator (mulberry32)
+/// for the same reason.
 fn time_shim(seed: u32) -> String {
     format!(
         r#"(() => {{
   const perf = window.performance;
-  const now0 = perf.now.bind(perf);
-  const now = () => Math.round(now0());
+  const date0 = Date.now();
+  const now = () => Date.now() - date0;
   perf.now = now;
   const raf = window.requestAnimationFrame.bind(window);
   window.requestAnimationFrame = cb => raf(() => cb(now()));

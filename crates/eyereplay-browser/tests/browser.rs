@@ -18,11 +18,11 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-/// The frame-exact and rerun checks run one at a time: each keeps a
-/// software-WebGL browser busy on both cores, and on a 2-core machine
-/// running them together with other browsers starves the page enough that
-/// one rerun of three differed (a determinism limit reported, not hidden:
-/// see the crate README).
+/// Every test that starts a browser runs alone: the frame-exact and rerun
+/// checks keep a software-WebGL browser busy on both cores, and other
+/// browsers beside them on a 2-core machine (the failure tests' too) slow
+/// every test down and once made reruns differ (the clock fixed since: see
+/// the crate README, "Frame exactness and reruns").
 static EXCLUSIVE: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 fn exclusive() -> std::sync::MutexGuard<'static, ()> {
@@ -384,6 +384,7 @@ fn fails_cleanly(settings: &mut BrowserSettings, frames: usize, expect: &str) ->
 
 #[test]
 fn a_page_that_never_becomes_ready_fails_cleanly() {
+    let _one_at_a_time = exclusive();
     if !have_browser() {
         return;
     }
@@ -436,6 +437,7 @@ fn stalling_server(page: &'static str) -> String {
 
 #[test]
 fn a_page_whose_script_never_arrives_is_not_ready() {
+    let _one_at_a_time = exclusive();
     if !have_browser() {
         return;
     }
@@ -454,6 +456,7 @@ fn a_page_whose_script_never_arrives_is_not_ready() {
 
 #[test]
 fn a_page_that_navigates_away_fails_cleanly() {
+    let _one_at_a_time = exclusive();
     if !have_browser() {
         return;
     }
@@ -475,6 +478,7 @@ fn a_page_that_navigates_away_fails_cleanly() {
 
 #[test]
 fn a_browser_that_dies_mid_session_is_an_error_and_leaves_nothing() {
+    let _one_at_a_time = exclusive();
     if !have_browser() {
         return;
     }
