@@ -22,7 +22,7 @@ pub const INITIAL_VIRTUAL_TIME_S: f64 = 1_704_067_200.0;
 
 /// Injected before any page script (research note, "Determinism"): virtual
 /// time advances exactly one frame interval per frame, but Chromium adds
-/// about 0.1 ms of random timer jitter (a secret drawn per browser process)
+/// about 0.1 ms of random timer jitter (different in each browser process)
 /// to `performance.now()` and the rAF timestamp. Rounding those to whole ms
 /// was not enough: a frame whose true time fell within the jitter of a
 /// half-ms rounded differently on a rerun, and the page's clock-driven
