@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Visual fidelity of every session of a full-face dataset, one row each.
 
-    python3 scripts/face-table.py DATASET_DIR [--eyereplay PATH]
+    python3 scripts/face-table.py DATASET_DIR [--eyereplay PATH] [--horizontal]
+                                  [--vertical] [--mesh-every N]
 
 For each rendered session: `eyereplay extract` (the unmodified path: face
 detection, 468 landmarks, iris) reads the video back (kept in
@@ -48,10 +49,14 @@ def main():
                     help="also the vertical error budget per session (see above)")
     ap.add_argument("--horizontal", action="store_true",
                     help="also the horizontal error budget per session (see above)")
+    ap.add_argument("--mesh-every", type=int, metavar="N",
+                    help="read back with `eyereplay extract --mesh-every N` (kept in "
+                         "DATASET_DIR/.readback_meshN/) instead of the extractor's default")
     a = ap.parse_args()
     d = a.dataset
     labels = list(csv.DictReader(open(os.path.join(d, "labels.csv"))))
-    out = os.path.join(d, ".readback")
+    out = os.path.join(d, ".readback" if a.mesh_every is None else f".readback_mesh{a.mesh_every}")
+    extra = [] if a.mesh_every is None else ["--mesh-every", str(a.mesh_every)]
     os.makedirs(out, exist_ok=True)
     rows = []
     budget = []
@@ -64,7 +69,7 @@ def main():
             continue
         x = os.path.join(out, f.replace("/", "__"))
         if not os.path.exists(x):
-            subprocess.run([a.eyereplay, "extract", mp4, "--out", x], check=True,
+            subprocess.run([a.eyereplay, "extract", mp4, "--out", x] + extra, check=True,
                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         ex = list(csv.DictReader(open(x)))
         tr = list(csv.DictReader(open(truth)))

@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # Checks extraction's CUDA path against the CPU on a machine with an NVIDIA
 # GPU: the same video with --device cpu and --device cuda, 1 and 2 workers,
-# printing wall time, CPU time per frame by stage, and how far the CUDA rows
-# are from the CPU's (open-eye frames).
+# printing wall time, CPU time per frame by stage, peak memory, and how far
+# the CUDA rows are from the CPU's (open-eye frames).
 #
 #   scripts/dev/cuda-check.sh ORT_GPU_LIB [VIDEO]
+#
+# EYEREPLAY_CUDA_CHECK_WORKERS lists the worker counts (default "2 1"; the
+# README's table also has 8).
 #
 # ORT_GPU_LIB: the libonnxruntime.so.<version> of an onnxruntime-gpu install
 # (for example `pip install onnxruntime-gpu==1.31.1`, built for CUDA 13: its
@@ -30,20 +33,21 @@ run() { # name threads device [env...]
     --profile --quiet >"$out/$name.log" 2>&1 || { cat "$out/$name.log"; exit 1; }
   t1=$(date +%s.%N)
   echo "== $name: wall $(python3 -c "print(round($t1 - $t0, 2))") s"
-  grep -E "networks on|WARN|network|total" "$out/$name.log"
+  grep -E "networks on|WARN|network|total|peak RSS" "$out/$name.log"
 }
 gpu=(env "EYEREPLAY_ORT_LIB=$lib")
-run cpu_t2 2 cpu env
-run cuda_t2 2 cuda "${gpu[@]}"
-run cpu_t1 1 cpu env
-run cuda_t1 1 cuda "${gpu[@]}"
-python3 - "$out" <<'PY'
+workers="${EYEREPLAY_CUDA_CHECK_WORKERS:-2 1}"
+for n in $workers; do
+  run "cpu_t$n" "$n" cpu env
+  run "cuda_t$n" "$n" cuda "${gpu[@]}"
+done
+python3 - "$out" $workers <<'PY'
 import csv, sys
 d = sys.argv[1]
 def load(n):
     with open(f"{d}/{n}.csv") as f:
         return list(csv.DictReader(f))
-for base, other in [("cpu_t2", "cuda_t2"), ("cpu_t1", "cuda_t1")]:
+for base, other in [(f"cpu_t{n}", f"cuda_t{n}") for n in sys.argv[2:]]:
     a, b = load(base), load(other)
     assert len(a) == len(b), (len(a), len(b))
     flips = sum(x["valid"] != y["valid"] for x, y in zip(a, b))

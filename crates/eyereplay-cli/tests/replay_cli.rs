@@ -149,6 +149,28 @@ fn replay_dataset_follows_the_trajectory_keeps_the_carrier_and_is_deterministic(
     }
     assert!(html.contains("Movement against the extractor's error"));
 
+    // A truth CSV that lost rows is refused in one line naming it, and the
+    // report already there stays as it was.
+    let last = rows.last().unwrap()["session"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let truth = a.join(last.replace(".csv", "_truth.csv"));
+    let text = std::fs::read_to_string(&truth).unwrap();
+    let kept: String = text.lines().take(11).map(|l| format!("{l}\n")).collect();
+    std::fs::write(&truth, kept).unwrap();
+    let metrics_before = std::fs::read(a.join("report/metrics.json")).unwrap();
+    let e = one_line_error(&eyereplay(&["evaluate", s(&a), "--read-back-all"]));
+    assert!(
+        e.contains("_truth.csv") && e.contains("10 frames, but its trajectory has"),
+        "{e}"
+    );
+    assert_eq!(
+        std::fs::read(a.join("report/metrics.json")).unwrap(),
+        metrics_before
+    );
+    std::fs::write(&truth, text).unwrap();
+
     // The speed bench prints its ratios.
     let bench = ok(&eyereplay(&[
         "render",

@@ -217,6 +217,34 @@ impl Tracker {
             }
         }
         self.since_mesh = 0;
+        let Some((mesh, score, detected)) = self.mesh_step(img)? else {
+            return Ok(None);
+        };
+        let eye_rois = EYE_CORNERS.map(|(a, b, _)| Roi::from_two_points(mesh[a], mesh[b], 2.3));
+        let eyes = self.eyes(img, eye_rois, None)?;
+        Ok(Some(Face {
+            score,
+            eyes,
+            mesh,
+            detected,
+        }))
+    }
+
+    /// The 468 face-mesh landmarks of one frame (image px), without the
+    /// iris model: for the head's pose, which needs no iris (the iris
+    /// inference is about two thirds of a frame's CPU time). The same
+    /// landmarks as [`Tracker::process_with_mesh`] on the same frames: the
+    /// face track follows the mesh alone.
+    pub fn face_mesh(&mut self, img: &ImageView) -> Result<Option<Vec<Pt>>> {
+        self.since_mesh = 0;
+        Ok(self.mesh_step(img)?.map(|(mesh, _, _)| mesh))
+    }
+
+    /// The face detector where no face is tracked, then the face mesh:
+    /// the landmarks in image px, the face score and whether the detector
+    /// ran; `None` (and no eye track) when no face is found. Moves the face
+    /// track to the new landmarks.
+    fn mesh_step(&mut self, img: &ImageView) -> Result<Option<(Vec<Pt>, f32, bool)>> {
         let mut detected = false;
         loop {
             let roi = match self.roi {
@@ -263,14 +291,7 @@ impl Tracker {
             let axis = (mesh[263].y - mesh[33].y).atan2(mesh[263].x - mesh[33].x);
             self.roi = Some(Roi::around_points(&mesh, axis, 1.5));
             self.last_score = score;
-            let eye_rois = EYE_CORNERS.map(|(a, b, _)| Roi::from_two_points(mesh[a], mesh[b], 2.3));
-            let eyes = self.eyes(img, eye_rois, None)?;
-            return Ok(Some(Face {
-                score,
-                eyes,
-                mesh,
-                detected,
-            }));
+            return Ok(Some((mesh, score, detected)));
         }
     }
 

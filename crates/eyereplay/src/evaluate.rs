@@ -320,9 +320,8 @@ fn sessions_read_back(
         .unwrap_or_else(eyereplay_extract::default_models_dir);
     eyereplay_extract::check_models(&models)?;
     let mut out = vec![];
-    // (row in `out`, video, head CSV, identity JSON, frames) of each
-    // full-face session.
-    let mut heads: Vec<(usize, PathBuf, PathBuf, PathBuf, usize)> = vec![];
+    // (row in `out`, video, frames) of each full-face session.
+    let mut heads: Vec<(usize, PathBuf, usize)> = vec![];
     for class in &ev.classes {
         for (file, _) in &class.events {
             let target = match visual_target(dir, &VisualChoice::Session(file.clone()), ev) {
@@ -346,19 +345,15 @@ fn sessions_read_back(
                 .map_err(|e| Error::input(&target.video, format!("visual comparison: {e}")))?;
             // A full-face session also has its drawn head to compare (read
             // below, all sessions at once).
-            let head_csv = SessionPaths::beside_video(&target.video).head_csv();
-            if head_csv.is_file() {
-                heads.push((
-                    out.len(),
-                    target.video.clone(),
-                    head_csv,
-                    geometry.clone(),
-                    input.len(),
-                ));
+            if SessionPaths::beside_video(&target.video)
+                .head_csv()
+                .is_file()
+            {
+                heads.push((out.len(), target.video.clone(), input.len()));
             }
             let budget = match (&back.rows, &target.truth) {
                 (Some(rows), Some(truth)) => {
-                    read_back_budget(truth, &rows[..n], &source[..n], &read)?
+                    read_back_budget(truth, input.len(), &rows[..n], &source[..n], &read)?
                 }
                 _ => None,
             };
@@ -377,8 +372,16 @@ fn sessions_read_back(
     // own video only, so the order of work does not change it).
     let yaws: Vec<Result<eyereplay_eval::HeadYawReadBack>> = heads
         .par_iter()
-        .map(|(_, video, head_csv, geometry, frames)| {
-            crate::face::head_yaw_read_back(video, head_csv, geometry, &models, ev.fps, *frames)
+        .map(|(_, video, frames)| {
+            let paths = SessionPaths::beside_video(video);
+            crate::face::head_yaw_read_back(
+                video,
+                &paths.head_csv(),
+                &paths.identity_json,
+                &models,
+                ev.fps,
+                *frames,
+            )
         })
         .collect();
     for ((k, ..), yaw) in heads.iter().zip(yaws) {
@@ -389,18 +392,20 @@ fn sessions_read_back(
 
 /// The movement against the extractor's error over the compared frames
 /// (`read` finite: an iris read with the eyes open), from the extractor's
-/// `rows` and the drawn iris centres of the session's `truth` CSV.
+/// `rows` and the drawn iris centres of the session's `truth` CSV, which
+/// must have the session's `frames`.
 fn read_back_budget(
     truth: &Path,
+    frames: usize,
     rows: &[eyereplay_extract::Row],
     source: &[[f64; 2]],
     read: &[[f64; 2]],
 ) -> Result<Option<eyereplay_eval::ReadBackBudget>> {
-    let drawn = read_truth_csv(truth)?;
+    let drawn = read_truth_rows(truth, frames)?;
     let px = |p: eyereplay_extract::Pt| [p.x as f64, p.y as f64];
     let (mut src, mut eyes) = (vec![], vec![]);
-    for (i, (row, r)) in rows.iter().zip(read).enumerate() {
-        let (Some(e), Some(t)) = (&row.eyes, drawn.get(i)) else {
+    for (i, ((row, r), t)) in rows.iter().zip(read).zip(&drawn).enumerate() {
+        let Some(e) = &row.eyes else {
             continue;
         };
         if !(r[0].is_finite() && r[1].is_finite()) {
@@ -420,6 +425,19 @@ fn read_back_budget(
     Ok(eyereplay_eval::read_back_budget(&src, &eyes))
 }
 
+/// A session's truth CSV, refused in one line naming it unless it has the
+/// session's `frames`.
+fn read_truth_rows(truth: &Path, frames: usize) -> Result<Vec<eyereplay_dataset::TruthRow>> {
+    let rows = read_truth_csv(truth)?;
+    if rows.len() != frames {
+        return Err(Error::input(
+            truth,
+            format!("{} frames, but its trajectory has {frames}", rows.len()),
+        ));
+    }
+    Ok(rows)
+}
+
 /// The renderer's own iris positions against the source: the simulator's
 /// mapping without the extractor.
 fn render_truth(
@@ -429,17 +447,7 @@ fn render_truth(
     closed: &[bool],
     n: usize,
 ) -> Result<(String, eyereplay_eval::VisualFidelity)> {
-    let rows = read_truth_csv(truth)?;
-    if rows.len() != source.len() {
-        return Err(Error::input(
-            truth,
-            format!(
-                "{} frames, but its trajectory has {}",
-                rows.len(),
-                source.len()
-            ),
-        ));
-    }
+    let rows = read_truth_rows(truth, source.len())?;
     let t: Vec<[f64; 2]> = rows[..n].iter().map(|r| r.mean_norm()).collect();
     let cmp = compare_visual(&source[..n], &masked(&t, closed), None)
         .map_err(|e| Error::input(truth, format!("comparing with the source: {e}")))?;
@@ -520,9 +528,10 @@ struct ReadBack {
     rows: Option<Vec<eyereplay_extract::Row>>,
 }
 
+/// [`detection_rate`] of the rows' [`row_norm`].
 fn rows_detection_rate(rows: &[eyereplay_extract::Row]) -> f64 {
     rows.iter()
-        .filter(|r| r.valid() && r.mean_n().is_some())
+        .filter(|r| row_norm(r).iter().all(|v| v.is_finite()))
         .count() as f64
         / rows.len().max(1) as f64
 }

@@ -329,8 +329,8 @@ pub fn bench(width: usize, height: usize, frames: usize) -> Result<eyereplay_ren
 }
 
 /// A full-face session's head yaw read back: the head pose solved from the
-/// landmarks the extractor finds in the first
-/// [`eyereplay_eval::HEAD_YAW_READ_BACK_S`] seconds of `video` (the
+/// landmarks the extractor finds in `video`, whole up to
+/// [`eyereplay_eval::HEAD_YAW_READ_BACK_S`] seconds (the
 /// canonical face shape, the session's own field of view from its identity
 /// file), against the drawn yaw in `head_csv`, each relative to its mean
 /// over the frames compared. `frames` is the session's length: a head CSV
