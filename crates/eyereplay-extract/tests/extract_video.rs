@@ -428,10 +428,31 @@ fn containers_and_codecs_give_the_same_positions() {
     }
 }
 
-/// Cutting a video into segments for the two workers (seek, decode from the
-/// previous keyframe, skip frames before the boundary) yields exactly the
-/// frames of one sequential pass, also with sparse keyframes (VP9 in WebM,
-/// one keyframe in 12.5 s) and open-GOP H.264 with B-frames.
+/// Presentation times of every frame of `video` as ffprobe decodes them
+/// (`best_effort_timestamp_time`), one pass from the start.
+fn ffprobe_frame_times(video: &Path) -> Vec<f64> {
+    let out = Command::new("ffprobe")
+        .args(["-v", "error", "-select_streams", "v:0", "-show_entries"])
+        .args(["frame=best_effort_timestamp_time", "-of", "csv=p=0"])
+        .arg(video)
+        .output()
+        .expect("ffprobe runs");
+    assert!(out.status.success(), "ffprobe {}", video.display());
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| l.trim().trim_end_matches(',').parse().unwrap())
+        .collect()
+}
+
+/// Cutting a 40 s video into its three segments (seek, decode from the
+/// keyframe at or before each boundary, skip frames before it) yields
+/// exactly the frames of ffprobe's one sequential pass, whether the
+/// boundaries moved onto keyframes (H.264 with B-frames and open GOPs,
+/// keyframes every 10.4 s; VP9 in WebM, every 12.5 s) or could not (one
+/// keyframe in the whole file: each segment decodes from the start and
+/// skips); and the rows are the same, bit for bit, with 1 worker or 2.
 #[test]
 #[cfg_attr(
     not(all(has_sample_data, has_models, has_ffmpeg)),
@@ -443,7 +464,30 @@ fn parallel_segments_cover_every_frame_exactly_once() {
     let src = v.to_str().unwrap();
     let webm = dir.path().join("sparse.webm");
     let mp4 = dir.path().join("opengop.mp4");
-    let t = "10";
+    let one_key = dir.path().join("onekey.mp4");
+    let t = "40";
+    let x264 = |out: &Path, g: &str, params: &str| {
+        run_ffmpeg(&[
+            "-i",
+            src,
+            "-t",
+            t,
+            "-c:v",
+            "libx264",
+            "-preset",
+            "ultrafast",
+            "-bf",
+            "3",
+            "-g",
+            g,
+            "-x264-params",
+            params,
+            "-an",
+            out.to_str().unwrap(),
+        ])
+    };
+    x264(&mp4, "250", "open-gop=1");
+    x264(&one_key, "100000", "scenecut=0");
     run_ffmpeg(&[
         "-i",
         src,
@@ -460,23 +504,15 @@ fn parallel_segments_cover_every_frame_exactly_once() {
         "-an",
         webm.to_str().unwrap(),
     ]);
-    run_ffmpeg(&[
-        "-i",
-        src,
-        "-t",
-        t,
-        "-c:v",
-        "libx264",
-        "-bf",
-        "3",
-        "-g",
-        "250",
-        "-x264-params",
-        "open-gop=1",
-        "-an",
-        mp4.to_str().unwrap(),
-    ]);
-    for f in [webm, mp4] {
+    // Where the seeks land, against ffprobe's keyframe flags: the open-GOP
+    // file's second keyframe is frame 250 (10.417 s at 24 fps); the
+    // one-keyframe file has only frame 0.
+    let mut dec = Decoder::open(&mp4).unwrap();
+    let k = dec.keyframe_before_s(40.0 / 3.0).unwrap().unwrap();
+    assert!((k - 250.0 / 24.0).abs() < 1e-3, "{k}");
+    let mut dec = Decoder::open(&one_key).unwrap();
+    assert_eq!(dec.keyframe_before_s(40.0 / 3.0).unwrap(), Some(0.0));
+    for f in [mp4, one_key, webm] {
         let one = ExtractOptions {
             threads: 1,
             ..opts(m.clone())
@@ -487,11 +523,19 @@ fn parallel_segments_cover_every_frame_exactly_once() {
         };
         let a = extract_one(&f, &one).unwrap();
         let b = extract_one(&f, &two).unwrap();
-        assert_eq!((a.segments, b.segments), (1, 2), "{}", f.display());
-        let ta: Vec<f64> = a.rows.iter().map(|r| r.time_s).collect();
-        let tb: Vec<f64> = b.rows.iter().map(|r| r.time_s).collect();
-        assert_eq!(ta.len(), 240, "{}", f.display());
-        assert_eq!(ta, tb, "{}", f.display());
+        assert_eq!((a.segments, b.segments), (3, 3), "{}", f.display());
+        let times: Vec<f64> = a.rows.iter().map(|r| r.time_s).collect();
+        let probed = ffprobe_frame_times(&f);
+        assert_eq!(times.len(), 960, "{}", f.display());
+        assert_eq!(times.len(), probed.len(), "{}", f.display());
+        for (x, y) in times.iter().zip(&probed) {
+            assert!((x - y).abs() < 1e-5, "{}: {x} vs {y}", f.display());
+        }
+        assert!(
+            a.rows == b.rows,
+            "{}: rows differ with 2 workers",
+            f.display()
+        );
     }
 }
 

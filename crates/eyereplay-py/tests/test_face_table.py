@@ -62,3 +62,18 @@ def test_vertical_budget_in_lid_to_lid_heights():
     w, h = 40.0, 10.0
     kept = [pair((0, 0), (w, 0), (20, 5 + s), (20, 5 + s + d), (0.5, 0.5 + s / h)) for s, d in zip(S, D)]
     assert_worked_by_hand(kept, [0.5 + s / h for s in S], "y")
+
+
+def test_smoothing_weighs_neighbours_by_a_gaussian_and_skips_gaps():
+    smooth = face_table().gauss_smooth
+    # A constant stays constant; a value alone within reach stays itself.
+    assert smooth([0, 1, 2], [3.0, 3.0, 3.0], 1.0) == pytest.approx([3.0] * 3)
+    assert smooth([0, 10], [1.0, 5.0], 1.0) == pytest.approx([1.0, 5.0])
+    # Frames 0, 1 and 3 (2 left out), sd 1 frame: frame 1 weighs frame 0
+    # and 1 by exp(-1/2) and 1, frame 3 by exp(-2) (two frames away).
+    a, b = math.exp(-0.5), math.exp(-2.0)
+    out = smooth([0, 1, 3], [0.0, 1.0, 4.0], 1.0)
+    assert out[1] == pytest.approx((a * 0.0 + 1.0 + b * 4.0) / (a + 1.0 + b))
+    # Frame 0: itself, frame 1 at exp(-1/2), frame 3 at exp(-9/2).
+    c = math.exp(-4.5)
+    assert out[0] == pytest.approx((a * 1.0 + c * 4.0) / (1.0 + a + c))

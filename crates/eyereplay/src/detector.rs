@@ -24,13 +24,15 @@ pub fn is_video(path: &Path) -> bool {
         .is_some_and(|e| VIDEO_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
 }
 
-/// The cache file of `video`'s extraction: by content and extractor
-/// version, as for the dataset's video sources.
+/// The cache file of `video`'s extraction: by content, tool version and
+/// the extractor's rows revision, as for the dataset's video sources.
 pub fn extraction_cache_path(video: &Path, cache: &Path) -> Result<PathBuf> {
     let sha = eyereplay_core::sha256_file(video)?;
-    Ok(cache
-        .join("extract")
-        .join(format!("{sha}-v{}.csv", eyereplay_core::TOOL_VERSION)))
+    Ok(cache.join("extract").join(format!(
+        "{sha}-v{}-r{}.csv",
+        eyereplay_core::TOOL_VERSION,
+        eyereplay_extract::ROWS_REVISION
+    )))
 }
 
 /// Extracts every video not yet in the cache (all at once, so the

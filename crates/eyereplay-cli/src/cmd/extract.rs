@@ -35,7 +35,8 @@ pub struct Args {
     /// Models folder [default: $EYEREPLAY_MODELS or .cache/models].
     #[arg(long)]
     pub models: Option<PathBuf>,
-    /// Worker threads (0 = all cores).
+    /// Worker threads (0 = all cores). The rows do not depend on it: a
+    /// video is cut into segments of about 15 s whatever the count.
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
     /// Write annotated PNG frames (landmarks drawn) to this folder.
