@@ -61,6 +61,8 @@ def main():
     ap.add_argument("--smooth-s", type=float, metavar="S",
                     help="also r with source and read-back smoothed by a Gaussian of S s")
     a = ap.parse_args()
+    if a.smooth_s is not None and not a.smooth_s > 0:
+        ap.error(f"--smooth-s must be a positive number of seconds, not {a.smooth_s}")
     d = a.dataset
     labels = list(csv.DictReader(open(os.path.join(d, "labels.csv"))))
     out = os.path.join(d, ".readback" if a.mesh_every is None else f".readback_mesh{a.mesh_every}")
@@ -70,6 +72,7 @@ def main():
     budget = []
     budget_x = []
     smoothed = []
+    fps = float(json.load(open(os.path.join(d, "metadata.json")))["fps"])
     for lab in labels:
         f = lab.get("file") or lab.get("path") or list(lab.values())[0]
         stem = os.path.join(d, f[:-4])
@@ -105,7 +108,7 @@ def main():
         photo = idn.get("identity", {}).get("photo", "?")
         rows.append((f, cls, photo, face, len(pts), rx, ry, min(yaw), max(yaw)))
         if a.smooth_s:
-            sd_frames = a.smooth_s * float(json.load(open(os.path.join(d, "metadata.json")))["fps"])
+            sd_frames = a.smooth_s * fps
             smoothed.append((f, [pearson(gauss_smooth(frames, [p[i] for p in pts], sd_frames),
                                          gauss_smooth(frames, [p[i + 2] for p in pts], sd_frames))[0]
                                  for i in (0, 1)]))

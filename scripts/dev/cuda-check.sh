@@ -41,22 +41,6 @@ for n in $workers; do
   run "cpu_t$n" "$n" cpu env
   run "cuda_t$n" "$n" cuda "${gpu[@]}"
 done
-python3 - "$out" $workers <<'PY'
-import csv, sys
-d = sys.argv[1]
-def load(n):
-    with open(f"{d}/{n}.csv") as f:
-        return list(csv.DictReader(f))
-for base, other in [(f"cpu_t{n}", f"cuda_t{n}") for n in sys.argv[2:]]:
-    a, b = load(base), load(other)
-    assert len(a) == len(b), (len(a), len(b))
-    flips = sum(x["valid"] != y["valid"] for x, y in zip(a, b))
-    parts = []
-    for c in ["nx", "ny"]:
-        diff = sorted(abs(float(x[c]) - float(y[c])) for x, y in zip(a, b)
-                      if x["valid"] == "1" and y["valid"] == "1")
-        parts.append(f"{c} |d| median {diff[len(diff) // 2]:.1e}, "
-                     f"p99 {diff[int(len(diff) * 0.99)]:.1e}, max {diff[-1]:.1e}")
-    print(f"{other} vs {base}: valid flags differ in {flips} of {len(a)} frames; "
-          "open-eye frames: " + "; ".join(parts))
-PY
+for n in $workers; do
+  python3 "$root/scripts/dev/rows_diff.py" "$out/cpu_t$n.csv" "$out/cuda_t$n.csv"
+done

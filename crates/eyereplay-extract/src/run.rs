@@ -231,7 +231,7 @@ pub fn extract_many(
                 video: v,
                 segment: 0,
                 t0: None,
-                t1: opts.max_duration_s.map(|d| info.start_s + d),
+                t1: end_limit(&info, opts.max_duration_s),
                 seek_s: None,
             };
             match Models::load_on(&opts.models_dir, opts.device).and_then(|m| {
@@ -310,10 +310,15 @@ fn finish_video(
     })
 }
 
+/// Where `--max-seconds` stops a video (stream clock), if it does.
+fn end_limit(info: &VideoInfo, max_duration_s: Option<f64>) -> Option<f64> {
+    max_duration_s.map(|d| info.start_s + d)
+}
+
 /// Time ranges `[t0, t1)` for the segments of one video (None = open end):
 /// about [`SEGMENT_S`] each, the same for any number of workers.
 fn plan_segments(info: &VideoInfo, max_duration_s: Option<f64>) -> Vec<(Option<f64>, Option<f64>)> {
-    let end_limit = max_duration_s.map(|d| info.start_s + d);
+    let end_limit = end_limit(info, max_duration_s);
     let span = match (info.duration_s, max_duration_s) {
         (Some(d), Some(m)) => Some(d.min(m)),
         (Some(d), None) => Some(d),

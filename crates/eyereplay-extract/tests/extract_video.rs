@@ -52,6 +52,24 @@ fn run_ffmpeg(args: &[&str]) {
     );
 }
 
+/// Presentation times of every frame of `video` as ffprobe decodes them
+/// (`best_effort_timestamp_time`), one pass from the start.
+fn ffprobe_frame_times(video: &Path) -> Vec<f64> {
+    let out = Command::new("ffprobe")
+        .args(["-v", "error", "-select_streams", "v:0", "-show_entries"])
+        .args(["frame=best_effort_timestamp_time", "-of", "csv=p=0"])
+        .arg(video)
+        .output()
+        .expect("ffprobe runs");
+    assert!(out.status.success(), "ffprobe {}", video.display());
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| l.trim().trim_end_matches(',').parse().unwrap())
+        .collect()
+}
+
 fn opts(models: PathBuf) -> ExtractOptions {
     ExtractOptions {
         models_dir: models,
@@ -163,24 +181,7 @@ fn variable_frame_rate_keeps_each_frames_timestamp() {
         "-an",
         vfr.to_str().unwrap(),
     ]);
-    let probe = Command::new("ffprobe")
-        .args([
-            "-v",
-            "error",
-            "-select_streams",
-            "v:0",
-            "-show_entries",
-            "frame=best_effort_timestamp_time",
-            "-of",
-            "csv=p=0",
-        ])
-        .arg(&vfr)
-        .output()
-        .unwrap();
-    let want: Vec<f64> = String::from_utf8_lossy(&probe.stdout)
-        .lines()
-        .filter_map(|l| l.trim().trim_end_matches(',').parse().ok())
-        .collect();
+    let want = ffprobe_frame_times(&vfr);
     assert!(want.len() > 40);
     let x = extract_one(&vfr, &opts(m)).expect("vfr extracts");
     let got: Vec<f64> = x.rows.iter().map(|r| r.time_s).collect();
@@ -426,24 +427,6 @@ fn containers_and_codecs_give_the_same_positions() {
         let med = percentile(&diffs, 0.5);
         assert!(med < 0.02, "{name}: median |nx - lossless nx| = {med}");
     }
-}
-
-/// Presentation times of every frame of `video` as ffprobe decodes them
-/// (`best_effort_timestamp_time`), one pass from the start.
-fn ffprobe_frame_times(video: &Path) -> Vec<f64> {
-    let out = Command::new("ffprobe")
-        .args(["-v", "error", "-select_streams", "v:0", "-show_entries"])
-        .args(["frame=best_effort_timestamp_time", "-of", "csv=p=0"])
-        .arg(video)
-        .output()
-        .expect("ffprobe runs");
-    assert!(out.status.success(), "ffprobe {}", video.display());
-    String::from_utf8(out.stdout)
-        .unwrap()
-        .lines()
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| l.trim().trim_end_matches(',').parse().unwrap())
-        .collect()
 }
 
 /// Cutting a 40 s video into its three segments (seek, decode from the
