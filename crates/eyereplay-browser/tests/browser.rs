@@ -288,6 +288,7 @@ fn reruns_are_bit_identical() {
     let traj = random_walk(260, 11);
     let page: Vec<[f64; 2]> = traj.iter().map(|p| [p.x_px, p.y_px]).collect();
     let mut outputs = Vec::new();
+    let mut codes = Vec::new();
     for run in 0..2 {
         let mp4 = dir.path().join(format!("run{run}/s.mp4"));
         let csv = dir.path().join(format!("run{run}/s_truth.csv"));
@@ -300,17 +301,58 @@ fn reruns_are_bit_identical() {
             &csv,
         )
         .unwrap();
-        let codes = check_codes(&mp4, &page, 1000.0 / 30.0);
-        assert!(codes
+        let c = check_codes(&mp4, &page, 1000.0 / 30.0);
+        assert!(c
             .windows(2)
             .all(|w| (33..=34).contains(&(w[1].time_ms - w[0].time_ms))));
         outputs.push((std::fs::read(&mp4).unwrap(), std::fs::read(&csv).unwrap()));
+        codes.push(c);
     }
-    assert!(outputs[0].0 == outputs[1].0, "videos differ between runs");
-    assert!(
-        outputs[0].1 == outputs[1].1,
-        "truth CSVs differ between runs"
-    );
+    if outputs[0] != outputs[1] {
+        // Say what differs, and keep both runs for a look.
+        let first_codes = (0..codes[0].len()).find(|&i| codes[0][i] != codes[1][i]);
+        let hashes = |run: usize| {
+            let mut h = Vec::new();
+            for_each_frame(
+                &dir.path().join(format!("run{run}/s.mp4")),
+                1280,
+                720,
+                |_, rgb| {
+                    use std::hash::{Hash, Hasher};
+                    let mut s = std::collections::hash_map::DefaultHasher::new();
+                    rgb.hash(&mut s);
+                    h.push(s.finish());
+                },
+            );
+            h
+        };
+        let (h0, h1) = (hashes(0), hashes(1));
+        let frames: Vec<usize> = (0..h0.len().min(h1.len()))
+            .filter(|&i| h0[i] != h1[i])
+            .collect();
+        let kept = dir.keep();
+        panic!(
+            "reruns differ: video bytes {}, truth CSV {}; decoded frames differ in {} of {} \
+             (first {:?}); page codes first differ at {:?} ({:?} against {:?}); runs kept in {}",
+            if outputs[0].0 == outputs[1].0 {
+                "same"
+            } else {
+                "differ"
+            },
+            if outputs[0].1 == outputs[1].1 {
+                "same"
+            } else {
+                "differs"
+            },
+            frames.len(),
+            h0.len(),
+            frames.first(),
+            first_codes,
+            first_codes.map(|i| codes[0][i]),
+            first_codes.map(|i| codes[1][i]),
+            kept.display()
+        );
+    }
 }
 
 /// Processes whose command line mentions `needle` (the test's own profile
