@@ -54,7 +54,8 @@ pub struct RenderSettings {
     pub browser_eye_corners_px: Option<[[f64; 4]; 2]>,
     /// Full-face mode (`backend = "face"`): frontal photos whose faces
     /// become the identities (relative paths from the config's folder);
-    /// empty = the bundled photos. Each session draws one by its seed.
+    /// empty = the bundled photos. Each class's sessions take them in turn
+    /// (`SessionJob::balanced_choice` in eyereplay-render).
     pub identities: Vec<std::path::PathBuf>,
     /// Full-face mode: the face's forehead-to-chin height over the frame
     /// height, drawn per session from this range.
@@ -75,8 +76,8 @@ pub struct RenderSettings {
     /// Real-face replay (`backend = "replay"`): videos of people facing the
     /// camera whose eyes are given the sessions' movements (relative paths
     /// from the config's folder); empty = the bundled sample carriers.
-    /// Each session draws one by its seed. The video keeps the carrier's
-    /// size; `width`/`height` do not apply.
+    /// Each class's sessions take them in turn, as with `identities`. The
+    /// video keeps the carrier's size; `width`/`height` do not apply.
     pub carriers: Vec<std::path::PathBuf>,
 }
 

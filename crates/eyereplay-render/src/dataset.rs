@@ -32,6 +32,26 @@ pub struct SessionJob {
     pub paths: SessionPaths,
     /// Seed of this session's identity.
     pub seed: u64,
+    /// Position of this session among the sessions of its class, in
+    /// labels.csv order (0 for the first).
+    pub class_index: usize,
+}
+
+impl SessionJob {
+    /// Which of `n` shared choices (the full-face mode's photos, the replay
+    /// mode's carrier videos) this session takes. Each class's sessions
+    /// take them in turn, from a start drawn by the dataset seed that is
+    /// the same for every class, so a face appears as often in one class
+    /// as in the other (to one session): a classifier trained on the
+    /// dataset cannot tell the classes by who is in the video. (Drawn by
+    /// each session's seed, the bundled default's 12 sessions used 5 of
+    /// its 6 photos, one of them only in reading and two only in
+    /// conversation.)
+    pub fn balanced_choice(&self, dataset_seed: u64, n: usize) -> usize {
+        assert!(n > 0, "balanced_choice among no choices");
+        let start = (mix64(dataset_seed ^ 0xBA1A_4CED) % n as u64) as usize;
+        (start + self.class_index) % n
+    }
 }
 
 impl DatasetInfo {
@@ -73,11 +93,18 @@ pub fn session_seed(dataset_seed: u64, file: &str) -> u64 {
 /// Lists the sessions of `labels.csv`, in its order.
 pub fn list_sessions(dir: &Path, dataset_seed: u64) -> Result<Vec<SessionJob>, RenderError> {
     let labels = read_labels(dir)?;
+    let mut per_class = std::collections::BTreeMap::new();
     Ok(session_paths_of(dir, &labels)
         .into_iter()
-        .map(|paths| SessionJob {
-            seed: session_seed(dataset_seed, &paths.file),
-            paths,
+        .zip(&labels)
+        .map(|(paths, label)| {
+            let k = per_class.entry(label.class).or_insert(0);
+            *k += 1;
+            SessionJob {
+                seed: session_seed(dataset_seed, &paths.file),
+                class_index: *k - 1,
+                paths,
+            }
         })
         .collect())
 }

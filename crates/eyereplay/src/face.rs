@@ -186,7 +186,7 @@ pub(crate) fn render_sessions_face(
         };
         let blinks = eyereplay_render::read_blink_column(&files.csv)?;
         let seed = job.seed;
-        let photo = &identities[(seed % identities.len() as u64) as usize];
+        let photo = &identities[job.balanced_choice(meta.seed, identities.len())];
         let look = face.webcam.sample(seed ^ 0x00ca_3e4a);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x4ead);
         let coordination = CoordinationParams::sample(&mut rng);

@@ -195,7 +195,7 @@ pub(crate) fn render_sessions_replay(
             continue;
         };
         let seed = job.seed;
-        let k = (seed % carriers.len() as u64) as usize;
+        let k = job.balanced_choice(meta.seed, carriers.len());
         let carrier = &carriers[k];
         let targets = targets(&mapping, &traj);
         let start = eyereplay_replay::start_frame(&carrier.times_s, traj.len(), meta.fps, seed);
