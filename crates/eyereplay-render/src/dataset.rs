@@ -41,9 +41,10 @@ impl SessionJob {
     /// Which of `n` shared choices (the full-face mode's photos, the replay
     /// mode's carrier videos) this session takes. Each class's sessions
     /// take them in turn, from a start drawn by the dataset seed that is
-    /// the same for every class, so a face appears as often in one class
-    /// as in the other (to one session): a classifier trained on the
-    /// dataset cannot tell the classes by who is in the video. (Drawn by
+    /// the same for every class: within a class the choices' counts differ
+    /// by at most one, and two classes of the same size use each choice
+    /// equally often, so a classifier trained on the dataset cannot tell
+    /// the classes by who is in the video. (Drawn by
     /// each session's seed, the bundled default's 12 sessions used 5 of
     /// its 6 photos, one of them only in reading and two only in
     /// conversation.)
