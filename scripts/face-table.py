@@ -2,7 +2,8 @@
 """Visual fidelity of every session of a full-face dataset, one row each.
 
     python3 scripts/face-table.py DATASET_DIR [--eyereplay PATH] [--horizontal]
-                                  [--vertical] [--mesh-every N]
+                                  [--vertical] [--mesh-every N] [--smooth-s S]
+                                  [--mediapipe]
 
 For each rendered session: `eyereplay extract` (the unmodified path: face
 detection, 468 landmarks, iris) reads the video back (kept in
@@ -21,7 +22,11 @@ eyes), the extractor's own error on the iris centre's height (std of the
 extracted minus the drawn iris centre, px, mean of both eyes), and the
 vertical r again with the drawn iris centre put in place of the extracted
 one (lids and corners still the extractor's): what r would be if the iris
-network found the iris centre exactly. --horizontal gives the same table
+network found the iris centre exactly; then the gain (slope of the
+read-back on the source) and the gain with the drawn head pose held (the
+source's coefficient with the six head-pose columns of _head.csv as
+further regressors): where the two differ, the read-back moves with the
+head in a way the renderer's pose correction did not cancel. --horizontal gives the same table
 for x: the movement is the source's nx std times the extracted
 corner-to-corner width, the error is taken along the corner-to-corner axis.
 
@@ -30,6 +35,11 @@ the source and the read-back both smoothed by a Gaussian of S seconds (sd)
 over the compared frames: whether a user's smoothing of the extracted
 trajectory would remove the read-back's error (frame-to-frame jitter) or
 not (an error that drifts over seconds).
+With --mediapipe, MediaPipe's own Python face mesh (refine_landmarks=True,
+scripts/dev/mediapipe_ref.sh, which sets up its venv on first use) reads
+the videos instead (kept in DATASET_DIR/.readback_mediapipe/): how the
+peer tool reads the same frames. The sessions were drawn through our
+extractor's response, so its gains need not be 1; r does not depend on them.
 Exit status 0; it measures, it does not judge.
 """
 import argparse, csv, json, math, os, subprocess, sys
@@ -58,14 +68,22 @@ def main():
     ap.add_argument("--mesh-every", type=int, metavar="N",
                     help="read back with `eyereplay extract --mesh-every N` (kept in "
                          "DATASET_DIR/.readback_meshN/) instead of the extractor's default")
+    ap.add_argument("--mediapipe", action="store_true",
+                    help="read back with MediaPipe's own Python face mesh "
+                         "(refine_landmarks=True, scripts/dev/mediapipe_ref.sh; kept in "
+                         "DATASET_DIR/.readback_mediapipe/) instead of `eyereplay extract`")
     ap.add_argument("--smooth-s", type=float, metavar="S",
                     help="also r with source and read-back smoothed by a Gaussian of S s")
     a = ap.parse_args()
+    if a.mediapipe and (a.mesh_every is not None or a.vertical or a.horizontal):
+        ap.error("--mediapipe reads no iris or corner pixels: it cannot take "
+                 "--mesh-every, --vertical or --horizontal")
     if a.smooth_s is not None and not a.smooth_s > 0:
         ap.error(f"--smooth-s must be a positive number of seconds, not {a.smooth_s}")
     d = a.dataset
     labels = list(csv.DictReader(open(os.path.join(d, "labels.csv"))))
-    out = os.path.join(d, ".readback" if a.mesh_every is None else f".readback_mesh{a.mesh_every}")
+    out = os.path.join(d, ".readback_mediapipe" if a.mediapipe
+                       else ".readback" if a.mesh_every is None else f".readback_mesh{a.mesh_every}")
     extra = [] if a.mesh_every is None else ["--mesh-every", str(a.mesh_every)]
     os.makedirs(out, exist_ok=True)
     rows = []
@@ -81,9 +99,19 @@ def main():
             continue
         x = os.path.join(out, f.replace("/", "__"))
         if not os.path.exists(x):
-            subprocess.run([a.eyereplay, "extract", mp4, "--out", x] + extra, check=True,
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            # Written whole, then renamed: an interrupted run leaves no
+            # half file that a later run would take as done.
+            # (`eyereplay extract` takes an --out without .csv for a folder.)
+            tmp = x[:-len(".csv")] + ".part.csv"
+            if a.mediapipe:
+                cmd = [os.path.join(here, "dev", "mediapipe_ref.sh"), mp4, tmp]
+            else:
+                cmd = [a.eyereplay, "extract", mp4, "--out", tmp] + extra
+            subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            os.replace(tmp, x)
         ex = list(csv.DictReader(open(x)))
+        if a.mediapipe:
+            ex = [mediapipe_row(e) for e in ex]
         tr = list(csv.DictReader(open(truth)))
         idn = json.load(open(ident))
         mp = idn["mapping"]
@@ -103,7 +131,11 @@ def main():
         face = sum(1 for e in ex if e["face"] == "1") / max(1, len(ex))
         rx = pearson([p[0] for p in pts], [p[2] for p in pts])
         ry = pearson([p[1] for p in pts], [p[3] for p in pts])
-        yaw = [float(h["head_yaw_deg"]) for h in csv.DictReader(open(head))] if os.path.exists(head) else [0.0]
+        head_rows = list(csv.DictReader(open(head))) if os.path.exists(head) else []
+        yaw = [float(h["head_yaw_deg"]) for h in head_rows] or [0.0]
+        # The drawn head pose at each compared frame (for the gain with the
+        # head held, below).
+        poses = [[float(head_rows[k][c]) for c in HEAD_COLUMNS] for k in frames] if head_rows else None
         cls = f.split("/")[0]
         photo = idn.get("identity", {}).get("photo", "?")
         rows.append((f, cls, photo, face, len(pts), rx, ry, min(yaw), max(yaw)))
@@ -113,9 +145,11 @@ def main():
                                          gauss_smooth(frames, [p[i + 2] for p in pts], sd_frames))[0]
                                  for i in (0, 1)]))
         if a.vertical:
-            budget.append((f, error_budget(kept, [p[1] for p in pts], "y")))
+            budget.append((f, error_budget(kept, [p[1] for p in pts], "y")
+                           + (gain_with_head([p[1] for p in pts], [p[3] for p in pts], poses),)))
         if a.horizontal:
-            budget_x.append((f, error_budget(kept, [p[0] for p in pts], "x")))
+            budget_x.append((f, error_budget(kept, [p[0] for p in pts], "x")
+                             + (gain_with_head([p[0] for p in pts], [p[2] for p in pts], poses),)))
     print(f"{'session':<34} {'photo':<20} {'face':>6} {'n':>5} {'x r':>6} {'x ratio':>7} {'x gain':>6} {'y r':>6} {'y ratio':>7} {'y gain':>6} {'yaw deg':>12}")
     for f, cls, photo, face, n, rx, ry, y0, y1 in rows:
         print(f"{f:<34} {photo:<20} {100*face:5.1f}% {n:5d} {rx[0]:6.3f} {rx[1]:7.2f} {rx[2]:6.2f} {ry[0]:6.3f} {ry[1]:7.2f} {ry[2]:6.2f} {y0:5.1f}..{y1:4.1f}")
@@ -127,19 +161,59 @@ def main():
               f"y r {rng(6,0)[0]:.3f}-{rng(6,0)[1]:.3f}, y ratio {rng(6,1)[0]:.2f}-{rng(6,1)[1]:.2f}")
     if budget:
         print()
-        print(f"{'session':<34} {'y r':>6} {'signal px':>9} {'iris err px':>11} {'y r, drawn iris':>15}")
-        for (f, (sig, err, r_alt)), row in zip(budget, rows):
-            print(f"{f:<34} {row[6][0]:6.3f} {sig:9.2f} {err:11.2f} {r_alt:15.3f}")
+        print(f"{'session':<34} {'y r':>6} {'signal px':>9} {'iris err px':>11} {'y r, drawn iris':>15} {'y gain':>6} {'head held':>9}")
+        for (f, (sig, err, r_alt, g_head)), row in zip(budget, rows):
+            print(f"{f:<34} {row[6][0]:6.3f} {sig:9.2f} {err:11.2f} {r_alt:15.3f} {row[6][2]:6.2f} {g_head:9.2f}")
     if budget_x:
         print()
-        print(f"{'session':<34} {'x r':>6} {'signal px':>9} {'iris err px':>11} {'x r, drawn iris':>15}")
-        for (f, (sig, err, r_alt)), row in zip(budget_x, rows):
-            print(f"{f:<34} {row[5][0]:6.3f} {sig:9.2f} {err:11.2f} {r_alt:15.3f}")
+        print(f"{'session':<34} {'x r':>6} {'signal px':>9} {'iris err px':>11} {'x r, drawn iris':>15} {'x gain':>6} {'head held':>9}")
+        for (f, (sig, err, r_alt, g_head)), row in zip(budget_x, rows):
+            print(f"{f:<34} {row[5][0]:6.3f} {sig:9.2f} {err:11.2f} {r_alt:15.3f} {row[5][2]:6.2f} {g_head:9.2f}")
     if smoothed:
         print()
         print(f"{'session':<34} {'x r':>6} {'smoothed':>8} {'y r':>6} {'smoothed':>8}   (Gaussian sd {a.smooth_s} s)")
         for (f, (sx, sy)), row in zip(smoothed, rows):
             print(f"{f:<34} {row[5][0]:6.3f} {sx:8.3f} {row[6][0]:6.3f} {sy:8.3f}")
+
+
+def mediapipe_row(e):
+    """A row of mediapipe_ref.py's CSV in `eyereplay extract`'s terms: the
+    face found, valid when found, nx and ny the mean of both eyes."""
+    found = e["detected"] == "1"
+    mean = lambda k: str((float(e[k + "_l"]) + float(e[k + "_r"])) / 2) if found else ""
+    return {"face": e["detected"], "valid": e["detected"], "nx": mean("nx"), "ny": mean("ny")}
+
+
+HEAD_COLUMNS = ("head_yaw_deg", "head_pitch_deg", "head_roll_deg", "head_x_cm", "head_y_cm", "head_z_cm")
+
+
+def gain_with_head(target, read, poses):
+    """The read-back's gain on the source with the drawn head pose held:
+    the source's coefficient when `read` is regressed on the source and
+    the six head-pose columns together (least squares, with an intercept).
+    Where the head's pose follows the eye (reading's pitch follows the
+    eye's height), a reading that moves with the head shows up in the plain
+    gain; here it does not. NaN without a head file or with a singular fit."""
+    if not poses or len(target) < 10:
+        return float("nan")
+    rows = [[t] + p + [1.0] for t, p in zip(target, poses)]
+    k = len(rows[0])
+    # Normal equations, columns scaled to unit sd so the solve is well
+    # conditioned; then Gaussian elimination with partial pivoting.
+    sd = [std([r[j] for r in rows]) or 1.0 for j in range(k - 1)] + [1.0]
+    rows = [[v / sd[j] for j, v in enumerate(r)] for r in rows]
+    a = [[sum(r[i] * r[j] for r in rows) for j in range(k)] + [sum(r[i] * y for r, y in zip(rows, read))]
+         for i in range(k)]
+    for c in range(k):
+        piv = max(range(c, k), key=lambda i: abs(a[i][c]))
+        if abs(a[piv][c]) < 1e-12:
+            return float("nan")
+        a[c], a[piv] = a[piv], a[c]
+        for i in range(k):
+            if i != c:
+                f = a[i][c] / a[c][c]
+                a[i] = [x - f * y for x, y in zip(a[i], a[c])]
+    return a[0][k] / a[0][0] / sd[0]
 
 
 def gauss_smooth(frames, values, sd_frames):

@@ -65,9 +65,7 @@ pub use photo::{
     fit_shape, read_image, PhotoEye, PhotoFitter, PhotoIdentity, MIN_FACE_HEIGHT_PX, PHOTO_VFOV_DEG,
 };
 pub use pose::{solve_pose, weighted_procrustes, Camera, HeadPose, Similarity};
-pub use probe::{
-    match_extractor, measure_pose_slopes, measure_response, read_frame, ExtractorMatch,
-};
+pub use probe::{match_extractor, read_frame, ExtractorMatch};
 pub use raster::{DrawStats, Rasterizer, RgbImage, TexturedMesh};
 pub use scene::{EyeImage, FaceScene, FaceState, Framing};
 pub use session::{

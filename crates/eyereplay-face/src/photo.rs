@@ -16,7 +16,7 @@ use crate::mesh::{lm, CanonicalMesh, LEFT_EYE_CONTOUR, MESH_VERTICES, RIGHT_EYE_
 use crate::pose::{Camera, HeadPose};
 use crate::raster::{RgbImage, TexturedMesh};
 use eyereplay_extract::{
-    Decoder, ExtractError, Face, ImageView, Models, Planes, Rotation, Tracker,
+    Decoder, ExtractError, Face, ImageView, Models, Planes, Rotation, Tracker, DEFAULT_MESH_EVERY,
 };
 use nalgebra::Vector3;
 use std::ops::ControlFlow;
@@ -94,7 +94,10 @@ pub struct PhotoFitter {
 impl PhotoFitter {
     pub fn new(models_dir: &Path, mesh: CanonicalMesh) -> Result<PhotoFitter> {
         Ok(PhotoFitter {
-            tracker: Tracker::new(Models::load(models_dir)?, 1),
+            // The extractor's default: `landmarks` forces the mesh on every
+            // call anyway, and `track` then reads a clip as `eyereplay
+            // extract` reads a video.
+            tracker: Tracker::new(Models::load(models_dir)?, DEFAULT_MESH_EVERY),
             mesh,
         })
     }
@@ -122,6 +125,28 @@ impl PhotoFitter {
             return Ok(None);
         }
         Ok(self.tracker.process_with_mesh(&view)?)
+    }
+
+    /// The extractor's unmodified video path on the next frame of a clip
+    /// (`first`: the clip's first frame, which starts a new track): the
+    /// face tracked from the last frame, the mesh on every
+    /// [`DEFAULT_MESH_EVERY`]-th frame, the same tracker calls `eyereplay
+    /// extract` makes on a video's frames (here on RGB frames rather than
+    /// decoded YUV ones); `None` when no face is found.
+    pub fn track(&mut self, image: &RgbImage, first: bool) -> Result<Option<Face>> {
+        let view = ImageView {
+            planes: Planes::Rgb24 {
+                data: &image.data,
+                stride: image.width * 3,
+            },
+            raw_w: image.width,
+            raw_h: image.height,
+            rotation: Rotation::None,
+        };
+        if first {
+            self.tracker.reset();
+        }
+        Ok(self.tracker.process(&view)?)
     }
 
     /// Reads a photo (any format ffmpeg reads) and fits its identity.

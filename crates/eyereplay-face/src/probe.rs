@@ -5,14 +5,25 @@
 //! face a little elsewhere than the mesh's lid contour that the renderer
 //! aims at (wider corners, lids that follow the gaze differently), so it
 //! reads a smaller excursion than drawn: 0.45-0.7 of the horizontal one on
-//! the bundled identities before this correction. As in the close-up mode,
-//! probe frames of the session's identity, framing and webcam look, at the
-//! rest pose over the range the session's targets cover, are read with the
-//! extractor's unmodified per-frame path (detection, 468 landmarks, iris),
-//! and an affine [`ResponseMap`] `measured = A drawn + b` is fitted; the
-//! session is then drawn through its inverse (gains corrected about the
-//! session's centre). Two passes: the grid, then the grid as corrected by
-//! the first fit, both kept in the final fit.
+//! the bundled identities before this correction; and its reading moves
+//! when the head turns with the eye still in the head (about -0.003 nx per
+//! degree of yaw, as much at 12 deg as a conversation's whole horizontal
+//! spread). As in the close-up mode, probe frames of the session's
+//! identity, framing and webcam look are read by the extractor and an
+//! affine [`ResponseMap`] `measured = A drawn + b` is fitted, here together
+//! with the reading's slopes per degree of head yaw and pitch; the session
+//! is drawn through the inverse of both.
+//!
+//! The probe is a clip read as `eyereplay extract` reads a video: the face
+//! tracked from frame to frame, the mesh on every second frame, the eye
+//! crops in between moved with the eyes; the head turning all the while,
+//! uncorrelated with the probed eye positions. An earlier probe read still
+//! frames, each afresh (detection, landmarks, iris), at the rest pose and
+//! at +-8 deg yaw and +-6 pitch, and measured the map and the slopes
+//! apart. The video's read-back saw other slopes than the still frames
+//! gave, and where the head's pitch follows the eye's (reading: r 0.75-0.94
+//! between them in the bundled default) the misread slope showed as a
+//! vertical gain of 0.64-1.44 instead of 1.
 
 use crate::error::Result;
 use crate::photo::PhotoFitter;
@@ -52,134 +63,145 @@ fn grid(targets: &[NormPos], min_span: f64) -> (Vec<NormPos>, NormPos) {
 /// hundredths, where the read-back's noise hides the slope).
 const RETRY_SPAN: f64 = 0.2;
 
-/// Measures the response map of `scene` with `look` over the session's
-/// `targets` (uncorrected), retrying once over a wider grid; `Ok(None)`
-/// when the probe frames could not be read well enough to fit one (the
-/// session is then drawn geometrically).
-pub fn measure_response(
-    scene: &FaceScene,
-    look: &WebcamLook,
-    fitter: &mut PhotoFitter,
-    targets: &[NormPos],
-) -> Result<Option<ResponseMap>> {
-    if let Some(m) = measure_over(scene, look, fitter, grid(targets, MIN_SPAN))? {
-        return Ok(Some(m));
-    }
-    measure_over(scene, look, fitter, grid(targets, RETRY_SPAN))
+/// Frames each probe position is held in the tracked clip.
+const HOLD_FRAMES: usize = 3;
+/// Passes over the grid: the first as targeted, each later one through the
+/// fit so far, all kept in the final fit. Four passes instead of two moved
+/// the bundled default's gains and r only as much as another probe path
+/// does (the largest gain errors stayed: vertical 1.53 instead of 1.56 on
+/// one reading session), so the clip stays at two (6 s of frames).
+const PASSES: usize = 2;
+/// Passes over the grid: the first as targeted, each later one through the
+/// fit so far. The read-back's error drifts with the eye's appearance and
+/// the head over seconds, so the fit's precision grows with the clip's
+/// length: with 2 passes (6 s) the bundled default's gains read back
+/// 0.64-1.56 vertically, with 4 (12 s) .
+/// The tracked clip's head turns (deg, each way), and the periods of its
+/// yaw and pitch sinusoids (frames): with the grid's order (`ORDER_STRIDE`)
+/// chosen so that head and eye positions are uncorrelated over each pass
+/// and both (|r| <= 0.03 for every pair on the 5 x 5 grid), and yaw and
+/// pitch with each other. At the fastest about 1 deg a frame of yaw and 1.3
+/// of pitch (25 and 32 deg/s).
+const CLIP_YAW_DEG: f64 = 8.0;
+const CLIP_PITCH_DEG: f64 = 6.0;
+const CLIP_YAW_PERIOD: f64 = 49.0;
+const CLIP_PITCH_PERIOD: f64 = 29.0;
+const CLIP_PITCH_PHASE_RAD: f64 = 0.25;
+/// The grid is drawn in the order `i * ORDER_STRIDE mod 25` (coprime with
+/// 25, so each point once), which jumps about the grid.
+const ORDER_STRIDE: usize = 13;
+
+/// The head pose (relative to rest: yaw, pitch) of frame `j` of a tracked
+/// probe clip.
+fn clip_head(j: usize) -> (f64, f64) {
+    let t = j as f64;
+    (
+        CLIP_YAW_DEG * (std::f64::consts::TAU * t / CLIP_YAW_PERIOD).sin(),
+        CLIP_PITCH_DEG
+            * (std::f64::consts::TAU * t / CLIP_PITCH_PERIOD + CLIP_PITCH_PHASE_RAD).sin(),
+    )
 }
 
-fn measure_over(
+/// One read frame of a tracked clip: drawn position, head (yaw, pitch
+/// relative to rest, deg), what the extractor read.
+type ClipRead = (NormPos, (f64, f64), NormPos);
+
+/// Draws `drawn` (in the order given, each held [`HOLD_FRAMES`]) as a clip
+/// whose head turns by [`clip_head`], films it with `look` (per-frame
+/// noise, motion blur along the head's motion), and reads it with the
+/// extractor's video path ([`PhotoFitter::track`]), continuing the track
+/// from frame `first_frame`.
+fn read_clip(
     scene: &FaceScene,
     look: &WebcamLook,
     fitter: &mut PhotoFitter,
-    (grid, centre): (Vec<NormPos>, NormPos),
-) -> Result<Option<ResponseMap>> {
+    drawn: &[NormPos],
+    first_frame: usize,
+    out: &mut Vec<ClipRead>,
+) -> Result<()> {
     let (w, h) = (scene.width(), scene.height());
     let mut raster = Rasterizer::new(w, h);
     let mut mesh = TexturedMesh::new(vec![], vec![], vec![]);
     let mut frame = RgbImage::filled(w, h, [0, 0, 0]);
     let mut webcam = Webcam::new(look, w, h);
-    let mut pairs: Vec<(NormPos, NormPos)> = vec![];
-    let mut read = |drawn: NormPos, pairs: &mut Vec<(NormPos, NormPos)>| -> Result<()> {
-        let head = scene.rest_pose;
-        let state = FaceState {
-            head,
-            eyes: scene.solve_eyes(&head, (drawn.nx, drawn.ny), 0.0),
-            closure: 0.0,
-            pupil_scale: 1.0,
-        };
-        scene.draw(&state, &mut raster, &mut mesh, &mut frame);
-        webcam.apply(&mut frame, 0, [0.0, 0.0]);
-        if let Some(n) = read_frame(fitter, &frame)? {
-            pairs.push((drawn, n));
-        }
-        Ok(())
+    let rest = scene.rest_pose;
+    let pose = |j: usize| {
+        let (yaw, pitch) = clip_head(j);
+        let mut head = rest;
+        head.yaw_deg += yaw;
+        head.pitch_deg += pitch;
+        head
     };
-    for &g in &grid {
-        read(g, &mut pairs)?;
-    }
-    let Some(first) = ResponseMap::fit(&pairs) else {
-        return Ok(None);
-    };
-    let first = first.about(centre);
-    for &g in &grid {
-        read(first.invert(g), &mut pairs)?;
-    }
-    Ok(ResponseMap::fit(&pairs).map(|m| m.about(centre)))
-}
-
-/// Head turn used to measure [`measure_pose_slopes`] (deg each way).
-const SLOPE_YAW_DEG: f64 = 8.0;
-const SLOPE_PITCH_DEG: f64 = 6.0;
-
-/// How the extractor's reading moves when the head turns with the eye
-/// still in the head: `d(nx, ny) / d(yaw, pitch)` per degree (rows nx,
-/// ny; columns yaw, pitch), measured at five drawn positions around
-/// `centre` with the head turned each way. The iris model reads a turned
-/// head's eye a little off (about -0.003 nx per degree of yaw on the
-/// bundled identities: 0.035 at 12 deg, as much as a conversation's
-/// whole horizontal spread), so the renderer subtracts this per frame.
-/// `Ok(None)` when a probe frame has no face.
-pub fn measure_pose_slopes(
-    scene: &FaceScene,
-    look: &WebcamLook,
-    fitter: &mut PhotoFitter,
-    centre: NormPos,
-) -> Result<Option<[[f64; 2]; 2]>> {
-    let (w, h) = (scene.width(), scene.height());
-    let mut raster = Rasterizer::new(w, h);
-    let mut mesh = TexturedMesh::new(vec![], vec![], vec![]);
-    let mut frame = RgbImage::filled(w, h, [0, 0, 0]);
-    let mut webcam = Webcam::new(look, w, h);
-    let pts = [
-        (0.0, 0.0),
-        (0.03, 0.0),
-        (-0.03, 0.0),
-        (0.0, 0.03),
-        (0.0, -0.03),
-    ];
-    let mut mean_at = |d_yaw: f64, d_pitch: f64| -> Result<Option<(f64, f64)>> {
-        let mut head = scene.rest_pose;
-        head.yaw_deg += d_yaw;
-        head.pitch_deg += d_pitch;
-        let (mut sx, mut sy) = (0.0, 0.0);
-        for (dx, dy) in pts {
-            let target = (centre.nx + dx, centre.ny + dy);
+    for (k, &d) in drawn.iter().enumerate() {
+        for hold in 0..HOLD_FRAMES {
+            let j = first_frame + k * HOLD_FRAMES + hold;
+            let head = pose(j);
             let state = FaceState {
                 head,
-                eyes: scene.solve_eyes(&head, target, 0.0),
+                eyes: scene.solve_eyes(&head, (d.nx, d.ny), 0.0),
                 closure: 0.0,
                 pupil_scale: 1.0,
             };
             scene.draw(&state, &mut raster, &mut mesh, &mut frame);
-            webcam.apply(&mut frame, 0, [0.0, 0.0]);
-            let Some(n) = read_frame(fitter, &frame)? else {
-                return Ok(None);
+            let motion = match j.checked_sub(1) {
+                Some(prev) => {
+                    let (a, b) = (scene.nose_px(&head), scene.nose_px(&pose(prev)));
+                    [(a[0] - b[0]) as f32, (a[1] - b[1]) as f32]
+                }
+                None => [0.0, 0.0],
             };
-            sx += n.nx / pts.len() as f64;
-            sy += n.ny / pts.len() as f64;
+            webcam.apply(&mut frame, j as u64, motion);
+            let Some(face) = fitter.track(&frame, j == 0)? else {
+                continue;
+            };
+            let [a, b] = face.eyes.map(|e| e.measure());
+            let n = NormPos {
+                nx: 0.5 * (a.nx + b.nx),
+                ny: 0.5 * (a.ny + b.ny),
+            };
+            if n.nx.is_finite() && n.ny.is_finite() {
+                out.push((d, clip_head(j), n));
+            }
         }
-        Ok(Some((sx, sy)))
+    }
+    Ok(())
+}
+
+/// Least-squares fit of `measured = A drawn + S head + b` over a tracked
+/// clip's reads: the response map and the pose slopes (per degree of yaw
+/// and pitch) at once. `None` with too few reads, a singular design, or a
+/// response [`ResponseMap::fit`] would refuse.
+fn fit_joint(reads: &[ClipRead]) -> Option<(ResponseMap, [[f64; 2]; 2])> {
+    use nalgebra::{SMatrix, SVector};
+    if reads.len() < 10 {
+        return None;
+    }
+    let mut g = SMatrix::<f64, 5, 5>::zeros();
+    let mut r = [SVector::<f64, 5>::zeros(); 2];
+    for &(d, (yaw, pitch), m) in reads {
+        let v = SVector::<f64, 5>::from([d.nx, d.ny, yaw, pitch, 1.0]);
+        g += v * v.transpose();
+        r[0] += v * m.nx;
+        r[1] += v * m.ny;
+    }
+    let lu = g.lu();
+    let (x, y) = (lu.solve(&r[0])?, lu.solve(&r[1])?);
+    if !x.iter().chain(y.iter()).all(|v| v.is_finite()) {
+        return None;
+    }
+    // Through ResponseMap::fit's own plausibility check: three exact
+    // pairs of the fitted map reproduce it.
+    let map = ResponseMap {
+        a: [[x[0], x[1]], [y[0], y[1]]],
+        b: [x[4], y[4]],
     };
-    let (Some(yl), Some(yr), Some(pd), Some(pu)) = (
-        mean_at(-SLOPE_YAW_DEG, 0.0)?,
-        mean_at(SLOPE_YAW_DEG, 0.0)?,
-        mean_at(0.0, -SLOPE_PITCH_DEG)?,
-        mean_at(0.0, SLOPE_PITCH_DEG)?,
-    ) else {
-        return Ok(None);
-    };
+    let pts = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)].map(|(u, v)| {
+        let t = NormPos { nx: u, ny: v };
+        (t, map.apply(t))
+    });
+    let map = ResponseMap::fit(&pts)?;
     let q = |v: f64| (v * 1e5).round() / 1e5;
-    Ok(Some([
-        [
-            q((yr.0 - yl.0) / (2.0 * SLOPE_YAW_DEG)),
-            q((pu.0 - pd.0) / (2.0 * SLOPE_PITCH_DEG)),
-        ],
-        [
-            q((yr.1 - yl.1) / (2.0 * SLOPE_YAW_DEG)),
-            q((pu.1 - pd.1) / (2.0 * SLOPE_PITCH_DEG)),
-        ],
-    ]))
+    Some((map, [[q(x[2]), q(x[3])], [q(y[2]), q(y[3])]]))
 }
 
 /// What `match_extractor` measures for one session: the response map
@@ -187,26 +209,152 @@ pub fn measure_pose_slopes(
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ExtractorMatch {
     pub response: Option<ResponseMap>,
+    /// d(nx, ny) / d(head yaw, pitch) per degree (rows nx, ny; columns yaw,
+    /// pitch), in measured units; subtracted per frame.
     pub pose_slopes: Option<[[f64; 2]; 2]>,
 }
 
-/// Both probes of a session whose targets (before any correction) are
-/// `targets`: [`measure_response`], then [`measure_pose_slopes`] about the
-/// centre of the targets as corrected by that response.
+/// How the extractor reads this session's identity, framing and look, over
+/// the range the session's `targets` (uncorrected) cover: a probe clip of
+/// the 5 x 5 grid over that range, each point held [`HOLD_FRAMES`] frames
+/// while the head turns (+-8 deg yaw, +-6 pitch, uncorrelated with the
+/// grid), filmed with the session's webcam look and read by the
+/// extractor's video path ([`PhotoFitter::track`]); `measured = A drawn +
+/// S head + b` is fitted to it, the response map (A, b; gains corrected
+/// about the session's centre) and the pose slopes S at once. A second
+/// pass draws the grid through the first fit; both are kept in the final
+/// fit. When the session's own range gives no usable fit (a reading
+/// session's vertical range can be a few hundredths, where the read-back's
+/// noise hides the slope), a grid [`RETRY_SPAN`] wide is tried; when that
+/// fails too, the session is drawn geometrically (both `None`).
 pub fn match_extractor(
     scene: &FaceScene,
     look: &WebcamLook,
     fitter: &mut PhotoFitter,
     targets: &[NormPos],
 ) -> Result<ExtractorMatch> {
-    let response = measure_response(scene, look, fitter, targets)?;
-    let drawn: Vec<NormPos> = match response {
-        Some(m) => targets.iter().map(|&t| m.invert(t)).collect(),
-        None => targets.to_vec(),
-    };
-    let (_, centre) = grid(&drawn, MIN_SPAN);
-    Ok(ExtractorMatch {
-        response,
-        pose_slopes: measure_pose_slopes(scene, look, fitter, centre)?,
-    })
+    for span in [MIN_SPAN, RETRY_SPAN] {
+        let (grid, centre) = grid(targets, span);
+        let order: Vec<NormPos> = (0..grid.len())
+            .map(|i| grid[(i * ORDER_STRIDE) % grid.len()])
+            .collect();
+        let mut reads = vec![];
+        read_clip(scene, look, fitter, &order, 0, &mut reads)?;
+        let Some((first, _)) = fit_joint(&reads) else {
+            continue;
+        };
+        let mut fit = first.about(centre);
+        for pass in 1..PASSES {
+            let corrected: Vec<NormPos> = order.iter().map(|&g| fit.invert(g)).collect();
+            read_clip(
+                scene,
+                look,
+                fitter,
+                &corrected,
+                pass * order.len() * HOLD_FRAMES,
+                &mut reads,
+            )?;
+            match fit_joint(&reads) {
+                Some((m, _)) => fit = m.about(centre),
+                None => break,
+            }
+        }
+        if let Some((map, slopes)) = fit_joint(&reads) {
+            return Ok(ExtractorMatch {
+                response: Some(map.about(centre)),
+                pose_slopes: Some(slopes),
+            });
+        }
+    }
+    Ok(ExtractorMatch::default())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Reads of a clip whose extractor responds exactly `measured = A drawn
+    /// + S head + b` (A, S, b chosen by hand), over the clip's own head path
+    /// and the grid order `match_extractor_tracked` uses.
+    fn exact_reads(a: [[f64; 2]; 2], s: [[f64; 2]; 2], b: [f64; 2]) -> Vec<ClipRead> {
+        let targets: Vec<NormPos> = (0..50)
+            .map(|i| NormPos {
+                nx: 0.45 + 0.002 * i as f64,
+                ny: 0.5 - 0.001 * i as f64,
+            })
+            .collect();
+        let (grid, _) = grid(&targets, MIN_SPAN);
+        (0..grid.len() * HOLD_FRAMES)
+            .map(|j| {
+                let d = grid[(j / HOLD_FRAMES * ORDER_STRIDE) % grid.len()];
+                let h = clip_head(j);
+                let m = NormPos {
+                    nx: a[0][0] * d.nx + a[0][1] * d.ny + s[0][0] * h.0 + s[0][1] * h.1 + b[0],
+                    ny: a[1][0] * d.nx + a[1][1] * d.ny + s[1][0] * h.0 + s[1][1] * h.1 + b[1],
+                };
+                (d, h, m)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn joint_fit_recovers_the_response_and_the_pose_slopes() {
+        let (a, s, b) = (
+            [[0.62, -0.05], [0.19, 0.57]],
+            [[-0.0031, 0.0004], [0.0010, 0.0024]],
+            [0.21, 0.17],
+        );
+        let (map, slopes) = fit_joint(&exact_reads(a, s, b)).expect("a fit");
+        for i in 0..2 {
+            for j in 0..2 {
+                assert!((map.a[i][j] - a[i][j]).abs() < 1e-4, "{map:?}");
+                assert!((slopes[i][j] - s[i][j]).abs() < 1e-5, "{slopes:?}");
+            }
+            assert!((map.b[i] - b[i]).abs() < 1e-4, "{map:?}");
+        }
+    }
+
+    #[test]
+    fn joint_fit_refuses_what_the_still_fit_refuses() {
+        // A gain of 0.1 is outside ResponseMap::fit's 0.25-4.
+        let reads = exact_reads([[0.1, 0.0], [0.0, 0.8]], [[0.0; 2]; 2], [0.5, 0.5]);
+        assert!(fit_joint(&reads).is_none());
+        // No eye movement at all: the design is singular.
+        let still: Vec<ClipRead> = (0..60)
+            .map(|j| {
+                let p = NormPos { nx: 0.5, ny: 0.5 };
+                (p, clip_head(j), p)
+            })
+            .collect();
+        assert!(fit_joint(&still).is_none());
+    }
+
+    /// The clip's head is uncorrelated with the drawn eye, so the fit can
+    /// tell the eye's gain from the head's slope: over the first pass, |r|
+    /// of yaw and pitch against drawn nx and ny, and of yaw against pitch,
+    /// stays under 0.05.
+    #[test]
+    fn clip_head_is_uncorrelated_with_the_drawn_eye() {
+        let reads = exact_reads([[1.0, 0.0], [0.0, 1.0]], [[0.0; 2]; 2], [0.0, 0.0]);
+        let r = |a: &[f64], b: &[f64]| {
+            let n = a.len() as f64;
+            let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+            let cov: f64 = a.iter().zip(b).map(|(x, y)| (x - ma) * (y - mb)).sum();
+            let va: f64 = a.iter().map(|x| (x - ma).powi(2)).sum();
+            let vb: f64 = b.iter().map(|y| (y - mb).powi(2)).sum();
+            cov / (va * vb).sqrt()
+        };
+        let col = |f: &dyn Fn(&ClipRead) -> f64| reads.iter().map(f).collect::<Vec<f64>>();
+        let (nx, ny) = (col(&|c| c.0.nx), col(&|c| c.0.ny));
+        let (yaw, pitch) = (col(&|c| c.1 .0), col(&|c| c.1 .1));
+        for (u, v) in [
+            (&yaw, &nx),
+            (&yaw, &ny),
+            (&pitch, &nx),
+            (&pitch, &ny),
+            (&yaw, &pitch),
+        ] {
+            assert!(r(u, v).abs() < 0.05, "r {}", r(u, v));
+        }
+    }
 }

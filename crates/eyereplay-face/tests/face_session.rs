@@ -75,8 +75,9 @@ fn params_of(
 
 /// A reading-scale session: the face is found in every frame, the
 /// horizontal eye-in-head signal comes back with r >= 0.9 and a gain inside
-/// 0.8-1.2 (after the extractor-response probe), the head moves, and the
-/// same seed gives the same truth files byte for byte.
+/// 0.8-1.2 (drawn through `match_extractor`'s response map and pose
+/// slopes), the head moves, and the same seed gives the same truth files
+/// byte for byte.
 #[test]
 fn full_face_session_reads_back() {
     let Some((models, mut fitter, scene, look)) = scene_of("astronaut.png", 3) else {
@@ -86,15 +87,18 @@ fn full_face_session_reads_back() {
     let traj = reading_trajectory(150, canvas.width_px as f64, canvas.height_px as f64);
     let mut mapping = GazeMapping::new(canvas);
     let targets: Vec<NormPos> = traj.iter().map(|&c| mapping.target_norm(c)).collect();
-    mapping.extractor_response = measure_response(&scene, &look, &mut fitter, &targets).unwrap();
+    let matched = match_extractor(&scene, &look, &mut fitter, &targets).unwrap();
+    mapping.extractor_response = matched.response;
     let map = mapping.extractor_response.expect("a response map");
-    let params = params_of(
+    let mut params = params_of(
         mapping,
         look,
         Task::Reading,
         CoordinationParams::default(),
         3,
     );
+    params.pose_slopes = matched.pose_slopes;
+    assert!(params.pose_slopes.is_some(), "pose slopes");
     let dir = tempfile::tempdir().unwrap();
     let (mp4, truth, head) = (
         dir.path().join("s.mp4"),
@@ -116,12 +120,12 @@ fn full_face_session_reads_back() {
     assert!(ex.detection_rate() >= 0.99, "{}", ex.detection_rate());
     let rows = eyereplay_dataset::read_truth_csv(&truth).unwrap();
     let (mut got, mut want) = (vec![], vec![]);
-    for (r, t) in ex.rows.iter().zip(&rows) {
-        if let (Some(e), false) = (r.eyes, r.blink) {
+    for ((r, t), target) in ex.rows.iter().zip(&rows).zip(&targets) {
+        if let (Some(e), false) = (r.eyes, r.blink || t.blink) {
             got.push(0.5 * (e[0].nx + e[1].nx));
-            // The source's n is what the response map reads for the drawn n.
-            let d = t.mean_norm();
-            want.push(map.apply(NormPos { nx: d[0], ny: d[1] }).nx);
+            // The source's own n (the renderer drew its inverse through
+            // the response map and the pose slopes).
+            want.push(target.nx);
         }
     }
     let (r, gain) = pearson(&want, &got);
