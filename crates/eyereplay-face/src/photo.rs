@@ -91,6 +91,19 @@ pub struct PhotoFitter {
     mesh: CanonicalMesh,
 }
 
+/// The extractor's view of an RGB image.
+fn rgb_view(image: &RgbImage) -> ImageView<'_> {
+    ImageView {
+        planes: Planes::Rgb24 {
+            data: &image.data,
+            stride: image.width * 3,
+        },
+        raw_w: image.width,
+        raw_h: image.height,
+        rotation: Rotation::None,
+    }
+}
+
 impl PhotoFitter {
     pub fn new(models_dir: &Path, mesh: CanonicalMesh) -> Result<PhotoFitter> {
         Ok(PhotoFitter {
@@ -111,15 +124,7 @@ impl PhotoFitter {
     /// the first pass's landmarks, as every frame but the first of a video
     /// is processed; `None` when no face is found.
     pub fn landmarks(&mut self, image: &RgbImage) -> Result<Option<Face>> {
-        let view = ImageView {
-            planes: Planes::Rgb24 {
-                data: &image.data,
-                stride: image.width * 3,
-            },
-            raw_w: image.width,
-            raw_h: image.height,
-            rotation: Rotation::None,
-        };
+        let view = rgb_view(image);
         self.tracker.reset();
         if self.tracker.process_with_mesh(&view)?.is_none() {
             return Ok(None);
@@ -134,15 +139,7 @@ impl PhotoFitter {
     /// extract` makes on a video's frames (here on RGB frames rather than
     /// decoded YUV ones); `None` when no face is found.
     pub fn track(&mut self, image: &RgbImage, first: bool) -> Result<Option<Face>> {
-        let view = ImageView {
-            planes: Planes::Rgb24 {
-                data: &image.data,
-                stride: image.width * 3,
-            },
-            raw_w: image.width,
-            raw_h: image.height,
-            rotation: Rotation::None,
-        };
+        let view = rgb_view(image);
         if first {
             self.tracker.reset();
         }
