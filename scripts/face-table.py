@@ -81,6 +81,10 @@ def main():
     if a.smooth_s is not None and not a.smooth_s > 0:
         ap.error(f"--smooth-s must be a positive number of seconds, not {a.smooth_s}")
     d = a.dataset
+    for need in ("labels.csv", "metadata.json"):
+        if not os.path.isfile(os.path.join(d, need)):
+            sys.exit(f"face-table: {os.path.join(d, need)}: no such file (is {d} a dataset "
+                     "folder written by `eyereplay generate`?)")
     labels = list(csv.DictReader(open(os.path.join(d, "labels.csv"))))
     out = os.path.join(d, ".readback_mediapipe" if a.mediapipe
                        else ".readback" if a.mesh_every is None else f".readback_mesh{a.mesh_every}")
@@ -107,7 +111,12 @@ def main():
                 cmd = [os.path.join(here, "dev", "mediapipe_ref.sh"), mp4, tmp]
             else:
                 cmd = [a.eyereplay, "extract", mp4, "--out", tmp] + extra
-            subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            run = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+            if run.returncode != 0:
+                if os.path.exists(tmp):
+                    os.remove(tmp)
+                last = (run.stderr.strip().splitlines() or ["no message"])[-1]
+                sys.exit(f"face-table: reading back {mp4} failed (exit {run.returncode}): {last}")
             os.replace(tmp, x)
         ex = list(csv.DictReader(open(x)))
         if a.mediapipe:

@@ -71,9 +71,9 @@ pub struct FaceSessionParams {
     pub look: WebcamLook,
     pub encoder: EncoderSettings,
     pub seed: u64,
-    /// How the extractor's reading moves as the head turns (see
-    /// [`crate::match_extractor`]; measured units per degree of yaw and pitch); subtracted per frame. `None`: no
-    /// correction.
+    /// How the extractor's reading moves as the head turns, in measured
+    /// units per degree of yaw and pitch (see [`crate::match_extractor`]);
+    /// subtracted per frame. `None`: no correction.
     pub pose_slopes: Option<[[f64; 2]; 2]>,
     /// The head per frame from a source video (relative to its rest pose,
     /// [`crate::SourceHeadTrack`]): its rotation replaces the coordination
@@ -209,19 +209,18 @@ fn solve_frames(
                 }),
             };
             // The extractor reads a turned head's eye a little off: draw
-            // against that, in drawn units (through the response's gains).
+            // against that, in drawn units (through the response map).
             let mut target = targets[i];
             if let Some(sl) = p.pose_slopes {
                 // The slopes are in measured units: the reading moves by
                 // S (yaw, pitch); drawing A^-1 S (yaw, pitch) less cancels it.
                 let shift = [0, 1].map(|k| sl[k][0] * rel.yaw_deg + sl[k][1] * rel.pitch_deg);
-                let [[a, b], [c, d]] = p
+                let [dx, dy] = p
                     .mapping
                     .extractor_response
-                    .map_or([[1.0, 0.0], [0.0, 1.0]], |m| m.a);
-                let det = a * d - b * c;
-                target.0 -= (d * shift[0] - b * shift[1]) / det;
-                target.1 -= (-c * shift[0] + a * shift[1]) / det;
+                    .map_or(shift, |m| m.solve_linear(shift));
+                target.0 -= dx;
+                target.1 -= dy;
             }
             let eyes = scene.solve_eyes(&head, target, closure[i]);
             let pupil_scale = 1.0 + 0.08 * (std::f64::consts::TAU * 0.07 * i as f64 / p.fps).sin();

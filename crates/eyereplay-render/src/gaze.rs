@@ -153,13 +153,16 @@ impl ResponseMap {
 
     /// The position to draw so that the measurement reads `m`.
     pub fn invert(&self, m: NormPos) -> NormPos {
+        let [nx, ny] = self.solve_linear([m.nx - self.b[0], m.ny - self.b[1]]);
+        NormPos { nx, ny }
+    }
+
+    /// `A^-1 v`: how far to move the drawn position for the measurement to
+    /// move by `v` (the offset `b` plays no part in a difference).
+    pub fn solve_linear(&self, v: [f64; 2]) -> [f64; 2] {
         let [[a, b], [c, d]] = self.a;
         let det = a * d - b * c;
-        let (u, v) = (m.nx - self.b[0], m.ny - self.b[1]);
-        NormPos {
-            nx: (d * u - b * v) / det,
-            ny: (-c * u + a * v) / det,
-        }
+        [(d * v[0] - b * v[1]) / det, (-c * v[0] + a * v[1]) / det]
     }
 }
 
@@ -305,6 +308,13 @@ mod tests {
         let m = n(0.47, 0.52);
         let back = truth.apply(truth.invert(m));
         assert!((back.nx - m.nx).abs() < 1e-12 && (back.ny - m.ny).abs() < 1e-12);
+        // Moving the drawn position by solve_linear(v) moves the reading by v.
+        let v = [0.013, -0.008];
+        let [dx, dy] = truth.solve_linear(v);
+        let moved = truth.apply(n(m.nx + dx, m.ny + dy));
+        let base = truth.apply(m);
+        assert!((moved.nx - base.nx - v[0]).abs() < 1e-12);
+        assert!((moved.ny - base.ny - v[1]).abs() < 1e-12);
     }
 
     #[test]
