@@ -29,6 +29,7 @@ use crate::error::Result;
 use crate::photo::PhotoFitter;
 use crate::raster::{Rasterizer, RgbImage, TexturedMesh};
 use crate::scene::{FaceScene, FaceState};
+use crate::session::{HEAD_PITCH_LIMIT_DEG, HEAD_YAW_LIMIT_DEG};
 use crate::webcam::{Webcam, WebcamLook};
 use eyereplay_core::NormPos;
 use eyereplay_render::{probe_grid, ResponseMap};
@@ -93,14 +94,67 @@ fn clip_order(grid: &[NormPos]) -> Vec<NormPos> {
         .collect()
 }
 
+/// The head turns of a session that a probe clip is centred on (relative
+/// to the rest pose, deg): the clip's head turns [`CLIP_YAW_DEG`] /
+/// [`CLIP_PITCH_DEG`] each way about the middle of the session's planned
+/// range, kept within the mode's limits. The extractor's reading moves
+/// with the head by a slope that is not the same at every pose (a reading
+/// session looks down by 4-5 deg on average; a conversation session may
+/// turn 12 deg to look aside), so the probe measures it about where the
+/// session goes. (The plan is made before the response is known, from the
+/// session's targets drawn geometrically: it underestimates the drawn
+/// head's range, so the range sets the middle, not the amplitude.)
+/// `Default`: about the rest pose.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ProbeHeadRange {
+    pub yaw_deg: (f64, f64),
+    pub pitch_deg: (f64, f64),
+}
+
+impl ProbeHeadRange {
+    /// The range of a planned head path (yaw, pitch relative to rest, deg).
+    pub fn of_path(path: impl IntoIterator<Item = (f64, f64)>) -> Self {
+        let mut r: Option<ProbeHeadRange> = None;
+        for (yaw, pitch) in path {
+            let q = r.get_or_insert(ProbeHeadRange {
+                yaw_deg: (yaw, yaw),
+                pitch_deg: (pitch, pitch),
+            });
+            q.yaw_deg = (q.yaw_deg.0.min(yaw), q.yaw_deg.1.max(yaw));
+            q.pitch_deg = (q.pitch_deg.0.min(pitch), q.pitch_deg.1.max(pitch));
+        }
+        r.unwrap_or_default()
+    }
+
+    /// The pose the clip turns about: (yaw, pitch) relative to rest, deg,
+    /// to 4 decimals (as recorded).
+    pub fn centre_deg(&self) -> [f64; 2] {
+        let [(yaw, _), (pitch, _)] = self.sinusoids();
+        [yaw, pitch].map(|v| (v * 1e4).round() / 1e4)
+    }
+
+    /// (centre, amplitude) per axis (yaw, pitch) of the clip's sinusoids.
+    fn sinusoids(&self) -> [(f64, f64); 2] {
+        let axis = |(lo, hi): (f64, f64), amp: f64, limit: f64| {
+            let mid = 0.5 * (lo + hi);
+            let (lo, hi) = ((mid - amp).max(-limit), (mid + amp).min(limit));
+            (0.5 * (lo + hi), 0.5 * (hi - lo))
+        };
+        [
+            axis(self.yaw_deg, CLIP_YAW_DEG, HEAD_YAW_LIMIT_DEG),
+            axis(self.pitch_deg, CLIP_PITCH_DEG, HEAD_PITCH_LIMIT_DEG),
+        ]
+    }
+}
+
 /// The head pose (relative to rest: yaw, pitch) of frame `j` of a tracked
-/// probe clip.
-fn clip_head(j: usize) -> (f64, f64) {
+/// probe clip over `range`.
+fn clip_head(range: &ProbeHeadRange, j: usize) -> (f64, f64) {
     let t = j as f64;
+    let [(yc, ya), (pc, pa)] = range.sinusoids();
     (
-        CLIP_YAW_DEG * (std::f64::consts::TAU * t / CLIP_YAW_PERIOD).sin(),
-        CLIP_PITCH_DEG
-            * (std::f64::consts::TAU * t / CLIP_PITCH_PERIOD + CLIP_PITCH_PHASE_RAD).sin(),
+        yc + ya * (std::f64::consts::TAU * t / CLIP_YAW_PERIOD).sin(),
+        pc + pa * (std::f64::consts::TAU * t / CLIP_PITCH_PERIOD + CLIP_PITCH_PHASE_RAD).sin(),
     )
 }
 
@@ -116,6 +170,7 @@ type ClipRead = (NormPos, (f64, f64), NormPos);
 fn read_clip(
     scene: &FaceScene,
     look: &WebcamLook,
+    range: &ProbeHeadRange,
     fitter: &mut PhotoFitter,
     drawn: &[NormPos],
     first_frame: usize,
@@ -127,8 +182,9 @@ fn read_clip(
     let mut frame = RgbImage::filled(w, h, [0, 0, 0]);
     let mut webcam = Webcam::new(look, w, h);
     let rest = scene.rest_pose;
+    let rel = |j: usize| clip_head(range, j);
     let pose = |j: usize| {
-        let (yaw, pitch) = clip_head(j);
+        let (yaw, pitch) = rel(j);
         let mut head = rest;
         head.yaw_deg += yaw;
         head.pitch_deg += pitch;
@@ -162,7 +218,7 @@ fn read_clip(
                 ny: 0.5 * (a.ny + b.ny),
             };
             if n.nx.is_finite() && n.ny.is_finite() {
-                out.push((d, clip_head(j), n));
+                out.push((d, rel(j), n));
             }
         }
     }
@@ -219,8 +275,8 @@ pub struct ExtractorMatch {
 /// How the extractor reads this session's identity, framing and look, over
 /// the range the session's `targets` (uncorrected) cover: a probe clip of
 /// the 5 x 5 grid over that range, each point held [`HOLD_FRAMES`] frames
-/// while the head turns (+-8 deg yaw, +-6 pitch, uncorrelated with the
-/// grid), filmed with the session's webcam look and read by the
+/// while the head turns (+-8 deg yaw, +-6 pitch about the middle of the
+/// session's planned head range, `head`; uncorrelated with the grid), filmed with the session's webcam look and read by the
 /// extractor's video path ([`PhotoFitter::track`]); `measured = A drawn +
 /// S head + b` is fitted to it, the response map (A, b; gains corrected
 /// about the session's centre) and the pose slopes S at once. A second
@@ -234,6 +290,7 @@ pub fn match_extractor(
     look: &WebcamLook,
     fitter: &mut PhotoFitter,
     targets: &[NormPos],
+    head: &ProbeHeadRange,
 ) -> Result<ExtractorMatch> {
     'span: for span in [MIN_SPAN, RETRY_SPAN] {
         let (grid, centre) = grid(targets, span);
@@ -247,7 +304,7 @@ pub fn match_extractor(
                 Some((m, _)) => order.iter().map(|&g| m.invert(g)).collect(),
             };
             let first_frame = pass * order.len() * HOLD_FRAMES;
-            read_clip(scene, look, fitter, &drawn, first_frame, &mut reads)?;
+            read_clip(scene, look, head, fitter, &drawn, first_frame, &mut reads)?;
             match fit_joint(&reads) {
                 Some((m, slopes)) => fit = Some((m.about(centre), slopes)),
                 None => continue 'span,
@@ -272,6 +329,15 @@ mod tests {
     /// clip's own head path and the grid order `match_extractor` uses,
     /// every pass at the grid as targeted.
     fn exact_reads(a: [[f64; 2]; 2], s: [[f64; 2]; 2], b: [f64; 2]) -> Vec<ClipRead> {
+        exact_reads_about(a, s, b, &ProbeHeadRange::default())
+    }
+
+    fn exact_reads_about(
+        a: [[f64; 2]; 2],
+        s: [[f64; 2]; 2],
+        b: [f64; 2],
+        head: &ProbeHeadRange,
+    ) -> Vec<ClipRead> {
         let targets: Vec<NormPos> = (0..50)
             .map(|i| NormPos {
                 nx: 0.45 + 0.002 * i as f64,
@@ -283,7 +349,7 @@ mod tests {
         (0..PASSES * order.len() * HOLD_FRAMES)
             .map(|j| {
                 let d = order[j / HOLD_FRAMES % order.len()];
-                let h = clip_head(j);
+                let h = clip_head(head, j);
                 let m = NormPos {
                     nx: a[0][0] * d.nx + a[0][1] * d.ny + s[0][0] * h.0 + s[0][1] * h.1 + b[0],
                     ny: a[1][0] * d.nx + a[1][1] * d.ny + s[1][0] * h.0 + s[1][1] * h.1 + b[1],
@@ -300,13 +366,59 @@ mod tests {
             [[-0.0031, 0.0004], [0.0010, 0.0024]],
             [0.21, 0.17],
         );
-        let (map, slopes) = fit_joint(&exact_reads(a, s, b)).expect("a fit");
-        for i in 0..2 {
-            for j in 0..2 {
-                assert!((map.a[i][j] - a[i][j]).abs() < 1e-4, "{map:?}");
-                assert!((slopes[i][j] - s[i][j]).abs() < 1e-5, "{slopes:?}");
+        // About the rest pose, and about a reading session's downward look:
+        // the head enters the fit relative to rest either way, so b is the
+        // reading at rest in both.
+        let looking_down = ProbeHeadRange {
+            yaw_deg: (-3.0, 2.0),
+            pitch_deg: (0.5, 7.5),
+        };
+        for head in [ProbeHeadRange::default(), looking_down] {
+            let (map, slopes) = fit_joint(&exact_reads_about(a, s, b, &head)).expect("a fit");
+            for i in 0..2 {
+                for j in 0..2 {
+                    assert!((map.a[i][j] - a[i][j]).abs() < 1e-4, "{map:?}");
+                    assert!((slopes[i][j] - s[i][j]).abs() < 1e-5, "{slopes:?}");
+                }
+                assert!((map.b[i] - b[i]).abs() < 1e-4, "{map:?}");
             }
-            assert!((map.b[i] - b[i]).abs() < 1e-4, "{map:?}");
+        }
+    }
+
+    #[test]
+    fn probe_head_turns_about_the_sessions_range_within_the_limits() {
+        // Worked by hand. Yaw -3..2: middle -0.5, +-8 -> -8.5..7.5.
+        // Pitch 0.5..7.5: middle 4, +-6 -> -2..10, cut at the 8 deg limit
+        // -> -2..8: centre 3, +-5.
+        let r = ProbeHeadRange::of_path([(-3.0, 4.0), (2.0, 0.5), (0.0, 7.5)]);
+        assert_eq!(
+            r,
+            ProbeHeadRange {
+                yaw_deg: (-3.0, 2.0),
+                pitch_deg: (0.5, 7.5)
+            }
+        );
+        let [(yc, ya), (pc, pa)] = r.sinusoids();
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
+        assert!(close(yc, -0.5) && close(ya, 8.0), "yaw {yc} +- {ya}");
+        assert!(close(pc, 3.0) && close(pa, 5.0), "pitch {pc} +- {pa}");
+        assert_eq!(r.centre_deg(), [-0.5, 3.0]);
+        // A look aside to the yaw limit: 0..12 -> 6 +- 8 -> -2..12 -> 5 +- 7.
+        let [(yc, ya), _] = ProbeHeadRange::of_path([(0.0, 0.0), (12.0, 0.0)]).sinusoids();
+        assert!(close(yc, 5.0) && close(ya, 7.0), "yaw {yc} +- {ya}");
+        // No path: about rest, the full turns.
+        assert_eq!(ProbeHeadRange::of_path([]), ProbeHeadRange::default());
+        let [(yc, ya), (pc, pa)] = ProbeHeadRange::default().sinusoids();
+        assert!(
+            close(yc, 0.0)
+                && close(ya, CLIP_YAW_DEG)
+                && close(pc, 0.0)
+                && close(pa, CLIP_PITCH_DEG)
+        );
+        // Every clip frame stays inside the limits.
+        for j in 0..300 {
+            let (yaw, pitch) = clip_head(&r, j);
+            assert!(yaw.abs() <= HEAD_YAW_LIMIT_DEG && pitch.abs() <= HEAD_PITCH_LIMIT_DEG);
         }
     }
 
@@ -319,7 +431,7 @@ mod tests {
         let still: Vec<ClipRead> = (0..60)
             .map(|j| {
                 let p = NormPos { nx: 0.5, ny: 0.5 };
-                (p, clip_head(j), p)
+                (p, clip_head(&ProbeHeadRange::default(), j), p)
             })
             .collect();
         assert!(fit_joint(&still).is_none());

@@ -127,20 +127,17 @@ fn gaze_for_eye(eye_deg: f64, eye_of_gaze: impl Fn(f64) -> f64) -> f64 {
     0.5 * (lo + hi)
 }
 
-fn solve_frames(
+/// The head per frame of a session, relative to the rest pose, and whether
+/// it came from the source video: the eye-head coordination model's share
+/// of each gaze shift plus drift and sway, or the source's own pose
+/// (`p.source_head`), clamped to the mode's limits. The gaze is solved from
+/// `p.mapping`'s targets, so a caller may plan the head before the
+/// extractor's response is known (the probe centres its head path on it).
+pub fn head_path(
     scene: &FaceScene,
     traj: &[CanvasPos],
-    blinks: Option<&[bool]>,
     p: &FaceSessionParams,
-) -> Vec<Solved> {
-    let n = traj.len();
-    let closure = closure_track(
-        n,
-        p.fps,
-        blinks,
-        p.natural_blinks.then_some(p.blink_rate_per_min),
-        p.seed,
-    );
+) -> Vec<(HeadPose, bool)> {
     let targets: Vec<(f64, f64)> = traj
         .iter()
         .map(|&c| {
@@ -148,6 +145,15 @@ fn solve_frames(
             (t.nx, t.ny)
         })
         .collect();
+    head_path_of(scene, &targets, p)
+}
+
+fn head_path_of(
+    scene: &FaceScene,
+    targets: &[(f64, f64)],
+    p: &FaceSessionParams,
+) -> Vec<(HeadPose, bool)> {
+    let n = targets.len();
     let rest = scene.rest_pose;
     // Eye-in-head at the rest pose, then the gaze whose eye share it is.
     let eye_rest: Vec<(f64, f64)> = targets
@@ -200,6 +206,38 @@ fn solve_frames(
                     }
                 }
             };
+            (rel, source.is_some())
+        })
+        .collect()
+}
+
+fn solve_frames(
+    scene: &FaceScene,
+    traj: &[CanvasPos],
+    blinks: Option<&[bool]>,
+    p: &FaceSessionParams,
+) -> Vec<Solved> {
+    let n = traj.len();
+    let closure = closure_track(
+        n,
+        p.fps,
+        blinks,
+        p.natural_blinks.then_some(p.blink_rate_per_min),
+        p.seed,
+    );
+    let targets: Vec<(f64, f64)> = traj
+        .iter()
+        .map(|&c| {
+            let t = p.mapping.target_norm(c);
+            (t.nx, t.ny)
+        })
+        .collect();
+    let heads = head_path_of(scene, &targets, p);
+    let rest = scene.rest_pose;
+    (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let (rel, from_source) = heads[i];
             let head = HeadPose {
                 yaw_deg: rest.yaw_deg + rel.yaw_deg,
                 pitch_deg: rest.pitch_deg + rel.pitch_deg,
@@ -259,7 +297,7 @@ fn solve_frames(
                 row,
                 head: rel,
                 eye_deg,
-                from_source: source.is_some(),
+                from_source,
             }
         })
         .collect()

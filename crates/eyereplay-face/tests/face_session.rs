@@ -87,7 +87,8 @@ fn full_face_session_reads_back() {
     let traj = reading_trajectory(150, canvas.width_px as f64, canvas.height_px as f64);
     let mut mapping = GazeMapping::new(canvas);
     let targets: Vec<NormPos> = traj.iter().map(|&c| mapping.target_norm(c)).collect();
-    let matched = match_extractor(&scene, &look, &mut fitter, &targets).unwrap();
+    let matched =
+        match_extractor(&scene, &look, &mut fitter, &targets, &Default::default()).unwrap();
     mapping.extractor_response = matched.response;
     let map = mapping.extractor_response.expect("a response map");
     let mut params = params_of(

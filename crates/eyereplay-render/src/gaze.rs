@@ -168,9 +168,11 @@ impl ResponseMap {
 
 /// Probe targets for measuring a [`ResponseMap`]: an even `n_x` x `n_y`
 /// grid (nx outer, ny inner) over the 5th-95th percentile of a session's
-/// own `targets` per axis (where the response matters for this session),
-/// at least `min_span` wide so a session that hardly moves still gets a
-/// well-conditioned fit; and the grid's centre.
+/// own `targets` per axis (where the response matters for this session;
+/// reaching the 1st-99th made the full-face mode's read-back worse: the
+/// extremes answer less linearly), at least `min_span` wide so a session
+/// that hardly moves still gets a well-conditioned fit; and the grid's
+/// centre.
 pub fn probe_grid(
     targets: &[NormPos],
     n_x: usize,
@@ -284,6 +286,29 @@ mod tests {
 
     fn n(nx: f64, ny: f64) -> NormPos {
         NormPos { nx, ny }
+    }
+
+    #[test]
+    fn probe_grid_spans_the_quantiles_or_the_smallest_span() {
+        // nx = i / 200 for i = 0..=100: the q-quantile is q / 2 exactly
+        // (positions fall on samples); ny is constant, so its span is the
+        // smallest allowed, about its value.
+        let targets: Vec<NormPos> = (0..=100).map(|i| n(i as f64 / 200.0, 0.3)).collect();
+        {
+            let (lo, hi) = (0.025, 0.475);
+            let (grid, centre) = probe_grid(&targets, 3, 2, 0.08);
+            assert_eq!(grid.len(), 6);
+            let xs: Vec<f64> = grid.iter().map(|g| g.nx).collect();
+            let ys: Vec<f64> = grid.iter().map(|g| g.ny).collect();
+            let mid = 0.5 * (lo + hi);
+            for (got, want) in xs.iter().zip([lo, lo, mid, mid, hi, hi]) {
+                assert!((got - want).abs() < 1e-12, "nx {got} vs {want}");
+            }
+            for (got, want) in ys.iter().zip([0.26, 0.34, 0.26, 0.34, 0.26, 0.34]) {
+                assert!((got - want).abs() < 1e-12, "ny {got} vs {want}");
+            }
+            assert!((centre.nx - mid).abs() < 1e-12 && (centre.ny - 0.3).abs() < 1e-12);
+        }
     }
 
     #[test]

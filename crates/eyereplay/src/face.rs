@@ -13,7 +13,7 @@ use eyereplay_face::coordination::{CoordinationParams, HeadDynamics, Task, DEFAU
 use eyereplay_face::webcam::{WebcamLook, WebcamRanges};
 use eyereplay_face::{
     default_faces_dir, CanonicalMesh, ExtractorMatch, FaceScene, FaceSessionParams, Framing,
-    PhotoFitter, PhotoIdentity, MESH_FILE,
+    PhotoFitter, PhotoIdentity, ProbeHeadRange, MESH_FILE,
 };
 use eyereplay_render::{EncoderSettings, GazeMapping, Identity, RenderParams};
 use rand::SeedableRng;
@@ -148,6 +148,9 @@ struct FaceIdentityRecord<'a> {
     max_head_pitch_deg: f64,
     /// d(nx, ny)/d(head yaw, pitch) per degree, subtracted per frame.
     pose_slopes: Option<[[f64; 2]; 2]>,
+    /// The head pose (yaw, pitch relative to rest, deg) the probe clip
+    /// turned about: the middle of the session's planned head range.
+    probe_head_centre_deg: Option<[f64; 2]>,
     /// `render.head_motion`: `model` or `source`.
     head_motion: HeadMotion,
     /// Frames whose head came from the source video (head_motion = source).
@@ -201,19 +204,6 @@ pub(crate) fn render_sessions_face(
         } else {
             Task::Saccades
         };
-        // match_extractor: measure how the extractor reads this identity,
-        // framing and look, and draw through the inverse.
-        let matched = if settings.match_extractor {
-            let targets: Vec<NormPos> = traj.iter().map(|&c| mapping.target_norm(c)).collect();
-            eyereplay_face::match_extractor(&scene, &look, &mut fitter, &targets)?
-        } else {
-            ExtractorMatch::default()
-        };
-        let session_mapping = GazeMapping {
-            extractor_response: matched.response,
-            ..mapping
-        };
-        let pose_slopes = matched.pose_slopes;
         let source_head = if settings.head_motion == HeadMotion::Source {
             Some(crate::source_head::session_heads(
                 out,
@@ -224,9 +214,9 @@ pub(crate) fn render_sessions_face(
         } else {
             None
         };
-        let p = FaceSessionParams {
+        let mut p = FaceSessionParams {
             fps: meta.fps,
-            mapping: session_mapping,
+            mapping,
             natural_blinks: settings.natural_blinks,
             blink_rate_per_min: eye_identity.blink_rate_per_min,
             task,
@@ -236,9 +226,31 @@ pub(crate) fn render_sessions_face(
             look: look.clone(),
             encoder: encoder.clone(),
             seed,
-            pose_slopes,
+            pose_slopes: None,
             source_head,
         };
+        // match_extractor: measure how the extractor reads this identity,
+        // framing and look, the probe's head turning about the middle of
+        // the session's planned head range (ProbeHeadRange), and draw
+        // through the inverse.
+        let mut probe_head_centre_deg = None;
+        let matched = if settings.match_extractor {
+            let targets: Vec<NormPos> = traj.iter().map(|&c| mapping.target_norm(c)).collect();
+            let planned = eyereplay_face::head_path(&scene, &traj, &p);
+            let head =
+                ProbeHeadRange::of_path(planned.iter().map(|(h, _)| (h.yaw_deg, h.pitch_deg)));
+            probe_head_centre_deg = Some(head.centre_deg());
+            eyereplay_face::match_extractor(&scene, &look, &mut fitter, &targets, &head)?
+        } else {
+            ExtractorMatch::default()
+        };
+        let session_mapping = GazeMapping {
+            extractor_response: matched.response,
+            ..mapping
+        };
+        let pose_slopes = matched.pose_slopes;
+        p.mapping = session_mapping;
+        p.pose_slopes = pose_slopes;
         let result = eyereplay_face::render_face_session(
             &scene,
             &traj,
@@ -269,6 +281,7 @@ pub(crate) fn render_sessions_face(
                     max_head_yaw_deg: stats.max_head_yaw_deg,
                     max_head_pitch_deg: stats.max_head_pitch_deg,
                     pose_slopes,
+                    probe_head_centre_deg,
                     head_motion: settings.head_motion,
                     source_head_frames: stats.source_head_frames,
                 },
@@ -295,7 +308,8 @@ pub(crate) fn render_sessions_face(
 /// look, head coordination and sway on, on a reading trajectory of
 /// `frames` frames; render only, encode only and end to end in one run.
 /// The per-session probes (`match_extractor`) are not included: they cost
-/// about 70 extractor frames per session whatever its length.
+/// a 150-frame clip per session (drawn, filmed and read by the extractor),
+/// whatever the session's length.
 pub fn bench(width: usize, height: usize, frames: usize) -> Result<eyereplay_render::BenchReport> {
     let photos = identity_photos(&RenderSettings::default(), |p| p.to_path_buf());
     let (mesh, ids, _) = fit_identities(&photos[..1])?;
