@@ -138,14 +138,17 @@ pub fn head_path(
     traj: &[CanvasPos],
     p: &FaceSessionParams,
 ) -> Vec<(HeadPose, bool)> {
-    let targets: Vec<(f64, f64)> = traj
-        .iter()
+    head_path_of(scene, &targets_of(traj, p), p)
+}
+
+/// Each frame's gaze target `(nx, ny)` through `p.mapping`.
+fn targets_of(traj: &[CanvasPos], p: &FaceSessionParams) -> Vec<(f64, f64)> {
+    traj.iter()
         .map(|&c| {
             let t = p.mapping.target_norm(c);
             (t.nx, t.ny)
         })
-        .collect();
-    head_path_of(scene, &targets, p)
+        .collect()
 }
 
 fn head_path_of(
@@ -225,13 +228,7 @@ fn solve_frames(
         p.natural_blinks.then_some(p.blink_rate_per_min),
         p.seed,
     );
-    let targets: Vec<(f64, f64)> = traj
-        .iter()
-        .map(|&c| {
-            let t = p.mapping.target_norm(c);
-            (t.nx, t.ny)
-        })
-        .collect();
+    let targets = targets_of(traj, p);
     let heads = head_path_of(scene, &targets, p);
     let rest = scene.rest_pose;
     (0..n)
