@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """Visual fidelity of every session of a full-face dataset, one row each.
 
-    python3 scripts/face-table.py DATASET_DIR [--eyereplay PATH] [--horizontal]
-                                  [--vertical] [--mesh-every N] [--smooth-s S]
-                                  [--mediapipe]
+    python3 scripts/face-table.py DATASET_DIR [DATASET_DIR ...] [--eyereplay PATH]
+                                  [--horizontal] [--vertical] [--mesh-every N]
+                                  [--smooth-s S] [--mediapipe]
 
 For each rendered session: `eyereplay extract` (the unmodified path: face
 detection, 468 landmarks, iris) reads the video back (kept in
@@ -40,6 +40,11 @@ scripts/dev/mediapipe_ref.sh, which sets up its venv on first use) reads
 the videos instead (kept in DATASET_DIR/.readback_mediapipe/): how the
 peer tool reads the same frames. The sessions were drawn through our
 extractor's response, so its gains need not be 1; r does not depend on them.
+With several DATASET_DIRs (the same config at several seeds, say), each
+gets its tables, then a pooled summary per class adds the means of r and
+of |gain - 1| and the count of amplitude ratios outside 0.9-1.1: one run
+moves single sessions by about 0.01, so comparisons of renderer versions
+rest on those. scripts/dev/face-seeds.sh makes such datasets.
 Exit status 0; it measures, it does not judge.
 """
 import argparse, csv, json, math, os, subprocess, sys
@@ -58,7 +63,8 @@ def pearson(a, b):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("dataset")
+    ap.add_argument("dataset", nargs="+",
+                    help="dataset folders; with several, a pooled summary per class follows")
     here = os.path.dirname(os.path.abspath(__file__))
     ap.add_argument("--eyereplay", default=os.path.join(here, "..", "target", "release", "eyereplay"))
     ap.add_argument("--vertical", action="store_true",
@@ -80,11 +86,26 @@ def main():
                  "--mesh-every, --vertical or --horizontal")
     if a.smooth_s is not None and not a.smooth_s > 0:
         ap.error(f"--smooth-s must be a positive number of seconds, not {a.smooth_s}")
-    d = a.dataset
-    for need in ("labels.csv", "metadata.json"):
-        if not os.path.isfile(os.path.join(d, need)):
-            sys.exit(f"face-table: {os.path.join(d, need)}: no such file (is {d} a dataset "
-                     "folder written by `eyereplay generate`?)")
+    # Every folder checked before any read-back starts.
+    for d in a.dataset:
+        for need in ("labels.csv", "metadata.json"):
+            if not os.path.isfile(os.path.join(d, need)):
+                sys.exit(f"face-table: {os.path.join(d, need)}: no such file (is {d} a dataset "
+                         "folder written by `eyereplay generate`?)")
+    pooled = []
+    for k, d in enumerate(a.dataset):
+        if len(a.dataset) > 1:
+            print(("\n" if k else "") + f"== {d}")
+        pooled += dataset_table(d, a, here)
+    if len(a.dataset) > 1:
+        print()
+        print(f"pooled over {len(a.dataset)} datasets:")
+        summary(pooled, pooled_stats=True)
+
+
+def dataset_table(d, a, here):
+    """Reads back every session of dataset `d`, prints its tables, and
+    returns its rows (see `summary`)."""
     labels = list(csv.DictReader(open(os.path.join(d, "labels.csv"))))
     out = os.path.join(d, ".readback_mediapipe" if a.mediapipe
                        else ".readback" if a.mesh_every is None else f".readback_mesh{a.mesh_every}")
@@ -162,12 +183,7 @@ def main():
     print(f"{'session':<34} {'photo':<20} {'face':>6} {'n':>5} {'x r':>6} {'x ratio':>7} {'x gain':>6} {'y r':>6} {'y ratio':>7} {'y gain':>6} {'yaw deg':>12}")
     for f, cls, photo, face, n, rx, ry, y0, y1 in rows:
         print(f"{f:<34} {photo:<20} {100*face:5.1f}% {n:5d} {rx[0]:6.3f} {rx[1]:7.2f} {rx[2]:6.2f} {ry[0]:6.3f} {ry[1]:7.2f} {ry[2]:6.2f} {y0:5.1f}..{y1:4.1f}")
-    for cls in sorted({r[1] for r in rows}):
-        sel = [r for r in rows if r[1] == cls]
-        rng = lambda k, i: (min(r[k][i] for r in sel), max(r[k][i] for r in sel))
-        print(f"{cls}: {len(sel)} sessions, face {100*min(r[3] for r in sel):.1f}-{100*max(r[3] for r in sel):.1f} %, "
-              f"x r {rng(5,0)[0]:.3f}-{rng(5,0)[1]:.3f}, x ratio {rng(5,1)[0]:.2f}-{rng(5,1)[1]:.2f}, "
-              f"y r {rng(6,0)[0]:.3f}-{rng(6,0)[1]:.3f}, y ratio {rng(6,1)[0]:.2f}-{rng(6,1)[1]:.2f}")
+    summary(rows)
     if budget:
         print()
         print(f"{'session':<34} {'y r':>6} {'signal px':>9} {'iris err px':>11} {'y r, drawn iris':>15} {'y gain':>6} {'head held':>9}")
@@ -183,6 +199,29 @@ def main():
         print(f"{'session':<34} {'x r':>6} {'smoothed':>8} {'y r':>6} {'smoothed':>8}   (Gaussian sd {a.smooth_s} s)")
         for (f, (sx, sy)), row in zip(smoothed, rows):
             print(f"{f:<34} {row[5][0]:6.3f} {sx:8.3f} {row[6][0]:6.3f} {sy:8.3f}")
+    return rows
+
+
+def summary(rows, pooled_stats=False):
+    """One line per class of `rows` (session, class, photo, face share,
+    frames, (r, ratio, gain) in x, the same in y, yaw range): ranges of
+    face found, r and amplitude ratio per axis; pooled over several
+    datasets, also the means of r and of |gain - 1| and how many amplitude
+    ratios fall outside 0.9-1.1 (the figures a comparison over seeds
+    rests on: one run moves single sessions by about 0.01)."""
+    for cls in sorted({r[1] for r in rows}):
+        sel = [r for r in rows if r[1] == cls]
+        rng = lambda k, i: (min(r[k][i] for r in sel), max(r[k][i] for r in sel))
+        print(f"{cls}: {len(sel)} sessions, face {100*min(r[3] for r in sel):.1f}-{100*max(r[3] for r in sel):.1f} %, "
+              f"x r {rng(5,0)[0]:.3f}-{rng(5,0)[1]:.3f}, x ratio {rng(5,1)[0]:.2f}-{rng(5,1)[1]:.2f}, "
+              f"y r {rng(6,0)[0]:.3f}-{rng(6,0)[1]:.3f}, y ratio {rng(6,1)[0]:.2f}-{rng(6,1)[1]:.2f}")
+        if pooled_stats:
+            mean = lambda v: sum(v) / len(v)
+            out = lambda k: sum(1 for r in sel if not 0.9 <= r[k][1] <= 1.1)
+            print(f"  mean x r {mean([r[5][0] for r in sel]):.4f}, mean y r {mean([r[6][0] for r in sel]):.3f}, "
+                  f"mean |x gain - 1| {mean([abs(r[5][2] - 1) for r in sel]):.3f}, "
+                  f"mean |y gain - 1| {mean([abs(r[6][2] - 1) for r in sel]):.3f}, "
+                  f"ratios outside 0.9-1.1: x {out(5)}, y {out(6)} of {len(sel)}")
 
 
 def mediapipe_row(e):

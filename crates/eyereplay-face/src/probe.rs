@@ -17,7 +17,10 @@
 //! The probe is a clip read as `eyereplay extract` reads a video: the face
 //! tracked from frame to frame, the mesh on every second frame, the eye
 //! crops in between moved with the eyes; the head turning all the while,
-//! uncorrelated with the probed eye positions. An earlier probe read still
+//! uncorrelated with the probed eye positions, about the middle of the
+//! session's planned head range ([`ProbeHeadRange`]: the reading's slope
+//! per degree is not the same at every pose, and a reading session looks
+//! down). An earlier probe read still
 //! frames, each afresh (detection, landmarks, iris), at the rest pose and
 //! at +-8 deg yaw and +-6 pitch, and measured the map and the slopes
 //! apart. The video's read-back saw other slopes than the still frames
@@ -227,8 +230,8 @@ fn read_clip(
 
 /// Least-squares fit of `measured = A drawn + S head + b` over a tracked
 /// clip's reads: the response map and the pose slopes (per degree of yaw
-/// and pitch) at once. `None` with too few reads, a singular design, or a
-/// response [`ResponseMap::fit`] would refuse.
+/// and pitch) at once. `None` with too few reads, a singular design, or an
+/// implausible response ([`ResponseMap::checked`]).
 fn fit_joint(reads: &[ClipRead]) -> Option<(ResponseMap, [[f64; 2]; 2])> {
     use nalgebra::{SMatrix, SVector};
     if reads.len() < 10 {
@@ -247,17 +250,11 @@ fn fit_joint(reads: &[ClipRead]) -> Option<(ResponseMap, [[f64; 2]; 2])> {
     if !x.iter().chain(y.iter()).all(|v| v.is_finite()) {
         return None;
     }
-    // Through ResponseMap::fit's own plausibility check: three exact
-    // pairs of the fitted map reproduce it.
     let map = ResponseMap {
         a: [[x[0], x[1]], [y[0], y[1]]],
         b: [x[4], y[4]],
-    };
-    let pts = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)].map(|(u, v)| {
-        let t = NormPos { nx: u, ny: v };
-        (t, map.apply(t))
-    });
-    let map = ResponseMap::fit(&pts)?;
+    }
+    .checked()?;
     let q = |v: f64| (v * 1e5).round() / 1e5;
     Some((map, [[q(x[2]), q(x[3])], [q(y[2]), q(y[3])]]))
 }
@@ -276,9 +273,10 @@ pub struct ExtractorMatch {
 /// the range the session's `targets` (uncorrected) cover: a probe clip of
 /// the 5 x 5 grid over that range, each point held [`HOLD_FRAMES`] frames
 /// while the head turns (+-8 deg yaw, +-6 pitch about the middle of the
-/// session's planned head range, `head`; uncorrelated with the grid), filmed with the session's webcam look and read by the
-/// extractor's video path ([`PhotoFitter::track`]); `measured = A drawn +
-/// S head + b` is fitted to it, the response map (A, b; gains corrected
+/// session's planned head range, `head`; uncorrelated with the grid),
+/// filmed with the session's webcam look and read by the extractor's video
+/// path ([`PhotoFitter::track`]); `measured = A drawn + S head + b` is
+/// fitted to it, the response map (A, b; gains corrected
 /// about the session's centre) and the pose slopes S at once. A second
 /// pass draws the grid through the first fit; both are kept in the final
 /// fit. When the session's own range gives no usable fit (a reading

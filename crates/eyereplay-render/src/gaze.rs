@@ -97,11 +97,18 @@ impl ResponseMap {
         }
         let sol = |rhs: [f64; 3]| solve3(g, rhs);
         let (x, y) = (sol(r[0])?, sol(r[1])?);
-        let map = ResponseMap {
+        ResponseMap {
             a: [[x[0], x[1]], [y[0], y[1]]],
             b: [x[2], y[2]],
         }
-        .rounded();
+        .checked()
+    }
+
+    /// The map as recorded (rounded), or `None` when it is implausible for
+    /// an extractor reading an eye: a gain outside 0.25-4 or a cross term
+    /// over 0.5. Every fitted map goes through this.
+    pub fn checked(self) -> Option<ResponseMap> {
+        let map = self.rounded();
         let gains_ok = (0..2).all(|k| (0.25..=4.0).contains(&map.a[k][k]));
         let cross_ok = map.a[0][1].abs() <= 0.5 && map.a[1][0].abs() <= 0.5;
         (gains_ok && cross_ok).then_some(map)

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# The bundled default at several seeds, each generated and read back, then
+# one pooled comparison: one run moves single sessions' read-back r by
+# about 0.01, so a change to the full-face renderer is judged over seeds.
+#
+#   scripts/dev/face-seeds.sh OUT_ROOT SEED [SEED ...]
+#
+# Writes OUT_ROOT/seedN.toml (examples/default.toml with `seed = N` and its
+# relative paths made absolute) and the dataset OUT_ROOT/seedN (complete
+# sessions of an earlier run are kept), then runs
+# `scripts/face-table.py OUT_ROOT/seed... --horizontal --vertical`, whose
+# last lines are the pooled means. Needs scripts/setup.sh's data and a
+# release build (scripts/run.sh does both).
+set -euo pipefail
+if [ $# -lt 2 ]; then
+  echo "usage: $0 OUT_ROOT SEED [SEED ...]" >&2
+  exit 2
+fi
+repo=$(cd "$(dirname "$0")/../.." && pwd)
+bin="$repo/target/release/eyereplay"
+[ -x "$bin" ] || { echo "face-seeds: $bin: not built (run scripts/run.sh or cargo build --release)" >&2; exit 1; }
+root=$1; shift
+mkdir -p "$root"
+# Every seed checked before hours of work start.
+for seed in "$@"; do
+  case $seed in ''|*[!0-9]*) echo "face-seeds: seed '$seed' is not a whole number" >&2; exit 2;; esac
+done
+dirs=()
+for seed in "$@"; do
+  cfg="$root/seed$seed.toml"
+  sed -e "s/^seed = .*/seed = $seed/" -e "s|\"\\.\\./|\"$repo/|g" "$repo/examples/default.toml" > "$cfg.part"
+  mv "$cfg.part" "$cfg"
+  out="$root/seed$seed"
+  # generate resumes: complete sessions are skipped, a half folder finished.
+  "$bin" generate --config "$cfg" --out "$out" --no-evaluate
+  dirs+=("$out")
+done
+python3 "$repo/scripts/face-table.py" "${dirs[@]}" --eyereplay "$bin" --horizontal --vertical
