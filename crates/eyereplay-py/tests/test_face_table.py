@@ -77,3 +77,32 @@ def test_smoothing_weighs_neighbours_by_a_gaussian_and_skips_gaps():
     # Frame 0: itself, frame 1 at exp(-1/2), frame 3 at exp(-9/2).
     c = math.exp(-4.5)
     assert out[0] == pytest.approx((a * 1.0 + c * 4.0) / (1.0 + a + c))
+
+
+def test_pooled_summary_means_and_counts_worked_by_hand(capsys):
+    # Rows as dataset_table returns them: (session, class, photo, face,
+    # frames, (r, ratio, gain) in x, the same in y, yaw min, yaw max).
+    rows = [
+        ("a", "reading", "p", 1.0, 700, (0.99, 1.05, 1.04), (0.80, 1.25, 1.00), -1.0, 1.0),
+        ("b", "reading", "p", 1.0, 700, (0.97, 0.85, 0.82), (0.90, 1.00, 0.90), -1.0, 1.0),
+        ("c", "conversation", "p", 0.995, 650, (0.95, 1.00, 0.95), (0.70, 1.10, 0.77), -2.0, 2.0),
+    ]
+    face_table().summary(rows, pooled_stats=True)
+    out = capsys.readouterr().out.splitlines()
+    # Classes sorted: conversation, then reading; each a range line and a
+    # means line.
+    assert out[0].startswith("conversation: 1 sessions, face 99.5-99.5 %")
+    assert "mean x r 0.9500, mean y r 0.700" in out[1]
+    # |0.95 - 1| = 0.05, |0.77 - 1| = 0.23; ratio 1.10 is inside.
+    assert "mean |x gain - 1| 0.050, mean |y gain - 1| 0.230" in out[1]
+    assert out[1].endswith("ratios outside 0.9-1.1: x 0, y 0 of 1")
+    assert out[2].startswith("reading: 2 sessions, face 100.0-100.0 %, x r 0.970-0.990, x ratio 0.85-1.05")
+    # x r (0.99 + 0.97) / 2 = 0.98; y r 0.85; |x gain - 1| (0.04 + 0.18) / 2
+    # = 0.11; |y gain - 1| (0 + 0.1) / 2 = 0.05; x ratio 0.85 and y ratio
+    # 1.25 outside.
+    assert "mean x r 0.9800, mean y r 0.850" in out[3]
+    assert "mean |x gain - 1| 0.110, mean |y gain - 1| 0.050" in out[3]
+    assert out[3].endswith("ratios outside 0.9-1.1: x 1, y 1 of 2")
+    # Without pooled_stats, only the range lines.
+    face_table().summary(rows)
+    assert len(capsys.readouterr().out.splitlines()) == 2
