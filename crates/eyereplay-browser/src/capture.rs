@@ -30,6 +30,15 @@ pub const INITIAL_VIRTUAL_TIME_S: f64 = 1_704_067_200.0;
 /// jitter, in whole ms, so the page's clock is built on it: ms since this
 /// document started. `Math.random` becomes a seeded generator (mulberry32)
 /// for the same reason.
+///
+/// The page's animation-frame callbacks are held back until the harness
+/// calls `RELEASE_FRAMES` (the first readiness check after the load event):
+/// while a new document loads, Chromium may run no animation frame in a
+/// begin-frame, and whether it does is a race in wall time, so a page that
+/// counts its animation frames came out one frame shifted on one rerun in
+/// a few (the browser README, "Frame exactness and reruns"). Held, a
+/// callback is requested again for the next frame; its id stays the one the
+/// page got, so `cancelAnimationFrame` still finds it.
 fn time_shim(seed: u32) -> String {
     format!(
         r#"(() => {{
@@ -38,7 +47,25 @@ fn time_shim(seed: u32) -> String {
   const now = () => Date.now() - date0;
   perf.now = now;
   const raf = window.requestAnimationFrame.bind(window);
-  window.requestAnimationFrame = cb => raf(() => cb(now()));
+  const caf = window.cancelAnimationFrame.bind(window);
+  let held = true;
+  let nextId = 1;
+  const native = new Map();
+  window.requestAnimationFrame = cb => {{
+    const id = nextId++;
+    const tick = () => {{
+      if (held) {{ native.set(id, raf(tick)); return; }}
+      native.delete(id);
+      cb(now());
+    }};
+    native.set(id, raf(tick));
+    return id;
+  }};
+  window.cancelAnimationFrame = id => {{
+    const n = native.get(id);
+    if (n !== undefined) {{ caf(n); native.delete(id); }}
+  }};
+  Object.defineProperty(window, "{RELEASE_FRAMES}", {{ value: () => {{ held = false; }} }});
   let s = {seed} >>> 0;
   Math.random = () => {{
     s = (s + 0x6D2B79F5) >>> 0;
@@ -50,6 +77,9 @@ fn time_shim(seed: u32) -> String {
 }})();"#
     )
 }
+
+/// The shim's function that lets the page's animation frames run.
+const RELEASE_FRAMES: &str = "__eyereplayReleaseFrames";
 
 /// One captured frame.
 pub struct Shot {
@@ -202,7 +232,11 @@ impl Capture {
         let mut last_error = String::new();
         // The page's own code runs as virtual time advances; the wall-clock
         // limit bounds pages that never get there.
-        let mut check = String::from("(() => { ");
+        // Each check first lets the page's animation frames run (see
+        // `time_shim`): they start at the same point on every rerun, and a
+        // condition that waits for a drawing still gets its frames.
+        let mut check =
+            format!("(() => {{ if (window.{RELEASE_FRAMES}) window.{RELEASE_FRAMES}(); ");
         if let Some(sel) = &self.settings.ready.selector {
             check += &format!(
                 "if (!document.querySelector({})) return false; ",

@@ -305,6 +305,13 @@ fn reruns_are_bit_identical() {
         assert!(c
             .windows(2)
             .all(|w| (33..=34).contains(&(w[1].time_ms - w[0].time_ms))));
+        // The page's animation frames run from the release on (the first
+        // readiness check): the warm-up frames, then this one.
+        assert_eq!(
+            c[0].frame,
+            settings.warmup_frames + 1,
+            "run {run}: the page's animation frame count at the first captured frame"
+        );
         outputs.push((std::fs::read(&mp4).unwrap(), std::fs::read(&csv).unwrap()));
         codes.push(c);
     }
@@ -494,6 +501,62 @@ fn a_page_whose_script_never_arrives_is_not_ready() {
     };
     let e = fails_cleanly(&mut s, 20, "not ready after");
     assert!(e.to_string().contains("network fetch"), "{e}");
+}
+
+/// The page's animation frames are held until the first readiness check
+/// after the load event (the shim in capture.rs), so their count at a
+/// captured frame is the same on every run: here exactly the frames drawn
+/// since the release. A condition that needs drawn frames still becomes
+/// true, and a callback cancelled by the id the page got never runs.
+#[test]
+fn animation_frames_start_at_the_release_and_cancel_still_works() {
+    let _one_at_a_time = exclusive();
+    if !have_browser() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("counts.html");
+    std::fs::write(
+        &page,
+        "<!doctype html><canvas></canvas><script>\
+         window.counts = { frames: 0, cancelled_ran: 0 };\
+         const c = requestAnimationFrame(() => { counts.cancelled_ran++; });\
+         cancelAnimationFrame(c);\
+         function f() {\
+           counts.frames++;\
+           const late = requestAnimationFrame(() => { counts.cancelled_ran++; });\
+           cancelAnimationFrame(late);\
+           requestAnimationFrame(f);\
+         }\
+         requestAnimationFrame(f);</script>",
+    )
+    .unwrap();
+    // Ready at the first check (the release), or only after two drawn
+    // frames: then the release came two frames before readiness.
+    for (ready_js, frames_before_warmup) in [("true", 0), ("counts.frames >= 2", 2)] {
+        let s = BrowserSettings {
+            url: page.display().to_string(),
+            ready: ReadySettings {
+                js: Some(ready_js.into()),
+                timeout_s: 20.0,
+                ..Default::default()
+            },
+            warmup_frames: 2,
+            require_webgl: false,
+            ..Default::default()
+        };
+        let mut cap = Capture::open(&s, 25.0).unwrap();
+        for _ in 0..5 {
+            cap.frame([100.0, 100.0]).unwrap();
+        }
+        let counts = cap.eval("[counts.frames, counts.cancelled_ran]").unwrap();
+        cap.close();
+        assert_eq!(
+            counts,
+            serde_json::json!([frames_before_warmup + 2 + 5, 0]),
+            "ready when {ready_js}: [animation frames run, cancelled callbacks run]"
+        );
+    }
 }
 
 #[test]
