@@ -7,7 +7,9 @@
 
 For each rendered session: `eyereplay extract` (the unmodified path: face
 detection, 468 landmarks, iris) reads the video back (kept in
-DATASET_DIR/.readback/); the mean nx, ny of both eyes is compared frame by
+DATASET_DIR/.readback/ under the video's hash), each eye from as many crops as the session's
+probe read it (`extractor_iris_views` in its `_identity.json`, passed as
+`--iris-views`); the mean nx, ny of both eyes is compared frame by
 frame, open-eye frames only, with the source's position for that frame:
 the session's drawn truth mapped through its `extractor_response` (the
 renderer draws the inverse of that map, so this is the trajectory's own
@@ -47,7 +49,16 @@ moves single sessions by about 0.01, so comparisons of renderer versions
 rest on those. scripts/dev/face-seeds.sh makes such datasets.
 Exit status 0; it measures, it does not judge.
 """
-import argparse, csv, json, math, os, subprocess, sys
+import argparse, csv, hashlib, json, math, os, subprocess, sys
+
+
+def video_key(path):
+    """The first 12 hex digits of the file's sha256."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()[:12]
 
 
 def pearson(a, b):
@@ -122,7 +133,17 @@ def dataset_table(d, a, here):
         mp4, truth, head, ident = stem + ".mp4", stem + "_truth.csv", stem + "_head.csv", stem + "_identity.json"
         if not (os.path.exists(mp4) and os.path.exists(truth)):
             continue
-        x = os.path.join(out, f.replace("/", "__"))
+        # The crops per eye the session was matched to
+        # (render.extractor_iris_views), read back the same way. A
+        # read-back is kept under the video's own hash and that setting,
+        # so a regenerated dataset is never compared with an old one.
+        views = 1
+        if not a.mediapipe and os.path.exists(ident):
+            views = int(json.load(open(ident)).get("identity", {}).get("extractor_iris_views", 1))
+        name = f.replace("/", "__")[:-len(".csv")] + "." + video_key(mp4)
+        if views > 1:
+            name += f".views{views}"
+        x = os.path.join(out, name + ".csv")
         if not os.path.exists(x):
             # Written whole, then renamed: an interrupted run leaves no
             # half file that a later run would take as done.
@@ -131,7 +152,7 @@ def dataset_table(d, a, here):
             if a.mediapipe:
                 cmd = [os.path.join(here, "dev", "mediapipe_ref.sh"), mp4, tmp]
             else:
-                cmd = [a.eyereplay, "extract", mp4, "--out", tmp] + extra
+                cmd = [a.eyereplay, "extract", mp4, "--out", tmp, "--iris-views", str(views)] + extra
             run = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
             if run.returncode != 0:
                 if os.path.exists(tmp):

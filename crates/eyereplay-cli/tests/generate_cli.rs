@@ -98,6 +98,41 @@ fn generate_is_deterministic_resumable_and_shardable() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("rendered 0 sessions"));
     assert_eq!(hashes(&a), ha);
 
+    // A [render] setting changed since: the sessions are rendered again
+    // (not skipped as finished), and the same config as before gives back
+    // the same files.
+    let changed = dir.path().join("changed.toml");
+    let text = std::fs::read_to_string(tiny())
+        .unwrap()
+        .replace("\"../", &format!("\"{}/", root().display()))
+        .replace("jobs = 1\n", "jobs = 1\ncrf = 30\n");
+    assert!(text.contains("crf = 30"));
+    std::fs::write(&changed, text).unwrap();
+    let mp4 = a.join("reading/reading_0000.mp4");
+    let before = std::fs::read(&mp4).unwrap();
+    let o = eyereplay(&[
+        "generate",
+        "--config",
+        changed.to_str().unwrap(),
+        "--out",
+        a.to_str().unwrap(),
+        "--no-evaluate",
+    ]);
+    ok(&o);
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        said.contains("rendered 8 sessions") && said.contains("rendered again"),
+        "{said}"
+    );
+    assert_ne!(std::fs::read(&mp4).unwrap(), before, "crf 30 encodes anew");
+    ok(&generate(&a, &[]));
+    assert_eq!(hashes(&a), ha);
+    assert_eq!(std::fs::read(&mp4).unwrap(), before);
+
     // Two shards into one folder, then merge: same files as one machine.
     let s = dir.path().join("s");
     ok(&generate(&s, &["--shard", "0/2"]));
@@ -233,6 +268,14 @@ fn bad_inputs_stop_before_work() {
     assert!(e.contains("noise"), "{e}");
     let e = generate(&face("face_height_frac = [0.5, 0.3]"), &[]);
     assert!(e.contains("face_height_frac"), "{e}");
+    for views in ["0", "10"] {
+        let e = generate(&face(&format!("extractor_iris_views = {views}")), &[]);
+        assert!(
+            e.contains("extractor_iris_views") && e.contains("between 1 and 9"),
+            "{e}"
+        );
+        assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    }
     // A head driven by the sources needs a video source, and the face mode.
     let e = generate(&face("head_motion = \"source\""), &[]);
     assert!(

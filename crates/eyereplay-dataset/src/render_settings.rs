@@ -28,6 +28,13 @@ pub struct RenderSettings {
     /// trajectory's position (measured per session from probe frames;
     /// needs the models), rather than at the renderer's geometric position.
     pub match_extractor: bool,
+    /// Full-face mode: how many crops the extractor reads each eye from,
+    /// 1-9 (`eyereplay extract --iris-views`), in the `match_extractor`
+    /// probe and in the evaluation's read-back of the session (recorded in
+    /// its `_identity.json`). 1 (default) is MediaPipe's single crop; more
+    /// views read the eye more precisely for about as many times the iris
+    /// model's CPU time.
+    pub extractor_iris_views: usize,
     /// x264 preset.
     pub preset: String,
     /// x264 constant rate factor.
@@ -116,6 +123,7 @@ impl Default for RenderSettings {
             viewing_distance_mm: 600.0,
             natural_blinks: true,
             match_extractor: true,
+            extractor_iris_views: 1,
             preset: "veryfast".into(),
             crf: 18,
             jobs: 0,

@@ -403,6 +403,8 @@ fn draw_main_sequence<DB: DrawingBackend>(
             .configure_mesh()
             .x_desc("saccade amplitude (px)")
             .y_desc("peak speed (px/s)")
+            .x_label_formatter(&log_tick_label)
+            .y_label_formatter(&log_tick_label)
             .label_style((FONT, 12))
             .axis_desc_style((FONT, 13))
             .light_line_style(WHITE)
@@ -428,6 +430,24 @@ fn draw_main_sequence<DB: DrawingBackend>(
             .map_err(s)?;
     }
     Ok(())
+}
+
+/// A log axis's tick label: only 1, 2 and 5 times a power of ten are
+/// named (the nine ticks of a decade, all labelled, ran into each other),
+/// without a trailing ".0".
+fn log_tick_label(v: &f64) -> String {
+    if !(*v > 0.0 && v.is_finite()) {
+        return String::new();
+    }
+    let mantissa = v / 10f64.powf(v.log10().floor());
+    if ![1.0, 2.0, 5.0].iter().any(|d| (mantissa - d).abs() < 1e-6) {
+        return String::new();
+    }
+    if *v >= 1.0 {
+        format!("{v:.0}")
+    } else {
+        format!("{v}")
+    }
 }
 
 /// Main sequence (saccade amplitude against peak speed, log-log), source
@@ -782,4 +802,23 @@ pub fn roc_figure(name: &str, panels: &[(String, Vec<RocCurve>)]) -> Result<Figu
             Ok(())
         },
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_ticks_name_one_two_and_five_per_decade() {
+        let named: Vec<String> = [
+            1.0, 2.0, 3.0, 5.0, 7.0, 10.0, 20.0, 400.0, 500.0, 20000.0, 0.5,
+        ]
+        .iter()
+        .map(log_tick_label)
+        .collect();
+        assert_eq!(
+            named,
+            ["1", "2", "", "5", "", "10", "20", "", "500", "20000", "0.5"]
+        );
+    }
 }

@@ -126,6 +126,7 @@ impl EyeCropTracker {
                 self.area_samples
                     .unwrap_or_else(|| area_samples(r.w.max(r.h)))
             }),
+            1,
             &mut self.clock,
         )?;
         Ok(eyes)

@@ -68,7 +68,7 @@ pub use run::{
     extract_many, extract_video_to_csv, ExtractOptions, Extraction, NoProgress, Progress,
     DEFAULT_MESH_EVERY,
 };
-pub use tracker::{Eye, EyeMeasure, Face, Tracker};
+pub use tracker::{Eye, EyeMeasure, Face, Tracker, IRIS_VIEW_SHIFT_PX, MAX_IRIS_VIEWS};
 
 /// The revision of the rows an extraction writes: raised whenever a change
 /// moves them (not for speed-ups that keep them bit for bit). Cached

@@ -310,13 +310,23 @@ impl Models {
     /// Iris model on both eyes at once (a 2x3x64x64 batch in [0, 1]): one
     /// inference instead of two halves the per-run overhead of ONNX Runtime.
     pub fn iris(&mut self, input: &[f32]) -> Result<[IrisOut; 2]> {
-        let t = TensorRef::from_array_view(([2usize, 3, 64, 64], input))?;
+        let mut out = self.iris_batch(&input[..2 * 3 * 64 * 64], 2)?;
+        let second = out.pop().expect("two eyes");
+        let first = out.pop().expect("two eyes");
+        Ok([first, second])
+    }
+
+    /// Iris model on `eyes` crops at once (an `eyes`x3x64x64 batch in [0, 1],
+    /// `input` exactly that long): one output per crop, in order.
+    pub fn iris_batch(&mut self, input: &[f32], eyes: usize) -> Result<Vec<IrisOut>> {
+        let t = TensorRef::from_array_view(([eyes, 3, 64, 64], input))?;
         let out = self.iris.run(ort::inputs!["input" => t])?;
         let (_, contour) = out["output_eyes_contours_and_brows"].try_extract_tensor::<f32>()?;
         let (_, iris) = out["output_iris"].try_extract_tensor::<f32>()?;
-        Ok([
-            (contour[..213].to_vec(), iris[..15].to_vec()),
-            (contour[213..].to_vec(), iris[15..].to_vec()),
-        ])
+        Ok(contour
+            .chunks_exact(213)
+            .zip(iris.chunks_exact(15))
+            .map(|(c, i)| (c.to_vec(), i.to_vec()))
+            .collect())
     }
 }

@@ -50,6 +50,10 @@ pub struct ExtractOptions {
     pub preview_every_s: f64,
     /// Face mesh on one frame in this many (see [`Tracker::new`]).
     pub mesh_every: u32,
+    /// Crops each eye is read from, 1..=[`crate::MAX_IRIS_VIEWS`] (see
+    /// [`Tracker::set_iris_views`]); 1, the default, is MediaPipe's single
+    /// crop. Values outside are clamped.
+    pub iris_views: usize,
     /// Measure CPU time per stage ([`Extraction::stage_times`]).
     pub profile: bool,
     /// Where the networks run.
@@ -66,6 +70,7 @@ impl Default for ExtractOptions {
             preview_dir: None,
             preview_every_s: 5.0,
             mesh_every: DEFAULT_MESH_EVERY,
+            iris_views: 1,
             profile: false,
             device: Device::default(),
         }
@@ -420,6 +425,7 @@ fn snap_boundaries(
 
 fn new_tracker(models: Models, opts: &ExtractOptions) -> Tracker {
     let mut t = Tracker::new(models, opts.mesh_every);
+    t.set_iris_views(opts.iris_views);
     t.clock = StageClock::new(opts.profile);
     t
 }

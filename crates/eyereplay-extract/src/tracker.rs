@@ -12,6 +12,28 @@ use crate::profile::{Stage, StageClock};
 
 const MESH_INPUT: usize = 192;
 pub(crate) const IRIS_INPUT: usize = 64;
+/// The most crops [`Tracker::set_iris_views`] reads an eye from.
+pub const MAX_IRIS_VIEWS: usize = 9;
+/// How far the extra iris views shift the eye crop, in the model's
+/// 64-px input (so 1/32 of the crop's side, about a fifth of the iris's
+/// diameter there): far enough that their errors differ, near enough that
+/// the eye stays where the model expects it.
+pub const IRIS_VIEW_SHIFT_PX: f32 = 2.0;
+/// The views in the order they are added, as shifts along the crop's own
+/// x and y axes in units of [`IRIS_VIEW_SHIFT_PX`]: the tracked crop, then
+/// the four axial shifts, then the diagonals. 1, 3, 5 and 9 views are
+/// symmetric about the tracked crop.
+const IRIS_VIEW_OFFSETS: [(f32, f32); MAX_IRIS_VIEWS] = [
+    (0.0, 0.0),
+    (1.0, 0.0),
+    (-1.0, 0.0),
+    (0.0, 1.0),
+    (0.0, -1.0),
+    (1.0, 1.0),
+    (-1.0, -1.0),
+    (1.0, -1.0),
+    (-1.0, 1.0),
+];
 /// MediaPipe's `min_tracking_confidence` / presence threshold.
 const FACE_SCORE_MIN: f32 = 0.5;
 
@@ -104,6 +126,8 @@ pub struct Tracker {
     /// Run the face mesh on every `mesh_every`-th frame; in between, the eye
     /// crops follow the iris model's own eye corners (see [`Tracker::new`]).
     mesh_every: u32,
+    /// Crops each eye is read from (see [`Tracker::set_iris_views`]).
+    iris_views: usize,
     since_mesh: u32,
     eye_track: Option<EyeTrack>,
     last_score: f32,
@@ -127,11 +151,30 @@ impl Tracker {
             iris_in: vec![0.0; 2 * 3 * IRIS_INPUT * IRIS_INPUT],
             detector_runs: 0,
             mesh_every: mesh_every.max(1),
+            iris_views: 1,
             since_mesh: 0,
             eye_track: None,
             last_score: 0.0,
             clock: StageClock::new(false),
         }
+    }
+
+    /// Reads each eye from `views` crops instead of one (clamped to
+    /// 1..=[`MAX_IRIS_VIEWS`]): the tracked crop and copies shifted by
+    /// [`IRIS_VIEW_SHIFT_PX`] along its axes, all in one batched inference,
+    /// each output mapped back to the image and the points averaged. The
+    /// iris model's error depends on where the eye sits in its crop, and
+    /// the crop moves with the tracked eye, so a single view's error drifts
+    /// with the gaze and the head; averaged views cancel much of it (the
+    /// README, "A whole face in a webcam frame"). Costs about `views` times
+    /// the iris inference. 1 (the default) is MediaPipe's single crop.
+    pub fn set_iris_views(&mut self, views: usize) {
+        self.iris_views = views.clamp(1, MAX_IRIS_VIEWS);
+    }
+
+    /// The crops each eye is read from.
+    pub fn iris_views(&self) -> usize {
+        self.iris_views
     }
 
     /// True when the networks run on CUDA.
@@ -325,6 +368,7 @@ impl Tracker {
             img,
             &rois,
             [1, 1],
+            self.iris_views,
             &mut self.clock,
         )?;
         let mid = Pt::new(
@@ -350,21 +394,35 @@ pub(crate) type ModelCorners = [(Pt, Pt); 2];
 /// 33/133 (fed as is), `rois[1]` the one of 362/263 (fed mirrored), each
 /// crop's x axis running from the image-left corner to the image-right one.
 /// Returns the eyes image-left first, and the contour corners in model order
-/// (crop-axis start, end) for placing later crops. `iris_in` is the
-/// 2x3x64x64 input buffer; `area_samples[k]` > 1 box-filters crop `k`
-/// ([`ImageView::crop_nchw_area`]), 1 samples it as MediaPipe does.
+/// (crop-axis start, end) for placing later crops. `iris_in` is the input
+/// buffer (grown to 2 x `views` x 3x64x64); `area_samples[k]` > 1
+/// box-filters crop `k` ([`ImageView::crop_nchw_area`]), 1 samples it as
+/// MediaPipe does. `views` > 1 reads each eye from that many shifted crops
+/// ([`Tracker::set_iris_views`]) and averages the points in the image; 1
+/// gives exactly the single crop's points.
 pub(crate) fn iris_step(
     models: &mut Models,
-    iris_in: &mut [f32],
+    iris_in: &mut Vec<f32>,
     img: &ImageView,
     rois: &[Roi; 2],
     area_samples: [usize; 2],
+    views: usize,
     clock: &mut StageClock,
 ) -> Result<([Eye; 2], ModelCorners)> {
     clock.lap(Stage::Post);
+    let views = views.clamp(1, MAX_IRIS_VIEWS);
     let plane = 3 * IRIS_INPUT * IRIS_INPUT;
-    for (k, roi) in rois.iter().enumerate() {
-        let out = &mut iris_in[k * plane..(k + 1) * plane];
+    if iris_in.len() < 2 * views * plane {
+        iris_in.resize(2 * views * plane, 0.0);
+    }
+    // Crop j = 2 v + k: view v of eye k.
+    let view_rois: Vec<Roi> = IRIS_VIEW_OFFSETS[..views]
+        .iter()
+        .flat_map(|&(dx, dy)| rois.map(|r| shifted(r, dx, dy)))
+        .collect();
+    for (j, roi) in view_rois.iter().enumerate() {
+        let k = j % 2;
+        let out = &mut iris_in[j * plane..(j + 1) * plane];
         let mirror = EYE_CORNERS[k].2;
         if area_samples[k] > 1 {
             let n = area_samples[k];
@@ -382,19 +440,47 @@ pub(crate) fn iris_step(
         }
     }
     clock.lap(Stage::Crop);
-    let outs = models.iris(iris_in)?;
+    let outs = if views == 1 {
+        Vec::from(models.iris(iris_in)?)
+    } else {
+        models.iris_batch(&iris_in[..2 * views * plane], 2 * views)?
+    };
     clock.lap(Stage::Iris);
     let s = IRIS_INPUT as f32;
     let mut corners = [(Pt::default(), Pt::default()); 2];
     let mut eyes: Vec<Eye> = Vec::with_capacity(2);
-    for (k, (contour, iris)) in outs.iter().enumerate() {
-        let (roi, mirror) = (rois[k], EYE_CORNERS[k].2);
-        let map = |p: &[f32]| {
-            let u = if mirror { 1.0 - p[0] / s } else { p[0] / s };
-            roi.to_image(u, p[1] / s)
-        };
-        let contour: Vec<Pt> = contour.chunks_exact(3).map(map).collect();
-        let rim: Vec<Pt> = iris.chunks_exact(3).map(map).collect();
+    for k in 0..2 {
+        let mirror = EYE_CORNERS[k].2;
+        // Each view's points in the image, summed, then the mean (one view:
+        // the points themselves, bit for bit).
+        let mut contour: Vec<Pt> = vec![];
+        let mut rim: Vec<Pt> = vec![];
+        for v in 0..views {
+            let (roi, (c, i)) = (view_rois[2 * v + k], &outs[2 * v + k]);
+            let map = |p: &[f32]| {
+                let u = if mirror { 1.0 - p[0] / s } else { p[0] / s };
+                roi.to_image(u, p[1] / s)
+            };
+            if v == 0 {
+                contour = c.chunks_exact(3).map(map).collect();
+                rim = i.chunks_exact(3).map(map).collect();
+            } else {
+                for (sum, p) in contour.iter_mut().zip(c.chunks_exact(3)) {
+                    let q = map(p);
+                    *sum = Pt::new(sum.x + q.x, sum.y + q.y);
+                }
+                for (sum, p) in rim.iter_mut().zip(i.chunks_exact(3)) {
+                    let q = map(p);
+                    *sum = Pt::new(sum.x + q.x, sum.y + q.y);
+                }
+            }
+        }
+        if views > 1 {
+            let n = views as f32;
+            for p in contour.iter_mut().chain(rim.iter_mut()) {
+                *p = Pt::new(p.x / n, p.y / n);
+            }
+        }
         let (a, b) = (contour[CONTOUR_CORNER_A], contour[CONTOUR_CORNER_B]);
         // Contour point 0 is the corner that sits on the crop's left in
         // the model's view: mesh 33 for the first eye, 263 (mirrored) for
@@ -422,6 +508,25 @@ pub(crate) fn iris_step(
     Ok(([e0, e1], corners))
 }
 
+/// `roi` moved by `dx`, `dy` times [`IRIS_VIEW_SHIFT_PX`] of the model's
+/// input along the crop's own axes (so the same shift in the eye's frame
+/// whatever the head's roll).
+fn shifted(roi: Roi, dx: f32, dy: f32) -> Roi {
+    if dx == 0.0 && dy == 0.0 {
+        return roi;
+    }
+    let (sin, cos) = roi.angle_rad.sin_cos();
+    let (ux, uy) = (
+        dx * IRIS_VIEW_SHIFT_PX / IRIS_INPUT as f32 * roi.w,
+        dy * IRIS_VIEW_SHIFT_PX / IRIS_INPUT as f32 * roi.h,
+    );
+    Roi {
+        cx: roi.cx + ux * cos - uy * sin,
+        cy: roi.cy + ux * sin + uy * cos,
+        ..roi
+    }
+}
+
 /// Eye corners of the last frame, in model order, to place the next eye
 /// crops without the mesh.
 #[derive(Clone, Debug)]
@@ -436,6 +541,104 @@ struct EyeTrack {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::image::{Planes, Rotation};
+
+    /// A 200x120 RGB picture with something eye-like (a dark disk in a
+    /// light almond) so the iris model has a structure to place.
+    fn eye_picture() -> Vec<u8> {
+        let (w, h) = (200usize, 120usize);
+        let mut data = vec![0u8; w * h * 3];
+        for y in 0..h {
+            for x in 0..w {
+                let (fx, fy) = (x as f32 - 100.0, y as f32 - 60.0);
+                let almond = (fx / 70.0).powi(2) + (fy / 28.0).powi(2) < 1.0;
+                let iris = (fx - 6.0).powi(2) + (fy + 2.0).powi(2) < 18.0f32.powi(2);
+                let v = if iris {
+                    40
+                } else if almond {
+                    225
+                } else {
+                    170
+                };
+                let px = &mut data[(y * w + x) * 3..(y * w + x) * 3 + 3];
+                px.copy_from_slice(&[v, (v as f32 * 0.8) as u8, (v as f32 * 0.7) as u8]);
+            }
+        }
+        data
+    }
+
+    /// `views` > 1 is the mean, in the image, of what one view gives for
+    /// each shifted crop (batched against single inferences: within float
+    /// rounding), and 1 view is the tracked crop's reading bit for bit.
+    #[test]
+    fn iris_views_average_the_shifted_crops() {
+        let Ok(mut models) = Models::load(&crate::models::default_models_dir()) else {
+            panic!("iris model missing: run scripts/setup.sh");
+        };
+        let data = eye_picture();
+        let img = ImageView {
+            planes: Planes::Rgb24 {
+                data: &data,
+                stride: 600,
+            },
+            raw_w: 200,
+            raw_h: 120,
+            rotation: Rotation::None,
+        };
+        // The same eye fed twice (as the pipeline feeds two), each crop a
+        // little turned, as a tilted head gives.
+        let roi = Roi {
+            cx: 101.0,
+            cy: 59.0,
+            w: 150.0,
+            h: 150.0,
+            angle_rad: 0.05,
+        };
+        let rois = [roi, roi];
+        let mut buf = vec![];
+        let mut clock = StageClock::new(false);
+        let mut read = |rois: &[Roi; 2], views: usize| {
+            iris_step(&mut models, &mut buf, &img, rois, [1, 1], views, &mut clock)
+                .unwrap()
+                .0
+        };
+        for views in [3usize, 5] {
+            let together = read(&rois, views);
+            let mut mean = [Pt::default(); 2];
+            for &(dx, dy) in &IRIS_VIEW_OFFSETS[..views] {
+                let one = read(&rois.map(|r| shifted(r, dx, dy)), 1);
+                for k in 0..2 {
+                    mean[k].x += one[k].iris.x / views as f32;
+                    mean[k].y += one[k].iris.y / views as f32;
+                }
+            }
+            for k in 0..2 {
+                assert!(
+                    together[k].iris.dist(mean[k]) < 2e-3,
+                    "{views} views, eye {k}: {:?} against the views' mean {:?}",
+                    together[k].iris,
+                    mean[k]
+                );
+            }
+            // The views differ (else averaging would gain nothing).
+            let single = read(&rois, 1);
+            assert!(single[0].iris.dist(together[0].iris) > 1e-3);
+        }
+        // A shift moves the crop along its own axes by 2/64 of its side.
+        let s = shifted(roi, 1.0, 0.0);
+        let step = 2.0 / 64.0 * 150.0;
+        assert!((s.cx - (101.0 + step * 0.05f32.cos())).abs() < 1e-4);
+        assert!((s.cy - (59.0 + step * 0.05f32.sin())).abs() < 1e-4);
+        // One view after several: the buffer's extra room is not read.
+        let again = read(&rois, 1);
+        let first = {
+            let mut fresh = vec![];
+            iris_step(&mut models, &mut fresh, &img, &rois, [1, 1], 1, &mut clock)
+                .unwrap()
+                .0
+        };
+        assert_eq!(again, first);
+    }
 
     #[test]
     fn eye_measure_follows_the_paper_formula() {

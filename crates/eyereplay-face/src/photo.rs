@@ -89,6 +89,8 @@ impl PhotoIdentity {
 pub struct PhotoFitter {
     tracker: Tracker,
     mesh: CanonicalMesh,
+    /// Crops per eye when reading a clip ([`PhotoFitter::track`]).
+    iris_views: usize,
 }
 
 /// The extractor's view of an RGB image.
@@ -112,7 +114,15 @@ impl PhotoFitter {
             // extract` reads a video.
             tracker: Tracker::new(Models::load(models_dir)?, DEFAULT_MESH_EVERY),
             mesh,
+            iris_views: 1,
         })
+    }
+
+    /// How many crops [`PhotoFitter::track`] reads each eye from (the
+    /// extractor's `--iris-views`, [`Tracker::set_iris_views`]), so a probe
+    /// reads as the read-back will. Photo fits keep one.
+    pub fn set_iris_views(&mut self, views: usize) {
+        self.iris_views = views;
     }
 
     pub fn mesh(&self) -> &CanonicalMesh {
@@ -126,6 +136,7 @@ impl PhotoFitter {
     pub fn landmarks(&mut self, image: &RgbImage) -> Result<Option<Face>> {
         let view = rgb_view(image);
         self.tracker.reset();
+        self.tracker.set_iris_views(1);
         if self.tracker.process_with_mesh(&view)?.is_none() {
             return Ok(None);
         }
@@ -143,6 +154,7 @@ impl PhotoFitter {
         if first {
             self.tracker.reset();
         }
+        self.tracker.set_iris_views(self.iris_views);
         Ok(self.tracker.process(&view)?)
     }
 

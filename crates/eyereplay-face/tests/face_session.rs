@@ -143,6 +143,42 @@ fn full_face_session_reads_back() {
     assert!(r >= 0.9, "r {r}");
     assert!((0.8..=1.2).contains(&gain), "gain {gain}");
 
+    // Five crops per eye (`--iris-views 5`) read the drawn iris centre more
+    // precisely than one: the spread of extracted minus drawn, px, along
+    // each image axis, over the frames both read with the eyes open.
+    let ex5 = extract_video_to_csv(
+        &mp4,
+        &dir.path().join("x5.csv"),
+        &ExtractOptions {
+            models_dir: models.clone(),
+            iris_views: 5,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let spread = |ex: &eyereplay_extract::Extraction, both: &dyn Fn(usize) -> bool| {
+        let mut d = [vec![], vec![]];
+        for (i, (r, t)) in ex.rows.iter().zip(&rows).enumerate() {
+            if let (Some(e), true) = (r.eyes, both(i)) {
+                for (got, drawn) in e.iter().zip(&t.eyes) {
+                    d[0].push(got.iris.x as f64 - drawn.iris_px[0]);
+                    d[1].push(got.iris.y as f64 - drawn.iris_px[1]);
+                }
+            }
+        }
+        [sd(&d[0]), sd(&d[1])]
+    };
+    let open = |ex: &eyereplay_extract::Extraction, i: usize| {
+        ex.rows[i].eyes.is_some() && !ex.rows[i].blink && !rows[i].blink
+    };
+    let both = |i: usize| open(&ex, i) && open(&ex5, i);
+    let (one, five) = (spread(&ex, &both), spread(&ex5, &both));
+    eprintln!("iris centre error sd (x, y) px: 1 view {one:.3?}, 5 views {five:.3?}");
+    assert!(
+        five[0] < one[0] && five[1] < one[1],
+        "1 view {one:?}, 5 views {five:?}"
+    );
+
     // Determinism of the truth files.
     let (truth2, head2) = (dir.path().join("t2.csv"), dir.path().join("h2.csv"));
     render_face_session(

@@ -244,7 +244,7 @@ fn device_of(name: &str) -> PyResult<ex::Device> {
 /// are also saved where the command would put them (atomically).
 #[pyfunction]
 #[pyo3(signature = (videos, out=None, models=None, threads=0, blink_ratio=ex::DEFAULT_BLINK_RATIO,
-    max_seconds=None, mesh_every=ex::DEFAULT_MESH_EVERY, device="cpu", progress=None))]
+    max_seconds=None, mesh_every=ex::DEFAULT_MESH_EVERY, iris_views=1, device="cpu", progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn extract<'py>(
     py: Python<'py>,
@@ -255,9 +255,16 @@ fn extract<'py>(
     blink_ratio: f64,
     max_seconds: Option<f64>,
     mesh_every: u32,
+    iris_views: usize,
     device: &str,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
+    if !(1..=ex::MAX_IRIS_VIEWS).contains(&iris_views) {
+        return Err(ConfigError::new_err(format!(
+            "iris_views {iris_views}: expected 1 to {}",
+            ex::MAX_IRIS_VIEWS
+        )));
+    }
     // Where each CSV goes, checked before any work (as the command does).
     let csv_paths = match &out {
         Some(o) => Some(ex::output_csv_paths(o, &videos).map_err(ConfigError::new_err)?),
@@ -271,6 +278,7 @@ fn extract<'py>(
         preview_dir: None,
         preview_every_s: 5.0,
         mesh_every,
+        iris_views,
         profile: false,
         device: device_of(device)?,
     };

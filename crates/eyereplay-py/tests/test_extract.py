@@ -91,3 +91,24 @@ def test_progress_counts_every_frame(both):
     eyereplay.extract(VIDEO, max_seconds=6, progress=P())
     assert seen[0] == ("begin", "extract") and seen[-1] == ("end", "extract")
     assert sum(n for k, n in seen if k == "advance") == len(t)
+
+
+def test_iris_views_match_the_cli_and_are_checked(tmp_path):
+    # The same more-precise reading as `eyereplay extract --iris-views 3`,
+    # byte for byte; out-of-range counts are a ConfigError before any work.
+    r = run_cli("extract", VIDEO, "--out", tmp_path / "cli.csv", "--max-seconds", "2",
+                "--iris-views", "3", "--quiet")
+    assert r.returncode == 0, r.stderr
+    eyereplay.extract(VIDEO, out=tmp_path / "py.csv", max_seconds=2, iris_views=3,
+                      progress=False)
+    assert (tmp_path / "py.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
+    one = eyereplay.extract(VIDEO, max_seconds=2, progress=False)
+    three = eyereplay.extract(VIDEO, max_seconds=2, iris_views=3, progress=False)
+    both = (one["valid"] == 1) & (three["valid"] == 1)
+    assert both.sum() > 30
+    d = np.abs(one["nx"][both] - three["nx"][both])
+    # Other crops, another reading: close, not the same.
+    assert 0 < np.median(d) < 0.02
+    for bad in (0, 10):
+        with pytest.raises(eyereplay.ConfigError, match="iris_views"):
+            eyereplay.extract(VIDEO, max_seconds=1, iris_views=bad, progress=False)

@@ -470,18 +470,25 @@ fn read_back(
     // whether the detector sees a face at all, so a close-up does not cost
     // a full detector pass.
     let trial = (4.0 * fps).round() as usize;
+    let views = extractor_iris_views(geometry)?;
     let detected = if geometry.is_file() && n > trial {
-        match extract_with_detector(video, models, trial, fps) {
+        match extract_with_detector(video, models, trial, fps, views) {
             Ok(r) if rows_detection_rate(&r) < 0.5 => Ok(r),
-            _ => extract_with_detector(video, models, n, fps),
+            _ => extract_with_detector(video, models, n, fps, views),
         }
     } else {
-        extract_with_detector(video, models, n, fps)
+        extract_with_detector(video, models, n, fps, views)
     };
     match detected {
         Ok(r) if rows_detection_rate(&r) >= 0.5 || !geometry.is_file() => Ok(Ok(ReadBack {
             n: r.iter().map(row_norm).collect(),
-            how: "face detector, face mesh and iris model (eyereplay-extract)".to_string(),
+            how: if views > 1 {
+                format!(
+                    "face detector, face mesh and iris model (eyereplay-extract), each eye read from {views} crops"
+                )
+            } else {
+                "face detector, face mesh and iris model (eyereplay-extract)".to_string()
+            },
             rows: Some(r),
         })),
         first => {
@@ -543,15 +550,48 @@ fn detection_rate(n: &[[f64; 2]]) -> f64 {
         / n.len().max(1) as f64
 }
 
-/// The extractor's rows for the first `n_max` frames by its full pipeline.
+/// The crops per eye a session was matched to and is read back with: a
+/// full-face session's `extractor_iris_views` in its identity file
+/// (`render.extractor_iris_views`), else 1 (no file, another mode, or a
+/// dataset made before the setting).
+fn extractor_iris_views(identity_json: &Path) -> Result<usize> {
+    if !identity_json.is_file() {
+        return Ok(1);
+    }
+    let text = std::fs::read_to_string(identity_json)
+        .map_err(|e| Error::input(identity_json, format!("reading: {e}")))?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| Error::input(identity_json, format!("not valid JSON: {e}")))?;
+    match v.pointer("/identity/extractor_iris_views") {
+        None => Ok(1),
+        Some(n) => n
+            .as_u64()
+            .map(|n| n as usize)
+            .filter(|n| (1..=eyereplay_extract::MAX_IRIS_VIEWS).contains(n))
+            .ok_or_else(|| {
+                Error::input(
+                    identity_json,
+                    format!(
+                        "identity.extractor_iris_views {n} must be a whole number from 1 to {}",
+                        eyereplay_extract::MAX_IRIS_VIEWS
+                    ),
+                )
+            }),
+    }
+}
+
+/// The extractor's rows for the first `n_max` frames by its full pipeline,
+/// each eye read from `iris_views` crops.
 fn extract_with_detector(
     video: &Path,
     models: &Path,
     n_max: usize,
     fps: f64,
+    iris_views: usize,
 ) -> Result<Vec<eyereplay_extract::Row>> {
     let opts = eyereplay_extract::ExtractOptions {
         models_dir: models.to_path_buf(),
+        iris_views,
         max_duration_s: Some(n_max as f64 / fps),
         ..Default::default()
     };

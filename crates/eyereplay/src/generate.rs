@@ -200,6 +200,7 @@ pub fn generate(
             ));
         }
     }
+    forget_renders_of_another_config(out, &job.config, progress)?;
     let mut log = RunLog::open(out)?;
     let mut summary = GenerateSummary::default();
     let mut stage = |name: &'static str, t: Instant, log: &mut RunLog| {
@@ -242,6 +243,64 @@ pub fn generate(
     summary.render = render;
     summary.report = report;
     Ok(summary)
+}
+
+/// A rerun resumes by skipping finished sessions, which is right only when
+/// they were rendered as this config says: when `out` holds a dataset whose
+/// recorded `[render]` table differs from `config`'s (a setting changed
+/// since, say), its sessions' rendered files are removed so that they are
+/// rendered again, and a line says so. The trajectories (`prepare`) are
+/// written anew anyway.
+fn forget_renders_of_another_config(
+    out: &Path,
+    config: &DatasetConfig,
+    progress: &dyn Progress,
+) -> Result<()> {
+    let meta_path = out.join(eyereplay_dataset::layout::METADATA_FILE);
+    let Ok(text) = std::fs::read_to_string(&meta_path) else {
+        return Ok(());
+    };
+    let old: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| Error::input(&meta_path, format!("not valid JSON: {e}")))?;
+    let new = serde_json::to_value(config)
+        .map_err(|e| Error::input(&meta_path, format!("cannot record the config: {e}")))?;
+    let none = serde_json::Value::Null;
+    let (was, now) = (
+        old.pointer("/config/render").unwrap_or(&none),
+        new.get("render").unwrap_or(&none),
+    );
+    if was == now {
+        return Ok(());
+    }
+    let mut removed = 0;
+    for s in old["sessions"].as_array().into_iter().flatten() {
+        let Some(file) = s["file"].as_str() else {
+            continue;
+        };
+        let Ok(paths) = eyereplay_dataset::layout::SessionPaths::new(out, file) else {
+            continue;
+        };
+        let mut any = false;
+        for p in paths
+            .outputs()
+            .map(Path::to_path_buf)
+            .into_iter()
+            .chain([paths.head_csv(), paths.carrier_csv()])
+        {
+            if p.is_file() {
+                std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?;
+                any = true;
+            }
+        }
+        removed += any as usize;
+    }
+    if removed > 0 {
+        progress.info(&format!(
+            "{}: made with another [render] table than this config's; its {removed} rendered sessions are rendered again",
+            out.display()
+        ));
+    }
+    Ok(())
 }
 
 /// Per-stage timings, appended to `<out>/run.log` (not to metadata.json,

@@ -115,6 +115,7 @@ def extract(
     blink_ratio: float = 0.6,
     max_seconds: Optional[float] = None,
     mesh_every: int = 2,
+    iris_views: int = 1,
     device: str = "cpu",
     progress: Any = True,
 ):
@@ -132,7 +133,10 @@ def extract(
     ``device`` is ``"cpu"`` (the default: these small networks ran slower
     on a GPU), ``"cuda"`` (with ``EYEREPLAY_ORT_LIB`` pointing at an
     onnxruntime-gpu build's ``libonnxruntime.so``) or ``"auto"`` (CUDA when
-    that library has it); the other options are the command's flags.
+    that library has it); ``iris_views`` reads each eye from that many
+    shifted crops and averages them (``--iris-views``: more precise, about
+    as many times the iris model's CPU time); the other options are the
+    command's flags.
     Raises :class:`VideoError` for an unreadable video or one with no face,
     :class:`ModelError` when the models are missing (see :func:`fetch_models`).
     """
@@ -145,6 +149,7 @@ def extract(
         blink_ratio=blink_ratio,
         max_seconds=max_seconds,
         mesh_every=mesh_every,
+        iris_views=iris_views,
         device=device,
         progress=progress,
     )
@@ -161,6 +166,7 @@ def extract_many(
     blink_ratio: float = 0.6,
     max_seconds: Optional[float] = None,
     mesh_every: int = 2,
+    iris_views: int = 1,
     device: str = "cpu",
     progress: Any = True,
 ) -> list:
@@ -178,6 +184,7 @@ def extract_many(
         blink_ratio=blink_ratio,
         max_seconds=max_seconds,
         mesh_every=mesh_every,
+        iris_views=iris_views,
         device=device,
         progress=_resolve_progress(progress),
     )

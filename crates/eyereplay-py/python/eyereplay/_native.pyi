@@ -19,6 +19,7 @@ def extract(
     blink_ratio: float = 0.6,
     max_seconds: Optional[float] = None,
     mesh_every: int = 2,
+    iris_views: int = 1,
     device: str = "cpu",
     progress: Any = None,
 ) -> List[Dict[str, Any]]: ...
