@@ -139,7 +139,7 @@ def dataset_table(d, a, here):
         # so a regenerated dataset is never compared with an old one.
         views = 1
         if not a.mediapipe and os.path.exists(ident):
-            views = int(json.load(open(ident)).get("identity", {}).get("extractor_iris_views", 1))
+            views = int(json.load(open(ident)).get("extractor_iris_views") or 1)
         name = f.replace("/", "__")[:-len(".csv")] + "." + video_key(mp4)
         if views > 1:
             name += f".views{views}"

@@ -98,15 +98,16 @@ fn generate_is_deterministic_resumable_and_shardable() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("rendered 0 sessions"));
     assert_eq!(hashes(&a), ha);
 
-    // A [render] setting changed since: the sessions are rendered again
-    // (not skipped as finished), and the same config as before gives back
-    // the same files.
+    // A [render] setting changed since (here the close-up probe reading
+    // each eye from 3 crops): the sessions are rendered again (not skipped
+    // as finished), and the same config as before gives back the same
+    // files.
     let changed = dir.path().join("changed.toml");
     let text = std::fs::read_to_string(tiny())
         .unwrap()
         .replace("\"../", &format!("\"{}/", root().display()))
-        .replace("jobs = 1\n", "jobs = 1\ncrf = 30\n");
-    assert!(text.contains("crf = 30"));
+        .replace("jobs = 1\n", "jobs = 1\nextractor_iris_views = 3\n");
+    assert!(text.contains("extractor_iris_views = 3"));
     std::fs::write(&changed, text).unwrap();
     let mp4 = a.join("reading/reading_0000.mp4");
     let before = std::fs::read(&mp4).unwrap();
@@ -128,10 +129,25 @@ fn generate_is_deterministic_resumable_and_shardable() {
         said.contains("rendered 8 sessions") && said.contains("rendered again"),
         "{said}"
     );
-    assert_ne!(std::fs::read(&mp4).unwrap(), before, "crf 30 encodes anew");
+    assert_ne!(
+        std::fs::read(&mp4).unwrap(),
+        before,
+        "drawn through the 3-crop reading's response"
+    );
+    // Each session records the crops its probe read with (the read-back
+    // reads the same way); one crop before.
+    let views = |dir: &Path| -> serde_json::Value {
+        serde_json::from_slice::<serde_json::Value>(
+            &std::fs::read(dir.join("reading/reading_0000_identity.json")).unwrap(),
+        )
+        .unwrap()["extractor_iris_views"]
+            .clone()
+    };
+    assert_eq!(views(&a), serde_json::json!(3));
     ok(&generate(&a, &[]));
     assert_eq!(hashes(&a), ha);
     assert_eq!(std::fs::read(&mp4).unwrap(), before);
+    assert_eq!(views(&a), serde_json::json!(1));
 
     // Two shards into one folder, then merge: same files as one machine.
     let s = dir.path().join("s");

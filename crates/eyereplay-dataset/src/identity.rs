@@ -63,6 +63,11 @@ pub struct SessionIdentity<I = serde_json::Value, M = serde_json::Value> {
     /// it draws the eyes (a browser page without configured eye corners).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub eyes: Option<[EyeGeometry; 2]>,
+    /// Crops per eye the extractor that drew this session's response map
+    /// read with (`render.extractor_iris_views`); the read-back reads the
+    /// same way. Absent: one (no probe, or a file from before the setting).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub extractor_iris_views: Option<usize>,
 }
 
 impl SessionIdentity {

@@ -28,12 +28,13 @@ pub struct RenderSettings {
     /// trajectory's position (measured per session from probe frames;
     /// needs the models), rather than at the renderer's geometric position.
     pub match_extractor: bool,
-    /// Full-face mode: how many crops the extractor reads each eye from,
-    /// 1-9 (`eyereplay extract --iris-views`), in the `match_extractor`
-    /// probe and in the evaluation's read-back of the session (recorded in
-    /// its `_identity.json`). 1 (default) is MediaPipe's single crop; more
-    /// views read the eye more precisely for about as many times the iris
-    /// model's CPU time.
+    /// Face and close-up modes: how many crops the extractor reads each
+    /// eye from, 1-9 (`eyereplay extract --iris-views`), in the
+    /// `match_extractor` probe and in the evaluation's read-back of the
+    /// session (recorded in its `_identity.json` as
+    /// `extractor_iris_views`). 1 (default) is MediaPipe's single crop;
+    /// more views read the eye more precisely for about as many times the
+    /// iris model's CPU time.
     pub extractor_iris_views: usize,
     /// x264 preset.
     pub preset: String,

@@ -81,6 +81,9 @@ pub struct EyeCropTracker {
     /// about every two image pixels ([`area_samples`]), `Some(1)` samples the crop
     /// as MediaPipe does (one bilinear sample per crop pixel).
     pub area_samples: Option<usize>,
+    /// Crops each eye is read from, 1..=[`crate::MAX_IRIS_VIEWS`]
+    /// ([`crate::Tracker::set_iris_views`]; clamped); 1 by default.
+    pub iris_views: usize,
     /// CPU time of the crop and iris stages (off unless enabled).
     pub clock: StageClock,
 }
@@ -101,6 +104,7 @@ impl EyeCropTracker {
             models,
             iris_in: vec![0.0; 2 * 3 * IRIS_INPUT * IRIS_INPUT],
             area_samples: None,
+            iris_views: 1,
             clock: StageClock::new(false),
         }
     }
@@ -126,7 +130,7 @@ impl EyeCropTracker {
                 self.area_samples
                     .unwrap_or_else(|| area_samples(r.w.max(r.h)))
             }),
-            1,
+            self.iris_views,
             &mut self.clock,
         )?;
         Ok(eyes)

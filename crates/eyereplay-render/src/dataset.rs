@@ -132,17 +132,47 @@ pub struct DatasetOptions {
 /// is then drawn at the geometric target).
 #[derive(Clone)]
 #[allow(clippy::type_complexity)]
-pub struct ResponseProbe(
-    pub  std::sync::Arc<
+pub struct ResponseProbe {
+    measure: std::sync::Arc<
         dyn Fn(&RenderParams, &[CanvasPos]) -> Result<Option<crate::ResponseMap>, String>
             + Send
             + Sync,
     >,
-);
+    /// Crops per eye the probe's extractor reads with
+    /// (`render.extractor_iris_views`), recorded in each session's
+    /// identity file so the read-back reads the same way.
+    pub iris_views: usize,
+}
+
+impl ResponseProbe {
+    #[allow(clippy::type_complexity)]
+    pub fn new(
+        iris_views: usize,
+        measure: std::sync::Arc<
+            dyn Fn(&RenderParams, &[CanvasPos]) -> Result<Option<crate::ResponseMap>, String>
+                + Send
+                + Sync,
+        >,
+    ) -> ResponseProbe {
+        ResponseProbe {
+            measure,
+            iris_views,
+        }
+    }
+
+    /// The response map for one session's parameters and trajectory.
+    pub fn measure(
+        &self,
+        params: &RenderParams,
+        traj: &[CanvasPos],
+    ) -> Result<Option<crate::ResponseMap>, String> {
+        (self.measure)(params, traj)
+    }
+}
 
 impl std::fmt::Debug for ResponseProbe {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("ResponseProbe")
+        write!(f, "ResponseProbe({} iris views)", self.iris_views)
     }
 }
 
@@ -226,7 +256,7 @@ pub fn render_dataset(
                     params.natural_blinks = opts.natural_blinks;
                     if let Some(probe) = &opts.response {
                         params.mapping.extractor_response =
-                            (probe.0)(&params, &traj).map_err(RenderError::Params)?;
+                            probe.measure(&params, &traj).map_err(RenderError::Params)?;
                     }
                     let stats = render_session(
                         &traj,
@@ -244,6 +274,7 @@ pub fn render_dataset(
                         height: params.height,
                         fps: params.fps,
                         eyes: stats.eyes.clone(),
+                        extractor_iris_views: opts.response.as_ref().map(|p| p.iris_views),
                     }
                     .write(&files.identity_json)?;
                     frames.fetch_add(stats.frames, Ordering::Relaxed);

@@ -359,6 +359,7 @@ pub fn video_tracks(
                     &eyereplay_extract::default_models_dir(),
                     c,
                     usize::MAX,
+                    1,
                 )?;
                 save_corner_track(&paths[i].1, &n)?;
                 progress.info(&format!(

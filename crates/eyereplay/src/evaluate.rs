@@ -506,7 +506,7 @@ fn read_back(
                     shown(dir, geometry)
                 )));
             };
-            let r = extract_at_corners(video, models, corners, n)?;
+            let r = extract_at_corners(video, models, corners, n, views)?;
             let seen = match &first {
                 Ok(r) => format!("{:.0} %", 100.0 * rows_detection_rate(r)),
                 Err(_) => "none".to_string(),
@@ -515,9 +515,14 @@ fn read_back(
                 n: r,
                 how: format!(
                     "iris model on eye crops placed from the render's known geometry ({}; \
-nx against its fixed eye corners, ny against the model's lids), \
+nx against its fixed eye corners, ny against the model's lids{}), \
 because the face detector found the face in {seen} of the compared frames",
-                    shown(dir, geometry)
+                    shown(dir, geometry),
+                    if views > 1 {
+                        format!("; each eye read from {views} crops")
+                    } else {
+                        String::new()
+                    }
                 ),
                 rows: None,
             }))
@@ -550,9 +555,9 @@ fn detection_rate(n: &[[f64; 2]]) -> f64 {
         / n.len().max(1) as f64
 }
 
-/// The crops per eye a session was matched to and is read back with: a
-/// full-face session's `extractor_iris_views` in its identity file
-/// (`render.extractor_iris_views`), else 1 (no file, another mode, or a
+/// The crops per eye a session was matched to and is read back with:
+/// `extractor_iris_views` in its identity file
+/// (`render.extractor_iris_views`), else 1 (no file, no probe, or a
 /// dataset made before the setting).
 fn extractor_iris_views(identity_json: &Path) -> Result<usize> {
     if !identity_json.is_file() {
@@ -562,7 +567,7 @@ fn extractor_iris_views(identity_json: &Path) -> Result<usize> {
         .map_err(|e| Error::input(identity_json, format!("reading: {e}")))?;
     let v: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| Error::input(identity_json, format!("not valid JSON: {e}")))?;
-    match v.pointer("/identity/extractor_iris_views") {
+    match v.get("extractor_iris_views") {
         None => Ok(1),
         Some(n) => n
             .as_u64()
@@ -572,7 +577,7 @@ fn extractor_iris_views(identity_json: &Path) -> Result<usize> {
                 Error::input(
                     identity_json,
                     format!(
-                        "identity.extractor_iris_views {n} must be a whole number from 1 to {}",
+                        "extractor_iris_views {n} must be a whole number from 1 to {}",
                         eyereplay_extract::MAX_IRIS_VIEWS
                     ),
                 )
@@ -626,13 +631,16 @@ pub(crate) fn extract_at_corners(
     models: &Path,
     corners: [([f64; 2], [f64; 2]); 2],
     n_max: usize,
+    iris_views: usize,
 ) -> Result<Vec<[f64; 2]>> {
     use eyereplay_extract::Pt;
     let pt = |p: [f64; 2]| Pt::new(p[0] as f32, p[1] as f32);
     // Image-left eye first, each pair left to right, as the crops expect.
     let corners = eyereplay_extract::order_eye_corners(corners.map(|(a, b)| (pt(a), pt(b))));
     let m = eyereplay_extract::Models::load(models)?;
-    let rows = eyereplay_extract::EyeCropTracker::new(m)
+    let mut tracker = eyereplay_extract::EyeCropTracker::new(m);
+    tracker.iris_views = iris_views;
+    let rows = tracker
         .measure_video_rows(
             video,
             &corners,

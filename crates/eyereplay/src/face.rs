@@ -80,13 +80,6 @@ impl FaceSettings {
                 "[render]: face_height_frac [{lo}, {hi}] must be a range inside [0.15, 0.8]"
             )));
         }
-        let views = settings.extractor_iris_views;
-        if !(1..=eyereplay_extract::MAX_IRIS_VIEWS).contains(&views) {
-            return Err(Error::Setting(format!(
-                "[render]: extractor_iris_views {views} must be between 1 and {}",
-                eyereplay_extract::MAX_IRIS_VIEWS
-            )));
-        }
         if !(settings.head_sway.is_finite() && (0.0..=5.0).contains(&settings.head_sway)) {
             return Err(Error::Setting(format!(
                 "[render]: head_sway {} must be between 0 and 5",
@@ -158,9 +151,6 @@ struct FaceIdentityRecord<'a> {
     /// The head pose (yaw, pitch relative to rest, deg) the probe clip
     /// turned about: the middle of the session's planned head range.
     probe_head_centre_deg: Option<[f64; 2]>,
-    /// `render.extractor_iris_views`: the crops per eye the probe read
-    /// with, and the evaluation's read-back reads with.
-    extractor_iris_views: usize,
     /// `render.head_motion`: `model` or `source`.
     head_motion: HeadMotion,
     /// Frames whose head came from the source video (head_motion = source).
@@ -293,7 +283,6 @@ pub(crate) fn render_sessions_face(
                     max_head_pitch_deg: stats.max_head_pitch_deg,
                     pose_slopes,
                     probe_head_centre_deg,
-                    extractor_iris_views: settings.extractor_iris_views,
                     head_motion: settings.head_motion,
                     source_head_frames: stats.source_head_frames,
                 },
@@ -302,6 +291,9 @@ pub(crate) fn render_sessions_face(
                 height: params.height,
                 fps: meta.fps,
                 eyes: None,
+                extractor_iris_views: settings
+                    .match_extractor
+                    .then_some(settings.extractor_iris_views),
             }
             .write(&files.identity_json)?;
             Ok(stats)

@@ -79,6 +79,22 @@ pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shar
             ));
         }
     }
+    let views = settings.extractor_iris_views;
+    if !(1..=eyereplay_extract::MAX_IRIS_VIEWS).contains(&views) {
+        return Err(Error::input(
+            config_path,
+            format!(
+                "[render]: extractor_iris_views {views} must be between 1 and {}",
+                eyereplay_extract::MAX_IRIS_VIEWS
+            ),
+        ));
+    }
+    if views > 1 && !(face || eyes) {
+        return Err(Error::input(
+            config_path,
+            "[render]: extractor_iris_views applies to backend = \"face\" and \"eyes\" (their match_extractor probe and read-back)",
+        ));
+    }
     if face {
         crate::face::FaceSettings::from_render(&settings)
             .map_err(|e| Error::input(config_path, e.to_string()))?;

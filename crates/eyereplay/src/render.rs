@@ -125,7 +125,10 @@ fn render_sessions_eyes(
         params,
         natural_blinks: settings.natural_blinks,
         shard: shard.map(|s| (s.index, s.count)),
-        response: crate::match_extractor_probe(settings.match_extractor)?,
+        response: crate::match_extractor_probe(
+            settings.match_extractor,
+            settings.extractor_iris_views,
+        )?,
     };
     let summary = render_dataset(out, &opts, &|job, outcome| {
         let n = done.fetch_add(1, Ordering::Relaxed) + 1;
@@ -213,6 +216,7 @@ fn render_sessions_browser(
                         eyes: settings
                             .browser_eye_corners_px
                             .map(SessionIdentity::eyes_from_corners),
+                        extractor_iris_views: None,
                     }
                     .write(&job.paths.identity_json)?;
                     summary.add(stats.frames, stats.clamped_points);

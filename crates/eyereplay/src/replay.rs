@@ -231,6 +231,7 @@ pub(crate) fn render_sessions_replay(
                 height: h,
                 fps: meta.fps,
                 eyes: None,
+                extractor_iris_views: None,
             }
             .write(&files.identity_json)?;
             Ok(stats)

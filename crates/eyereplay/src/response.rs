@@ -110,27 +110,32 @@ fn probe_pass(
 }
 
 /// [`response_probe`] on the default models folder when `enabled`
-/// (`render.match_extractor`), else `None`.
-pub fn match_extractor_probe(enabled: bool) -> Result<Option<ResponseProbe>> {
+/// (`render.match_extractor`), each eye read from `iris_views` crops
+/// (`render.extractor_iris_views`), else `None`.
+pub fn match_extractor_probe(enabled: bool, iris_views: usize) -> Result<Option<ResponseProbe>> {
     enabled
-        .then(|| response_probe(&eyereplay_extract::default_models_dir()))
+        .then(|| response_probe(&eyereplay_extract::default_models_dir(), iris_views))
         .transpose()
 }
 
 /// The probe a dataset render calls per session: one iris model shared by
-/// the render workers (probing takes about 1 s per session at 1280x720).
-pub fn response_probe(models_dir: &Path) -> Result<ResponseProbe> {
+/// the render workers (probing takes about 1 s per session at 1280x720),
+/// each eye read from `iris_views` crops.
+pub fn response_probe(models_dir: &Path, iris_views: usize) -> Result<ResponseProbe> {
     eyereplay_extract::init_runtime(models_dir)?;
     let models = Models::load(models_dir).map_err(|e| {
         Error::Setting(format!(
             "render.match_extractor needs the iris model: {e} (or set match_extractor = false in [render])"
         ))
     })?;
-    let tracker = Mutex::new(EyeCropTracker::new(models));
-    Ok(ResponseProbe(Arc::new(
-        move |params: &RenderParams, traj: &[CanvasPos]| {
+    let mut tracker = EyeCropTracker::new(models);
+    tracker.iris_views = iris_views;
+    let tracker = Mutex::new(tracker);
+    Ok(ResponseProbe::new(
+        iris_views,
+        Arc::new(move |params: &RenderParams, traj: &[CanvasPos]| {
             let mut t = tracker.lock().unwrap_or_else(|p| p.into_inner());
             measure_response(params, traj, &mut t)
-        },
-    )))
+        }),
+    ))
 }

@@ -174,8 +174,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let traj_path = args.trajectory.as_ref().expect("clap requires it");
     let traj = read_session_csv(traj_path)?;
     let mut p = p;
-    if let Some(probe) = eyereplay::match_extractor_probe(args.match_extractor)? {
-        p.mapping.extractor_response = (probe.0)(&p, &traj).map_err(anyhow::Error::msg)?;
+    let probe = eyereplay::match_extractor_probe(args.match_extractor, 1)?;
+    if let Some(probe) = &probe {
+        p.mapping.extractor_response = probe.measure(&p, &traj).map_err(anyhow::Error::msg)?;
     }
     let blinks = read_blink_column(traj_path)?;
     let out = args
@@ -208,6 +209,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             height: p.height,
             fps: p.fps,
             eyes,
+            extractor_iris_views: probe.as_ref().map(|p| p.iris_views),
         }
         .write(path)?;
     }
@@ -241,7 +243,7 @@ fn run_dataset(dir: &std::path::Path, args: &Args, p: RenderParams) -> anyhow::R
         natural_blinks: args.natural_blinks,
         params: p,
         shard: None,
-        response: eyereplay::match_extractor_probe(args.match_extractor)?,
+        response: eyereplay::match_extractor_probe(args.match_extractor, 1)?,
     };
     let summary = render_dataset(dir, &opts, &|job, outcome| {
         match outcome {
