@@ -3,13 +3,14 @@
 
     python3 scripts/face-table.py DATASET_DIR [DATASET_DIR ...] [--eyereplay PATH]
                                   [--horizontal] [--vertical] [--mesh-every N]
-                                  [--smooth-s S] [--mediapipe]
+                                  [--iris-views N] [--smooth-s S] [--mediapipe]
 
 For each rendered session: `eyereplay extract` (the unmodified path: face
 detection, 468 landmarks, iris) reads the video back (kept in
-DATASET_DIR/.readback/ under the video's hash), each eye from as many crops as the session's
-probe read it (`extractor_iris_views` in its `_identity.json`, passed as
-`--iris-views`); the mean nx, ny of both eyes is compared frame by
+DATASET_DIR/.readback/ under the video's hash), each eye from as many
+crops as the session's probe read it (`extractor_iris_views` in its
+`_identity.json`, passed as `--iris-views`; `--iris-views N` reads with
+N instead); the mean nx, ny of both eyes is compared frame by
 frame, open-eye frames only, with the source's position for that frame:
 the session's drawn truth mapped through its `extractor_response` (the
 renderer draws the inverse of that map, so this is the trajectory's own
@@ -89,12 +90,20 @@ def main():
                     help="read back with MediaPipe's own Python face mesh "
                          "(refine_landmarks=True, scripts/dev/mediapipe_ref.sh; kept in "
                          "DATASET_DIR/.readback_mediapipe/) instead of `eyereplay extract`")
+    ap.add_argument("--iris-views", type=int, metavar="N",
+                    help="read every session back with `eyereplay extract --iris-views N` "
+                         "instead of the crops per eye its probe read with (only r then "
+                         "compares: the drawn response is the probe's)")
     ap.add_argument("--smooth-s", type=float, metavar="S",
                     help="also r with source and read-back smoothed by a Gaussian of S s")
     a = ap.parse_args()
     if a.mediapipe and (a.mesh_every is not None or a.vertical or a.horizontal):
         ap.error("--mediapipe reads no iris or corner pixels: it cannot take "
                  "--mesh-every, --vertical or --horizontal")
+    if a.mediapipe and a.iris_views is not None:
+        ap.error("--mediapipe reads with MediaPipe's own crops: it cannot take --iris-views")
+    if a.iris_views is not None and not 1 <= a.iris_views <= 9:
+        ap.error(f"--iris-views must be from 1 to 9, not {a.iris_views}")
     if a.smooth_s is not None and not a.smooth_s > 0:
         ap.error(f"--smooth-s must be a positive number of seconds, not {a.smooth_s}")
     # Every folder checked before any read-back starts.
@@ -138,7 +147,9 @@ def dataset_table(d, a, here):
         # read-back is kept under the video's own hash and that setting,
         # so a regenerated dataset is never compared with an old one.
         views = 1
-        if not a.mediapipe and os.path.exists(ident):
+        if a.iris_views is not None:
+            views = a.iris_views
+        elif not a.mediapipe and os.path.exists(ident):
             views = int(json.load(open(ident)).get("extractor_iris_views") or 1)
         name = f.replace("/", "__")[:-len(".csv")] + "." + video_key(mp4)
         if views > 1:

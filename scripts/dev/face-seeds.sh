@@ -3,17 +3,24 @@
 # one pooled comparison: one run moves single sessions' read-back r by
 # about 0.01, so a change to the full-face renderer is judged over seeds.
 #
-#   scripts/dev/face-seeds.sh OUT_ROOT SEED [SEED ...]
+#   scripts/dev/face-seeds.sh [--views V] OUT_ROOT SEED [SEED ...]
 #
 # Writes OUT_ROOT/seedN.toml (examples/default.toml with `seed = N` and its
-# relative paths made absolute) and the dataset OUT_ROOT/seedN (complete
+# relative paths made absolute; with --views V, `extractor_iris_views = V`:
+# 1 gives the one-crop probe and read-back of earlier versions) and the dataset OUT_ROOT/seedN (complete
 # sessions of an earlier run are kept), then runs
 # `scripts/face-table.py OUT_ROOT/seed... --horizontal --vertical`, whose
 # last lines are the pooled means. Needs scripts/setup.sh's data and a
 # release build (scripts/run.sh does both).
 set -euo pipefail
+views=""
+if [ "${1:-}" = "--views" ]; then
+  views=${2:-}
+  case $views in [1-9]) ;; *) echo "face-seeds: --views takes 1 to 9, not '$views'" >&2; exit 2;; esac
+  shift 2
+fi
 if [ $# -lt 2 ]; then
-  echo "usage: $0 OUT_ROOT SEED [SEED ...]" >&2
+  echo "usage: $0 [--views V] OUT_ROOT SEED [SEED ...]" >&2
   exit 2
 fi
 repo=$(cd "$(dirname "$0")/../.." && pwd)
@@ -28,7 +35,9 @@ done
 dirs=()
 for seed in "$@"; do
   cfg="$root/seed$seed.toml"
-  sed -e "s/^seed = .*/seed = $seed/" -e "s|\"\\.\\./|\"$repo/|g" "$repo/examples/default.toml" > "$cfg.part"
+  sed -e "s/^seed = .*/seed = $seed/" -e "s|\"\\.\\./|\"$repo/|g" \
+    ${views:+-e "s/^extractor_iris_views = .*/extractor_iris_views = $views/"} \
+    "$repo/examples/default.toml" > "$cfg.part"
   mv "$cfg.part" "$cfg"
   out="$root/seed$seed"
   # generate resumes: complete sessions are skipped, a half folder finished.

@@ -107,10 +107,18 @@ impl SessionPaths {
         self.truth.with_file_name(name)
     }
 
-    /// The session's own files (what an interrupted render may have left
-    /// half-written).
-    pub fn outputs(&self) -> [&Path; 3] {
-        [&self.mp4, &self.truth, &self.identity_json]
+    /// The files a render writes for the session, whichever the mode (what
+    /// an interrupted render may have left half-written, and what a
+    /// re-render replaces): video, truth and identity, and the full-face
+    /// mode's head CSV and the replay mode's carrier CSV.
+    pub fn outputs(&self) -> [PathBuf; 5] {
+        [
+            self.mp4.clone(),
+            self.truth.clone(),
+            self.identity_json.clone(),
+            self.head_csv(),
+            self.carrier_csv(),
+        ]
     }
 }
 

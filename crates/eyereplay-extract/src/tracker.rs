@@ -7,7 +7,7 @@ use crate::detect::{self, Detection};
 use crate::error::Result;
 use crate::geom::{Pt, Roi};
 use crate::image::{Border, ImageView};
-use crate::models::Models;
+use crate::models::{IrisOut, Models};
 use crate::profile::{Stage, StageClock};
 
 const MESH_INPUT: usize = 192;
@@ -170,11 +170,6 @@ impl Tracker {
     /// the iris inference. 1 (the default) is MediaPipe's single crop.
     pub fn set_iris_views(&mut self, views: usize) {
         self.iris_views = views.clamp(1, MAX_IRIS_VIEWS);
-    }
-
-    /// The crops each eye is read from.
-    pub fn iris_views(&self) -> usize {
-        self.iris_views
     }
 
     /// True when the networks run on CUDA.
@@ -440,47 +435,38 @@ pub(crate) fn iris_step(
         }
     }
     clock.lap(Stage::Crop);
-    let outs = if views == 1 {
-        Vec::from(models.iris(iris_in)?)
-    } else {
-        models.iris_batch(&iris_in[..2 * views * plane], 2 * views)?
-    };
+    let outs = models.iris_batch(&iris_in[..2 * views * plane], 2 * views)?;
     clock.lap(Stage::Iris);
     let s = IRIS_INPUT as f32;
     let mut corners = [(Pt::default(), Pt::default()); 2];
     let mut eyes: Vec<Eye> = Vec::with_capacity(2);
     for k in 0..2 {
         let mirror = EYE_CORNERS[k].2;
-        // Each view's points in the image, summed, then the mean (one view:
-        // the points themselves, bit for bit).
-        let mut contour: Vec<Pt> = vec![];
-        let mut rim: Vec<Pt> = vec![];
-        for v in 0..views {
-            let (roi, (c, i)) = (view_rois[2 * v + k], &outs[2 * v + k]);
-            let map = |p: &[f32]| {
-                let u = if mirror { 1.0 - p[0] / s } else { p[0] / s };
-                roi.to_image(u, p[1] / s)
-            };
-            if v == 0 {
-                contour = c.chunks_exact(3).map(map).collect();
-                rim = i.chunks_exact(3).map(map).collect();
-            } else {
-                for (sum, p) in contour.iter_mut().zip(c.chunks_exact(3)) {
-                    let q = map(p);
-                    *sum = Pt::new(sum.x + q.x, sum.y + q.y);
-                }
-                for (sum, p) in rim.iter_mut().zip(i.chunks_exact(3)) {
-                    let q = map(p);
-                    *sum = Pt::new(sum.x + q.x, sum.y + q.y);
+        // Output `j`'s points (x, y, z per point) in the image.
+        let in_image = |j: usize, pts: &[f32]| -> Vec<Pt> {
+            let roi = view_rois[j];
+            pts.chunks_exact(3)
+                .map(|p| {
+                    let u = if mirror { 1.0 - p[0] / s } else { p[0] / s };
+                    roi.to_image(u, p[1] / s)
+                })
+                .collect()
+        };
+        // The mean over the views of each point (one view: the points
+        // themselves, bit for bit, since x / 1 is exact).
+        let mean = |part: fn(&IrisOut) -> &[f32]| -> Vec<Pt> {
+            let mut sum = in_image(k, part(&outs[k]));
+            for v in 1..views {
+                let j = 2 * v + k;
+                for (a, b) in sum.iter_mut().zip(in_image(j, part(&outs[j]))) {
+                    *a = Pt::new(a.x + b.x, a.y + b.y);
                 }
             }
-        }
-        if views > 1 {
             let n = views as f32;
-            for p in contour.iter_mut().chain(rim.iter_mut()) {
-                *p = Pt::new(p.x / n, p.y / n);
-            }
-        }
+            sum.into_iter().map(|p| Pt::new(p.x / n, p.y / n)).collect()
+        };
+        let contour = mean(|o| &o.0);
+        let rim = mean(|o| &o.1);
         let (a, b) = (contour[CONTOUR_CORNER_A], contour[CONTOUR_CORNER_B]);
         // Contour point 0 is the corner that sits on the crop's left in
         // the model's view: mesh 33 for the first eye, 263 (mirrored) for

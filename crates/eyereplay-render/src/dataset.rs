@@ -240,7 +240,7 @@ pub fn render_dataset(
                     // this job's files: other shards may be writing theirs.
                     let files = &job.paths;
                     for target in files.outputs() {
-                        for p in eyereplay_core::stale_temp_files(target) {
+                        for p in eyereplay_core::stale_temp_files(&target) {
                             std::fs::remove_file(&p).map_err(|e| RenderError::io(&p, e))?;
                         }
                     }

@@ -470,8 +470,31 @@ fn read_back(
     // whether the detector sees a face at all, so a close-up does not cost
     // a full detector pass.
     let trial = (4.0 * fps).round() as usize;
-    let views = extractor_iris_views(geometry)?;
-    let detected = if geometry.is_file() && n > trial {
+    let identity = if geometry.is_file() {
+        Some(SessionIdentity::read(geometry)?)
+    } else {
+        None
+    };
+    // The crops per eye the session was matched to (absent: one).
+    let views = match identity.as_ref().and_then(|i| i.extractor_iris_views) {
+        None => 1,
+        Some(v) if (1..=eyereplay_extract::MAX_IRIS_VIEWS).contains(&v) => v,
+        Some(v) => {
+            return Err(Error::input(
+                geometry,
+                format!(
+                    "extractor_iris_views {v} must be from 1 to {}",
+                    eyereplay_extract::MAX_IRIS_VIEWS
+                ),
+            ))
+        }
+    };
+    let views_note = if views > 1 {
+        format!(", each eye read from {views} crops")
+    } else {
+        String::new()
+    };
+    let detected = if identity.is_some() && n > trial {
         match extract_with_detector(video, models, trial, fps, views) {
             Ok(r) if rows_detection_rate(&r) < 0.5 => Ok(r),
             _ => extract_with_detector(video, models, n, fps, views),
@@ -480,26 +503,20 @@ fn read_back(
         extract_with_detector(video, models, n, fps, views)
     };
     match detected {
-        Ok(r) if rows_detection_rate(&r) >= 0.5 || !geometry.is_file() => Ok(Ok(ReadBack {
+        Ok(r) if rows_detection_rate(&r) >= 0.5 || identity.is_none() => Ok(Ok(ReadBack {
             n: r.iter().map(row_norm).collect(),
-            how: if views > 1 {
-                format!(
-                    "face detector, face mesh and iris model (eyereplay-extract), each eye read from {views} crops"
-                )
-            } else {
-                "face detector, face mesh and iris model (eyereplay-extract)".to_string()
-            },
+            how: format!("face detector, face mesh and iris model (eyereplay-extract){views_note}"),
             rows: Some(r),
         })),
         first => {
-            if !geometry.is_file() {
+            let Some(identity) = identity else {
                 let e = first.expect_err("handled above");
                 return Ok(Err(format!(
                     "not computed: {e}; no render geometry ({}) to place the eye crops",
                     shown(dir, geometry)
                 )));
-            }
-            let Some(corners) = SessionIdentity::read(geometry)?.corner_pairs_px() else {
+            };
+            let Some(corners) = identity.corner_pairs_px() else {
                 return Ok(Err(format!(
                     "not computed: the face detector found no face, and {} does not say where the eyes are \
 (for a browser page set render.browser_eye_corners_px)",
@@ -515,14 +532,9 @@ fn read_back(
                 n: r,
                 how: format!(
                     "iris model on eye crops placed from the render's known geometry ({}; \
-nx against its fixed eye corners, ny against the model's lids{}), \
+nx against its fixed eye corners, ny against the model's lids{views_note}), \
 because the face detector found the face in {seen} of the compared frames",
-                    shown(dir, geometry),
-                    if views > 1 {
-                        format!("; each eye read from {views} crops")
-                    } else {
-                        String::new()
-                    }
+                    shown(dir, geometry)
                 ),
                 rows: None,
             }))
@@ -553,36 +565,6 @@ fn detection_rate(n: &[[f64; 2]]) -> f64 {
         .filter(|p| p[0].is_finite() && p[1].is_finite())
         .count() as f64
         / n.len().max(1) as f64
-}
-
-/// The crops per eye a session was matched to and is read back with:
-/// `extractor_iris_views` in its identity file
-/// (`render.extractor_iris_views`), else 1 (no file, no probe, or a
-/// dataset made before the setting).
-fn extractor_iris_views(identity_json: &Path) -> Result<usize> {
-    if !identity_json.is_file() {
-        return Ok(1);
-    }
-    let text = std::fs::read_to_string(identity_json)
-        .map_err(|e| Error::input(identity_json, format!("reading: {e}")))?;
-    let v: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| Error::input(identity_json, format!("not valid JSON: {e}")))?;
-    match v.get("extractor_iris_views") {
-        None => Ok(1),
-        Some(n) => n
-            .as_u64()
-            .map(|n| n as usize)
-            .filter(|n| (1..=eyereplay_extract::MAX_IRIS_VIEWS).contains(n))
-            .ok_or_else(|| {
-                Error::input(
-                    identity_json,
-                    format!(
-                        "extractor_iris_views {n} must be a whole number from 1 to {}",
-                        eyereplay_extract::MAX_IRIS_VIEWS
-                    ),
-                )
-            }),
-    }
 }
 
 /// The extractor's rows for the first `n_max` frames by its full pipeline,

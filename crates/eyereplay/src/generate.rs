@@ -272,41 +272,21 @@ fn forget_renders_of_another_config(
     config: &DatasetConfig,
     progress: &dyn Progress,
 ) -> Result<()> {
-    let meta_path = out.join(eyereplay_dataset::layout::METADATA_FILE);
-    let Ok(text) = std::fs::read_to_string(&meta_path) else {
+    if !out.join(eyereplay_dataset::layout::METADATA_FILE).is_file() {
         return Ok(());
-    };
-    let old: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| Error::input(&meta_path, format!("not valid JSON: {e}")))?;
-    let new = serde_json::to_value(config)
-        .map_err(|e| Error::input(&meta_path, format!("cannot record the config: {e}")))?;
-    let none = serde_json::Value::Null;
-    let (was, now) = (
-        old.pointer("/config/render").unwrap_or(&none),
-        new.get("render").unwrap_or(&none),
-    );
-    if was == now {
+    }
+    let old = eyereplay_dataset::read_metadata(out)?.dataset;
+    if old.config.render == config.render {
         return Ok(());
     }
     let mut removed = 0;
-    for s in old["sessions"].as_array().into_iter().flatten() {
-        let Some(file) = s["file"].as_str() else {
-            continue;
-        };
-        let Ok(paths) = eyereplay_dataset::layout::SessionPaths::new(out, file) else {
-            continue;
-        };
+    for s in &old.sessions {
+        let paths = eyereplay_dataset::SessionPaths::new(out, &s.file)
+            .map_err(|e| Error::input(out.join(&s.file), e))?;
         let mut any = false;
-        for p in paths
-            .outputs()
-            .map(Path::to_path_buf)
-            .into_iter()
-            .chain([paths.head_csv(), paths.carrier_csv()])
-        {
-            if p.is_file() {
-                std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?;
-                any = true;
-            }
+        for p in paths.outputs().iter().filter(|p| p.is_file()) {
+            std::fs::remove_file(p).map_err(|e| Error::io(p, e))?;
+            any = true;
         }
         removed += any as usize;
     }

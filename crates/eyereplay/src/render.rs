@@ -32,18 +32,18 @@ pub fn render_params(settings: &RenderSettings, cfg: &DatasetConfig) -> Result<R
 }
 
 /// Opens one session of a backend that renders sessions one by one (face,
-/// replay): removes leftover temporary files of its outputs and of
-/// `extra` (the backend's own extra file), and reads its trajectory;
-/// `None` when the session is already complete (`extra` exists and the
-/// video has every frame).
+/// replay): removes leftover temporary files of its outputs (`extra`, the
+/// backend's own extra file, among them), and reads its trajectory; `None`
+/// when the session is already complete (`extra` exists and the video has
+/// every frame).
 pub(crate) fn open_session(
     job: &eyereplay_render::SessionJob,
     extra: &Path,
     ffprobe: &Path,
 ) -> Result<Option<Vec<eyereplay_core::CanvasPos>>> {
     let files = &job.paths;
-    for target in files.outputs().into_iter().chain([extra]) {
-        for p in eyereplay_core::stale_temp_files(target) {
+    for target in files.outputs() {
+        for p in eyereplay_core::stale_temp_files(&target) {
             std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?;
         }
     }
@@ -169,7 +169,7 @@ fn render_sessions_browser(
     let mut todo = Vec::new();
     for job in sessions {
         for target in job.paths.outputs() {
-            for p in eyereplay_core::stale_temp_files(target) {
+            for p in eyereplay_core::stale_temp_files(&target) {
                 std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?;
             }
         }
