@@ -62,7 +62,9 @@ pub use mesh::{
     INNER_LIPS, LEFT_EYE_CONTOUR, MESH_FILE, MESH_VERTICES, RIGHT_EYE_CONTOUR,
 };
 pub use photo::{
-    fit_shape, read_image, PhotoEye, PhotoFitter, PhotoIdentity, MIN_FACE_HEIGHT_PX, PHOTO_VFOV_DEG,
+    fit_shape, lids_without_the_photos_irises, read_image, PhotoEye, PhotoFitter, PhotoIdentity,
+    MIN_FACE_HEIGHT_PX, PHOTO_IRIS_BAND_MIN_PX, PHOTO_IRIS_BAND_RADII, PHOTO_IRIS_REACH_RADII,
+    PHOTO_VFOV_DEG,
 };
 pub use pose::{solve_pose, weighted_procrustes, Camera, HeadPose, Similarity};
 pub use probe::{match_extractor, read_frame, ExtractorMatch, ProbeHeadRange};

@@ -8,8 +8,9 @@
 //! canonical mesh while its landmark's line of sight fixes x and y. So the
 //! identity's 3D shape seen from the photo's camera and pose projects
 //! exactly onto the photo's landmarks, and the photo itself is the texture
-//! (texture coordinates = landmark positions). The iris colour is sampled
-//! from the photo's irises.
+//! (texture coordinates = landmark positions), less the strip of its iris
+//! that shows past the lid contour ([`lids_without_the_photos_irises`]).
+//! The iris colour is sampled from the photo's irises.
 
 use crate::error::{FaceError, Result};
 use crate::mesh::{lm, CanonicalMesh, LEFT_EYE_CONTOUR, MESH_VERTICES, RIGHT_EYE_CONTOUR};
@@ -48,7 +49,8 @@ pub struct PhotoEye {
 pub struct PhotoIdentity {
     pub name: String,
     pub source: PathBuf,
-    /// The photo, used as the texture.
+    /// The photo, used as the texture (its iris cleared from the lids:
+    /// [`lids_without_the_photos_irises`]).
     pub texture: RgbImage,
     /// The extractor's 468 landmarks in the photo's pixels.
     pub landmarks_px: Vec<[f32; 2]>,
@@ -239,10 +241,11 @@ impl PhotoFitter {
                 path: source.to_path_buf(),
                 message: "no iris pixels visible between the lids (eyes closed?)".into(),
             })?;
+        let texture = lids_without_the_photos_irises(image, &landmarks_px, &eyes);
         Ok(PhotoIdentity {
             name: name.to_string(),
             source: source.to_path_buf(),
-            texture: image,
+            texture,
             landmarks_px,
             shape_cm,
             photo_camera: camera,
@@ -276,6 +279,105 @@ pub fn fit_shape(
         })
         .collect();
     (pose, shape)
+}
+
+/// How far from the photo's iris centre its iris is taken to reach, in
+/// iris radii: the iris model's radius ends at the limbus; the dark
+/// limbal ring and the photo's blur reach a little beyond.
+pub const PHOTO_IRIS_REACH_RADII: f32 = 1.2;
+
+/// How far past the lid contour (along the image column) the photo's iris
+/// is taken to show, in iris radii, and at least [`PHOTO_IRIS_BAND_MIN_PX`]:
+/// the contour runs a pixel or two inside the visible iris; farther out
+/// is the lid itself (lashes, skin), which stays the photo's.
+pub const PHOTO_IRIS_BAND_RADII: f32 = 0.25;
+pub const PHOTO_IRIS_BAND_MIN_PX: f32 = 1.5;
+
+/// The photo as the face's texture: where a photo's iris reaches past the
+/// lid contour the landmarks give (the contour often runs a pixel or two
+/// inside the visible iris, above it or below), those pixels are the lid's
+/// texture, and the photo's iris would be drawn on the lids: a crescent of
+/// it beside the rendered eye, moving with the lid. In each image column
+/// within [`PHOTO_IRIS_REACH_RADII`] of the iris centre, the pixels in a
+/// thin band just outside the contour (above the upper lid, below the
+/// lower; [`PHOTO_IRIS_BAND_RADII`]) and within that reach take the mean
+/// colour of the two pixels just beyond the band: the lid margin's own
+/// colour, so lashes and the lid's rim run on unbroken. Every other pixel
+/// is the photo's (inside the contour the eye is traced, never textured).
+pub fn lids_without_the_photos_irises(
+    image: RgbImage,
+    landmarks_px: &[[f32; 2]],
+    eyes: &[PhotoEye; 2],
+) -> RgbImage {
+    let mut out = image.clone();
+    let (w, h) = (image.width as isize, image.height as isize);
+    let at = |x: isize, y: isize| image.pixel(x as usize, y.clamp(0, h - 1) as usize);
+    let mean2 = |a: [u8; 3], b: [u8; 3]| -> [u8; 3] {
+        std::array::from_fn(|k| (a[k] as u16 + b[k] as u16).div_ceil(2) as u8)
+    };
+    for e in eyes {
+        let poly: Vec<[f32; 2]> = e
+            .contour
+            .iter()
+            .map(|&i| landmarks_px[i as usize])
+            .collect();
+        let [cx, cy] = e.iris_center_px;
+        let reach = PHOTO_IRIS_REACH_RADII * e.iris_radius_px;
+        let band = (PHOTO_IRIS_BAND_RADII * e.iris_radius_px).max(PHOTO_IRIS_BAND_MIN_PX);
+        if !(reach > 0.0 && cx.is_finite() && cy.is_finite()) {
+            continue;
+        }
+        let x0 = ((cx - reach).floor() as isize).max(0);
+        let x1 = ((cx + reach).ceil() as isize).min(w - 1);
+        for x in x0..=x1 {
+            let px = x as f32 + 0.5;
+            let dx = px - cx;
+            if dx.abs() >= reach {
+                continue;
+            }
+            // Where the column crosses the contour: its upper and lower lid.
+            let crossings: Vec<f32> = (0..poly.len())
+                .filter_map(|i| {
+                    let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+                    ((a[0] <= px) != (b[0] <= px))
+                        .then(|| a[1] + (b[1] - a[1]) * (px - a[0]) / (b[0] - a[0]))
+                })
+                .collect();
+            if crossings.len() < 2 {
+                continue;
+            }
+            let upper = crossings.iter().copied().fold(f32::MAX, f32::min);
+            let lower = crossings.iter().copied().fold(f32::MIN, f32::max);
+            let half = (reach * reach - dx * dx).sqrt();
+            // Rows whose centres lie in the band: above the upper lid ...
+            let up_first = (upper - band - 0.5).ceil() as isize;
+            let up_last = (upper - 0.5).ceil() as isize - 1;
+            // ... and below the lower one.
+            let lo_first = (lower - 0.5).floor() as isize + 1;
+            let lo_last = (lower + band - 0.5).floor() as isize;
+            for (first, last, fill) in [
+                (
+                    up_first,
+                    up_last,
+                    mean2(at(x, up_first - 1), at(x, up_first - 2)),
+                ),
+                (
+                    lo_first,
+                    lo_last,
+                    mean2(at(x, lo_last + 1), at(x, lo_last + 2)),
+                ),
+            ] {
+                for y in first.max(0)..=last.min(h - 1) {
+                    if ((y as f32 + 0.5) - cy).abs() > half {
+                        continue;
+                    }
+                    let i = (y as usize * image.width + x as usize) * 3;
+                    out.data[i..i + 3].copy_from_slice(&fill);
+                }
+            }
+        }
+    }
+    out
 }
 
 /// Mean colour of the iris stroma: pixels between 40 % and 90 % of the
@@ -374,4 +476,110 @@ pub fn read_image(path: &Path) -> Result<RgbImage> {
         path: path.to_path_buf(),
         message: "no picture in it".into(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::{LEFT_EYE_CONTOUR, RIGHT_EYE_CONTOUR};
+
+    const SKIN_ABOVE: [u8; 3] = [180, 130, 110];
+    const SKIN_BELOW: [u8; 3] = [200, 150, 130];
+    const IRIS: [u8; 3] = [40, 80, 160];
+
+    /// A 60 x 40 picture of one eye drawn by hand: a lid contour (a
+    /// hexagon) whose lower lid runs 2 px above the bottom of a blue iris
+    /// of radius 5 at (20, 16); skin of one colour above row 16 and of
+    /// another below. The second eye's iris sits far off, inside its own
+    /// contour, so it changes nothing.
+    fn one_eye() -> (RgbImage, Vec<[f32; 2]>, [PhotoEye; 2]) {
+        let (w, h) = (60usize, 40usize);
+        let mut img = RgbImage::filled(w, h, SKIN_BELOW);
+        for y in 0..16 {
+            for x in 0..w {
+                img.data[(y * w + x) * 3..][..3].copy_from_slice(&SKIN_ABOVE);
+            }
+        }
+        let (cx, cy, r) = (20.0f32, 16.0f32, 5.0f32);
+        for y in 0..h {
+            for x in 0..w {
+                let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+                if (px - cx).powi(2) + (py - cy).powi(2) <= r * r {
+                    img.data[(y * w + x) * 3..][..3].copy_from_slice(&IRIS);
+                }
+            }
+        }
+        let mut lm = vec![[0.0f32; 2]; MESH_VERTICES];
+        // Outer corner, lower lid (7), inner corner, upper lid (7): the
+        // lids flat at y = 10 and y = 19 between x = 8 and x = 32.
+        let contour_pts = |dx: f32| -> [[f32; 2]; 16] {
+            std::array::from_fn(|k| match k {
+                0 => [4.0 + dx, 14.5],
+                1..=7 => [8.0 + dx + 24.0 * (k - 1) as f32 / 6.0, 19.0],
+                8 => [36.0 + dx, 14.5],
+                _ => [32.0 + dx - 24.0 * (k - 9) as f32 / 6.0, 10.0],
+            })
+        };
+        for (c, pts) in [
+            (RIGHT_EYE_CONTOUR, contour_pts(0.0)),
+            (LEFT_EYE_CONTOUR, contour_pts(100.0)),
+        ] {
+            for (&i, p) in c.iter().zip(pts) {
+                lm[i as usize] = p;
+            }
+        }
+        let eyes = [
+            PhotoEye {
+                contour: RIGHT_EYE_CONTOUR,
+                iris_center_px: [cx, cy],
+                iris_radius_px: r,
+            },
+            PhotoEye {
+                contour: LEFT_EYE_CONTOUR,
+                iris_center_px: [120.0, 15.0],
+                iris_radius_px: 3.0,
+            },
+        ];
+        (img, lm, eyes)
+    }
+
+    /// The iris's part below the lower lid (rows 19-20 of its columns)
+    /// becomes the skin below; the 1.5 px band above the upper lid (rows
+    /// 8-9) takes the skin above (the same colour there); every other
+    /// pixel, inside the contour or beyond the band or 1.2 iris radii, is
+    /// the photo's.
+    #[test]
+    fn the_photos_iris_is_cleared_from_the_lids_only() {
+        let (img, lm, eyes) = one_eye();
+        let out = lids_without_the_photos_irises(img.clone(), &lm, &eyes);
+        let poly: Vec<[f32; 2]> = RIGHT_EYE_CONTOUR.iter().map(|&i| lm[i as usize]).collect();
+        let mut cleared = 0;
+        for y in 0..img.height {
+            for x in 0..img.width {
+                let p = [x as f32 + 0.5, y as f32 + 0.5];
+                let d = ((p[0] - 20.0).powi(2) + (p[1] - 16.0).powi(2)).sqrt();
+                // Band 1.5 px (0.25 x 5 < 1.5): centres 8.5-9.5 above the
+                // lid at 10, 19.5-20.5 below the lid at 19.
+                let want = match y {
+                    8 | 9 if d <= 6.0 => SKIN_ABOVE,
+                    19 | 20 if d <= 6.0 => SKIN_BELOW,
+                    _ => img.pixel(x, y),
+                };
+                assert_eq!(out.pixel(x, y), want, "({x}, {y})");
+                cleared += (want != img.pixel(x, y)) as usize;
+            }
+        }
+        // The iris pixels below the lid (y = 19), by hand: row 19 (centre
+        // 19.5, |dx| <= sqrt(25 - 3.5^2) = 3.57: 8 columns) and row 20
+        // (centre 20.5, |dx| <= 2.18: 4 columns).
+        assert_eq!(cleared, 12);
+        // None is left anywhere outside the contour.
+        let left = (0..img.height)
+            .flat_map(|y| (0..img.width).map(move |x| (x, y)))
+            .filter(|&(x, y)| {
+                !inside(&poly, [x as f32 + 0.5, y as f32 + 0.5]) && out.pixel(x, y) == IRIS
+            })
+            .count();
+        assert_eq!(left, 0);
+    }
 }
