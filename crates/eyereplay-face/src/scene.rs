@@ -13,10 +13,12 @@
 //!    is mirrored.
 //! 2. **Face.** The photo-textured mesh ([`PhotoIdentity::textured_mesh`]
 //!    with the eye-opening triangles dropped) plus a receding skirt around
-//!    the face oval textured from the photo (jaw, ears, hair: [`with_skirt`])
-//!    under the frame's head pose; its lid vertices move with the eye's
-//!    vertical rotation and close in blinks ([`LidRig`]), the skin next to
-//!    the lids following part of the way. The outline is feathered into the
+//!    the face oval textured from the photo (jaw, ears, hair: [`with_skirt`];
+//!    its outer edge samples the photo where the backdrop does at rest:
+//!    [`FaceScene::skirt_onto_backdrop`]) under the frame's head pose; its
+//!    lid vertices move with the eye's vertical rotation and close in
+//!    blinks ([`LidRig`]), the skin next to the lids following part of the
+//!    way. The outline is feathered into the
 //!    backdrop.
 //! 3. **Eyes.** Every pixel inside a lid opening that the face left
 //!    uncovered is a ray traced into that eye's eyeball: the same cornea,
@@ -294,7 +296,6 @@ impl Sim2 {
         }
     }
 
-    #[cfg(test)]
     fn apply(&self, p: [f64; 2]) -> [f64; 2] {
         [
             self.ar * p[0] - self.ai * p[1] + self.bx,
@@ -512,7 +513,44 @@ impl FaceScene {
             identity,
         };
         scene.backdrop = scene.make_backdrop(skirt_edge);
+        scene.skirt_onto_backdrop();
         scene
+    }
+
+    /// The skirt's texture coordinates, bent so that its outer edge samples
+    /// the photo where the backdrop does at the rest pose. Each skirt ring
+    /// was textured by projecting it with the photo's camera, but the frame
+    /// is filmed with another (field of view, distance), so a receding ring
+    /// lands elsewhere than the flat backdrop puts the same photo pixels:
+    /// the photo's chin and neck showed twice, one above the other, and
+    /// hair and the collar were cut along the skirt's edge, at the rest
+    /// pose already. Now the outer ring takes the backdrop's photo point
+    /// for its rest position (so skirt and backdrop meet without a seam
+    /// while the head is at rest, and move apart only by what the head
+    /// turns), the inner ring halfway, and the face oval keeps its
+    /// landmark.
+    fn skirt_onto_backdrop(&mut self) {
+        let base = self.identity.shape_cm.len();
+        let ring = self.backdrop.anchors.len();
+        let total = self.mesh.positions_cm.len();
+        if ring == 0 || total <= base || !(total - base).is_multiple_of(ring) {
+            return;
+        }
+        let rings = (total - base) / ring;
+        let rest = self.project(
+            &self.rest_pose,
+            self.mesh.positions_cm[base..]
+                .iter()
+                .map(|p| Vector3::from(p.map(f64::from))),
+        );
+        for (k, px) in rest.iter().enumerate() {
+            let t = ((k / ring + 1) as f64 / rings as f64) as f32;
+            let to = self.backdrop.to_photo.apply(*px);
+            let uv = &mut self.mesh.uv_px[base + k];
+            for c in 0..2 {
+                uv[c] += (to[c] as f32 - uv[c]) * t;
+            }
+        }
     }
 
     pub fn width(&self) -> usize {
