@@ -44,6 +44,16 @@ pub struct PhotoEye {
     pub iris_radius_px: f32,
 }
 
+impl PhotoEye {
+    /// The lid contour in the photo's pixels, in the contour's order.
+    pub fn contour_px(&self, landmarks_px: &[[f32; 2]]) -> Vec<[f32; 2]> {
+        self.contour
+            .iter()
+            .map(|&i| landmarks_px[i as usize])
+            .collect()
+    }
+}
+
 /// A face identity made from one photo.
 #[derive(Clone, Debug)]
 pub struct PhotoIdentity {
@@ -316,11 +326,7 @@ pub fn lids_without_the_photos_irises(
         std::array::from_fn(|k| (a[k] as u16 + b[k] as u16).div_ceil(2) as u8)
     };
     for e in eyes {
-        let poly: Vec<[f32; 2]> = e
-            .contour
-            .iter()
-            .map(|&i| landmarks_px[i as usize])
-            .collect();
+        let poly = e.contour_px(landmarks_px);
         let [cx, cy] = e.iris_center_px;
         let reach = PHOTO_IRIS_REACH_RADII * e.iris_radius_px;
         let band = (PHOTO_IRIS_BAND_RADII * e.iris_radius_px).max(PHOTO_IRIS_BAND_MIN_PX);
@@ -391,11 +397,7 @@ fn sample_iris(
 ) -> Option<[u8; 3]> {
     let mut px: Vec<[u8; 3]> = vec![];
     for e in eyes {
-        let poly: Vec<[f32; 2]> = e
-            .contour
-            .iter()
-            .map(|&i| landmarks_px[i as usize])
-            .collect();
+        let poly = e.contour_px(landmarks_px);
         let [cx, cy] = e.iris_center_px;
         let r = e.iris_radius_px;
         let (x0, x1) = ((cx - r).floor().max(0.0) as usize, (cx + r).ceil() as usize);

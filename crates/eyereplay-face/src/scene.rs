@@ -1148,11 +1148,7 @@ fn mirror(v: f32, n: f32) -> f32 {
 fn photo_sclera_linear(id: &PhotoIdentity) -> Option<[f32; 3]> {
     let mut px: Vec<[u8; 3]> = vec![];
     for e in &id.eyes {
-        let poly: Vec<[f32; 2]> = e
-            .contour
-            .iter()
-            .map(|&i| id.landmarks_px[i as usize])
-            .collect();
+        let poly = e.contour_px(&id.landmarks_px);
         let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
         for p in &poly {
             x0 = x0.min(p[0]);

@@ -34,11 +34,7 @@ fn luma(c: [f32; 3]) -> f32 {
 fn sclera_mean(id: &PhotoIdentity) -> [f32; 3] {
     let (mut sum, mut n) = ([0.0f32; 3], 0.0f32);
     for e in &id.eyes {
-        let poly: Vec<[f32; 2]> = e
-            .contour
-            .iter()
-            .map(|&i| id.landmarks_px[i as usize])
-            .collect();
+        let poly = e.contour_px(&id.landmarks_px);
         for y in 0..id.texture.height {
             for x in 0..id.texture.width {
                 let p = [x as f32 + 0.5, y as f32 + 0.5];
@@ -76,12 +72,7 @@ fn bundled_photos_fit_and_reproject() {
         let polys: Vec<Vec<[f32; 2]>> = id
             .eyes
             .iter()
-            .map(|e| {
-                e.contour
-                    .iter()
-                    .map(|&i| id.landmarks_px[i as usize])
-                    .collect()
-            })
+            .map(|e| e.contour_px(&id.landmarks_px))
             .collect();
         let mut changed = 0;
         for y in 0..photo.height {
