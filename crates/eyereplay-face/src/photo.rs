@@ -251,7 +251,7 @@ impl PhotoFitter {
                 path: source.to_path_buf(),
                 message: "no iris pixels visible between the lids (eyes closed?)".into(),
             })?;
-        let texture = lids_without_the_photos_irises(image, &landmarks_px, &eyes);
+        let texture = lids_without_the_photos_irises(&image, &landmarks_px, &eyes);
         Ok(PhotoIdentity {
             name: name.to_string(),
             source: source.to_path_buf(),
@@ -315,7 +315,7 @@ pub const PHOTO_IRIS_BAND_MIN_PX: f32 = 1.5;
 /// colour, so lashes and the lid's rim run on unbroken. Every other pixel
 /// is the photo's (inside the contour the eye is traced, never textured).
 pub fn lids_without_the_photos_irises(
-    image: RgbImage,
+    image: &RgbImage,
     landmarks_px: &[[f32; 2]],
     eyes: &[PhotoEye; 2],
 ) -> RgbImage {
@@ -553,7 +553,7 @@ mod tests {
     #[test]
     fn the_photos_iris_is_cleared_from_the_lids_only() {
         let (img, lm, eyes) = one_eye();
-        let out = lids_without_the_photos_irises(img.clone(), &lm, &eyes);
+        let out = lids_without_the_photos_irises(&img, &lm, &eyes);
         let poly: Vec<[f32; 2]> = RIGHT_EYE_CONTOUR.iter().map(|&i| lm[i as usize]).collect();
         let mut cleared = 0;
         for y in 0..img.height {

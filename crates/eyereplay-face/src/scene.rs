@@ -486,7 +486,13 @@ impl FaceScene {
             eye_identity.iris.inner_rgb[c] = (eye_identity.iris.inner_rgb[c] * k).min(1.0);
         }
         let eyeball = Eyeball::new(&eye_identity);
-        let (skirted, skirt_edge) = with_skirt(&identity, mesh);
+        let (skirted, skirt_rings) = with_skirt(&identity, mesh);
+        // The head's image motion is fitted to the skirt's outer edge (the
+        // whole mesh, should it have no skirt).
+        let skirt_edge = skirt_rings
+            .last()
+            .cloned()
+            .unwrap_or_else(|| (0..skirted.positions_cm.len()).collect());
         let mut scene = FaceScene {
             mesh: skirted,
             eyes,
@@ -513,7 +519,7 @@ impl FaceScene {
             identity,
         };
         scene.backdrop = scene.make_backdrop(skirt_edge);
-        scene.skirt_onto_backdrop();
+        scene.skirt_onto_backdrop(&skirt_rings);
         scene
     }
 
@@ -527,28 +533,22 @@ impl FaceScene {
     /// pose already. Now the outer ring takes the backdrop's photo point
     /// for its rest position (so skirt and backdrop meet without a seam
     /// while the head is at rest, and move apart only by what the head
-    /// turns), the inner ring halfway, and the face oval keeps its
-    /// landmark.
-    fn skirt_onto_backdrop(&mut self) {
-        let base = self.identity.shape_cm.len();
-        let ring = self.backdrop.anchors.len();
-        let total = self.mesh.positions_cm.len();
-        if ring == 0 || total <= base || !(total - base).is_multiple_of(ring) {
-            return;
-        }
-        let rings = (total - base) / ring;
-        let rest = self.project(
-            &self.rest_pose,
-            self.mesh.positions_cm[base..]
-                .iter()
-                .map(|p| Vector3::from(p.map(f64::from))),
-        );
-        for (k, px) in rest.iter().enumerate() {
-            let t = ((k / ring + 1) as f64 / rings as f64) as f32;
-            let to = self.backdrop.to_photo.apply(*px);
-            let uv = &mut self.mesh.uv_px[base + k];
-            for c in 0..2 {
-                uv[c] += (to[c] as f32 - uv[c]) * t;
+    /// turns), ring `j` of `n` (innermost first) `(j + 1) / n` of the way
+    /// there, and the face oval keeps its landmark.
+    fn skirt_onto_backdrop(&mut self, rings: &[Vec<usize>]) {
+        for (j, ring) in rings.iter().enumerate() {
+            let t = ((j + 1) as f64 / rings.len() as f64) as f32;
+            let rest = self.project(
+                &self.rest_pose,
+                ring.iter()
+                    .map(|&v| Vector3::from(self.mesh.positions_cm[v].map(f64::from))),
+            );
+            for (&v, px) in ring.iter().zip(&rest) {
+                let to = self.backdrop.to_photo.apply(*px);
+                let uv = &mut self.mesh.uv_px[v];
+                for c in 0..2 {
+                    uv[c] += (to[c] as f32 - uv[c]) * t;
+                }
             }
         }
     }
@@ -1066,16 +1066,15 @@ const SKIRT_RINGS: [(f32, f32); 2] = [(1.2, 1.5), (1.5, 4.5)];
 /// the backdrop while the face turns, and the landmark model reads a
 /// fraction of the turn (16 deg drawn, 4 deg read on Grace Hopper's photo).
 ///
-/// Also returns the vertex ids of the skirt's outer edge (the face oval's
-/// own, should the mesh have no boundary).
-fn with_skirt(id: &PhotoIdentity, mesh: &CanonicalMesh) -> (TexturedMesh, Vec<usize>) {
+/// Also returns the vertex ids of each skirt ring, innermost first (none,
+/// should the mesh have no boundary); the last is the skirt's outer edge.
+fn with_skirt(id: &PhotoIdentity, mesh: &CanonicalMesh) -> (TexturedMesh, Vec<Vec<usize>>) {
     let base = id.textured_mesh(mesh, true);
     let mut pos = base.positions_cm.clone();
     let mut uv = base.uv_px.clone();
     let mut tris = base.triangles.clone();
     let Some(oval) = mesh.boundary_loops().into_iter().max_by_key(|l| l.len()) else {
-        let all = (0..base.positions_cm.len()).collect();
-        return (base, all);
+        return (base, vec![]);
     };
     let n = oval.len();
     let c = oval.iter().fold([0f32; 2], |a, &i| {
@@ -1092,6 +1091,7 @@ fn with_skirt(id: &PhotoIdentity, mesh: &CanonicalMesh) -> (TexturedMesh, Vec<us
         .sum::<f32>()
         .signum();
     let mut prev: Vec<u32> = oval.clone();
+    let mut rings = vec![];
     for (scale, depth) in SKIRT_RINGS {
         let first = pos.len() as u32;
         for &i in &oval {
@@ -1119,10 +1119,10 @@ fn with_skirt(id: &PhotoIdentity, mesh: &CanonicalMesh) -> (TexturedMesh, Vec<us
                 tris.push(tr);
             }
         }
+        rings.push(ring.iter().map(|&i| i as usize).collect());
         prev = ring;
     }
-    let edge = prev.iter().map(|&i| i as usize).collect();
-    (TexturedMesh::new(pos, uv, tris), edge)
+    (TexturedMesh::new(pos, uv, tris), rings)
 }
 
 /// `v` reflected into `[0, n]` (mirror padding: a backdrop wider than the
