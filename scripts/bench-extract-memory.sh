@@ -2,7 +2,8 @@
 # Peak memory of `eyereplay extract` on a one-hour 1080p video: franck.mp4
 # (200 s) looped 18 times and upscaled to 1920x1080 (made once, cached in
 # .cache/bench/), then extracted under /usr/bin/time -v. The limit is 400 MB.
-#   scripts/bench-extract-memory.sh        (after scripts/setup.sh and a release build)
+#   scripts/bench-extract-memory.sh [EXTRACT_FLAG...]   (after scripts/setup.sh and a release build)
+# Flags go to `eyereplay extract`, e.g. `--landmarks attention`.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 video="$root/.cache/bench/hour1080.mp4"
@@ -16,7 +17,7 @@ if [[ ! -f "$video" ]]; then
 fi
 out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
-/usr/bin/time -v "$bin" extract "$video" --out "$out/hour.csv" -q 2>"$out/time.txt"
+/usr/bin/time -v "$bin" extract "$video" --out "$out/hour.csv" -q "$@" 2>"$out/time.txt"
 rss_kb=$(awk -F: '/Maximum resident set size/ {gsub(/ /, "", $2); print $2}' "$out/time.txt")
 wall=$(awk -F': ' '/Elapsed \(wall clock\)/ {print $2}' "$out/time.txt")
-echo "one-hour 1080p video: peak RSS $((rss_kb / 1024)) MiB (limit 400 MB) = $(awk -v r="$rss_kb" 'BEGIN {printf "%.2f", r * 1024 / 400e6}') x the limit; wall time $wall"
+echo "one-hour 1080p video${*:+ ($*)}: peak RSS $((rss_kb / 1024)) MiB (limit 400 MB) = $(awk -v r="$rss_kb" 'BEGIN {printf "%.2f", r * 1024 / 400e6}') x the limit; wall time $wall"

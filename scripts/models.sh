@@ -6,7 +6,7 @@
 #   scripts/models.sh [MODELS_DIR]      default: $EYEREPLAY_MODELS or <repo>/.cache/models
 #
 # Everything comes from PyPI through pip, pinned by version and sha256:
-#   mediapipe==0.10.21 wheel   -> 3 .tflite models + Apache-2.0 LICENSE
+#   mediapipe==0.10.21 wheel   -> 4 .tflite models + Apache-2.0 LICENSE
 #   onnxruntime==1.22.1 wheel  -> libonnxruntime.so (MIT) for ort's load-dynamic
 #   tflite, onnx, numpy        -> a venv that runs scripts/tflite_to_onnx.py
 # `eyereplay models fetch` runs this same script (embedded in the binary).
@@ -30,6 +30,14 @@ declare -A TFLITE=(
   [face_detection_short_range]="face_detection/face_detection_short_range.tflite bbff11cebd1eb27a1e004cae0b0e63ec8c551cbf34a4451148b4908b8db3eca8"
   [face_landmark]="face_landmark/face_landmark.tflite 1055cb9d4a9ca8b8c688902a3a5194311138ba256bcc94e336d8373a5f30c814"
   [iris_landmark]="iris_landmark/iris_landmark.tflite d1744d2a09c25f501d39eba4faff47e53ecca8852c5ce19bce8eeac39357521f"
+  [face_landmark_with_attention]="face_landmark/face_landmark_with_attention.tflite e06a804e0144f9929eda782122916b35d60c697c3c9344013ca2bbe76a6ce2b4"
+)
+# A second model file a conversion writes: the attention mesh (`eyereplay
+# extract --landmarks attention`) becomes a face model and an eye model, its
+# custom operators left to eyereplay (tflite_to_onnx.py --split-eyes; its
+# lips, which eyereplay does not read, dropped).
+declare -A SPLIT_EYES=(
+  [face_landmark_with_attention]="face_landmark_with_attention_eyes.onnx"
 )
 
 say() { echo "models: $*"; }
@@ -96,14 +104,20 @@ for name in "${!TFLITE[@]}"; do
   fi
   onnx="$models/$name.onnx"
   # Reconvert when the tflite or the converter changed since the last run.
-  stamp="$want $(sha "$converter")"
-  if [[ -f "$onnx" && -f "$onnx.src" && "$(cat "$onnx.src")" == "$stamp" ]]; then
-    say "have $name.onnx"
+  eyes="${SPLIT_EYES[$name]:-}"
+  stamp="$want $(sha "$converter")${eyes:+ split $eyes}"
+  if [[ -f "$onnx" && -f "$onnx.src" && "$(cat "$onnx.src")" == "$stamp" && ( -z "$eyes" || -f "$models/$eyes" ) ]]; then
+    say "have $name.onnx${eyes:+ and $eyes}"
   else
-    "$venv/bin/python" "$converter" "$tfl" "$tmp/$name.onnx"
+    if [[ -n "$eyes" ]]; then
+      "$venv/bin/python" "$converter" "$tfl" "$tmp/$name.onnx" --split-eyes "$tmp/$eyes"
+      mv "$tmp/$eyes" "$models/$eyes"
+    else
+      "$venv/bin/python" "$converter" "$tfl" "$tmp/$name.onnx"
+    fi
     mv "$tmp/$name.onnx" "$onnx"
     echo "$stamp" >"$onnx.src"
-    say "converted $name.tflite -> $name.onnx"
+    say "converted $name.tflite -> $name.onnx${eyes:+ + $eyes}"
   fi
 done
 

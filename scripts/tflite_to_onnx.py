@@ -1,10 +1,15 @@
 #!/usr/bin/env python3
-"""Convert MediaPipe's face detection, face landmark and iris landmark
-TFLite models to ONNX, so that eyereplay can run them with ONNX Runtime.
+"""Convert MediaPipe's face detection, face landmark, iris landmark and
+attention face landmark TFLite models to ONNX, so that eyereplay can run
+them with ONNX Runtime.
 
 Why our own converter: tflite2onnx crashes on face_landmark's PReLU weights
-and tract-tflite lacks fp16 DEQUANTIZE and PRELU (see shared RESEARCH.md).
-These three graphs use only ten TFLite operators, all handled below.
+and tract-tflite lacks fp16 DEQUANTIZE and PRELU. These graphs use a dozen
+TFLite operators, all handled below, and the attention mesh three of
+MediaPipe's own (Landmarks2TransformMatrix, TransformTensorBilinear,
+TransformLandmarks, version 2): written with standard ONNX operators after
+MediaPipe's reference kernels, or, with --split-eyes, left to the caller
+between a face model and an eye model (see Converter.split_eyes).
 
 Layout: TFLite is NHWC; the ONNX graph is NCHW throughout (ONNX Runtime's
 convolutions are NCHW), with an NCHW float input named "input" whose batch
@@ -23,13 +28,18 @@ fused. Measured with ONNX Runtime 1.22.1, one thread, CPU time per
 inference: iris (2 eyes) 2.6-2.9 ms with PRelu -> 1.9-2.0 ms; mesh 1.3-1.4
 -> 0.9 ms; outputs equal to 2e-5.
 
-Usage: tflite_to_onnx.py IN.tflite OUT.onnx
+Usage: tflite_to_onnx.py IN.tflite OUT.onnx [--outputs NAME,NAME...]
+       tflite_to_onnx.py face_landmark_with_attention.tflite FACE.onnx --split-eyes EYES.onnx
+(--outputs: keep only these outputs and what they need; --split-eyes: the
+attention mesh as a face model and an eye model, its custom operators left
+to the caller, the lips dropped; see Converter.split_eyes.)
 """
 import sys
 
 import numpy as np
 import onnx
 import tflite
+from flatbuffers import flexbuffers
 from onnx import TensorProto, helper, numpy_helper
 
 OPNAME = {v: k for k, v in tflite.BuiltinOperator.__dict__.items() if not k.startswith("_")}
@@ -50,6 +60,16 @@ class Converter:
         self.nodes = []
         self.inits = {}  # name -> np.ndarray (constants)
         self.uid = 0
+        self.opset = 13
+        # True once a node of ONNX Runtime's com.microsoft domain is used.
+        self.ms_domain = False
+        # --split-eyes: the custom operators are recorded, not written
+        # (see `split_eyes`).
+        self.split = False
+        self.l2tm = {}  # matrix tensor -> (landmarks tensor, attributes)
+        self.ttb = {}  # crop tensor -> (feature map tensor, matrix tensor, NCHW shape)
+        self.tl = {}  # output tensor -> (landmarks tensor, matrix tensor)
+        self.mul_const = {}  # MUL output -> (input tensor, constant)
 
     # -- helpers -----------------------------------------------------------
     def tname(self, i):
@@ -114,8 +134,126 @@ class Converter:
         o.Init(t.Bytes, t.Pos)
         return o
 
+    # -- MediaPipe's custom operators (the attention face mesh) -------------
+    # Written with standard ONNX operators, after MediaPipe's reference
+    # kernels (mediapipe/util/tflite/operations, version 2 of each).
+    def slice_(self, x, starts, ends, axes, base):
+        out = self.fresh(base)
+        i64 = lambda v: self.add_const(base + "_s", np.array(v, dtype=np.int64))
+        self.node("Slice", [x, i64(starts), i64(ends), i64(axes)], [out])
+        return out
+
+    def binop(self, op, a, b, base):
+        out = self.fresh(base)
+        self.node(op, [a, b], [out])
+        return out
+
+    def scalar(self, v, base):
+        return self.add_const(base, np.array(v, dtype=np.float32))
+
+    def landmarks_to_transform_matrix(self, lm, out, attrs):
+        """Landmarks2TransformMatrix v2: the 4x4 matrix that maps a crop of
+        output_width x output_height (its pixel indices) into the landmarks'
+        space: centred on the bounding box of the landmarks `subset_idxs`
+        measured along the line from `left_rotation_idx` to
+        `right_rotation_idx`, rotated to that line, scaled to the box times
+        (scale_x, scale_y). `lm`: [B, N, 3]; the result: [B, 4, 4]."""
+        if attrs.get("target_rotation_radians", 0.0) != 0.0:
+            raise SystemExit("Landmarks2TransformMatrix with a target rotation is not handled")
+        ow, oh = float(attrs["output_width"]), float(attrs["output_height"])
+        b = out + "_l2m"
+        mul = lambda a, c: self.binop("Mul", a, c, b)
+        add = lambda a, c: self.binop("Add", a, c, b)
+        sub = lambda a, c: self.binop("Sub", a, c, b)
+        xy = self.slice_(lm, [0], [2], [2], b)  # [B, N, 2]
+
+        def gather(idx):
+            g = self.fresh(b)
+            self.node("Gather", [xy, self.add_const(b + "_i", np.array(idx, dtype=np.int64))], [g], axis=1)
+            return g
+
+        d = sub(gather([attrs["right_rotation_idx"]]), gather([attrs["left_rotation_idx"]]))  # [B, 1, 2]
+        dx, dy = self.slice_(d, [0], [1], [2], b), self.slice_(d, [1], [2], [2], b)  # [B, 1, 1]
+        length = self.fresh(b)
+        self.node("Sqrt", [add(mul(dx, dx), mul(dy, dy))], [length])
+        # cos and sin of the line's angle a = atan2(dy, dx); ONNX has no atan2,
+        # and only these two are needed.
+        ca, sa = self.binop("Div", dx, length, b), self.binop("Div", dy, length, b)
+        sub_xy = gather(list(attrs["subset_idxs"]))  # [B, K, 2]
+        px, py = self.slice_(sub_xy, [0], [1], [2], b), self.slice_(sub_xy, [1], [2], [2], b)
+        # The subset turned by -a, its box, and the box's centre turned back.
+        xr = add(mul(ca, px), mul(sa, py))
+        yr = sub(mul(ca, py), mul(sa, px))
+
+        def reduce(op, x):
+            r = self.fresh(b)
+            self.node(op, [x], [r], axes=[1], keepdims=1)
+            return r
+
+        x_hi, x_lo, y_hi, y_lo = reduce("ReduceMax", xr), reduce("ReduceMin", xr), reduce("ReduceMax", yr), reduce("ReduceMin", yr)
+        half = self.scalar(0.5, b)
+        mx, my = mul(add(x_hi, x_lo), half), mul(add(y_hi, y_lo), half)
+        cx, cy = sub(mul(ca, mx), mul(sa, my)), add(mul(sa, mx), mul(ca, my))
+        scx = mul(sub(x_hi, x_lo), self.scalar(float(attrs["scale_x"]) / ow, b))
+        scy = mul(sub(y_hi, y_lo), self.scalar(float(attrs["scale_y"]) / oh, b))
+        a00, a01, a10, a11 = mul(ca, scx), self.binop("Mul", self.binop("Mul", sa, scy, b), self.scalar(-1.0, b), b), mul(sa, scx), mul(ca, scy)
+        t0 = sub(cx, add(mul(a00, self.scalar(ow / 2, b)), mul(a01, self.scalar(oh / 2, b))))
+        t1 = sub(cy, add(mul(a10, self.scalar(ow / 2, b)), mul(a11, self.scalar(oh / 2, b))))
+        zero = mul(a00, self.scalar(0.0, b))
+        one = add(zero, self.scalar(1.0, b))
+        rows = []
+        for row in ([a00, a01, zero, t0], [a10, a11, zero, t1], [zero, zero, one, zero], [zero, zero, zero, one]):
+            r = self.fresh(b)
+            self.node("Concat", row, [r], axis=2)
+            rows.append(r)
+        self.node("Concat", rows, [out], axis=1)
+
+    def transform_tensor_bilinear(self, x, nhwc, m, out, attrs):
+        """TransformTensorBilinear v2: an output_height x output_width crop of
+        the feature map `x` (NCHW here), pixel (i, j) read bilinearly at
+        M (j + 0.5, i + 0.5, 0, 1) - 0.5 (M's first two rows). GridSample
+        with align_corners maps pixel index 0 to -1 and W - 1 to 1. Where a
+        sample falls outside the map, MediaPipe's kernel gives 0 and
+        GridSample weighs in the border pixels within one pixel of it: the
+        eye and lip crops lie well inside the face's feature map."""
+        oh, ow = int(attrs["output_height"]), int(attrs["output_width"])
+        _, h, w, _ = nhwc
+        b = out + "_ttb"
+        ii, jj = np.meshgrid(np.arange(oh), np.arange(ow), indexing="ij")
+        base = np.stack([jj.ravel() + 0.5, ii.ravel() + 0.5, np.zeros(oh * ow), np.ones(oh * ow)], axis=1)
+        rows = self.slice_(m, [0], [2], [1], b)  # [B, 2, 4]
+        rows_t = self.fresh(b)
+        self.node("Transpose", [rows], [rows_t], perm=[0, 2, 1])
+        tc = self.binop("MatMul", self.add_const(b + "_grid", base.astype(np.float32)), rows_t, b)  # [B, oh*ow, 2]
+        scale = np.array([2.0 / (w - 1), 2.0 / (h - 1)], dtype=np.float32)
+        # (tc - 0.5) * scale - 1
+        norm = self.binop("Add", self.binop("Mul", tc, self.add_const(b + "_k", scale), b),
+                          self.add_const(b + "_c", (-0.5 * scale - 1.0).astype(np.float32)), b)
+        grid = self.fresh(b)
+        self.node("Reshape", [norm, self.add_const(b + "_shape", np.array([-1, oh, ow, 2], dtype=np.int64))], [grid])
+        # ONNX Runtime's own GridSample (com.microsoft), not ONNX's opset-16
+        # one: at opset 16 ONNX Runtime's NCHWc layout pass no longer takes
+        # the graph's Add, Relu and BatchNormalization (their newer
+        # versions), and every block ran in NCHW between reorders (the
+        # attention mesh 3.1-3.6 ms instead of X ms).
+        self.nodes.append(helper.make_node("GridSample", [x, grid], [out], domain="com.microsoft",
+                                           mode="bilinear", padding_mode="zeros", align_corners=1))
+        self.ms_domain = True
+
+    def transform_landmarks(self, p, m, out):
+        """TransformLandmarks v2 (2-D points): p' = M[:2, :2] p + M[:2, 3]."""
+        b = out + "_tl"
+        lin = self.slice_(self.slice_(m, [0], [2], [1], b), [0], [2], [2], b)  # [B, 2, 2]
+        lin_t = self.fresh(b)
+        self.node("Transpose", [lin], [lin_t], perm=[0, 2, 1])
+        shift = self.fresh(b)
+        self.node("Transpose", [self.slice_(self.slice_(m, [0], [2], [1], b), [3], [4], [2], b)], [shift], perm=[0, 2, 1])  # [B, 1, 2]
+        self.node("Add", [self.binop("MatMul", p, lin_t, b), shift], [out])
+
     # -- conversion ---------------------------------------------------------
-    def run(self):
+    def run(self, keep=None):
+        """The ONNX model; with `keep` (TFLite output names), only those
+        outputs and the nodes they need."""
         g = self.g
         if g.InputsLength() != 1:
             raise SystemExit("expected one input")
@@ -129,6 +267,8 @@ class Converter:
             nm = self.tname(i)
             return alias.get(nm, nm)
 
+        self.shape_of = {self.tname(i): self.shape(i) for i in range(g.TensorsLength())}
+        self.reshape_of = {}  # RESHAPE output -> its input
         for k in range(g.OperatorsLength()):
             op = g.Operators(k)
             oc = self.model.OperatorCodes(op.OpcodeIndex())
@@ -202,10 +342,26 @@ class Converter:
                 p = self.const(ins[1]).astype(np.int64)  # [4,2] NHWC
                 if p[0].any():
                     raise SystemExit("padding the batch dimension is not handled")
+                cin = self.shape(ins[0])[3]
+                if not p[:3].any() and p[3, 0] == 0 and cin % 16 == 0:
+                    # Zeros appended to the channels (the residual blocks'
+                    # skip path as the channels grow): a 1x1 convolution
+                    # with identity weights, the same values exactly.
+                    # ONNX Runtime's NCHWc layout takes no Pad, and a Pad
+                    # left the residual Adds after it, and their PReLUs, in
+                    # NCHW between layout reorders.
+                    cout = cin + int(p[3, 1])
+                    eye = np.zeros((cout, cin, 1, 1), np.float32)
+                    eye[np.arange(cin), np.arange(cin)] = 1.0
+                    self.node("Conv", [src(ins[0]), self.add_const(out + "_w", eye),
+                                       self.add_const(out + "_b", np.zeros(cout, np.float32))], [out],
+                              kernel_shape=[1, 1])
+                    continue
                 order = [0, 3, 1, 2]  # NCHW <- NHWC
                 pads = np.array([p[i, 0] for i in order] + [p[i, 1] for i in order], dtype=np.int64)
                 self.node("Pad", [src(ins[0]), self.add_const(out + "_pads", pads)], [out], mode="constant")
             elif name == "RESHAPE":
+                self.reshape_of[out] = src(ins[0])
                 in_shape = self.shape(ins[0])
                 x = src(ins[0])
                 if len(in_shape) == 4:
@@ -226,12 +382,55 @@ class Converter:
                     axis = [0, 2, 3, 1][axis]
                 pre = self.activation(out, o.FusedActivationFunction())
                 self.node("Concat", [src(i) for i in ins], [pre], axis=axis)
+            elif name == "MUL":
+                o = self.opts(op, tflite.MulOptions)
+                if len(self.shape(ins[0])) == 4 or len(self.shape(ins[1])) == 4:
+                    raise SystemExit("MUL on 4-D tensors is not handled (layout)")
+                b = self.const(ins[1])
+                if b is not None:
+                    self.mul_const[out] = (src(ins[0]), b.astype(np.float32))
+                b = self.add_const(out + "_k", b.astype(np.float32)) if b is not None else src(ins[1])
+                pre = self.activation(out, o.FusedActivationFunction())
+                self.node("Mul", [src(ins[0]), b], [pre])
+            elif name == "STRIDED_SLICE":
+                begin, end, strides = (self.const(i) for i in ins[1:4])
+                full = self.shape(ins[0])
+                if not ((begin == 0).all() and (strides == 1).all() and list(end) == full):
+                    raise SystemExit("only a STRIDED_SLICE that keeps the whole tensor is handled")
+                self.node("Identity", [src(ins[0])], [out])
+            elif name == "CUSTOM":
+                custom = oc.CustomCode().decode()
+                attrs = flexbuffers.Loads(bytes(op.CustomOptionsAsNumpy())) if op.CustomOptionsLength() else {}
+                if custom == "Landmarks2TransformMatrix" and oc.Version() == 2:
+                    self.l2tm[out] = (src(ins[0]), attrs)
+                    if not self.split:
+                        self.landmarks_to_transform_matrix(src(ins[0]), out, attrs)
+                elif custom == "TransformTensorBilinear" and oc.Version() == 2:
+                    n_, oh, ow, ch = self.shape(outs[0])
+                    self.ttb[out] = (src(ins[0]), src(ins[1]), [ch, oh, ow])
+                    if not self.split:
+                        self.transform_tensor_bilinear(src(ins[0]), self.shape(ins[0]), src(ins[1]), out, attrs)
+                elif custom == "TransformLandmarks" and oc.Version() == 2:
+                    self.tl[out] = (src(ins[0]), src(ins[1]))
+                    if not self.split:
+                        self.transform_landmarks(src(ins[0]), src(ins[1]), out)
+                else:
+                    raise SystemExit(f"unsupported custom operator {custom} v{oc.Version()}")
             else:
                 raise SystemExit(f"unsupported operator {name}")
 
+        self.graph_input = graph_input
+        if self.split:
+            return self.split_eyes()
         outputs = []
+        names = [self.tname(g.Outputs(j)) for j in range(g.OutputsLength())]
+        for k in keep or []:
+            if k not in names:
+                raise SystemExit(f"no output named {k} (the model's: {', '.join(names)})")
         for j in range(g.OutputsLength()):
             i = g.Outputs(j)
+            if keep and self.tname(i) not in keep:
+                continue
             shp = self.shape(i)
             if len(shp) == 4:
                 # 1x1 spatial conv outputs: NCHW and NHWC agree on element
@@ -244,25 +443,244 @@ class Converter:
             else:
                 outputs.append(helper.make_tensor_value_info(self.tname(i), TensorProto.FLOAT, ["batch"] + shp[1:]))
 
+        return self.build([graph_input], outputs, self.nodes)
+
+    def build(self, inputs, outputs, nodes, metadata=None):
+        """A model of `nodes` pruned to what `outputs` need (in their order;
+        a node whose inputs are graph `inputs` starts there)."""
+        needed = {o.name for o in outputs}
+        kept = []
+        for nd in reversed(nodes):
+            if any(o in needed for o in nd.output):
+                kept.append(nd)
+                needed.update(nd.input)
+        kept = kept[::-1]
+        produced = {o for nd in kept for o in nd.output} | {i.name for i in inputs}
         # Keep only the constants that a node reads (DEQUANTIZE outputs that
         # fed weights are already folded into transposed copies).
-        used = {i for nd in self.nodes for i in nd.input}
+        used = {i for nd in kept for i in nd.input}
+        missing = used - produced - set(self.inits) - {""}
+        if missing:
+            raise SystemExit(f"the graph needs tensors it does not have: {sorted(missing)[:5]}")
         inits = [numpy_helper.from_array(np.asarray(v), k) for k, v in self.inits.items() if k in used]
-        graph = helper.make_graph(self.nodes, "mediapipe", [graph_input], outputs, inits)
-        m = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 13)],
+        graph = helper.make_graph(kept, "mediapipe", inputs, outputs, inits)
+        opsets = [helper.make_opsetid("", self.opset)]
+        if self.ms_domain:
+            opsets.append(helper.make_opsetid("com.microsoft", 1))
+        m = helper.make_model(graph, opset_imports=opsets,
                               producer_name="eyereplay tflite_to_onnx")
         m.ir_version = 8
+        for k, v in (metadata or {}).items():
+            helper.set_model_props(m, {**{p.key: p.value for p in m.metadata_props}, k: v})
         onnx.checker.check_model(m)
         return m
 
+    def split_eyes(self):
+        """The attention face mesh as two models, its custom operators left
+        to the caller (eyereplay's `Models::attention`, after MediaPipe's
+        reference kernels): ONNX Runtime ran the in-graph versions as about
+        a hundred tiny operators (matrix arithmetic, GridSample), a sixth of
+        the network's time.
+
+        The face model: "input" -> the mesh, the face flag and
+        "eye_features" (the feature map the eye crops are read from, NCHW).
+        The eye model: "left_eye_features", "right_eye_features" (each
+        eye's crop of that map, NCHW) -> "left_eye", "left_iris",
+        "right_eye", "right_iris" (points in the crop's frame, before
+        TransformLandmarks). Its metadata says, per eye, how the crop is
+        placed ("<eye>.crop": Landmarks2TransformMatrix's attributes and the
+        factor the mesh is scaled by first) and how the points return to the
+        face crop ("<eye>.points": the factors the matrix is multiplied by,
+        elementwise, row-major 4 x 4)."""
+        def flat_output(name, new):
+            shp = self.shape_of[name]
+            self.nodes.append(helper.make_node("Reshape", [name, self.add_const("flat", np.array([-1, int(np.prod(shp[1:]))], dtype=np.int64))], [new]))
+            return helper.make_tensor_value_info(new, TensorProto.FLOAT, ["batch", int(np.prod(shp[1:]))])
+
+        features = {f for f, _, _ in self.ttb.values()}
+        if len(features) != 1:
+            raise SystemExit("expected one feature map under the eye crops")
+        feature = features.pop()
+        feature_shape = self.shape_of[feature]
+        self.nodes.append(helper.make_node("Identity", [feature], ["eye_features"]))
+        face_outputs = [flat_output("output_mesh_identity", "output_mesh_identity_flat"),
+                        flat_output("conv_faceflag", "conv_faceflag_flat"),
+                        helper.make_tensor_value_info("eye_features", TensorProto.FLOAT,
+                                                      ["batch"] + [feature_shape[3]] + feature_shape[1:3])]
+        face = self.build([self.graph_input], face_outputs, self.nodes)
+
+        eye_inputs, eye_outputs, meta = [], [], {}
+        for side in ("left", "right"):
+            points = {}
+            for part in ("eye", "iris"):
+                # output_<side>_<part> = RESHAPE(TransformLandmarks(p, M'))
+                tl_out = next(t for t, _ in self.tl.items()
+                              if self.reshape_of.get(f"output_{side}_{part}") == t)
+                p, m_scaled = self.tl[tl_out]
+                points[part] = m_scaled
+                self.nodes.append(helper.make_node("Identity", [p], [f"{side}_{part}"]))
+                eye_outputs.append(helper.make_tensor_value_info(
+                    f"{side}_{part}", TensorProto.FLOAT, ["batch"] + self.shape_of[p][1:]))
+            if points["eye"] != points["iris"]:
+                raise SystemExit(f"{side}: eye and iris points use different matrices")
+            matrix, scale = self.mul_const[points["eye"]]
+            crop = next(t for t, (_, mt, _) in self.ttb.items() if mt == matrix)
+            lm, attrs = self.l2tm[matrix]
+            mesh_src, lm_scale = self.mul_const[lm]
+            ch, oh, ow = self.ttb[crop][2]
+            # First in the node list: the pruning walks it backwards once.
+            self.nodes.insert(0, helper.make_node("Identity", [f"{side}_eye_features"], [crop]))
+            eye_inputs.append(helper.make_tensor_value_info(f"{side}_eye_features", TensorProto.FLOAT, ["batch", ch, oh, ow]))
+            a = dict(attrs)
+            meta[f"{side}.crop"] = " ".join(
+                [f"{k}={a[k]}" for k in ("left_rotation_idx", "right_rotation_idx", "output_width",
+                                        "output_height", "scale_x", "scale_y", "target_rotation_radians")]
+                + [f"landmark_scale={float(lm_scale.reshape(-1)[0])}",
+                   "subset_idxs=" + ",".join(str(i) for i in a["subset_idxs"])])
+            meta[f"{side}.points"] = "matrix_scale=" + ",".join(str(float(v)) for v in scale.reshape(-1))
+        eyes = self.build(eye_inputs, eye_outputs, self.nodes, meta)
+        return face, merge_branches(eyes, "left_eye_features", "right_eye_features")
+
+
+MERGEABLE = {"Conv", "BatchNormalization", "Relu", "Add", "MaxPool"}
+
+
+def merge_branches(model, left_input, right_input):
+    """Two branches of the same architecture (the attention mesh's left and
+    right eye networks, each from its own graph input) as one, channels
+    side by side: each convolution grouped in two (a depthwise one keeps
+    one group per channel), per-channel parameters concatenated, and the
+    branches' own tails (transposes and reshapes of their outputs) fed by
+    their halves. The same arithmetic per channel, so the same outputs;
+    ONNX Runtime ran the eyes' 16x16 networks as some 300 operators of a
+    few microseconds each, the merged one has half as many."""
+    g = model.graph
+    inits = {i.name: numpy_helper.to_array(i) for i in g.initializer}
+
+    def branch(start):
+        reach, nodes = {start}, []
+        for nd in g.node:
+            if nd.op_type in MERGEABLE and any(i in reach for i in nd.input):
+                reach.update(nd.output)
+                nodes.append(nd)
+        return nodes
+
+    # Past the renaming Identity at each input.
+    def start(name):
+        return next((nd.output[0] for nd in g.node if nd.op_type == "Identity" and nd.input[0] == name), name)
+
+    shapes = {i.name: [d.dim_value for d in i.type.tensor_type.shape.dim] for i in g.input}
+    in_channels = shapes[left_input][1]
+    left_input, right_input = start(left_input), start(right_input)
+    lefts, rights = branch(left_input), branch(right_input)
+    if len(lefts) != len(rights) or not lefts:
+        raise SystemExit("the eye branches differ in size")
+    pair = {left_input: right_input}
+    channels = {left_input: None}
+    merged_of = {}  # left tensor -> merged tensor
+    out_nodes = [helper.make_node("Concat", [left_input, right_input], ["merged_input"], axis=1)]
+    merged_of[left_input] = "merged_input"
+    channels[left_input] = in_channels
+    new_inits = {}
+    for a, b in zip(lefts, rights):
+        attrs_a = {x.name: helper.get_attribute_value(x) for x in a.attribute}
+        attrs_b = {x.name: helper.get_attribute_value(x) for x in b.attribute}
+        if a.op_type != b.op_type or attrs_a != attrs_b or len(a.input) != len(b.input):
+            raise SystemExit(f"the eye branches differ at {a.name or a.output[0]}")
+        ins = []
+        for ia, ib in zip(a.input, b.input):
+            if ia in inits:
+                wa, wb = inits[ia], inits[ib]
+                if wa.shape != wb.shape:
+                    raise SystemExit(f"the eye branches' weights differ in shape at {ia}")
+                name = "m_" + ia
+                new_inits[name] = np.concatenate([wa, wb], axis=0)
+                ins.append(name)
+            else:
+                if pair.get(ia) != ib:
+                    raise SystemExit(f"the eye branches are wired differently at {ia}")
+                ins.append(merged_of[ia])
+        out = "m_" + a.output[0]
+        attrs = dict(attrs_a)
+        if a.op_type == "Conv":
+            attrs["group"] = 2 * attrs.get("group", 1)
+            c_out = inits[a.input[1]].shape[0]
+        else:
+            c_out = channels[a.input[0]]
+        out_nodes.append(helper.make_node(a.op_type, ins, [out], **attrs))
+        pair[a.output[0]] = b.output[0]
+        merged_of[a.output[0]] = out
+        channels[a.output[0]] = c_out
+    # The rest (the branches' tails) as it was, reading its branch's half.
+    right_of = {v: k for k, v in pair.items()}
+    merged_nodes = {id(n) for n in lefts + rights}
+    for nd in g.node:
+        if id(nd) in merged_nodes:
+            continue
+        ins = list(nd.input)
+        for k, t in enumerate(ins):
+            side, left_name = (0, t) if t in merged_of and t != left_input else (1, right_of.get(t))
+            if left_name is None or left_name not in merged_of or left_name == left_input:
+                continue
+            c = channels[left_name]
+            half = f"{t}_half"
+            starts = numpy_helper.from_array(np.array([side * c], np.int64), half + "_s")
+            ends = numpy_helper.from_array(np.array([(side + 1) * c], np.int64), half + "_e")
+            axes = numpy_helper.from_array(np.array([1], np.int64), half + "_a")
+            for init in (starts, ends, axes):
+                new_inits[init.name] = numpy_helper.to_array(init)
+            out_nodes.append(helper.make_node("Slice", [merged_of[left_name], starts.name, ends.name, axes.name], [half]))
+            ins[k] = half
+        out_nodes.append(helper.make_node(nd.op_type, ins, list(nd.output), name=nd.name,
+                                          **{x.name: helper.get_attribute_value(x) for x in nd.attribute}))
+    # Topological order (the Concat came first, before the renaming
+    # Identities it reads).
+    ready = {i.name for i in g.input} | set(inits) | set(new_inits) | {""}
+    ordered, pending = [], out_nodes
+    while pending:
+        later = [nd for nd in pending if not all(i in ready for i in nd.input)]
+        done = [nd for nd in pending if all(i in ready for i in nd.input)]
+        if not done:
+            raise SystemExit("the merged eye graph has a cycle")
+        for nd in done:
+            ready.update(nd.output)
+        ordered += done
+        pending = later
+    out_nodes = ordered
+    used = {i for nd in out_nodes for i in nd.input}
+    keep = {k: v for k, v in inits.items() if k in used}
+    keep.update({k: v for k, v in new_inits.items() if k in used})
+    graph = helper.make_graph(out_nodes, g.name, list(g.input), list(g.output),
+                              [numpy_helper.from_array(np.asarray(v), k) for k, v in keep.items()])
+    m = helper.make_model(graph, opset_imports=list(model.opset_import), producer_name=model.producer_name)
+    m.ir_version = model.ir_version
+    helper.set_model_props(m, {p.key: p.value for p in model.metadata_props})
+    onnx.checker.check_model(m)
+    return m
+
 
 def main():
-    if len(sys.argv) != 3:
+    args = sys.argv[1:]
+    keep = None
+    split = None
+    if len(args) == 4 and args[2] == "--outputs":
+        keep = args[3].split(",")
+        args = args[:2]
+    elif len(args) == 4 and args[2] == "--split-eyes":
+        split = args[3]
+        args = args[:2]
+    if len(args) != 2:
         raise SystemExit(__doc__)
-    with open(sys.argv[1], "rb") as f:
+    with open(args[0], "rb") as f:
         buf = f.read()
-    m = Converter(buf).run()
-    onnx.save(m, sys.argv[2])
+    c = Converter(buf)
+    if split:
+        c.split = True
+        face, eyes = c.run()
+        onnx.save(face, args[1])
+        onnx.save(eyes, split)
+    else:
+        onnx.save(c.run(keep), args[1])
 
 
 if __name__ == "__main__":

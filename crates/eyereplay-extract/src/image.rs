@@ -267,6 +267,44 @@ impl<'a> ImageView<'a> {
         // does (the crops 1.8x faster at 1080p).
         let prefetch = self.raw_w * self.raw_h > PREFETCH_MIN_PX;
         let black = offset; // rgb 0 after scaling
+        if let Planes::Yuv420 {
+            y: yp,
+            u,
+            v,
+            y_stride,
+            c_stride,
+            matrix,
+        } = self.planes
+        {
+            if border == Border::Replicate {
+                let yuv = Yuv420Ref {
+                    y: yp,
+                    u,
+                    v,
+                    y_stride,
+                    c_stride,
+                    w: self.raw_w,
+                    h: self.raw_h,
+                };
+                let geometry = CropGeometry {
+                    p00,
+                    du,
+                    dv,
+                    o,
+                    ax,
+                    ay,
+                    size,
+                    mirror,
+                    scale,
+                    offset,
+                    prefetch,
+                };
+                // (Compiled for AVX2 this loop took the same time: the
+                // per-lane loads, not the arithmetic, are its cost.)
+                self.crop_yuv420(&yuv, matrix, &geometry, out);
+                return;
+            }
+        }
         for row in 0..size {
             for col in 0..size {
                 let c = if mirror { size - 1 - col } else { col };
@@ -293,6 +331,78 @@ impl<'a> ImageView<'a> {
                 out[i] = rgb[0] * scale + offset;
                 out[plane + i] = rgb[1] * scale + offset;
                 out[2 * plane + i] = rgb[2] * scale + offset;
+            }
+        }
+    }
+
+    /// The face and eye crops of an 8-bit 4:2:0 frame
+    /// ([`ImageView::crop_nchw`] with [`Border::Replicate`]).
+    fn crop_yuv420(&self, yuv: &Yuv420Ref, matrix: YuvMatrix, g: &CropGeometry, out: &mut [f32]) {
+        let CropGeometry {
+            p00,
+            du,
+            dv,
+            o,
+            ax,
+            ay,
+            size,
+            mirror,
+            scale,
+            offset,
+            prefetch,
+        } = *g;
+        let [o0, o1] = o;
+        let plane = size * size;
+        // LANES crop pixels at a time, each step over all lanes in
+        // its own loop: the loads are per lane, the arithmetic
+        // vectorizes (the same IEEE operations per pixel as the
+        // general path, so the same values bit for bit).
+        const LANES: usize = 8;
+        for row in 0..size {
+            let (r0, r1, r2) = {
+                let (a, rest) = out[row * size..].split_at_mut(plane);
+                let (b, c) = rest.split_at_mut(plane);
+                (&mut a[..size], &mut b[..size], &mut c[..size])
+            };
+            for col0 in (0..size).step_by(LANES) {
+                let n = LANES.min(size - col0);
+                let (mut rx, mut ry) = ([0f32; LANES], [0f32; LANES]);
+                for k in 0..LANES {
+                    let col = (col0 + k).min(size - 1);
+                    let c = if mirror { size - 1 - col } else { col };
+                    let x = p00.x + c as f32 * du.x + row as f32 * dv.x;
+                    let y = p00.y + c as f32 * du.y + row as f32 * dv.y;
+                    rx[k] = o0 + x * ax[0] + y * ay[0];
+                    ry[k] = o1 + x * ax[1] + y * ay[1];
+                    if prefetch && (k == 0 || k == LANES - 1) {
+                        // The same column PREFETCH_ROWS crop rows further
+                        // down, for the step's first and last pixel: the
+                        // eight lie on one or two cache lines per image row.
+                        let (ahead_x, ahead_y) =
+                            (x + PREFETCH_ROWS * dv.x, y + PREFETCH_ROWS * dv.y);
+                        self.prefetch_raw(
+                            o0 + ahead_x * ax[0] + ahead_y * ay[0],
+                            o1 + ahead_x * ax[1] + ahead_y * ay[1],
+                        );
+                    }
+                }
+                let mut rgb = [[0f32; LANES]; 3];
+                if let Some((luma, cu, cv)) = yuv.samples_inside(&rx, &ry) {
+                    for k in 0..LANES {
+                        let p = matrix.rgb(luma[k], cu[k], cv[k]);
+                        (rgb[0][k], rgb[1][k], rgb[2][k]) = (p[0], p[1], p[2]);
+                    }
+                } else {
+                    for k in 0..n {
+                        let p = self.sample_raw(rx[k], ry[k]);
+                        (rgb[0][k], rgb[1][k], rgb[2][k]) = (p[0], p[1], p[2]);
+                    }
+                }
+                for (line, ch) in [&mut *r0, &mut *r1, &mut *r2].into_iter().zip(&rgb) {
+                    for (o, &val) in line[col0..col0 + n].iter_mut().zip(ch) {
+                        *o = val * scale + offset;
+                    }
+                }
             }
         }
     }
@@ -410,6 +520,108 @@ fn bilinear(p: &[u8], stride: usize, w: usize, h: usize, x: f32, y: f32) -> f32 
     let a = p[r0 + x0] as f32 + (p[r0 + x1] as f32 - p[r0 + x0] as f32) * fx;
     let b = p[r1 + x0] as f32 + (p[r1 + x1] as f32 - p[r1 + x0] as f32) * fx;
     a + (b - a) * fy
+}
+
+/// Where a crop's pixels lie and how their values are scaled
+/// ([`ImageView::crop_nchw`]).
+#[derive(Clone, Copy)]
+struct CropGeometry {
+    /// Crop pixel (0, 0) in the upright image, and the steps per column
+    /// and per row.
+    p00: Pt,
+    du: Pt,
+    dv: Pt,
+    /// Upright -> stored coordinates ([`ImageView::display_to_raw`]).
+    o: [f32; 2],
+    ax: [f32; 2],
+    ay: [f32; 2],
+    size: usize,
+    mirror: bool,
+    scale: f32,
+    offset: f32,
+    /// Ask for the image lines of later crop rows ahead (large frames).
+    prefetch: bool,
+}
+
+/// The planes of an 8-bit 4:2:0 frame, for the crops' inner loop.
+struct Yuv420Ref<'a> {
+    y: &'a [u8],
+    u: &'a [u8],
+    v: &'a [u8],
+    y_stride: usize,
+    c_stride: usize,
+    w: usize,
+    h: usize,
+}
+
+impl Yuv420Ref<'_> {
+    /// What [`ImageView::sample_raw`] computes (bilinear luma, nearest
+    /// chroma: luma, u, v), with the same arithmetic in the same order, at
+    /// `N` points at once when all their luma pixels lie inside the frame;
+    /// `None` otherwise (the caller takes the general path, which
+    /// replicates the edges). Each step runs over all points in its own
+    /// loop, so the arithmetic vectorizes and only the loads are per point:
+    /// the crops took about 17 ns a pixel one point at a time (the 192-px
+    /// face crop 0.63 ms of a 360x288 frame's 3.1 CPU-ms).
+    #[inline(always)]
+    fn samples_inside<const N: usize>(
+        &self,
+        x: &[f32; N],
+        y: &[f32; N],
+    ) -> Option<([f32; N], [f32; N], [f32; N])> {
+        let (wl, hl) = ((self.w - 1) as f32, (self.h - 1) as f32);
+        let (mut lx, mut ly) = ([0f32; N], [0f32; N]);
+        let mut inside = true;
+        for k in 0..N {
+            lx[k] = x[k] - 0.5;
+            ly[k] = y[k] - 0.5;
+            // NaN fails every comparison.
+            inside &= lx[k] >= 0.0 && ly[k] >= 0.0 && lx[k] < wl && ly[k] < hl;
+        }
+        if !inside {
+            return None;
+        }
+        let (mut fx, mut fy) = ([0f32; N], [0f32; N]);
+        let (mut at, mut ct) = ([0usize; N], [0usize; N]);
+        for k in 0..N {
+            // SAFETY: 0 <= lx < w - 1 and 0 <= ly < h - 1 (checked above),
+            // so the truncating casts are exact floors that fit in u32; with
+            // x = lx + 0.5 < w and y < h the chroma indices do too.
+            let (x0, y0, cx, cy) = unsafe {
+                (
+                    lx[k].to_int_unchecked::<u32>(),
+                    ly[k].to_int_unchecked::<u32>(),
+                    x[k].to_int_unchecked::<u32>() >> 1,
+                    y[k].to_int_unchecked::<u32>() >> 1,
+                )
+            };
+            fx[k] = lx[k] - x0 as f32;
+            fy[k] = ly[k] - y0 as f32;
+            at[k] = y0 as usize * self.y_stride + x0 as usize;
+            ct[k] = cy as usize * self.c_stride + cx as usize;
+        }
+        let mut q = [[0f32; N]; 4];
+        let (mut cu, mut cv) = ([0f32; N], [0f32; N]);
+        for k in 0..N {
+            let i = at[k];
+            // (x0, y0) and (x0 + 1, y0 + 1) are inside the frame, so
+            // i + y_stride + 1 is inside the luma plane; ct[k] inside the
+            // chroma planes. Checked indexing: the loads are not the cost.
+            q[0][k] = self.y[i] as f32;
+            q[1][k] = self.y[i + 1] as f32;
+            q[2][k] = self.y[i + self.y_stride] as f32;
+            q[3][k] = self.y[i + self.y_stride + 1] as f32;
+            cu[k] = self.u[ct[k]] as f32;
+            cv[k] = self.v[ct[k]] as f32;
+        }
+        let mut luma = [0f32; N];
+        for k in 0..N {
+            let a = q[0][k] + (q[1][k] - q[0][k]) * fx[k];
+            let b = q[2][k] + (q[3][k] - q[2][k]) * fx[k];
+            luma[k] = a + (b - a) * fy[k];
+        }
+        Some((luma, cu, cv))
+    }
 }
 
 #[inline]

@@ -28,6 +28,7 @@
 //!   (`best_effort_timestamp x time_base`, as ffprobe's `pts_time`), so
 //!   variable-frame-rate video keeps its real timing.
 
+pub mod attention;
 mod compare;
 mod decode;
 mod detect;
@@ -54,7 +55,7 @@ pub use geom::{Pt, Roi};
 pub use image::{Border, ImageView, Planes, Rotation, YuvMatrix};
 pub use models::{
     check as check_models, default_models_dir, init_runtime, missing_files, runtime_library,
-    Device, Models,
+    AttentionOut, Device, LandmarkModel, Models,
 };
 pub use output::{
     flag_blinks, output_csv_paths, save_csv, write_csv, EyeRow, Row, CSV_HEADER,
@@ -73,9 +74,12 @@ pub use tracker::{Eye, EyeMeasure, Face, Tracker, IRIS_VIEW_SHIFT_PX, MAX_IRIS_V
 /// The revision of the rows an extraction writes: raised whenever a change
 /// moves them (not for speed-ups that keep them bit for bit). Cached
 /// extractions carry it in their file name, so a new extractor never
-/// reuses an older one's rows. 2: segments of about 15 s starting on
-/// keyframes, whatever the number of workers (1: one segment per worker).
-pub const ROWS_REVISION: u32 = 2;
+/// reuses an older one's rows. 3: the converter writes the models' channel
+/// padding as a 1x1 convolution, so ONNX Runtime fuses the residual
+/// additions and rounds them differently (nx within 7e-4 of revision 2 on
+/// `franck.mp4`). 2: segments of about 15 s starting on keyframes,
+/// whatever the number of workers (1: one segment per worker).
+pub const ROWS_REVISION: u32 = 3;
 
 /// The fetch script, embedded so that `eyereplay models fetch` works from
 /// an installed binary too.

@@ -1,5 +1,6 @@
-//! The three MediaPipe networks (converted to ONNX by `scripts/models.sh`)
-//! and the ONNX Runtime library, loaded with `ort`'s load-dynamic.
+//! MediaPipe's networks (converted to ONNX by `scripts/models.sh`: the face
+//! detector, the face mesh and iris model of the cascade, the attention face
+//! mesh) and the ONNX Runtime library, loaded with `ort`'s load-dynamic.
 //!
 //! Why ONNX Runtime rather than tract: on this 2-core machine a whole frame
 //! (detector + mesh + two irises) took about 7 ms with ONNX Runtime and
@@ -7,6 +8,7 @@
 //! library comes prebuilt inside the pinned `onnxruntime` wheel, so the build
 //! downloads nothing.
 
+use crate::attention::EyeCropSpec;
 use crate::error::{ExtractError, Result};
 use ort::execution_providers::{CUDAExecutionProvider, ExecutionProvider};
 use ort::session::builder::{GraphOptimizationLevel, SessionBuilder};
@@ -18,11 +20,18 @@ use std::sync::OnceLock;
 pub const DETECTOR: &str = "face_detection_short_range.onnx";
 pub const MESH: &str = "face_landmark.onnx";
 pub const IRIS: &str = "iris_landmark.onnx";
+/// MediaPipe's attention face mesh (`refine_landmarks=True` in its Python
+/// face mesh), split by `scripts/tflite_to_onnx.py --split-eyes`: the face
+/// model (mesh, face flag, the feature map the eyes are read from) ...
+pub const ATTENTION: &str = "face_landmark_with_attention.onnx";
+/// ... and the eye model (eye contours and irises from each eye's crop of
+/// that map); the custom operators between them are [`crate::attention`].
+pub const ATTENTION_EYES: &str = "face_landmark_with_attention_eyes.onnx";
 pub const ORT_LIB: &str = "libonnxruntime.so.1.22.1";
 
 /// The pinned sha256 of the `.tflite` files the ONNX files are made from
 /// (as shipped in the mediapipe==0.10.21 wheel).
-pub const TFLITE_SHA256: [(&str, &str); 3] = [
+pub const TFLITE_SHA256: [(&str, &str); 4] = [
     (
         "face_detection_short_range.tflite",
         "bbff11cebd1eb27a1e004cae0b0e63ec8c551cbf34a4451148b4908b8db3eca8",
@@ -34,6 +43,10 @@ pub const TFLITE_SHA256: [(&str, &str); 3] = [
     (
         "iris_landmark.tflite",
         "d1744d2a09c25f501d39eba4faff47e53ecca8852c5ce19bce8eeac39357521f",
+    ),
+    (
+        "face_landmark_with_attention.tflite",
+        "e06a804e0144f9929eda782122916b35d60c697c3c9344013ca2bbe76a6ce2b4",
     ),
 ];
 
@@ -62,7 +75,7 @@ pub fn runtime_library(dir: &Path) -> PathBuf {
 
 /// Names of the files missing from `dir` (empty when all are there).
 pub fn missing_files(dir: &Path) -> Vec<&'static str> {
-    let mut missing: Vec<&'static str> = [DETECTOR, MESH, IRIS]
+    let mut missing: Vec<&'static str> = [DETECTOR, MESH, IRIS, ATTENTION, ATTENTION_EYES]
         .into_iter()
         .filter(|f| !dir.join(f).is_file())
         .collect();
@@ -114,6 +127,13 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
         "{IRIS}: runs, 2 eyes x ({} contour + {} iris points)",
         out[0].0.len() / 3,
         out[0].1.len() / 3
+    ));
+    let att = m.attention(&grey)?;
+    lines.push(format!(
+        "{ATTENTION}: runs, {} landmarks + 2 eyes x ({} contour + {} iris points)",
+        att.mesh.len() / 3,
+        att.eyes[0].len() / 2,
+        att.irises[0].len() / 2
     ));
     let cuda = CUDAExecutionProvider::default()
         .is_available()
@@ -175,13 +195,91 @@ pub enum Device {
     Cuda,
 }
 
+/// Which landmark networks read the face and eyes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LandmarkModel {
+    /// The face mesh (`face_landmark`), then the iris model on each eye's
+    /// own 64-px crop: MediaPipe's iris pipeline.
+    #[default]
+    Cascade,
+    /// The attention face mesh (`face_landmark_with_attention`), which
+    /// MediaPipe's Python face mesh runs with `refine_landmarks=True`: the
+    /// mesh, both eye contours and both irises from one 192-px face crop,
+    /// about a third of the cascade's arithmetic.
+    Attention,
+}
+
 /// One set of sessions; each worker thread owns one.
 pub struct Models {
     detector: Session,
-    mesh: Session,
-    iris: Session,
-    /// True when the sessions run on CUDA.
+    /// The cascade's networks, made on first use.
+    mesh: Option<Session>,
+    iris: Option<Session>,
+    /// Loaded on first use ([`Models::attention`]).
+    attention: Option<AttentionSessions>,
+    dir: PathBuf,
+    /// True when the networks run on CUDA (the detector's session started
+    /// there; the others, made later, ask for it too).
     pub on_cuda: bool,
+}
+
+/// The attention face mesh's two halves and where its eye crops lie.
+struct AttentionSessions {
+    face: Session,
+    eyes: Session,
+    /// The left eye's (mesh points 33..133) crop, then the right one's.
+    crops: [EyeCropSpec; 2],
+    /// Each eye's crop of the face model's feature map, reused from frame
+    /// to frame.
+    eye_in: [Vec<f32>; 2],
+}
+
+impl AttentionSessions {
+    fn load(dir: &Path, cuda: bool) -> Result<AttentionSessions> {
+        let (face, _) = session(&dir.join(ATTENTION), cuda)?;
+        let (eyes, _) = session(&dir.join(ATTENTION_EYES), cuda)?;
+        let path = dir.join(ATTENTION_EYES);
+        let what = path.display().to_string();
+        let meta = eyes.metadata()?;
+        let spec = |side: &str| -> Result<EyeCropSpec> {
+            let get = |key: String| -> Result<String> {
+                meta.custom(&key)?.ok_or_else(|| {
+                    ExtractError::Runtime(format!(
+                        "{what}: no metadata {key}; run `eyereplay models fetch` to convert it again"
+                    ))
+                })
+            };
+            EyeCropSpec::parse(
+                &get(format!("{side}.crop"))?,
+                &get(format!("{side}.points"))?,
+                &what,
+            )
+        };
+        let crops = [spec("left")?, spec("right")?];
+        drop(meta);
+        Ok(AttentionSessions {
+            face,
+            eyes,
+            crops,
+            eye_in: [vec![], vec![]],
+        })
+    }
+}
+
+/// What the attention face mesh reads from one 192-px face crop, in the
+/// crop's pixels: the model's left eye (mesh points 33..133, on the image's
+/// left in an unmirrored frontal face) first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AttentionOut {
+    /// 468 x (x, y, z).
+    pub mesh: Vec<f32>,
+    /// Per eye 71 x (x, y): the iris model's contour layout (point 0 and 8
+    /// the corners, 4 the lower lid's middle, 12 the upper lid's).
+    pub eyes: [Vec<f32>; 2],
+    /// Per eye 5 x (x, y), the centre first.
+    pub irises: [Vec<f32>; 2],
+    /// Face presence logit.
+    pub face_logit: f32,
 }
 
 fn cpu_builder() -> Result<SessionBuilder> {
@@ -225,6 +323,20 @@ fn session(path: &Path, cuda: bool) -> Result<(Session, bool)> {
     Ok((cpu_builder()?.commit_from_file(path)?, false))
 }
 
+/// The session in `slot`, made from `dir`/`file` on the first call (on
+/// CUDA when `cuda`, as [`session`]).
+fn lazy_session<'a>(
+    slot: &'a mut Option<Session>,
+    dir: &Path,
+    file: &str,
+    cuda: bool,
+) -> Result<&'a mut Session> {
+    if slot.is_none() {
+        *slot = Some(session(&dir.join(file), cuda)?.0);
+    }
+    Ok(slot.as_mut().expect("made above"))
+}
+
 /// Whether to try CUDA for `device` with the library already loaded.
 fn want_cuda(device: Device, dir: &Path) -> bool {
     match device {
@@ -265,14 +377,61 @@ impl Models {
         }
         init_runtime(dir)?;
         let cuda = want_cuda(device, dir);
-        let (detector, a) = session(&dir.join(DETECTOR), cuda)?;
-        let (mesh, b) = session(&dir.join(MESH), cuda)?;
-        let (iris, c) = session(&dir.join(IRIS), cuda)?;
+        // The landmark networks are made on first use: the attention mesh
+        // never needs the face mesh and iris sessions, nor the cascade its.
+        let (detector, on_cuda) = session(&dir.join(DETECTOR), cuda)?;
         Ok(Models {
             detector,
+            mesh: None,
+            iris: None,
+            attention: None,
+            dir: dir.to_path_buf(),
+            on_cuda,
+        })
+    }
+
+    /// The attention face mesh on a 1x3x192x192 input in [0, 1] (the face
+    /// mesh's crop): the face model, each eye's crop of its feature map
+    /// ([`EyeCropSpec::matrix`], [`EyeCropSpec::crop`]), the eye model on
+    /// both, their points back in the face crop. Its sessions are made on
+    /// the first call, on the device the other networks run on.
+    pub fn attention(&mut self, input: &[f32]) -> Result<AttentionOut> {
+        if self.attention.is_none() {
+            self.attention = Some(AttentionSessions::load(&self.dir, self.on_cuda)?);
+        }
+        let att = self.attention.as_mut().expect("made above");
+        let t = TensorRef::from_array_view(([1usize, 3, 192, 192], input))?;
+        let out = att.face.run(ort::inputs!["input" => t])?;
+        let mesh = out["output_mesh_identity_flat"]
+            .try_extract_tensor::<f32>()?
+            .1
+            .to_vec();
+        let face_logit = out["conv_faceflag_flat"].try_extract_tensor::<f32>()?.1[0];
+        let (shape, map) = out["eye_features"].try_extract_tensor::<f32>()?;
+        let [_, c, h, w] = [0, 1, 2, 3].map(|k| shape[k] as usize);
+        let matrices = [att.crops[0].matrix(&mesh), att.crops[1].matrix(&mesh)];
+        for ((spec, m), input) in att.crops.iter().zip(&matrices).zip(&mut att.eye_in) {
+            let [ow, oh] = spec.output;
+            input.resize(c * ow * oh, 0.0);
+            spec.crop(map, c, h, w, m, input);
+        }
+        drop(out);
+        let [ow, oh] = att.crops[0].output;
+        let [rw, rh] = att.crops[1].output;
+        let left = TensorRef::from_array_view(([1usize, c, oh, ow], &att.eye_in[0][..]))?;
+        let right = TensorRef::from_array_view(([1usize, c, rh, rw], &att.eye_in[1][..]))?;
+        let out = att
+            .eyes
+            .run(ort::inputs!["left_eye_features" => left, "right_eye_features" => right])?;
+        let local = |name: &str| -> Result<Vec<f32>> {
+            Ok(out[name].try_extract_tensor::<f32>()?.1.to_vec())
+        };
+        let back = |k: usize, pts: Vec<f32>| att.crops[k].points_back(&pts, &matrices[k]);
+        Ok(AttentionOut {
+            eyes: [back(0, local("left_eye")?), back(1, local("right_eye")?)],
+            irises: [back(0, local("left_iris")?), back(1, local("right_iris")?)],
             mesh,
-            iris,
-            on_cuda: a && b && c,
+            face_logit,
         })
     }
 
@@ -290,7 +449,8 @@ impl Models {
     /// pixels, face presence logit).
     pub fn mesh(&mut self, input: &[f32]) -> Result<(Vec<f32>, f32)> {
         let t = TensorRef::from_array_view(([1usize, 3, 192, 192], input))?;
-        let out = self.mesh.run(ort::inputs!["input" => t])?;
+        let mesh = lazy_session(&mut self.mesh, &self.dir, MESH, self.on_cuda)?;
+        let out = mesh.run(ort::inputs!["input" => t])?;
         let (_, lm) = out["conv2d_21_flat"].try_extract_tensor::<f32>()?;
         let (_, sc) = out["conv2d_31_flat"].try_extract_tensor::<f32>()?;
         Ok((lm.to_vec(), sc[0]))
@@ -301,7 +461,8 @@ impl Models {
     /// reference the batch must equal.
     pub fn iris_single(&mut self, input: &[f32]) -> Result<IrisOut> {
         let t = TensorRef::from_array_view(([1usize, 3, 64, 64], input))?;
-        let out = self.iris.run(ort::inputs!["input" => t])?;
+        let iris = lazy_session(&mut self.iris, &self.dir, IRIS, self.on_cuda)?;
+        let out = iris.run(ort::inputs!["input" => t])?;
         let (_, contour) = out["output_eyes_contours_and_brows"].try_extract_tensor::<f32>()?;
         let (_, iris) = out["output_iris"].try_extract_tensor::<f32>()?;
         Ok((contour.to_vec(), iris.to_vec()))
@@ -320,7 +481,8 @@ impl Models {
     /// `input` exactly that long): one output per crop, in order.
     pub fn iris_batch(&mut self, input: &[f32], eyes: usize) -> Result<Vec<IrisOut>> {
         let t = TensorRef::from_array_view(([eyes, 3, 64, 64], input))?;
-        let out = self.iris.run(ort::inputs!["input" => t])?;
+        let iris = lazy_session(&mut self.iris, &self.dir, IRIS, self.on_cuda)?;
+        let out = iris.run(ort::inputs!["input" => t])?;
         let (_, contour) = out["output_eyes_contours_and_brows"].try_extract_tensor::<f32>()?;
         let (_, iris) = out["output_iris"].try_extract_tensor::<f32>()?;
         Ok(contour

@@ -10,7 +10,7 @@
 
 use crate::decode::{Decoder, VideoInfo};
 use crate::error::{ExtractError, Result};
-use crate::models::{Device, Models};
+use crate::models::{Device, LandmarkModel, Models};
 use crate::output::{flag_blinks, Row, DEFAULT_BLINK_RATIO};
 use crate::preview;
 use crate::profile::{thread_cpu_s, Stage, StageClock, StageTimes};
@@ -58,6 +58,8 @@ pub struct ExtractOptions {
     pub profile: bool,
     /// Where the networks run.
     pub device: Device,
+    /// Which networks read the face and eyes ([`Tracker::set_landmarks`]).
+    pub landmarks: LandmarkModel,
 }
 
 impl Default for ExtractOptions {
@@ -73,6 +75,7 @@ impl Default for ExtractOptions {
             iris_views: 1,
             profile: false,
             device: Device::default(),
+            landmarks: LandmarkModel::default(),
         }
     }
 }
@@ -426,6 +429,7 @@ fn snap_boundaries(
 fn new_tracker(models: Models, opts: &ExtractOptions) -> Tracker {
     let mut t = Tracker::new(models, opts.mesh_every);
     t.set_iris_views(opts.iris_views);
+    t.set_landmarks(opts.landmarks);
     t.clock = StageClock::new(opts.profile);
     t
 }

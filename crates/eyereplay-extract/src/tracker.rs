@@ -1,13 +1,15 @@
 //! The per-frame pipeline: detection -> rotated face crop -> 468 landmarks
-//! -> two eye crops -> iris model, with MediaPipe's tracking (the next
-//! frame's face crop comes from this frame's landmarks; the detector runs
-//! again only when the face score drops).
+//! -> two eye crops -> iris model (or, with [`LandmarkModel::Attention`],
+//! the attention face mesh reading landmarks, eyes and irises from the
+//! face crop at once), with MediaPipe's tracking (the next frame's face
+//! crop comes from this frame's landmarks; the detector runs again only
+//! when the face score drops).
 
 use crate::detect::{self, Detection};
 use crate::error::Result;
 use crate::geom::{Pt, Roi};
 use crate::image::{Border, ImageView};
-use crate::models::{IrisOut, Models};
+use crate::models::{AttentionOut, IrisOut, LandmarkModel, Models};
 use crate::profile::{Stage, StageClock};
 
 const MESH_INPUT: usize = 192;
@@ -128,6 +130,8 @@ pub struct Tracker {
     mesh_every: u32,
     /// Crops each eye is read from (see [`Tracker::set_iris_views`]).
     iris_views: usize,
+    /// Which networks read the face and eyes ([`Tracker::set_landmarks`]).
+    landmarks: LandmarkModel,
     since_mesh: u32,
     eye_track: Option<EyeTrack>,
     last_score: f32,
@@ -152,6 +156,7 @@ impl Tracker {
             detector_runs: 0,
             mesh_every: mesh_every.max(1),
             iris_views: 1,
+            landmarks: LandmarkModel::Cascade,
             since_mesh: 0,
             eye_track: None,
             last_score: 0.0,
@@ -170,6 +175,16 @@ impl Tracker {
     /// the iris inference. 1 (the default) is MediaPipe's single crop.
     pub fn set_iris_views(&mut self, views: usize) {
         self.iris_views = views.clamp(1, MAX_IRIS_VIEWS);
+    }
+
+    /// Reads the face and eyes with `model`. With
+    /// [`LandmarkModel::Attention`] one network reads the mesh, eye
+    /// contours and irises from the face crop on every frame, as
+    /// MediaPipe's Python face mesh with `refine_landmarks=True` does:
+    /// `mesh_every` and the iris views do not apply.
+    pub fn set_landmarks(&mut self, model: LandmarkModel) {
+        self.landmarks = model;
+        self.reset();
     }
 
     /// True when the networks run on CUDA.
@@ -219,6 +234,17 @@ impl Tracker {
 
     /// Processes one frame.
     pub fn process(&mut self, img: &ImageView) -> Result<Option<Face>> {
+        if self.landmarks == LandmarkModel::Attention {
+            let Some(step) = self.mesh_step(img)? else {
+                return Ok(None);
+            };
+            return Ok(Some(Face {
+                score: step.score,
+                eyes: step.eyes.expect("the attention mesh reads the eyes"),
+                mesh: step.mesh,
+                detected: step.detected,
+            }));
+        }
         if self.since_mesh + 1 < self.mesh_every {
             if let Some(t) = self.eye_track.take() {
                 // The eye crops of the last mesh frame, moved by how far the
@@ -255,7 +281,13 @@ impl Tracker {
             }
         }
         self.since_mesh = 0;
-        let Some((mesh, score, detected)) = self.mesh_step(img)? else {
+        let Some(MeshStep {
+            mesh,
+            score,
+            detected,
+            ..
+        }) = self.mesh_step(img)?
+        else {
             return Ok(None);
         };
         let eye_rois = EYE_CORNERS.map(|(a, b, _)| Roi::from_two_points(mesh[a], mesh[b], 2.3));
@@ -275,14 +307,14 @@ impl Tracker {
     /// face track follows the mesh alone.
     pub fn face_mesh(&mut self, img: &ImageView) -> Result<Option<Vec<Pt>>> {
         self.since_mesh = 0;
-        Ok(self.mesh_step(img)?.map(|(mesh, _, _)| mesh))
+        Ok(self.mesh_step(img)?.map(|step| step.mesh))
     }
 
-    /// The face detector where no face is tracked, then the face mesh:
-    /// the landmarks in image px, the face score and whether the detector
-    /// ran; `None` (and no eye track) when no face is found. Moves the face
-    /// track to the new landmarks.
-    fn mesh_step(&mut self, img: &ImageView) -> Result<Option<(Vec<Pt>, f32, bool)>> {
+    /// The face detector where no face is tracked, then the face mesh (or
+    /// the attention mesh, with its eyes): the landmarks in image px, the
+    /// face score and whether the detector ran; `None` (and no eye track)
+    /// when no face is found. Moves the face track to the new landmarks.
+    fn mesh_step(&mut self, img: &ImageView) -> Result<Option<MeshStep>> {
         let mut detected = false;
         loop {
             let roi = match self.roi {
@@ -309,7 +341,16 @@ impl Tracker {
                 &mut self.mesh_in,
             );
             self.clock.lap(Stage::Crop);
-            let (lm, logit) = self.models.mesh(&self.mesh_in)?;
+            let (lm, logit, attention) = match self.landmarks {
+                LandmarkModel::Cascade => {
+                    let (lm, logit) = self.models.mesh(&self.mesh_in)?;
+                    (lm, logit, None)
+                }
+                LandmarkModel::Attention => {
+                    let mut out = self.models.attention(&self.mesh_in)?;
+                    (std::mem::take(&mut out.mesh), out.face_logit, Some(out))
+                }
+            };
             self.clock.lap(Stage::Mesh);
             let score = 1.0 / (1.0 + (-logit).exp());
             if score < FACE_SCORE_MIN {
@@ -326,10 +367,17 @@ impl Tracker {
                 .chunks_exact(3)
                 .map(|p| roi.to_image(p[0] / s, p[1] / s))
                 .collect();
+            let eyes = attention.map(|out| attention_eyes(&out, &roi));
             let axis = (mesh[263].y - mesh[33].y).atan2(mesh[263].x - mesh[33].x);
             self.roi = Some(Roi::around_points(&mesh, axis, 1.5));
             self.last_score = score;
-            return Ok(Some((mesh, score, detected)));
+            self.clock.lap(Stage::Post);
+            return Ok(Some(MeshStep {
+                mesh,
+                score,
+                detected,
+                eyes,
+            }));
         }
     }
 
@@ -380,6 +428,50 @@ impl Tracker {
         });
         Ok(eyes)
     }
+}
+
+/// One face-mesh run of [`Tracker::mesh_step`].
+struct MeshStep {
+    /// The 468 points in image px.
+    mesh: Vec<Pt>,
+    score: f32,
+    /// True when the detector ran on this frame.
+    detected: bool,
+    /// The eyes, image-left first, when the attention mesh read them.
+    eyes: Option<[Eye; 2]>,
+}
+
+/// The eyes the attention mesh read from the face crop `roi` (its points
+/// in the crop's 192 px), image-left first. Its eye contours follow the
+/// iris model's 71-point layout, unmirrored for both eyes, so corners and
+/// lids are read as in [`iris_step`].
+fn attention_eyes(out: &AttentionOut, roi: &Roi) -> [Eye; 2] {
+    let s = MESH_INPUT as f32;
+    let in_image = |pts: &[f32]| -> Vec<Pt> {
+        pts.chunks_exact(2)
+            .map(|p| roi.to_image(p[0] / s, p[1] / s))
+            .collect()
+    };
+    let mut eyes = [0, 1].map(|k| {
+        let contour = in_image(&out.eyes[k]);
+        let rim = in_image(&out.irises[k]);
+        let (a, b) = (contour[CONTOUR_CORNER_A], contour[CONTOUR_CORNER_B]);
+        let (corner_left, corner_right) = if a.x <= b.x { (a, b) } else { (b, a) };
+        Eye {
+            iris: rim[0],
+            corner_left,
+            corner_right,
+            upper_lid: contour[CONTOUR_UPPER_LID],
+            lower_lid: contour[CONTOUR_LOWER_LID],
+            iris_rim: [rim[0], rim[1], rim[2], rim[3], rim[4]],
+            contour,
+        }
+    });
+    let mid_x = |e: &Eye| e.corner_left.x + e.corner_right.x;
+    if mid_x(&eyes[1]) < mid_x(&eyes[0]) {
+        eyes.swap(0, 1);
+    }
+    eyes
 }
 
 /// Contour corners per eye in model order (crop-axis start, end).

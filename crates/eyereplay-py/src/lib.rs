@@ -244,7 +244,8 @@ fn device_of(name: &str) -> PyResult<ex::Device> {
 /// are also saved where the command would put them (atomically).
 #[pyfunction]
 #[pyo3(signature = (videos, out=None, models=None, threads=0, blink_ratio=ex::DEFAULT_BLINK_RATIO,
-    max_seconds=None, mesh_every=ex::DEFAULT_MESH_EVERY, iris_views=1, device="cpu", progress=None))]
+    max_seconds=None, mesh_every=ex::DEFAULT_MESH_EVERY, iris_views=1, device="cpu", landmarks="cascade",
+    progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn extract<'py>(
     py: Python<'py>,
@@ -257,8 +258,18 @@ fn extract<'py>(
     mesh_every: u32,
     iris_views: usize,
     device: &str,
+    landmarks: &str,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
+    let landmarks = match landmarks {
+        "cascade" => ex::LandmarkModel::Cascade,
+        "attention" => ex::LandmarkModel::Attention,
+        other => {
+            return Err(ConfigError::new_err(format!(
+                "landmarks {other:?}: expected \"cascade\" or \"attention\""
+            )))
+        }
+    };
     if !(1..=ex::MAX_IRIS_VIEWS).contains(&iris_views) {
         return Err(ConfigError::new_err(format!(
             "iris_views {iris_views}: expected 1 to {}",
@@ -281,6 +292,7 @@ fn extract<'py>(
         iris_views,
         profile: false,
         device: device_of(device)?,
+        landmarks,
     };
     let progress = PyProgress(progress);
     Progress::begin(&progress, Stage::Extract, 0);

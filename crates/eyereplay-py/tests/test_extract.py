@@ -112,3 +112,22 @@ def test_iris_views_match_the_cli_and_are_checked(tmp_path):
     for bad in (0, 10):
         with pytest.raises(eyereplay.ConfigError, match="iris_views"):
             eyereplay.extract(VIDEO, max_seconds=1, iris_views=bad, progress=False)
+
+
+def test_attention_landmarks_match_the_cli_and_are_checked(tmp_path):
+    # MediaPipe's attention face mesh (`--landmarks attention`), byte for
+    # byte as the command writes it; another network than the default
+    # cascade, so other numbers; an unknown name is a ConfigError.
+    r = run_cli("extract", VIDEO, "--out", tmp_path / "cli.csv", "--max-seconds", "2",
+                "--landmarks", "attention", "--quiet")
+    assert r.returncode == 0, r.stderr
+    eyereplay.extract(VIDEO, out=tmp_path / "py.csv", max_seconds=2, landmarks="attention",
+                      progress=False)
+    assert (tmp_path / "py.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
+    cascade = eyereplay.extract(VIDEO, max_seconds=2, progress=False)
+    attention = eyereplay.extract(VIDEO, max_seconds=2, landmarks="attention", progress=False)
+    both = (cascade["valid"] == 1) & (attention["valid"] == 1)
+    assert both.sum() > 30
+    assert 0 < np.median(np.abs(cascade["nx"][both] - attention["nx"][both])) < 0.05
+    with pytest.raises(eyereplay.ConfigError, match="landmarks"):
+        eyereplay.extract(VIDEO, max_seconds=1, landmarks="iris", progress=False)

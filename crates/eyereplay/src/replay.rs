@@ -47,13 +47,15 @@ pub fn carrier_videos(
 }
 
 /// Where a carrier's measured geometry is cached: by the video's sha256,
-/// the tool version and the track format.
+/// the tool version, the track format and the extractor's rows revision
+/// (the geometry is measured with its networks).
 pub fn track_cache_path(video: &Path, cache: &Path) -> Result<PathBuf> {
     let sha = eyereplay_core::sha256_file(video)?;
     Ok(cache.join("replay").join(format!(
-        "{sha}-v{}-t{}.json",
+        "{sha}-v{}-t{}-r{}.json",
         eyereplay_core::TOOL_VERSION,
-        eyereplay_replay::TRACK_FORMAT_VERSION
+        eyereplay_replay::TRACK_FORMAT_VERSION,
+        eyereplay_extract::ROWS_REVISION
     )))
 }
 

@@ -29,10 +29,13 @@ use std::path::{Path, PathBuf};
 /// Version of the cached per-frame poses: bump when the solve changes.
 const HEAD_CACHE_VERSION: u32 = 1;
 
-/// Where a video's per-frame head poses are cached.
+/// Where a video's per-frame head poses are cached: by the video, the
+/// solve's version and the extractor's rows revision (the poses come from
+/// its face mesh).
 fn cache_file(cache: &Path, sha256: &str) -> PathBuf {
     cache.join("head").join(format!(
-        "{sha256}-v{HEAD_CACHE_VERSION}-vfov{SOURCE_VFOV_DEG}.json"
+        "{sha256}-v{HEAD_CACHE_VERSION}-r{}-vfov{SOURCE_VFOV_DEG}.json",
+        eyereplay_extract::ROWS_REVISION
     ))
 }
 

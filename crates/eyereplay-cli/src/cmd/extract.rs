@@ -10,7 +10,9 @@ use std::path::{Path, PathBuf};
 #[command(
     about = "Extract normalized iris positions from videos (one CSV row per frame)",
     long_about = "Runs MediaPipe's face detection, face mesh (every --mesh-every frames) and iris \
-networks (fetched by 'eyereplay models fetch') and writes one CSV row per decoded frame: \
+networks, or with --landmarks attention MediaPipe's attention face mesh (the network of its \
+refine_landmarks=True: closer to MediaPipe's output, half its CPU time), all fetched by \
+'eyereplay models fetch', and writes one CSV row per decoded frame: \
 frame, time_s (the frame's own presentation time), valid, nx, ny, blink, then per-eye \
 values, iris centres and eye corners in pixels.\n\n\
 nx runs from the image-left eye corner (0) to the image-right one (1) for BOTH eyes; \
@@ -23,6 +25,7 @@ eyereplay extract a.mp4 b.webm c.mov --out iris/            # several videos in 
 eyereplay extract clip.mp4 --out iris/ --preview previews/  # annotated PNGs every 5 s\n  \
 eyereplay extract franck.mp4 --out /tmp/f.csv --compare crates/eyereplay-extract/tests/data/franck_mediapipe.csv\n  \
 eyereplay extract franck.mp4 --out /tmp/f.csv --profile           # CPU time per frame by stage\n  \
+eyereplay extract talk.mp4 --out talk.csv --landmarks attention   # MediaPipe's own network, fastest\n  \
 eyereplay extract franck.mp4 --out /tmp/f.csv --bench-mediapipe   # CPU per frame vs MediaPipe Python, A B A B"
 )]
 pub struct Args {
@@ -64,6 +67,15 @@ pub struct Args {
     /// Costs about N times the iris model's CPU time. 1 = MediaPipe's single crop.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=ex::MAX_IRIS_VIEWS as i64))]
     pub iris_views: u32,
+    /// Which networks read the face and eyes. cascade: the face mesh (every
+    /// --mesh-every frames), then the iris model on a 64-px crop of each eye, as
+    /// MediaPipe's iris pipeline does. attention: MediaPipe's attention face mesh,
+    /// which its Python face mesh runs with refine_landmarks=True, reading mesh, eye
+    /// contours and irises from the one face crop on every frame: the peer tool's
+    /// own network, and fewer CPU-seconds per frame (README, "Where extraction's CPU
+    /// time goes"). --iris-views and --mesh-every do not apply to it.
+    #[arg(long, value_enum, default_value_t = LandmarksArg::Cascade)]
+    pub landmarks: LandmarksArg,
     /// Compare with a MediaPipe reference CSV (scripts/dev/mediapipe_ref.sh) and print
     /// detection rate, Pearson r per axis and |difference| (one video only).
     #[arg(long)]
@@ -91,6 +103,27 @@ pub struct Args {
     /// No progress bars.
     #[arg(short, long)]
     pub quiet: bool,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LandmarksArg {
+    Cascade,
+    Attention,
+}
+
+impl LandmarksArg {
+    fn model(self) -> ex::LandmarkModel {
+        match self {
+            LandmarksArg::Cascade => ex::LandmarkModel::Cascade,
+            LandmarksArg::Attention => ex::LandmarkModel::Attention,
+        }
+    }
+    fn name(self) -> &'static str {
+        match self {
+            LandmarksArg::Cascade => "cascade",
+            LandmarksArg::Attention => "attention",
+        }
+    }
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -260,6 +293,7 @@ fn bench_mediapipe(a: &Args, opts: &ex::ExtractOptions) -> Result<()> {
             .args(["--threads", &opts.threads.to_string()])
             .args(["--mesh-every", &opts.mesh_every.to_string()])
             .args(["--iris-views", &opts.iris_views.to_string()])
+            .args(["--landmarks", a.landmarks.name()])
             .args(["--device", a.device.name()])
             .args(["--blink-ratio", &opts.blink_ratio.to_string()])
             .arg("--models")
@@ -364,6 +398,7 @@ pub fn run(a: Args) -> Result<()> {
         iris_views: a.iris_views as usize,
         profile: a.profile,
         device: a.device.device(),
+        landmarks: a.landmarks.model(),
     };
     if a.bench_mediapipe {
         return bench_mediapipe(&a, &opts);

@@ -21,6 +21,7 @@ def extract(
     mesh_every: int = 2,
     iris_views: int = 1,
     device: str = "cpu",
+    landmarks: str = "cascade",
     progress: Any = None,
 ) -> List[Dict[str, Any]]: ...
 def prepare(
