@@ -3,7 +3,7 @@
 
     python3 scripts/face-table.py DATASET_DIR [DATASET_DIR ...] [--eyereplay PATH]
                                   [--horizontal] [--vertical] [--mesh-every N]
-                                  [--iris-views N] [--smooth-s S] [--mediapipe]
+                                  [--iris-views N] [--smooth-s S] [--mediapipe] [--attention]
 
 For each rendered session: `eyereplay extract` (the unmodified path: face
 detection, 468 landmarks, iris) reads the video back (kept in
@@ -38,6 +38,10 @@ the source and the read-back both smoothed by a Gaussian of S seconds (sd)
 over the compared frames: whether a user's smoothing of the extracted
 trajectory would remove the read-back's error (frame-to-frame jitter) or
 not (an error that drifts over seconds).
+With --attention, `eyereplay extract --landmarks attention` (MediaPipe's
+attention face mesh) reads the videos instead (kept in
+DATASET_DIR/.readback_attention/): how that network reads sessions that
+were matched to the cascade (only r compares).
 With --mediapipe, MediaPipe's own Python face mesh (refine_landmarks=True,
 scripts/dev/mediapipe_ref.sh, which sets up its venv on first use) reads
 the videos instead (kept in DATASET_DIR/.readback_mediapipe/): how the
@@ -90,6 +94,10 @@ def main():
                     help="read back with MediaPipe's own Python face mesh "
                          "(refine_landmarks=True, scripts/dev/mediapipe_ref.sh; kept in "
                          "DATASET_DIR/.readback_mediapipe/) instead of `eyereplay extract`")
+    ap.add_argument("--attention", action="store_true",
+                    help="read back with `eyereplay extract --landmarks attention` (MediaPipe's "
+                         "attention face mesh; kept in DATASET_DIR/.readback_attention/) instead "
+                         "of the cascade the sessions were matched to (only r then compares)")
     ap.add_argument("--iris-views", type=int, metavar="N",
                     help="read every session back with `eyereplay extract --iris-views N` "
                          "instead of the crops per eye its probe read with (only r then "
@@ -100,6 +108,9 @@ def main():
     if a.mediapipe and (a.mesh_every is not None or a.vertical or a.horizontal):
         ap.error("--mediapipe reads no iris or corner pixels: it cannot take "
                  "--mesh-every, --vertical or --horizontal")
+    if a.attention and (a.mediapipe or a.mesh_every is not None or a.iris_views is not None):
+        ap.error("--attention reads with the attention face mesh: it cannot take --mediapipe, "
+                 "--mesh-every or --iris-views")
     if a.mediapipe and a.iris_views is not None:
         ap.error("--mediapipe reads with MediaPipe's own crops: it cannot take --iris-views")
     if a.iris_views is not None and not 1 <= a.iris_views <= 9:
@@ -128,8 +139,10 @@ def dataset_table(d, a, here):
     returns its rows (see `summary`)."""
     labels = list(csv.DictReader(open(os.path.join(d, "labels.csv"))))
     out = os.path.join(d, ".readback_mediapipe" if a.mediapipe
+                       else ".readback_attention" if a.attention
                        else ".readback" if a.mesh_every is None else f".readback_mesh{a.mesh_every}")
-    extra = [] if a.mesh_every is None else ["--mesh-every", str(a.mesh_every)]
+    extra = ([] if a.mesh_every is None else ["--mesh-every", str(a.mesh_every)]) + \
+        (["--landmarks", "attention"] if a.attention else [])
     os.makedirs(out, exist_ok=True)
     rows = []
     budget = []
@@ -149,7 +162,7 @@ def dataset_table(d, a, here):
         views = 1
         if a.iris_views is not None:
             views = a.iris_views
-        elif not a.mediapipe and os.path.exists(ident):
+        elif not a.mediapipe and not a.attention and os.path.exists(ident):
             views = int(json.load(open(ident)).get("extractor_iris_views") or 1)
         name = f.replace("/", "__")[:-len(".csv")] + "." + video_key(mp4)
         if views > 1:

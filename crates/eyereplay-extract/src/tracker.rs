@@ -452,9 +452,16 @@ fn attention_eyes(out: &AttentionOut, roi: &Roi) -> [Eye; 2] {
             .map(|p| roi.to_image(p[0] / s, p[1] / s))
             .collect()
     };
-    let mut eyes = [0, 1].map(|k| {
-        let contour = in_image(&out.eyes[k]);
-        let rim = in_image(&out.irises[k]);
+    let mut eyes =
+        [0, 1].map(|k| Eye::from_points(in_image(&out.eyes[k]), &in_image(&out.irises[k])));
+    image_left_first(&mut eyes);
+    eyes
+}
+
+impl Eye {
+    /// An eye from the 71-point contour (the iris model's layout) and the 5
+    /// iris points (centre first), in the image.
+    fn from_points(contour: Vec<Pt>, rim: &[Pt]) -> Eye {
         let (a, b) = (contour[CONTOUR_CORNER_A], contour[CONTOUR_CORNER_B]);
         let (corner_left, corner_right) = if a.x <= b.x { (a, b) } else { (b, a) };
         Eye {
@@ -466,12 +473,16 @@ fn attention_eyes(out: &AttentionOut, roi: &Roi) -> [Eye; 2] {
             iris_rim: [rim[0], rim[1], rim[2], rim[3], rim[4]],
             contour,
         }
-    });
+    }
+}
+
+/// Puts the image-left eye first, whatever the head's roll or a mirrored
+/// video.
+fn image_left_first(eyes: &mut [Eye; 2]) {
     let mid_x = |e: &Eye| e.corner_left.x + e.corner_right.x;
     if mid_x(&eyes[1]) < mid_x(&eyes[0]) {
         eyes.swap(0, 1);
     }
-    eyes
 }
 
 /// Contour corners per eye in model order (crop-axis start, end).
@@ -564,26 +575,14 @@ pub(crate) fn iris_step(
         // the model's view: mesh 33 for the first eye, 263 (mirrored) for
         // the second; the crop axis runs 33->133 and 362->263.
         corners[k] = if mirror { (b, a) } else { (a, b) };
-        let (corner_left, corner_right) = if a.x <= b.x { (a, b) } else { (b, a) };
-        eyes.push(Eye {
-            iris: rim[0],
-            corner_left,
-            corner_right,
-            upper_lid: contour[CONTOUR_UPPER_LID],
-            lower_lid: contour[CONTOUR_LOWER_LID],
-            iris_rim: [rim[0], rim[1], rim[2], rim[3], rim[4]],
-            contour,
-        });
-    }
-    // Image-left eye first, whatever the head's roll or a mirrored video.
-    let mid_x = |e: &Eye| e.corner_left.x + e.corner_right.x;
-    if mid_x(&eyes[1]) < mid_x(&eyes[0]) {
-        eyes.swap(0, 1);
+        eyes.push(Eye::from_points(contour, &rim));
     }
     let e1 = eyes.pop().expect("two eyes");
     let e0 = eyes.pop().expect("two eyes");
+    let mut eyes = [e0, e1];
+    image_left_first(&mut eyes);
     clock.lap(Stage::Post);
-    Ok(([e0, e1], corners))
+    Ok((eyes, corners))
 }
 
 /// `roi` moved by `dx`, `dy` times [`IRIS_VIEW_SHIFT_PX`] of the model's
