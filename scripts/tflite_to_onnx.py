@@ -7,9 +7,8 @@ Why our own converter: tflite2onnx crashes on face_landmark's PReLU weights
 and tract-tflite lacks fp16 DEQUANTIZE and PRELU. These graphs use a dozen
 TFLite operators, all handled below, and the attention mesh three of
 MediaPipe's own (Landmarks2TransformMatrix, TransformTensorBilinear,
-TransformLandmarks, version 2): written with standard ONNX operators after
-MediaPipe's reference kernels, or, with --split-eyes, left to the caller
-between a face model and an eye model (see Converter.split_eyes).
+TransformLandmarks, version 2), which are left to the caller between a
+face model and an eye model (--split-eyes, see Converter.split_eyes).
 
 Layout: TFLite is NHWC; the ONNX graph is NCHW throughout (ONNX Runtime's
 convolutions are NCHW), with an NCHW float input named "input" whose batch
@@ -28,11 +27,10 @@ fused. Measured with ONNX Runtime 1.22.1, one thread, CPU time per
 inference: iris (2 eyes) 2.6-2.9 ms with PRelu -> 1.9-2.0 ms; mesh 1.3-1.4
 -> 0.9 ms; outputs equal to 2e-5.
 
-Usage: tflite_to_onnx.py IN.tflite OUT.onnx [--outputs NAME,NAME...]
+Usage: tflite_to_onnx.py IN.tflite OUT.onnx
        tflite_to_onnx.py face_landmark_with_attention.tflite FACE.onnx --split-eyes EYES.onnx
-(--outputs: keep only these outputs and what they need; --split-eyes: the
-attention mesh as a face model and an eye model, its custom operators left
-to the caller, the lips dropped; see Converter.split_eyes.)
+(--split-eyes: the attention mesh as a face model and an eye model, its
+custom operators left to the caller, the lips dropped.)
 """
 import sys
 
@@ -60,12 +58,8 @@ class Converter:
         self.nodes = []
         self.inits = {}  # name -> np.ndarray (constants)
         self.uid = 0
-        self.opset = 13
-        # True once a node of ONNX Runtime's com.microsoft domain is used.
-        self.ms_domain = False
-        # --split-eyes: the custom operators are recorded, not written
-        # (see `split_eyes`).
-        self.split = False
+        # The attention mesh's custom operators, recorded as met and left
+        # to the caller (see `split_eyes`).
         self.l2tm = {}  # matrix tensor -> (landmarks tensor, attributes)
         self.ttb = {}  # crop tensor -> (feature map tensor, matrix tensor, NCHW shape)
         self.tl = {}  # output tensor -> (landmarks tensor, matrix tensor)
@@ -134,126 +128,10 @@ class Converter:
         o.Init(t.Bytes, t.Pos)
         return o
 
-    # -- MediaPipe's custom operators (the attention face mesh) -------------
-    # Written with standard ONNX operators, after MediaPipe's reference
-    # kernels (mediapipe/util/tflite/operations, version 2 of each).
-    def slice_(self, x, starts, ends, axes, base):
-        out = self.fresh(base)
-        i64 = lambda v: self.add_const(base + "_s", np.array(v, dtype=np.int64))
-        self.node("Slice", [x, i64(starts), i64(ends), i64(axes)], [out])
-        return out
-
-    def binop(self, op, a, b, base):
-        out = self.fresh(base)
-        self.node(op, [a, b], [out])
-        return out
-
-    def scalar(self, v, base):
-        return self.add_const(base, np.array(v, dtype=np.float32))
-
-    def landmarks_to_transform_matrix(self, lm, out, attrs):
-        """Landmarks2TransformMatrix v2: the 4x4 matrix that maps a crop of
-        output_width x output_height (its pixel indices) into the landmarks'
-        space: centred on the bounding box of the landmarks `subset_idxs`
-        measured along the line from `left_rotation_idx` to
-        `right_rotation_idx`, rotated to that line, scaled to the box times
-        (scale_x, scale_y). `lm`: [B, N, 3]; the result: [B, 4, 4]."""
-        if attrs.get("target_rotation_radians", 0.0) != 0.0:
-            raise SystemExit("Landmarks2TransformMatrix with a target rotation is not handled")
-        ow, oh = float(attrs["output_width"]), float(attrs["output_height"])
-        b = out + "_l2m"
-        mul = lambda a, c: self.binop("Mul", a, c, b)
-        add = lambda a, c: self.binop("Add", a, c, b)
-        sub = lambda a, c: self.binop("Sub", a, c, b)
-        xy = self.slice_(lm, [0], [2], [2], b)  # [B, N, 2]
-
-        def gather(idx):
-            g = self.fresh(b)
-            self.node("Gather", [xy, self.add_const(b + "_i", np.array(idx, dtype=np.int64))], [g], axis=1)
-            return g
-
-        d = sub(gather([attrs["right_rotation_idx"]]), gather([attrs["left_rotation_idx"]]))  # [B, 1, 2]
-        dx, dy = self.slice_(d, [0], [1], [2], b), self.slice_(d, [1], [2], [2], b)  # [B, 1, 1]
-        length = self.fresh(b)
-        self.node("Sqrt", [add(mul(dx, dx), mul(dy, dy))], [length])
-        # cos and sin of the line's angle a = atan2(dy, dx); ONNX has no atan2,
-        # and only these two are needed.
-        ca, sa = self.binop("Div", dx, length, b), self.binop("Div", dy, length, b)
-        sub_xy = gather(list(attrs["subset_idxs"]))  # [B, K, 2]
-        px, py = self.slice_(sub_xy, [0], [1], [2], b), self.slice_(sub_xy, [1], [2], [2], b)
-        # The subset turned by -a, its box, and the box's centre turned back.
-        xr = add(mul(ca, px), mul(sa, py))
-        yr = sub(mul(ca, py), mul(sa, px))
-
-        def reduce(op, x):
-            r = self.fresh(b)
-            self.node(op, [x], [r], axes=[1], keepdims=1)
-            return r
-
-        x_hi, x_lo, y_hi, y_lo = reduce("ReduceMax", xr), reduce("ReduceMin", xr), reduce("ReduceMax", yr), reduce("ReduceMin", yr)
-        half = self.scalar(0.5, b)
-        mx, my = mul(add(x_hi, x_lo), half), mul(add(y_hi, y_lo), half)
-        cx, cy = sub(mul(ca, mx), mul(sa, my)), add(mul(sa, mx), mul(ca, my))
-        scx = mul(sub(x_hi, x_lo), self.scalar(float(attrs["scale_x"]) / ow, b))
-        scy = mul(sub(y_hi, y_lo), self.scalar(float(attrs["scale_y"]) / oh, b))
-        a00, a01, a10, a11 = mul(ca, scx), self.binop("Mul", self.binop("Mul", sa, scy, b), self.scalar(-1.0, b), b), mul(sa, scx), mul(ca, scy)
-        t0 = sub(cx, add(mul(a00, self.scalar(ow / 2, b)), mul(a01, self.scalar(oh / 2, b))))
-        t1 = sub(cy, add(mul(a10, self.scalar(ow / 2, b)), mul(a11, self.scalar(oh / 2, b))))
-        zero = mul(a00, self.scalar(0.0, b))
-        one = add(zero, self.scalar(1.0, b))
-        rows = []
-        for row in ([a00, a01, zero, t0], [a10, a11, zero, t1], [zero, zero, one, zero], [zero, zero, zero, one]):
-            r = self.fresh(b)
-            self.node("Concat", row, [r], axis=2)
-            rows.append(r)
-        self.node("Concat", rows, [out], axis=1)
-
-    def transform_tensor_bilinear(self, x, nhwc, m, out, attrs):
-        """TransformTensorBilinear v2: an output_height x output_width crop of
-        the feature map `x` (NCHW here), pixel (i, j) read bilinearly at
-        M (j + 0.5, i + 0.5, 0, 1) - 0.5 (M's first two rows). GridSample
-        with align_corners maps pixel index 0 to -1 and W - 1 to 1. Where a
-        sample falls outside the map, MediaPipe's kernel gives 0 and
-        GridSample weighs in the border pixels within one pixel of it: the
-        eye and lip crops lie well inside the face's feature map."""
-        oh, ow = int(attrs["output_height"]), int(attrs["output_width"])
-        _, h, w, _ = nhwc
-        b = out + "_ttb"
-        ii, jj = np.meshgrid(np.arange(oh), np.arange(ow), indexing="ij")
-        base = np.stack([jj.ravel() + 0.5, ii.ravel() + 0.5, np.zeros(oh * ow), np.ones(oh * ow)], axis=1)
-        rows = self.slice_(m, [0], [2], [1], b)  # [B, 2, 4]
-        rows_t = self.fresh(b)
-        self.node("Transpose", [rows], [rows_t], perm=[0, 2, 1])
-        tc = self.binop("MatMul", self.add_const(b + "_grid", base.astype(np.float32)), rows_t, b)  # [B, oh*ow, 2]
-        scale = np.array([2.0 / (w - 1), 2.0 / (h - 1)], dtype=np.float32)
-        # (tc - 0.5) * scale - 1
-        norm = self.binop("Add", self.binop("Mul", tc, self.add_const(b + "_k", scale), b),
-                          self.add_const(b + "_c", (-0.5 * scale - 1.0).astype(np.float32)), b)
-        grid = self.fresh(b)
-        self.node("Reshape", [norm, self.add_const(b + "_shape", np.array([-1, oh, ow, 2], dtype=np.int64))], [grid])
-        # ONNX Runtime's own GridSample (com.microsoft), not ONNX's opset-16
-        # one: at opset 16 ONNX Runtime's NCHWc layout pass no longer takes
-        # the graph's Add, Relu and BatchNormalization (their newer
-        # versions), and every block ran in NCHW between reorders (the
-        # attention mesh 3.1-3.6 ms instead of X ms).
-        self.nodes.append(helper.make_node("GridSample", [x, grid], [out], domain="com.microsoft",
-                                           mode="bilinear", padding_mode="zeros", align_corners=1))
-        self.ms_domain = True
-
-    def transform_landmarks(self, p, m, out):
-        """TransformLandmarks v2 (2-D points): p' = M[:2, :2] p + M[:2, 3]."""
-        b = out + "_tl"
-        lin = self.slice_(self.slice_(m, [0], [2], [1], b), [0], [2], [2], b)  # [B, 2, 2]
-        lin_t = self.fresh(b)
-        self.node("Transpose", [lin], [lin_t], perm=[0, 2, 1])
-        shift = self.fresh(b)
-        self.node("Transpose", [self.slice_(self.slice_(m, [0], [2], [1], b), [3], [4], [2], b)], [shift], perm=[0, 2, 1])  # [B, 1, 2]
-        self.node("Add", [self.binop("MatMul", p, lin_t, b), shift], [out])
-
     # -- conversion ---------------------------------------------------------
-    def run(self, keep=None):
-        """The ONNX model; with `keep` (TFLite output names), only those
-        outputs and the nodes they need."""
+    def run(self):
+        """The ONNX model; for the attention face mesh, whose custom
+        operators ONNX has not, its face and eye models (`split_eyes`)."""
         g = self.g
         if g.InputsLength() != 1:
             raise SystemExit("expected one input")
@@ -403,34 +281,22 @@ class Converter:
                 attrs = flexbuffers.Loads(bytes(op.CustomOptionsAsNumpy())) if op.CustomOptionsLength() else {}
                 if custom == "Landmarks2TransformMatrix" and oc.Version() == 2:
                     self.l2tm[out] = (src(ins[0]), attrs)
-                    if not self.split:
-                        self.landmarks_to_transform_matrix(src(ins[0]), out, attrs)
                 elif custom == "TransformTensorBilinear" and oc.Version() == 2:
-                    n_, oh, ow, ch = self.shape(outs[0])
+                    _, oh, ow, ch = self.shape(outs[0])
                     self.ttb[out] = (src(ins[0]), src(ins[1]), [ch, oh, ow])
-                    if not self.split:
-                        self.transform_tensor_bilinear(src(ins[0]), self.shape(ins[0]), src(ins[1]), out, attrs)
                 elif custom == "TransformLandmarks" and oc.Version() == 2:
                     self.tl[out] = (src(ins[0]), src(ins[1]))
-                    if not self.split:
-                        self.transform_landmarks(src(ins[0]), src(ins[1]), out)
                 else:
                     raise SystemExit(f"unsupported custom operator {custom} v{oc.Version()}")
             else:
                 raise SystemExit(f"unsupported operator {name}")
 
         self.graph_input = graph_input
-        if self.split:
+        if self.l2tm or self.ttb or self.tl:
             return self.split_eyes()
         outputs = []
-        names = [self.tname(g.Outputs(j)) for j in range(g.OutputsLength())]
-        for k in keep or []:
-            if k not in names:
-                raise SystemExit(f"no output named {k} (the model's: {', '.join(names)})")
         for j in range(g.OutputsLength()):
             i = g.Outputs(j)
-            if keep and self.tname(i) not in keep:
-                continue
             shp = self.shape(i)
             if len(shp) == 4:
                 # 1x1 spatial conv outputs: NCHW and NHWC agree on element
@@ -464,10 +330,7 @@ class Converter:
             raise SystemExit(f"the graph needs tensors it does not have: {sorted(missing)[:5]}")
         inits = [numpy_helper.from_array(np.asarray(v), k) for k, v in self.inits.items() if k in used]
         graph = helper.make_graph(kept, "mediapipe", inputs, outputs, inits)
-        opsets = [helper.make_opsetid("", self.opset)]
-        if self.ms_domain:
-            opsets.append(helper.make_opsetid("com.microsoft", 1))
-        m = helper.make_model(graph, opset_imports=opsets,
+        m = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 13)],
                               producer_name="eyereplay tflite_to_onnx")
         m.ir_version = 8
         for k, v in (metadata or {}).items():
@@ -575,12 +438,10 @@ def merge_branches(model, left_input, right_input):
     lefts, rights = branch(left_input), branch(right_input)
     if len(lefts) != len(rights) or not lefts:
         raise SystemExit("the eye branches differ in size")
-    pair = {left_input: right_input}
-    channels = {left_input: None}
-    merged_of = {}  # left tensor -> merged tensor
+    pair = {left_input: right_input}  # left tensor -> right tensor
+    merged_of = {left_input: "merged_input"}  # left tensor -> merged tensor
+    channels = {left_input: in_channels}  # left tensor -> its channels
     out_nodes = [helper.make_node("Concat", [left_input, right_input], ["merged_input"], axis=1)]
-    merged_of[left_input] = "merged_input"
-    channels[left_input] = in_channels
     new_inits = {}
     for a, b in zip(lefts, rights):
         attrs_a = {x.name: helper.get_attribute_value(x) for x in a.attribute}
@@ -619,8 +480,12 @@ def merge_branches(model, left_input, right_input):
             continue
         ins = list(nd.input)
         for k, t in enumerate(ins):
-            side, left_name = (0, t) if t in merged_of and t != left_input else (1, right_of.get(t))
-            if left_name is None or left_name not in merged_of or left_name == left_input:
+            # A tensor of the merged part: which half, and its left name.
+            if t in merged_of and t != left_input:
+                side, left_name = 0, t
+            elif right_of.get(t) in merged_of and right_of[t] != left_input:
+                side, left_name = 1, right_of[t]
+            else:
                 continue
             c = channels[left_name]
             half = f"{t}_half"
@@ -661,26 +526,22 @@ def merge_branches(model, left_input, right_input):
 
 def main():
     args = sys.argv[1:]
-    keep = None
-    split = None
-    if len(args) == 4 and args[2] == "--outputs":
-        keep = args[3].split(",")
-        args = args[:2]
-    elif len(args) == 4 and args[2] == "--split-eyes":
-        split = args[3]
+    eyes_out = None
+    if len(args) == 4 and args[2] == "--split-eyes":
+        eyes_out = args[3]
         args = args[:2]
     if len(args) != 2:
         raise SystemExit(__doc__)
     with open(args[0], "rb") as f:
         buf = f.read()
-    c = Converter(buf)
-    if split:
-        c.split = True
-        face, eyes = c.run()
-        onnx.save(face, args[1])
-        onnx.save(eyes, split)
+    result = Converter(buf).run()
+    if isinstance(result, tuple) != (eyes_out is not None):
+        raise SystemExit(f"{args[0]}: --split-eyes is for the attention face mesh, and it needs it")
+    if eyes_out:
+        onnx.save(result[0], args[1])
+        onnx.save(result[1], eyes_out)
     else:
-        onnx.save(c.run(keep), args[1])
+        onnx.save(result, args[1])
 
 
 if __name__ == "__main__":

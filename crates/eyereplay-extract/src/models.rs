@@ -218,8 +218,8 @@ pub struct Models {
     /// Loaded on first use ([`Models::attention`]).
     attention: Option<AttentionSessions>,
     dir: PathBuf,
-    /// True when the networks run on CUDA (the detector's session started
-    /// there; the others, made later, ask for it too).
+    /// True when the networks run on CUDA: the detector's session started
+    /// there and every landmark session made since too.
     pub on_cuda: bool,
 }
 
@@ -235,9 +235,12 @@ struct AttentionSessions {
 }
 
 impl AttentionSessions {
-    fn load(dir: &Path, cuda: bool) -> Result<AttentionSessions> {
-        let (face, _) = session(&dir.join(ATTENTION), cuda)?;
-        let (eyes, _) = session(&dir.join(ATTENTION_EYES), cuda)?;
+    /// Both sessions (on CUDA while `on_cuda`; one that falls back to the
+    /// CPU clears it) and the eye crops' metadata.
+    fn load(dir: &Path, on_cuda: &mut bool) -> Result<AttentionSessions> {
+        let (face, a) = session(&dir.join(ATTENTION), *on_cuda)?;
+        let (eyes, b) = session(&dir.join(ATTENTION_EYES), *on_cuda)?;
+        *on_cuda &= a && b;
         let path = dir.join(ATTENTION_EYES);
         let what = path.display().to_string();
         let meta = eyes.metadata()?;
@@ -324,15 +327,18 @@ fn session(path: &Path, cuda: bool) -> Result<(Session, bool)> {
 }
 
 /// The session in `slot`, made from `dir`/`file` on the first call (on
-/// CUDA when `cuda`, as [`session`]).
+/// CUDA while `on_cuda`, as [`session`]; a session that falls back to the
+/// CPU clears `on_cuda`).
 fn lazy_session<'a>(
     slot: &'a mut Option<Session>,
     dir: &Path,
     file: &str,
-    cuda: bool,
+    on_cuda: &mut bool,
 ) -> Result<&'a mut Session> {
     if slot.is_none() {
-        *slot = Some(session(&dir.join(file), cuda)?.0);
+        let (s, cuda) = session(&dir.join(file), *on_cuda)?;
+        *on_cuda &= cuda;
+        *slot = Some(s);
     }
     Ok(slot.as_mut().expect("made above"))
 }
@@ -397,7 +403,7 @@ impl Models {
     /// the first call, on the device the other networks run on.
     pub fn attention(&mut self, input: &[f32]) -> Result<AttentionOut> {
         if self.attention.is_none() {
-            self.attention = Some(AttentionSessions::load(&self.dir, self.on_cuda)?);
+            self.attention = Some(AttentionSessions::load(&self.dir, &mut self.on_cuda)?);
         }
         let att = self.attention.as_mut().expect("made above");
         let t = TensorRef::from_array_view(([1usize, 3, 192, 192], input))?;
@@ -449,7 +455,7 @@ impl Models {
     /// pixels, face presence logit).
     pub fn mesh(&mut self, input: &[f32]) -> Result<(Vec<f32>, f32)> {
         let t = TensorRef::from_array_view(([1usize, 3, 192, 192], input))?;
-        let mesh = lazy_session(&mut self.mesh, &self.dir, MESH, self.on_cuda)?;
+        let mesh = lazy_session(&mut self.mesh, &self.dir, MESH, &mut self.on_cuda)?;
         let out = mesh.run(ort::inputs!["input" => t])?;
         let (_, lm) = out["conv2d_21_flat"].try_extract_tensor::<f32>()?;
         let (_, sc) = out["conv2d_31_flat"].try_extract_tensor::<f32>()?;
@@ -461,7 +467,7 @@ impl Models {
     /// reference the batch must equal.
     pub fn iris_single(&mut self, input: &[f32]) -> Result<IrisOut> {
         let t = TensorRef::from_array_view(([1usize, 3, 64, 64], input))?;
-        let iris = lazy_session(&mut self.iris, &self.dir, IRIS, self.on_cuda)?;
+        let iris = lazy_session(&mut self.iris, &self.dir, IRIS, &mut self.on_cuda)?;
         let out = iris.run(ort::inputs!["input" => t])?;
         let (_, contour) = out["output_eyes_contours_and_brows"].try_extract_tensor::<f32>()?;
         let (_, iris) = out["output_iris"].try_extract_tensor::<f32>()?;
@@ -481,7 +487,7 @@ impl Models {
     /// `input` exactly that long): one output per crop, in order.
     pub fn iris_batch(&mut self, input: &[f32], eyes: usize) -> Result<Vec<IrisOut>> {
         let t = TensorRef::from_array_view(([eyes, 3, 64, 64], input))?;
-        let iris = lazy_session(&mut self.iris, &self.dir, IRIS, self.on_cuda)?;
+        let iris = lazy_session(&mut self.iris, &self.dir, IRIS, &mut self.on_cuda)?;
         let out = iris.run(ort::inputs!["input" => t])?;
         let (_, contour) = out["output_eyes_contours_and_brows"].try_extract_tensor::<f32>()?;
         let (_, iris) = out["output_iris"].try_extract_tensor::<f32>()?;
