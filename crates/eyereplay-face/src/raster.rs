@@ -59,11 +59,21 @@ impl RgbImage {
         let (ax, ay) = (fx - x0 as f32, fy - y0 as f32);
         let d = &self.data;
         let (r0, r1) = (y0 * self.width, y1 * self.width);
-        let (i00, i01, i10, i11) = ((r0 + x0) * 3, (r0 + x1) * 3, (r1 + x0) * 3, (r1 + x1) * 3);
+        // One bounds check per texel instead of one per channel.
+        let texel = |px: usize| -> [u8; 3] {
+            let t: &[u8; 3] = d[px * 3..px * 3 + 3].try_into().expect("3 bytes");
+            *t
+        };
+        let (t00, t01, t10, t11) = (
+            texel(r0 + x0),
+            texel(r0 + x1),
+            texel(r1 + x0),
+            texel(r1 + x1),
+        );
         let mut out = [0.0f32; 3];
         for (c, o) in out.iter_mut().enumerate() {
-            let top = d[i00 + c] as f32 + (d[i01 + c] as f32 - d[i00 + c] as f32) * ax;
-            let bot = d[i10 + c] as f32 + (d[i11 + c] as f32 - d[i10 + c] as f32) * ax;
+            let top = t00[c] as f32 + (t01[c] as f32 - t00[c] as f32) * ax;
+            let bot = t10[c] as f32 + (t11[c] as f32 - t10[c] as f32) * ax;
             *o = top + (bot - top) * ay;
         }
         out

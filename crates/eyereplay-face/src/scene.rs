@@ -841,15 +841,19 @@ impl FaceScene {
             .for_each(|(dy, row)| {
                 let y = y0 + dy;
                 let py = y as f32 + 0.5;
-                for x in x0..x1 {
-                    let k = y * w + x;
-                    let wt = b.weight[k];
-                    if wt <= 0.0 || covered[k] != 0.0 {
+                // Row slices, so the loop has no per-pixel bounds checks.
+                let span = y * w + x0..y * w + x1;
+                let pixels = b.weight[span.clone()]
+                    .iter()
+                    .zip(&covered[span])
+                    .zip(row[x0 * 3..x1 * 3].chunks_exact_mut(3));
+                for (x, ((&wt, &cover), px)) in (x0..).zip(pixels) {
+                    if wt <= 0.0 || cover != 0.0 {
                         continue;
                     }
                     let c = warp.sample(tex, x as f32 + 0.5, py, wt);
                     for ch in 0..3 {
-                        row[x * 3 + ch] = (c[ch] + 0.5) as u8;
+                        px[ch] = (c[ch] + 0.5) as u8;
                     }
                 }
             });

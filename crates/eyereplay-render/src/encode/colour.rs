@@ -36,13 +36,53 @@ pub fn rgb_to_yuv420(
     w: usize,
     h: usize,
 ) {
-    let [x0, y0, x1, y1] = region;
     let (yp, rest) = yuv.split_at_mut(w * h);
     let (up, vp) = rest.split_at_mut((w / 2) * (h / 2));
-    let (cx0, cx1) = (x0 / 2, x1 / 2);
-    if cx1 <= cx0 {
+    if region[2] / 2 <= region[0] / 2 {
         return;
     }
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU was just detected to support AVX2.
+        unsafe { rgb_to_yuv420_avx2(rgb, stride_px, region, yp, up, vp, w) };
+        return;
+    }
+    rgb_to_yuv420_rows(rgb, stride_px, region, yp, up, vp, w);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn rgb_to_yuv420_avx2(
+    rgb: &[u8],
+    stride_px: usize,
+    region: [usize; 4],
+    yp: &mut [u8],
+    up: &mut [u8],
+    vp: &mut [u8],
+    w: usize,
+) {
+    rgb_to_yuv420_rows(rgb, stride_px, region, yp, up, vp, w);
+}
+
+/// Chroma blocks converted per step of [`rgb_to_yuv420_rows`]: the
+/// channels are first copied out of the interleaved RGB into arrays of
+/// this many pixel pairs, so the arithmetic runs on whole vectors.
+const BLOCKS_PER_STEP: usize = 16;
+
+/// The row pairs of [`rgb_to_yuv420`], planes already split.
+#[inline(always)]
+fn rgb_to_yuv420_rows(
+    rgb: &[u8],
+    stride_px: usize,
+    region: [usize; 4],
+    yp: &mut [u8],
+    up: &mut [u8],
+    vp: &mut [u8],
+    w: usize,
+) {
+    const N: usize = BLOCKS_PER_STEP;
+    let [x0, y0, x1, y1] = region;
+    let (cx0, cx1) = (x0 / 2, x1 / 2);
     let cw = w / 2;
     for cy in y0 / 2..y1 / 2 {
         let (ya, yb) = (2 * cy, 2 * cy + 1);
@@ -53,6 +93,40 @@ pub fn rgb_to_yuv420(
         let ly_b = &mut ly_b[2 * cx0..2 * cx1];
         let u_row = &mut up[cy * cw + cx0..cy * cw + cx1];
         let v_row = &mut vp[cy * cw + cx0..cy * cw + cx1];
+        // Whole steps of N blocks, then the rest block by block; the same
+        // integer arithmetic either way, so the same bytes.
+        let steps = (cx1 - cx0) / N;
+        for s in 0..steps {
+            let (pa, pb) = (&src_a[s * 6 * N..][..6 * N], &src_b[s * 6 * N..][..6 * N]);
+            let mut ch = [[0i32; 2 * N]; 6];
+            for i in 0..2 * N {
+                for c in 0..3 {
+                    ch[c][i] = pa[3 * i + c] as i32;
+                    ch[3 + c][i] = pb[3 * i + c] as i32;
+                }
+            }
+            let mut uv = [[0i32; 2 * N]; 4];
+            let (ya, yb) = (
+                &mut ly_a[s * 2 * N..][..2 * N],
+                &mut ly_b[s * 2 * N..][..2 * N],
+            );
+            for i in 0..2 * N {
+                let (y, u, v) = yuv_of(ch[0][i], ch[1][i], ch[2][i]);
+                (ya[i], uv[0][i], uv[1][i]) = (y, u, v);
+                let (y, u, v) = yuv_of(ch[3][i], ch[4][i], ch[5][i]);
+                (yb[i], uv[2][i], uv[3][i]) = (y, u, v);
+            }
+            let (us, vs) = (&mut u_row[s * N..][..N], &mut v_row[s * N..][..N]);
+            for j in 0..N {
+                let (a, b) = (2 * j, 2 * j + 1);
+                us[j] = chroma(uv[0][a] + uv[0][b] + uv[2][a] + uv[2][b]);
+                vs[j] = chroma(uv[1][a] + uv[1][b] + uv[3][a] + uv[3][b]);
+            }
+        }
+        let done = steps * N;
+        let (src_a, src_b) = (&src_a[done * 6..], &src_b[done * 6..]);
+        let (ly_a, ly_b) = (&mut ly_a[done * 2..], &mut ly_b[done * 2..]);
+        let (u_row, v_row) = (&mut u_row[done..], &mut v_row[done..]);
         let blocks = src_a
             .chunks_exact(6)
             .zip(src_b.chunks_exact(6))
