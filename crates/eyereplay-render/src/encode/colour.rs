@@ -36,50 +36,61 @@ pub fn rgb_to_yuv420(
     w: usize,
     h: usize,
 ) {
-    let (yp, rest) = yuv.split_at_mut(w * h);
-    let (up, vp) = rest.split_at_mut((w / 2) * (h / 2));
     if region[2] / 2 <= region[0] / 2 {
         return;
     }
+    let job = Conversion {
+        rgb,
+        stride_px,
+        region,
+        yuv,
+        w,
+        h,
+    };
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU was just detected to support AVX2.
-        unsafe { rgb_to_yuv420_avx2(rgb, stride_px, region, yp, up, vp, w) };
+        unsafe { convert_avx2(job) };
         return;
     }
-    rgb_to_yuv420_rows(rgb, stride_px, region, yp, up, vp, w);
+    convert_rows(job);
 }
 
+/// The arguments of one [`rgb_to_yuv420`] call.
+struct Conversion<'a> {
+    rgb: &'a [u8],
+    stride_px: usize,
+    region: [usize; 4],
+    yuv: &'a mut [u8],
+    w: usize,
+    h: usize,
+}
+
+/// [`convert_rows`] compiled for AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn rgb_to_yuv420_avx2(
-    rgb: &[u8],
-    stride_px: usize,
-    region: [usize; 4],
-    yp: &mut [u8],
-    up: &mut [u8],
-    vp: &mut [u8],
-    w: usize,
-) {
-    rgb_to_yuv420_rows(rgb, stride_px, region, yp, up, vp, w);
+unsafe fn convert_avx2(job: Conversion) {
+    convert_rows(job);
 }
 
-/// Chroma blocks converted per step of [`rgb_to_yuv420_rows`]: the
-/// channels are first copied out of the interleaved RGB into arrays of
-/// this many pixel pairs, so the arithmetic runs on whole vectors.
+/// Chroma blocks converted per step of [`convert_rows`]: the channels are
+/// first copied out of the interleaved RGB into arrays of this many pixel
+/// pairs, so the arithmetic runs on whole vectors.
 const BLOCKS_PER_STEP: usize = 16;
 
-/// The row pairs of [`rgb_to_yuv420`], planes already split.
+/// [`rgb_to_yuv420`]'s work, two image rows at a time.
 #[inline(always)]
-fn rgb_to_yuv420_rows(
-    rgb: &[u8],
-    stride_px: usize,
-    region: [usize; 4],
-    yp: &mut [u8],
-    up: &mut [u8],
-    vp: &mut [u8],
-    w: usize,
-) {
+fn convert_rows(job: Conversion) {
+    let Conversion {
+        rgb,
+        stride_px,
+        region,
+        yuv,
+        w,
+        h,
+    } = job;
+    let (yp, rest) = yuv.split_at_mut(w * h);
+    let (up, vp) = rest.split_at_mut((w / 2) * (h / 2));
     const N: usize = BLOCKS_PER_STEP;
     let [x0, y0, x1, y1] = region;
     let (cx0, cx1) = (x0 / 2, x1 / 2);
