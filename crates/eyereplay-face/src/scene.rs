@@ -332,10 +332,24 @@ impl Warp {
     /// head by `weight` (mirrored past the photo's edges).
     #[inline(always)]
     fn sample(&self, tex: &RgbImage, px: f32, py: f32, weight: f32) -> [f32; 3] {
+        let [x, y] = self.photo_px(tex, px, py, weight);
+        tex.sample(x, y)
+    }
+
+    /// [`Warp::sample`] rounded to bytes.
+    #[inline(always)]
+    fn sample_rgb8(&self, tex: &RgbImage, px: f32, py: f32, weight: f32) -> [u8; 3] {
+        let [x, y] = self.photo_px(tex, px, py, weight);
+        tex.sample_rgb8(x, y)
+    }
+
+    /// Where output pixel centre (px, py) reads the photo.
+    #[inline(always)]
+    fn photo_px(&self, tex: &RgbImage, px: f32, py: f32, weight: f32) -> [f32; 2] {
         let ([sr, si, sx, sy], [er, ei, ex, ey]) = (self.s0, self.e);
         let rx = sr * px - si * py + sx + weight * (er * px - ei * py + ex);
         let ry = si * px + sr * py + sy + weight * (ei * px + er * py + ey);
-        tex.sample(mirror(rx, tex.width as f32), mirror(ry, tex.height as f32))
+        [mirror(rx, tex.width as f32), mirror(ry, tex.height as f32)]
     }
 }
 
@@ -638,10 +652,8 @@ impl FaceScene {
             .enumerate()
             .for_each(|(y, row)| {
                 for x in 0..w {
-                    let c = still_warp.sample(tex, x as f32 + 0.5, y as f32 + 0.5, 0.0);
-                    for k in 0..3 {
-                        row[x * 3 + k] = (c[k] + 0.5) as u8;
-                    }
+                    let c = still_warp.sample_rgb8(tex, x as f32 + 0.5, y as f32 + 0.5, 0.0);
+                    row[x * 3..x * 3 + 3].copy_from_slice(&c);
                 }
             });
         Backdrop {
@@ -851,10 +863,7 @@ impl FaceScene {
                     if wt <= 0.0 || cover != 0.0 {
                         continue;
                     }
-                    let c = warp.sample(tex, x as f32 + 0.5, py, wt);
-                    for ch in 0..3 {
-                        px[ch] = (c[ch] + 0.5) as u8;
-                    }
+                    px.copy_from_slice(&warp.sample_rgb8(tex, x as f32 + 0.5, py, wt));
                 }
             });
         // Feather: coverage (eye openings count as covered) box-blurred
