@@ -516,7 +516,11 @@ mod tests {
             let want = img.bilinear_scalar(i, ax, ay);
             let got = img.sample(x, y);
             assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "({x}, {y})");
-            assert_eq!(img.sample_rgb8(x, y), want.map(|c| (c + 0.5) as u8), "({x}, {y})");
+            assert_eq!(
+                img.sample_rgb8(x, y),
+                want.map(|c| (c + 0.5) as u8),
+                "({x}, {y})"
+            );
         }
         // (2.25, 3.25) is three quarters of the way from texel centre
         // (1.5, 2.5) to (2.5, 3.5) along both axes: weights 1/4 * 1/4 for

@@ -616,7 +616,8 @@ enum Simd {
     Avx2,
     /// 16 f32 lanes: on a 2-core AMD EPYC (Zen 4) the 1280x720 look
     /// takes 10-25 % less time than with AVX2 (`cargo bench --bench
-    /// webcam`).
+    /// webcam`). Its target features need Rust 1.89 (the workspace's
+    /// `rust-version`).
     Avx512,
 }
 
