@@ -212,7 +212,7 @@ pub fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
-/// Linear [0,1] -> sRGB byte through a lookup table, so per-pixel output
+/// Linear 0..=1 -> sRGB byte through a lookup table, so per-pixel output
 /// costs one multiply and one load instead of a `powf`.
 pub struct SrgbLut {
     table: Vec<u8>,

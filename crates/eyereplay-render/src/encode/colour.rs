@@ -2,7 +2,7 @@
 //!
 //! It lives beside the encoder because yuv420p in BT.709 is what the x264
 //! child is fed and what the MP4's colour tags declare; the renderer calls
-//! [`yuv_of`] and [`chroma`] per 2x2 block so that the frames it writes
+//! `yuv_of` and `chroma` per 2x2 block so that the frames it writes
 //! straight into yuv420p match converting a full RGB frame with
 //! [`rgb_to_yuv420`] byte for byte.
 
@@ -27,8 +27,8 @@ pub(crate) fn chroma(sum4: i32) -> u8 {
 /// Two image rows at a time through row slices (no per-pixel index
 /// arithmetic or bounds checks in the inner loop: at 1280x720 this was
 /// 2-3 ms a frame the per-pixel way), 16 blocks a step
-/// (built for AVX2 where the CPU has it); the arithmetic is [`yuv_of`]
-/// and [`chroma`] per 2x2 block, so the bytes are the same.
+/// (built for AVX2 where the CPU has it); the arithmetic is `yuv_of`
+/// and `chroma` per 2x2 block, so the bytes are the same.
 pub fn rgb_to_yuv420(
     rgb: &[u8],
     stride_px: usize,
