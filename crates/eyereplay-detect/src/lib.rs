@@ -5,7 +5,7 @@
 //! | step | here |
 //! |---|---|
 //! | a 25 fps gaze series, cut into windows, each normalized and oriented | [`window`] |
-//! | 14 documented features per window | [`features`] |
+//! | 14 documented features per window | [`features()`] |
 //! | logistic regression over them, threshold fixed on validation sessions | [`model`] |
 //! | the zero-training rule (forward-saccade runs) | [`features::rule_score`] |
 //! | AUROC, ROC curve, bootstrap over people | [`metrics`] |

@@ -1,5 +1,5 @@
 //! The feature model: logistic regression (linfa-logistic, L2) over the
-//! standardized [`features`](crate::features), with the decision threshold
+//! standardized [`features`](mod@crate::features), with the decision threshold
 //! fixed on validation sessions the fit did not see. Saved as one JSON
 //! file that says what it was trained on.
 

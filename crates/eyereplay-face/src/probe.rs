@@ -98,8 +98,8 @@ fn clip_order(grid: &[NormPos]) -> Vec<NormPos> {
 }
 
 /// The head turns of a session that a probe clip is centred on (relative
-/// to the rest pose, deg): the clip's head turns [`CLIP_YAW_DEG`] /
-/// [`CLIP_PITCH_DEG`] each way about the middle of the session's planned
+/// to the rest pose, deg): the clip's head turns `CLIP_YAW_DEG` /
+/// `CLIP_PITCH_DEG` each way about the middle of the session's planned
 /// range, kept within the mode's limits. The extractor's reading moves
 /// with the head by a slope that is not the same at every pose (a reading
 /// session looks down by 4-5 deg on average; a conversation session may
@@ -271,7 +271,7 @@ pub struct ExtractorMatch {
 
 /// How the extractor reads this session's identity, framing and look, over
 /// the range the session's `targets` (uncorrected) cover: a probe clip of
-/// the 5 x 5 grid over that range, each point held [`HOLD_FRAMES`] frames
+/// the 5 x 5 grid over that range, each point held `HOLD_FRAMES` frames
 /// while the head turns (+-8 deg yaw, +-6 pitch about the middle of the
 /// session's planned head range, `head`; uncorrelated with the grid),
 /// filmed with the session's webcam look and read by the extractor's video
@@ -281,7 +281,7 @@ pub struct ExtractorMatch {
 /// pass draws the grid through the first fit; both are kept in the final
 /// fit. When the session's own range gives no usable fit (a reading
 /// session's vertical range can be a few hundredths, where the read-back's
-/// noise hides the slope), a grid [`RETRY_SPAN`] wide is tried; when that
+/// noise hides the slope), a grid `RETRY_SPAN` wide is tried; when that
 /// fails too, the session is drawn geometrically (both `None`).
 pub fn match_extractor(
     scene: &FaceScene,

@@ -502,8 +502,8 @@ pub struct Redrawn {
 
 /// Removes the carrier's iris from one eye of `frame` and draws the
 /// learned one centred where `n` puts it. `e` is the frame's lid geometry:
-/// everything inside its contour and [`BAND_PX`] beyond is replaced
-/// (feathered over [`FEATHER_PX`] more); farther out, the frame is
+/// everything inside its contour and `BAND_PX` beyond is replaced
+/// (feathered over `FEATHER_PX` more); farther out, the frame is
 /// untouched. The carrier's own iris centre
 /// and radius in `e` place the frame's light measurement.
 pub fn redraw_eye(

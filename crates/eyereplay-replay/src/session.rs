@@ -257,7 +257,7 @@ impl Carrier {
     }
 
     /// Measures how the extractor reads an iris drawn in this carrier:
-    /// the probes (a grid of drawn positions) in [`PROBE_FRAMES`] usable
+    /// the probes (a grid of drawn positions) in `PROBE_FRAMES` usable
     /// frames, each frame read as a still (detector, mesh, iris), and a
     /// line fitted per axis. The iris model's corners lean towards the
     /// iris it sees, so it reads a drawn excursion smaller than drawn (as

@@ -154,7 +154,7 @@ pub fn extract_csv_track(csv: &Path) -> Result<Track> {
 }
 
 /// Linear interpolation at 25 fps between neighbouring samples that both
-/// show gaze and are at most [`MAX_INTERP_GAP_S`] apart; `NaN` elsewhere.
+/// show gaze and are at most `MAX_INTERP_GAP_S` apart; `NaN` elsewhere.
 pub fn resample_samples(samples: &[&Sample<NormPos>]) -> Track {
     let (Some(first), Some(last)) = (samples.first(), samples.last()) else {
         return Track::default();
