@@ -54,11 +54,7 @@ impl RgbImage {
         if i[3] + 4 <= self.data.len() {
             // SAFETY: i[3] is the largest offset, so every texel's 4-byte
             // read ends inside the data.
-            let v = unsafe { sse2::bilinear(&self.data, i, ax, ay) };
-            let mut out = [0.0f32; 4];
-            // SAFETY: `out` holds 4 f32; the store is unaligned.
-            unsafe { std::arch::x86_64::_mm_storeu_ps(out.as_mut_ptr(), v) };
-            return [out[0], out[1], out[2]];
+            return sse2::to_rgb(unsafe { sse2::bilinear(&self.data, i, ax, ay) });
         }
         self.bilinear_scalar(i, ax, ay)
     }
@@ -172,6 +168,16 @@ mod sse2 {
         let lerp = |a: __m128, b: __m128, t: __m128| _mm_add_ps(a, _mm_mul_ps(_mm_sub_ps(b, a), t));
         let (vx, vy) = (_mm_set1_ps(ax), _mm_set1_ps(ay));
         lerp(lerp(t00, t01, vx), lerp(t10, t11, vx), vy)
+    }
+
+    /// Lanes 0-2 of a blend.
+    #[inline(always)]
+    pub(super) fn to_rgb(v: __m128) -> [f32; 3] {
+        let mut out = [0.0f32; 4];
+        // SAFETY: SSE2 only (every x86-64 CPU has it); `out` holds 4 f32
+        // and the store is unaligned.
+        unsafe { _mm_storeu_ps(out.as_mut_ptr(), v) };
+        [out[0], out[1], out[2]]
     }
 
     /// Lanes 0-2 of a blend (each within 0..=255) as `(c + 0.5) as u8`:
