@@ -3,11 +3,13 @@
 # one pooled comparison: one run moves single sessions' read-back r by
 # about 0.01, so a change to the full-face renderer is judged over seeds.
 #
-#   scripts/dev/face-seeds.sh [--views V] OUT_ROOT SEED [SEED ...]
+#   scripts/dev/face-seeds.sh [--views V] [--probe-only] OUT_ROOT SEED [SEED ...]
 #
 # Writes OUT_ROOT/seedN.toml (examples/default.toml with `seed = N` and its
 # relative paths made absolute; with --views V, `extractor_iris_views = V`:
-# 1 gives the one-crop probe and read-back of earlier versions) and the dataset OUT_ROOT/seedN (complete
+# 1 gives the one-crop probe and read-back of earlier versions; with
+# --probe-only, `match_readback = false`: each session drawn through its
+# probe's match alone, as before the read-back match) and the dataset OUT_ROOT/seedN (complete
 # sessions of an earlier run are kept), then runs
 # `scripts/face-table.py OUT_ROOT/seed... --horizontal --vertical`, whose
 # last lines are the pooled means. Needs scripts/setup.sh's data and a
@@ -19,8 +21,13 @@ if [ "${1:-}" = "--views" ]; then
   case $views in [1-9]) ;; *) echo "face-seeds: --views takes 1 to 9, not '$views'" >&2; exit 2;; esac
   shift 2
 fi
+readback=""
+if [ "${1:-}" = "--probe-only" ]; then
+  readback=false
+  shift
+fi
 if [ $# -lt 2 ]; then
-  echo "usage: $0 [--views V] OUT_ROOT SEED [SEED ...]" >&2
+  echo "usage: $0 [--views V] [--probe-only] OUT_ROOT SEED [SEED ...]" >&2
   exit 2
 fi
 repo=$(cd "$(dirname "$0")/../.." && pwd)
@@ -37,6 +44,7 @@ for seed in "$@"; do
   cfg="$root/seed$seed.toml"
   sed -e "s/^seed = .*/seed = $seed/" -e "s|\"\\.\\./|\"$repo/|g" \
     ${views:+-e "s/^extractor_iris_views = .*/extractor_iris_views = $views/"} \
+    ${readback:+-e "s/^match_readback = .*/match_readback = $readback/"} \
     "$repo/examples/default.toml" > "$cfg.part"
   mv "$cfg.part" "$cfg"
   out="$root/seed$seed"

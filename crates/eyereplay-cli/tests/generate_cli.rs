@@ -304,6 +304,23 @@ fn bad_inputs_stop_before_work() {
         &[],
     );
     assert!(e.contains("head_motion") && e.contains("face"), "{e}");
+    // The read-back match refines the face mode's probe: it needs both.
+    for render in [
+        "match_readback = true\nmatch_extractor = false".to_string(),
+        face("match_readback = true").replace("backend = \"face\"", "backend = \"eyes\""),
+    ] {
+        let cfg = if render.contains("[classes") {
+            render
+        } else {
+            face(&render)
+        };
+        let e = generate(&cfg, &[]);
+        assert!(
+            e.contains("match_readback") && e.contains("match_extractor = true"),
+            "{e}"
+        );
+        assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    }
     // One class only: the evaluation would fail after the rendering.
     let e = generate(&face("").replace("backend = \"face\"", ""), &[]);
     assert!(

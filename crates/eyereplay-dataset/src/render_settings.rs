@@ -28,6 +28,13 @@ pub struct RenderSettings {
     /// trajectory's position (measured per session from probe frames;
     /// needs the models), rather than at the renderer's geometric position.
     pub match_extractor: bool,
+    /// Full-face mode: after the probe, draw each session once, read that
+    /// video back with the extractor (as `eyereplay extract` reads it),
+    /// fit the response map and pose slopes to the session's own frames,
+    /// and draw the session again through that fit, with the same head
+    /// path. Needs `match_extractor`. About twice the drawing and one more
+    /// read-back per session; off by default.
+    pub match_readback: bool,
     /// Face and close-up modes: how many crops the extractor reads each
     /// eye from, 1-9 (`eyereplay extract --iris-views`), in the
     /// `match_extractor` probe and in the evaluation's read-back of the
@@ -124,6 +131,7 @@ impl Default for RenderSettings {
             viewing_distance_mm: 600.0,
             natural_blinks: true,
             match_extractor: true,
+            match_readback: false,
             extractor_iris_views: 1,
             preset: "veryfast".into(),
             crf: 18,

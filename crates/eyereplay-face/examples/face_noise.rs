@@ -64,6 +64,7 @@ fn main() -> Result<()> {
                     seed: 1,
                     pose_slopes: None,
                     source_head: None,
+                    head_path: None,
                 };
                 let mp4 = dir.join("n.mp4");
                 render_face_session(

@@ -67,12 +67,16 @@ pub use photo::{
     PHOTO_VFOV_DEG,
 };
 pub use pose::{solve_pose, weighted_procrustes, Camera, HeadPose, Similarity};
-pub use probe::{match_extractor, read_frame, ExtractorMatch, ProbeHeadRange};
+pub use probe::{
+    match_extractor, read_frame, refine_match, ExtractorMatch, ProbeHeadRange, SessionRead,
+    REFINE_MIN_READS,
+};
 pub use raster::{DrawStats, Rasterizer, RgbImage, TexturedMesh};
 pub use scene::{EyeImage, FaceScene, FaceState, Framing};
 pub use session::{
-    head_path, render_face_session, run_face_bench, FaceSessionParams, FaceSessionStats,
-    HEAD_PITCH_LIMIT_DEG, HEAD_ROLL_LIMIT_DEG, HEAD_TRUTH_HEADER, HEAD_YAW_LIMIT_DEG,
+    head_path, render_face_session, run_face_bench, DrawnFrame, FaceSessionParams,
+    FaceSessionStats, HEAD_PITCH_LIMIT_DEG, HEAD_ROLL_LIMIT_DEG, HEAD_TRUTH_HEADER,
+    HEAD_YAW_LIMIT_DEG,
 };
 pub use video_pose::{
     video_head_poses, video_head_poses_upto, SourceHeadTrack, SOURCE_HEAD_SMOOTHING_S,

@@ -318,6 +318,47 @@ pub fn match_extractor(
     Ok(ExtractorMatch::default())
 }
 
+/// The least open-eye frames a session's read-back must give for
+/// [`refine_match`] to fit from it.
+pub const REFINE_MIN_READS: usize = 50;
+
+/// One read-back frame for [`refine_match`]: what was drawn, the head
+/// relative to rest (yaw, pitch, deg), and what the extractor read (the
+/// mean `(nx, ny)` of both eyes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SessionRead {
+    pub drawn: NormPos,
+    pub head_deg: (f64, f64),
+    pub measured: NormPos,
+}
+
+/// The read-back match (`render.match_readback`): the response map and
+/// pose slopes fitted as the probe fits them (`measured = A drawn + S
+/// head + b`), but to the session's own video as the extractor read it
+/// back instead of to the probe clip. The probe's map misjudges
+/// the vertical response of a session by up to a third (vertical gains
+/// 0.63-1.15 in the bundled default), since the clip is not the session:
+/// other eye and head movements, no H.264, a head that turns about a
+/// planned range. The map keeps the probe's working point (`targets`'
+/// grid centre maps to itself, [`ResponseMap::about`]). `None` with fewer
+/// than [`REFINE_MIN_READS`] reads or where the fit fails the probe's
+/// checks: the probe's match stands.
+pub fn refine_match(targets: &[NormPos], reads: &[SessionRead]) -> Option<ExtractorMatch> {
+    if reads.len() < REFINE_MIN_READS {
+        return None;
+    }
+    let reads: Vec<ClipRead> = reads
+        .iter()
+        .map(|r| (r.drawn, r.head_deg, r.measured))
+        .collect();
+    let (map, slopes) = fit_joint(&reads)?;
+    let (_, centre) = grid(targets, MIN_SPAN);
+    Some(ExtractorMatch {
+        response: Some(map.about(centre)),
+        pose_slopes: Some(slopes),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -418,6 +459,62 @@ mod tests {
             let (yaw, pitch) = clip_head(&r, j);
             assert!(yaw.abs() <= HEAD_YAW_LIMIT_DEG && pitch.abs() <= HEAD_PITCH_LIMIT_DEG);
         }
+    }
+
+    /// A session's reads whose head follows the eye, as the coordination
+    /// model moves it (yaw with nx, pitch with ny, plus a slow sway), read
+    /// by an extractor that responds exactly as `measured = A drawn + S
+    /// head + b`: the read-back fit gives A and S back, the probe's working
+    /// point maps to itself, and too few reads give no refinement.
+    #[test]
+    fn refine_match_recovers_the_sessions_response() {
+        let (a, s, b) = (
+            [[0.52, 0.04], [0.22, 0.31]],
+            [[-0.0007, -0.0005], [-0.0009, 0.0018]],
+            [0.26, 0.17],
+        );
+        let reads: Vec<SessionRead> = (0..600)
+            .map(|i| {
+                let t = i as f64 / 25.0;
+                let drawn = NormPos {
+                    nx: 0.5 + 0.04 * (0.9 * t).sin() + 0.01 * (3.1 * t).cos(),
+                    ny: 0.48 + 0.03 * (0.5 * t).cos() + 0.008 * (2.3 * t).sin(),
+                };
+                let head_deg = (
+                    120.0 * (drawn.nx - 0.5) + 0.8 * (0.2 * t).sin(),
+                    60.0 * (drawn.ny - 0.48) + 0.5 * (0.13 * t).cos(),
+                );
+                let m = |k: usize| {
+                    a[k][0] * drawn.nx
+                        + a[k][1] * drawn.ny
+                        + s[k][0] * head_deg.0
+                        + s[k][1] * head_deg.1
+                        + b[k]
+                };
+                SessionRead {
+                    drawn,
+                    head_deg,
+                    measured: NormPos { nx: m(0), ny: m(1) },
+                }
+            })
+            .collect();
+        let targets: Vec<NormPos> = reads.iter().map(|r| r.measured).collect();
+        let refit = refine_match(&targets, &reads).expect("a fit");
+        let (map, slopes) = (refit.response.unwrap(), refit.pose_slopes.unwrap());
+        for i in 0..2 {
+            for j in 0..2 {
+                // The map is rounded to 1e-4, the slopes to 1e-5.
+                assert!((map.a[i][j] - a[i][j]).abs() <= 0.5e-4, "{map:?}");
+                assert!((slopes[i][j] - s[i][j]).abs() <= 0.5e-5, "{slopes:?}");
+            }
+        }
+        let (_, centre) = grid(&targets, MIN_SPAN);
+        let back = map.invert(centre);
+        assert!(
+            (back.nx - centre.nx).abs() < 1e-3 && (back.ny - centre.ny).abs() < 1e-3,
+            "{back:?} vs {centre:?}"
+        );
+        assert!(refine_match(&targets, &reads[..REFINE_MIN_READS - 1]).is_none());
     }
 
     #[test]

@@ -27,7 +27,7 @@ use crate::pose::HeadPose;
 use crate::raster::{Rasterizer, RgbImage, TexturedMesh};
 use crate::scene::{FaceScene, FaceState};
 use crate::webcam::{Webcam, WebcamLook};
-use eyereplay_core::CanvasPos;
+use eyereplay_core::{CanvasPos, NormPos};
 use eyereplay_dataset::{EyeTruthRow, TruthRow};
 use eyereplay_render::{
     check_trajectory, closure_track, pipeline_frames, rgb_to_yuv420, time_bench, BenchReport,
@@ -84,6 +84,29 @@ pub struct FaceSessionParams {
     /// them (it looked like a head floating over a still body); the sway's
     /// small drift moves the head instead.
     pub source_head: Option<Vec<Option<HeadPose>>>,
+    /// A head path to draw instead of planning one: per frame the head
+    /// relative to the rest pose and whether it came from the source video,
+    /// as an earlier render of the same session returned it
+    /// ([`FaceSessionStats::drawn`]). The read-back match
+    /// (`render.match_readback`) draws its second pass with the first
+    /// pass's head, so that only the eye differs between the video it
+    /// measured and the one it draws. Frames beyond its end plan as usual.
+    pub head_path: Option<Vec<(HeadPose, bool)>>,
+}
+
+/// What one frame of a rendered session drew, for fitting how the
+/// extractor read the video ([`crate::refine_match`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DrawnFrame {
+    /// The eye position handed to the scene, in drawn units: the target
+    /// through the response map and the head-pose correction.
+    pub drawn: NormPos,
+    /// The head relative to the rest pose.
+    pub head: HeadPose,
+    /// The head came from the source video.
+    pub from_source: bool,
+    /// The lids are closed at least half way (the truth CSV's `blink`).
+    pub blink: bool,
 }
 
 /// What a session render did.
@@ -99,6 +122,9 @@ pub struct FaceSessionStats {
     pub source_head_frames: usize,
     pub render_s: f64,
     pub total_s: f64,
+    /// Per frame, what was drawn.
+    #[serde(skip)]
+    pub drawn: Vec<DrawnFrame>,
 }
 
 /// One frame's state and truth.
@@ -110,6 +136,8 @@ struct Solved {
     eye_deg: (f64, f64),
     /// The head came from the source video.
     from_source: bool,
+    /// The eye position handed to the scene (drawn units).
+    drawn: NormPos,
 }
 
 /// The gaze angle (deg) whose eye-in-head share is `eye_deg` on one axis:
@@ -157,6 +185,9 @@ fn head_path_of(
     p: &FaceSessionParams,
 ) -> Vec<(HeadPose, bool)> {
     let n = targets.len();
+    if let Some(path) = p.head_path.as_ref().filter(|h| h.len() >= n) {
+        return path[..n].to_vec();
+    }
     let rest = scene.rest_pose;
     // Eye-in-head at the rest pose, then the gaze whose eye share it is.
     let eye_rest: Vec<(f64, f64)> = targets
@@ -295,6 +326,10 @@ fn solve_frames(
                 head: rel,
                 eye_deg,
                 from_source,
+                drawn: NormPos {
+                    nx: target.0,
+                    ny: target.1,
+                },
             }
         })
         .collect()
@@ -414,6 +449,15 @@ pub fn render_face_session(
         source_head_frames: solved.iter().filter(|s| s.from_source).count(),
         render_s,
         total_s: t0.elapsed().as_secs_f64(),
+        drawn: solved
+            .iter()
+            .map(|s| DrawnFrame {
+                drawn: s.drawn,
+                head: s.head,
+                from_source: s.from_source,
+                blink: s.row.blink,
+            })
+            .collect(),
     })
 }
 

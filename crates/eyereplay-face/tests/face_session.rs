@@ -70,6 +70,7 @@ fn params_of(
         seed,
         pose_slopes: None,
         source_head: None,
+        head_path: None,
     }
 }
 
@@ -271,5 +272,69 @@ fn head_yaw_from_rendered_video() {
         eprintln!("head yaw from landmarks ({name} shape): r {r:.3}, slope {slope:.2}");
         assert!(r >= 0.9, "{name}: r {r}");
         assert!((0.7..=1.3).contains(&slope), "{name}: slope {slope}");
+    }
+}
+
+/// `FaceSessionParams::head_path` (the read-back match's second pass): a
+/// session drawn again through another response map plans another head
+/// (the coordination model turns the head with the drawn eye), but with
+/// the first render's head path it draws that head, to the head truth's
+/// last digit, while the eye follows the new map.
+#[test]
+fn a_given_head_path_is_drawn_as_given() {
+    let Some((_, _, scene, look)) = scene_of("astronaut.png", 4) else {
+        return;
+    };
+    let canvas = Canvas::default();
+    let traj = reading_trajectory(40, canvas.width_px as f64, canvas.height_px as f64);
+    let first = params_of(
+        GazeMapping::new(canvas),
+        look,
+        Task::Reading,
+        CoordinationParams::default(),
+        4,
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let render = |p: &FaceSessionParams, tag: &str| {
+        let paths = ["mp4", "truth.csv", "head.csv"].map(|e| dir.path().join(format!("{tag}.{e}")));
+        let stats =
+            render_face_session(&scene, &traj, None, p, &paths[0], &paths[1], &paths[2]).unwrap();
+        let text = |k: usize| std::fs::read_to_string(&paths[k]).unwrap();
+        // The head truth's head columns (frame, yaw, pitch, roll, x, y, z);
+        // the eye and gaze columns after them follow the drawn eye.
+        let head: Vec<String> = text(2)
+            .lines()
+            .map(|l| l.split(',').take(7).collect::<Vec<_>>().join(","))
+            .collect();
+        (stats, text(1), head)
+    };
+    let (stats, truth, head) = render(&first, "first");
+    assert_eq!(stats.drawn.len(), 40);
+    // Another map: the eye is drawn 1.5x as far (a gain of 2/3).
+    let mut second = first.clone();
+    second.mapping.extractor_response = Some(eyereplay_render::ResponseMap {
+        a: [[2.0 / 3.0, 0.0], [0.0, 2.0 / 3.0]],
+        b: [1.0 / 6.0, 1.0 / 6.0],
+    });
+    let (_, _, planned_head) = render(&second, "planned");
+    assert_ne!(
+        planned_head, head,
+        "the planned head moves with the drawn eye"
+    );
+    second.head_path = Some(
+        stats
+            .drawn
+            .iter()
+            .map(|d| (d.head, d.from_source))
+            .collect(),
+    );
+    let (again, again_truth, again_head) = render(&second, "kept");
+    assert_eq!(again_head, head);
+    assert_ne!(again_truth, truth);
+    for (a, b) in again.drawn.iter().zip(&stats.drawn) {
+        assert_eq!(a.head, b.head);
+        // Drawn 1.5x as far from the map's fixed point (0.5, 0.5).
+        let want = 0.5 + 1.5 * (b.drawn.nx - 0.5);
+        assert!((a.drawn.nx - want).abs() < 1e-9, "{} vs {want}", a.drawn.nx);
     }
 }

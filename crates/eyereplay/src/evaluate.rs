@@ -569,7 +569,7 @@ fn detection_rate(n: &[[f64; 2]]) -> f64 {
 
 /// The extractor's rows for the first `n_max` frames by its full pipeline,
 /// each eye read from `iris_views` crops.
-fn extract_with_detector(
+pub(crate) fn extract_with_detector(
     video: &Path,
     models: &Path,
     n_max: usize,

@@ -8,6 +8,7 @@ use crate::render::RenderSummary;
 use crate::shard::Shard;
 use crate::{Error, Result};
 use eyereplay_core::NormPos;
+use eyereplay_dataset::SessionPaths;
 use eyereplay_dataset::{DatasetMetadata, HeadMotion, RenderSettings, SessionIdentity};
 use eyereplay_face::coordination::{CoordinationParams, HeadDynamics, Task, DEFAULT_SWAY_RMS};
 use eyereplay_face::webcam::{WebcamLook, WebcamRanges};
@@ -15,7 +16,8 @@ use eyereplay_face::{
     default_faces_dir, CanonicalMesh, ExtractorMatch, FaceScene, FaceSessionParams, Framing,
     PhotoFitter, PhotoIdentity, ProbeHeadRange, MESH_FILE,
 };
-use eyereplay_render::{EncoderSettings, GazeMapping, Identity, RenderParams};
+use eyereplay_face::{DrawnFrame, FaceSessionStats, SessionRead};
+use eyereplay_render::{EncoderSettings, GazeMapping, Identity, RenderParams, ResponseMap};
 use rand::SeedableRng;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -155,6 +157,26 @@ struct FaceIdentityRecord<'a> {
     head_motion: HeadMotion,
     /// Frames whose head came from the source video (head_motion = source).
     source_head_frames: usize,
+    /// `render.match_readback`: what the probe measured, and the fit to
+    /// the first pass's read-back that the session was drawn through
+    /// instead (`mapping.extractor_response`, `pose_slopes`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    readback_match: Option<ReadbackMatchRecord>,
+}
+
+/// What `render.match_readback` did for a session.
+#[derive(Clone, Copy, Debug, Serialize)]
+struct ReadbackMatchRecord {
+    /// The probe's response map and pose slopes, which the first pass was
+    /// drawn through.
+    probe_response: Option<ResponseMap>,
+    probe_pose_slopes: Option<[[f64; 2]; 2]>,
+    /// Open-eye frames of the first pass that the extractor read and the
+    /// fit used.
+    frames_fitted: usize,
+    /// The fit was used; `false`: too few frames or an implausible fit,
+    /// and the first pass is the session.
+    refined: bool,
 }
 
 /// Renders the unfinished sessions of `out` in the full-face mode.
@@ -229,14 +251,15 @@ pub(crate) fn render_sessions_face(
             seed,
             pose_slopes: None,
             source_head,
+            head_path: None,
         };
         // match_extractor: measure how the extractor reads this identity,
         // framing and look, the probe's head turning about the middle of
         // the session's planned head range (ProbeHeadRange), and draw
         // through the inverse.
         let mut probe_head_centre_deg = None;
+        let targets: Vec<NormPos> = traj.iter().map(|&c| mapping.target_norm(c)).collect();
         let matched = if settings.match_extractor {
-            let targets: Vec<NormPos> = traj.iter().map(|&c| mapping.target_norm(c)).collect();
             let planned = eyereplay_face::head_path(&scene, &traj, &p);
             let head =
                 ProbeHeadRange::of_path(planned.iter().map(|(h, _)| (h.yaw_deg, h.pitch_deg)));
@@ -245,24 +268,43 @@ pub(crate) fn render_sessions_face(
         } else {
             ExtractorMatch::default()
         };
-        let session_mapping = GazeMapping {
+        p.mapping = GazeMapping {
             extractor_response: matched.response,
             ..mapping
         };
-        let pose_slopes = matched.pose_slopes;
-        p.mapping = session_mapping;
-        p.pose_slopes = pose_slopes;
-        let result = eyereplay_face::render_face_session(
-            &scene,
-            &traj,
-            blinks.as_deref(),
-            &p,
-            &files.mp4,
-            &files.truth,
-            &head_csv,
-        )
-        .map_err(Error::from)
-        .and_then(|stats| {
+        p.pose_slopes = matched.pose_slopes;
+        let rendered = if settings.match_readback && matched.response.is_some() {
+            progress.status(&format!(
+                "{}/{} sessions (first pass, then its read-back)",
+                n + 1,
+                sessions.len()
+            ));
+            render_matched_to_readback(
+                &scene,
+                &traj,
+                blinks.as_deref(),
+                &mut p,
+                files,
+                &targets,
+                settings.extractor_iris_views,
+            )
+        } else {
+            eyereplay_face::render_face_session(
+                &scene,
+                &traj,
+                blinks.as_deref(),
+                &p,
+                &files.mp4,
+                &files.truth,
+                &head_csv,
+            )
+            .map(|stats| (stats, None))
+            .map_err(Error::from)
+        };
+        // What the session was drawn through in the end.
+        let session_mapping = p.mapping;
+        let pose_slopes = p.pose_slopes;
+        let result = rendered.and_then(|(stats, readback_match)| {
             SessionIdentity {
                 file: files.file.clone(),
                 seed,
@@ -285,6 +327,7 @@ pub(crate) fn render_sessions_face(
                     probe_head_centre_deg,
                     head_motion: settings.head_motion,
                     source_head_frames: stats.source_head_frames,
+                    readback_match,
                 },
                 mapping: &session_mapping,
                 width: params.width,
@@ -305,6 +348,118 @@ pub(crate) fn render_sessions_face(
         }
     }
     crate::render::finish(summary, failed, progress)
+}
+
+/// `render.match_readback`: draws the session once through the probe's
+/// match (`p`), reads that video back as `eyereplay extract` reads it (each
+/// eye from `iris_views` crops), fits the response map and pose slopes to
+/// its open-eye frames ([`eyereplay_face::refine_match`]), and draws the
+/// session again through the fit into the session's files, with the first
+/// pass's head path (the head's path depends on the drawn eye through the
+/// coordination model; keeping it leaves the eye the only thing that
+/// differs between the video measured and the one drawn, and a head that
+/// moved with the refit eye misled the fit: one vertical gain 0.63 became
+/// 1.53 instead of 1.18). `p` ends as the session was drawn. The first
+/// pass is written under hidden names beside the session's files and
+/// removed; where the fit is unusable, it becomes the session.
+fn render_matched_to_readback(
+    scene: &FaceScene,
+    traj: &[eyereplay_core::CanvasPos],
+    blinks: Option<&[bool]>,
+    p: &mut FaceSessionParams,
+    files: &SessionPaths,
+    targets: &[NormPos],
+    iris_views: usize,
+) -> Result<(FaceSessionStats, Option<ReadbackMatchRecord>)> {
+    let head_csv = files.head_csv();
+    let first_pass = |path: &Path| {
+        let name = path.file_name().unwrap_or_default().to_string_lossy();
+        path.with_file_name(format!(".first-pass.{name}"))
+    };
+    let temp = [&files.mp4, &files.truth, &head_csv].map(|f| first_pass(f));
+    let remove_temp = || {
+        for f in &temp {
+            let _ = std::fs::remove_file(f);
+        }
+    };
+    let [mp4, truth, head] = &temp;
+    let first = eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)?;
+    let rows = match crate::evaluate::extract_with_detector(
+        mp4,
+        &eyereplay_extract::default_models_dir(),
+        traj.len(),
+        p.fps,
+        iris_views,
+    ) {
+        Ok(rows) => rows,
+        Err(e) => {
+            remove_temp();
+            return Err(e);
+        }
+    };
+    let reads = session_reads(&first.drawn, &rows);
+    let mut record = ReadbackMatchRecord {
+        probe_response: p.mapping.extractor_response,
+        probe_pose_slopes: p.pose_slopes,
+        frames_fitted: reads.len(),
+        refined: false,
+    };
+    let Some(refit) = eyereplay_face::refine_match(targets, &reads) else {
+        // The first pass stands: it becomes the session.
+        for (from, to) in temp.iter().zip([&files.mp4, &files.truth, &head_csv]) {
+            if let Err(e) = std::fs::rename(from, to) {
+                remove_temp();
+                return Err(Error::io(to, e));
+            }
+        }
+        return Ok((first, Some(record)));
+    };
+    remove_temp();
+    record.refined = true;
+    p.mapping.extractor_response = refit.response;
+    p.pose_slopes = refit.pose_slopes;
+    p.head_path = Some(
+        first
+            .drawn
+            .iter()
+            .map(|d| (d.head, d.from_source))
+            .collect(),
+    );
+    let second = eyereplay_face::render_face_session(
+        scene,
+        traj,
+        blinks,
+        p,
+        &files.mp4,
+        &files.truth,
+        &head_csv,
+    )?;
+    Ok((second, Some(record)))
+}
+
+/// The frames of a first pass that the read-back fit uses: read by the
+/// extractor (a face, both eyes, not its blink), and at least two frames
+/// from any drawn blink (the lids are part-closed just before and after;
+/// as the evaluation compares).
+fn session_reads(drawn: &[DrawnFrame], rows: &[eyereplay_extract::Row]) -> Vec<SessionRead> {
+    let n = drawn.len().min(rows.len());
+    (0..n)
+        .filter(|&k| {
+            !drawn[k.saturating_sub(2)..(k + 3).min(n)]
+                .iter()
+                .any(|d| d.blink)
+        })
+        .filter_map(|k| {
+            let row = &rows[k];
+            let (nx, ny) = row.mean_n().filter(|_| row.valid())?;
+            let d = &drawn[k];
+            Some(SessionRead {
+                drawn: d.drawn,
+                head_deg: (d.head.yaw_deg, d.head.pitch_deg),
+                measured: NormPos { nx, ny },
+            })
+        })
+        .collect()
 }
 
 /// The full-face mode's speed bench (`eyereplay render --bench --face`): the
@@ -342,6 +497,7 @@ pub fn bench(width: usize, height: usize, frames: usize) -> Result<eyereplay_ren
         seed: 1,
         pose_slopes: None,
         source_head: None,
+        head_path: None,
     };
     Ok(eyereplay_face::run_face_bench(&scene, &traj, &p)?)
 }

@@ -79,6 +79,12 @@ pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shar
             ));
         }
     }
+    if settings.match_readback && !(face && settings.match_extractor) {
+        return Err(Error::input(
+            config_path,
+            "[render]: match_readback applies to backend = \"face\" with match_extractor = true (it refines the probe's response map from the session's own read-back)",
+        ));
+    }
     let views = settings.extractor_iris_views;
     if !(1..=eyereplay_extract::MAX_IRIS_VIEWS).contains(&views) {
         return Err(Error::input(
