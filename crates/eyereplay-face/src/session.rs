@@ -87,10 +87,11 @@ pub struct FaceSessionParams {
     /// A head path to draw instead of planning one: per frame the head
     /// relative to the rest pose and whether it came from the source video,
     /// as an earlier render of the same session returned it
-    /// ([`FaceSessionStats::drawn`]). The read-back match
+    /// ([`FaceSessionStats::head_path`]). The read-back match
     /// (`render.match_readback`) draws its second pass with the first
     /// pass's head, so that only the eye differs between the video it
-    /// measured and the one it draws. Frames beyond its end plan as usual.
+    /// measured and the one it draws. A path shorter than the session is
+    /// not used: the head is planned.
     pub head_path: Option<Vec<(HeadPose, bool)>>,
 }
 
@@ -125,6 +126,14 @@ pub struct FaceSessionStats {
     /// Per frame, what was drawn.
     #[serde(skip)]
     pub drawn: Vec<DrawnFrame>,
+}
+
+impl FaceSessionStats {
+    /// The head path the session drew, for [`FaceSessionParams::head_path`]
+    /// (drawing the session again with the same head).
+    pub fn head_path(&self) -> Vec<(HeadPose, bool)> {
+        self.drawn.iter().map(|d| (d.head, d.from_source)).collect()
+    }
 }
 
 /// One frame's state and truth.

@@ -321,13 +321,7 @@ fn a_given_head_path_is_drawn_as_given() {
         planned_head, head,
         "the planned head moves with the drawn eye"
     );
-    second.head_path = Some(
-        stats
-            .drawn
-            .iter()
-            .map(|d| (d.head, d.from_source))
-            .collect(),
-    );
+    second.head_path = Some(stats.head_path());
     let (again, again_truth, again_head) = render(&second, "kept");
     assert_eq!(again_head, head);
     assert_ne!(again_truth, truth);

@@ -418,13 +418,7 @@ fn render_matched_to_readback(
     record.refined = true;
     p.mapping.extractor_response = refit.response;
     p.pose_slopes = refit.pose_slopes;
-    p.head_path = Some(
-        first
-            .drawn
-            .iter()
-            .map(|d| (d.head, d.from_source))
-            .collect(),
-    );
+    p.head_path = Some(first.head_path());
     let second = eyereplay_face::render_face_session(
         scene,
         traj,
