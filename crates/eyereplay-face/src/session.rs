@@ -90,8 +90,8 @@ pub struct FaceSessionParams {
     /// ([`FaceSessionStats::head_path`]). The read-back match
     /// (`render.match_readback`) draws its second pass with the first
     /// pass's head, so that only the eye differs between the video it
-    /// measured and the one it draws. A path shorter than the session is
-    /// not used: the head is planned.
+    /// measured and the one it draws. It must have the trajectory's
+    /// frames: [`render_face_session`] refuses another length.
     pub head_path: Option<Vec<(HeadPose, bool)>>,
 }
 
@@ -194,8 +194,8 @@ fn head_path_of(
     p: &FaceSessionParams,
 ) -> Vec<(HeadPose, bool)> {
     let n = targets.len();
-    if let Some(path) = p.head_path.as_ref().filter(|h| h.len() >= n) {
-        return path[..n].to_vec();
+    if let Some(path) = &p.head_path {
+        return path.iter().copied().take(n).collect();
     }
     let rest = scene.rest_pose;
     // Eye-in-head at the rest pose, then the gaze whose eye share it is.
@@ -426,6 +426,14 @@ pub fn render_face_session(
 ) -> Result<FaceSessionStats> {
     let t0 = Instant::now();
     let (traj, clamped) = check_trajectory(traj, blinks, p.mapping.canvas)?;
+    if let Some(path) = p.head_path.as_ref().filter(|h| h.len() != traj.len()) {
+        return Err(eyereplay_render::RenderError::Input(format!(
+            "the given head path has {} frames, the trajectory {}",
+            path.len(),
+            traj.len()
+        ))
+        .into());
+    }
     let enc = session_encoder(scene, p);
     let mut encoder = Encoder::start(out_mp4, scene.width(), scene.height(), p.fps, &enc)?;
     let solved = solve_frames(scene, &traj, blinks, p);

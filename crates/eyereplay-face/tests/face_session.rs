@@ -279,7 +279,8 @@ fn head_yaw_from_rendered_video() {
 /// session drawn again through another response map plans another head
 /// (the coordination model turns the head with the drawn eye), but with
 /// the first render's head path it draws that head, to the head truth's
-/// last digit, while the eye follows the new map.
+/// last digit, while the eye follows the new map; a path of another length
+/// is refused before any file is written.
 #[test]
 fn a_given_head_path_is_drawn_as_given() {
     let Some((_, _, scene, look)) = scene_of("astronaut.png", 4) else {
@@ -322,6 +323,18 @@ fn a_given_head_path_is_drawn_as_given() {
         "the planned head moves with the drawn eye"
     );
     second.head_path = Some(stats.head_path());
+    // A path of another length is refused before anything is written.
+    let mut short = second.clone();
+    short.head_path = Some(stats.head_path()[..39].to_vec());
+    let paths = ["mp4", "truth.csv", "head.csv"].map(|e| dir.path().join(format!("short.{e}")));
+    let e = render_face_session(&scene, &traj, None, &short, &paths[0], &paths[1], &paths[2])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("head path has 39 frames") && e.contains("40"),
+        "{e}"
+    );
+    assert!(paths.iter().all(|p| !p.exists()));
     let (again, again_truth, again_head) = render(&second, "kept");
     assert_eq!(again_head, head);
     assert_ne!(again_truth, truth);

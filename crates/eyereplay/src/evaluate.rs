@@ -225,14 +225,27 @@ fn closed_frames(target: &VisualTarget, frames: usize) -> Result<Vec<bool>> {
             *c |= !row.redrawn;
         }
     }
-    let flagged = closed.clone();
+    Ok(widen_blinks(&closed))
+}
+
+/// Closed-eye flags widened by [`BLINK_MARGIN_FRAMES`] each side: the
+/// frames a read-back is not compared on (the evaluation) or fitted to
+/// (the full-face mode's `match_readback`).
+pub(crate) fn widen_blinks(flagged: &[bool]) -> Vec<bool> {
+    let n = flagged.len();
+    let mut closed = flagged.to_vec();
     for (i, _) in flagged.iter().enumerate().filter(|(_, &b)| b) {
-        for c in &mut closed[i.saturating_sub(2)..(i + 3).min(frames)] {
+        for c in
+            &mut closed[i.saturating_sub(BLINK_MARGIN_FRAMES)..(i + BLINK_MARGIN_FRAMES + 1).min(n)]
+        {
             *c = true;
         }
     }
-    Ok(closed)
+    closed
 }
+
+/// Frames each side of a flagged blink whose lids are still part-closed.
+const BLINK_MARGIN_FRAMES: usize = 2;
 
 fn masked(n: &[[f64; 2]], closed: &[bool]) -> Vec<[f64; 2]> {
     n.iter()

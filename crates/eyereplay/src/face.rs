@@ -288,6 +288,7 @@ pub(crate) fn render_sessions_face(
                 &targets,
                 settings.extractor_iris_views,
             )
+            .map(|(stats, record)| (stats, Some(record)))
         } else {
             eyereplay_face::render_face_session(
                 &scene,
@@ -357,9 +358,10 @@ pub(crate) fn render_sessions_face(
 /// session again through the fit into the session's files, with the first
 /// pass's head path (the head's path depends on the drawn eye through the
 /// coordination model; keeping it leaves the eye the only thing that
-/// differs between the video measured and the one drawn, and a head that
-/// moved with the refit eye misled the fit: one vertical gain 0.63 became
-/// 1.53 instead of 1.18). `p` ends as the session was drawn. The first
+/// differs between the video measured and the one drawn; in an experiment
+/// build, a head that moved with the refit eye misled the fit: one vertical
+/// gain 0.63 became 1.53 instead of 1.18). `p` ends as the session was
+/// drawn. The first
 /// pass is written under hidden names beside the session's files and
 /// removed; where the fit is unusable, it becomes the session.
 fn render_matched_to_readback(
@@ -370,7 +372,7 @@ fn render_matched_to_readback(
     files: &SessionPaths,
     targets: &[NormPos],
     iris_views: usize,
-) -> Result<(FaceSessionStats, Option<ReadbackMatchRecord>)> {
+) -> Result<(FaceSessionStats, ReadbackMatchRecord)> {
     let head_csv = files.head_csv();
     let first_pass = |path: &Path| {
         let name = path.file_name().unwrap_or_default().to_string_lossy();
@@ -412,7 +414,7 @@ fn render_matched_to_readback(
                 return Err(Error::io(to, e));
             }
         }
-        return Ok((first, Some(record)));
+        return Ok((first, record));
     };
     remove_temp();
     record.refined = true;
@@ -428,21 +430,17 @@ fn render_matched_to_readback(
         &files.truth,
         &head_csv,
     )?;
-    Ok((second, Some(record)))
+    Ok((second, record))
 }
 
 /// The frames of a first pass that the read-back fit uses: read by the
-/// extractor (a face, both eyes, not its blink), and at least two frames
-/// from any drawn blink (the lids are part-closed just before and after;
-/// as the evaluation compares).
+/// extractor (a face, both eyes, not its blink), and clear of any drawn
+/// blink as the evaluation compares them
+/// ([`crate::evaluate::widen_blinks`]).
 fn session_reads(drawn: &[DrawnFrame], rows: &[eyereplay_extract::Row]) -> Vec<SessionRead> {
-    let n = drawn.len().min(rows.len());
-    (0..n)
-        .filter(|&k| {
-            !drawn[k.saturating_sub(2)..(k + 3).min(n)]
-                .iter()
-                .any(|d| d.blink)
-        })
+    let closed = crate::evaluate::widen_blinks(&drawn.iter().map(|d| d.blink).collect::<Vec<_>>());
+    (0..drawn.len().min(rows.len()))
+        .filter(|&k| !closed[k])
         .filter_map(|k| {
             let row = &rows[k];
             let (nx, ny) = row.mean_n().filter(|_| row.valid())?;

