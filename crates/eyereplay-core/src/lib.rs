@@ -25,7 +25,7 @@ pub use fsio::{
 pub use position::{Canvas, CanvasPos, NormPos, PlanePos, ScreenPos, ScreenSize};
 pub use session_csv::{
     push_fixed3, push_point_row, push_u64, read_session_csv, write_session_csv,
-    write_session_csv_with_blinks, SessionRow,
+    write_session_csv_with_blinks, write_session_csv_with_reading, SessionRow,
 };
 pub use trajectory::{mean_of, path_length, Sample, Trajectory};
 

@@ -34,6 +34,39 @@ pub fn write_session_csv_with_blinks(
     })
 }
 
+/// Writes `frame,x,y[,blink],reading` rows atomically: the per-frame
+/// reading label of a dataset with behaviour models (`reading` 1 where the
+/// person reads), with the blink column when `blinks` is given.
+pub fn write_session_csv_with_reading(
+    path: &Path,
+    points: &[CanvasPos],
+    blinks: Option<&[bool]>,
+    reading: &[bool],
+) -> Result<(), CoreError> {
+    assert_eq!(points.len(), reading.len(), "one reading flag per point");
+    if let Some(b) = blinks {
+        assert_eq!(points.len(), b.len(), "one blink flag per point");
+    }
+    atomic_write_with(path, |w| {
+        w.write_all(if blinks.is_some() {
+            b"frame,x,y,blink,reading\n"
+        } else {
+            b"frame,x,y,reading\n"
+        })?;
+        let mut line = Vec::with_capacity(48);
+        for (i, (p, r)) in points.iter().zip(reading).enumerate() {
+            line.clear();
+            push_point_row(&mut line, i as u64, *p);
+            if let Some(b) = blinks {
+                line.extend_from_slice(if b[i] { b",1" } else { b",0" });
+            }
+            line.extend_from_slice(if *r { b",1\n" } else { b",0\n" });
+            w.write_all(&line)?;
+        }
+        Ok(())
+    })
+}
+
 /// Writes `frame,x,y` rows atomically. Coordinates are written with 3
 /// decimals (1/1000 px), which keeps files small and byte-identical across
 /// runs.

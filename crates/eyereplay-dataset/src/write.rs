@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! OUT/
-//!   reading/reading_0000.csv        frame,x,y[,blink] (canvas px), one per session
+//!   reading/reading_0000.csv        frame,x,y[,blink][,reading] (canvas px), one per session
 //!   conversation/conversation_0000.csv
 //!   pool/reading.csv                frame,x,y,source: the class's source pool
 //!   labels.csv                      file,label,class,sources
@@ -21,7 +21,9 @@ use crate::metadata::{
 };
 use crate::pool::write_pool;
 use crate::DatasetError;
-use eyereplay_core::{write_session_csv, write_session_csv_with_blinks, CanvasPos};
+use eyereplay_core::{
+    write_session_csv, write_session_csv_with_blinks, write_session_csv_with_reading, CanvasPos,
+};
 use eyereplay_prepare::{DatasetConfig, Prepared};
 use rayon::prelude::*;
 use std::path::Path;
@@ -41,12 +43,12 @@ pub fn write_dataset(
     tool: ToolInfo,
 ) -> Result<(DatasetMetadata, WriteSummary), DatasetError> {
     let mut sessions = Vec::new();
-    let mut jobs: Vec<(String, &[CanvasPos], &[bool])> = Vec::new();
+    let mut jobs: Vec<(String, &[CanvasPos], &[bool], &[bool])> = Vec::new();
     let mut classes = Vec::new();
     for c in &prepared.classes {
         for (i, s) in c.sessions.iter().enumerate() {
             let file = session_file(c.class, i);
-            jobs.push((file.clone(), s, &c.session_blinks[i]));
+            jobs.push((file.clone(), s, &c.session_blinks[i], &c.session_reading[i]));
             sessions.push(SessionEntry {
                 file,
                 class: c.class,
@@ -72,13 +74,24 @@ pub fn write_dataset(
         .classes
         .iter()
         .any(|c| c.session_blinks.iter().flatten().any(|b| *b));
-    jobs.par_iter().try_for_each(|(file, pts, blinks)| {
-        if with_blinks {
-            write_session_csv_with_blinks(&out.join(file), pts, blinks)
-        } else {
-            write_session_csv(&out.join(file), pts)
-        }
-    })?;
+    // A per-frame reading column when behaviour models made sources: an
+    // interview switches between reading and talk within a session.
+    let with_reading = cfg.has_generators();
+    jobs.par_iter()
+        .try_for_each(|(file, pts, blinks, reading)| {
+            if with_reading {
+                write_session_csv_with_reading(
+                    &out.join(file),
+                    pts,
+                    with_blinks.then_some(*blinks),
+                    reading,
+                )
+            } else if with_blinks {
+                write_session_csv_with_blinks(&out.join(file), pts, blinks)
+            } else {
+                write_session_csv(&out.join(file), pts)
+            }
+        })?;
 
     for c in &prepared.classes {
         write_pool(
@@ -122,7 +135,7 @@ pub fn write_dataset(
     write_metadata(out, &meta)?;
 
     let mut summary = WriteSummary::default();
-    for (file, _, _) in &jobs {
+    for (file, _, _, _) in &jobs {
         summary.files += 1;
         summary.bytes += std::fs::metadata(out.join(file))
             .map(|m| m.len())

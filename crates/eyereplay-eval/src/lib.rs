@@ -4,6 +4,7 @@
 //! visual mapping fidelity of a render against its source, plots (PNG and
 //! SVG) and a self-contained HTML report with a deterministic metrics.json.
 
+pub mod behaviour;
 pub mod dataset;
 pub mod distribution;
 mod error;
@@ -14,6 +15,7 @@ mod metrics_doc;
 pub mod stats;
 pub mod visual;
 
+pub use behaviour::{behaviour_table, check_behaviour, BehaviourCheck, BehaviourRow};
 pub use dataset::{load_dataset, Dataset};
 pub use distribution::{compare_metric, evaluate_class, ClassEvaluation, EvalConfig, Metric};
 pub use error::EvalError;

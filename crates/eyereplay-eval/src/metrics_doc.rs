@@ -24,6 +24,9 @@ struct MetricsDoc<'a> {
     extras: BTreeMap<&'static str, ExtrasPair>,
     events: Events,
     visual: Visual<'a>,
+    /// Behaviour models against real recordings, per class.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    behaviour: BTreeMap<&'static str, &'a [crate::behaviour::BehaviourRow]>,
 }
 
 #[derive(Serialize)]
@@ -422,6 +425,11 @@ pub fn metrics_json(ev: &Evaluation) -> Json {
             dir: "report/events",
         },
         visual: visual(ev),
+        behaviour: ev
+            .behaviour
+            .iter()
+            .map(|b| (b.class.name(), b.rows.as_slice()))
+            .collect(),
     };
     Json::from(serde_json::to_value(&doc).expect("metrics serialize: string keys only"))
 }

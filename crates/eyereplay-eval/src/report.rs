@@ -58,6 +58,9 @@ pub struct Evaluation {
     /// Every rendered session read back whole, when asked for
     /// (`eyereplay evaluate --read-back-all`); empty otherwise.
     pub sessions_read_back: Vec<SessionReadBack>,
+    /// Behaviour models against the real recordings of their class, for
+    /// every class that has both.
+    pub behaviour: Vec<crate::behaviour::BehaviourCheck>,
 }
 
 /// One session's video read back by the extractor, against its source.
@@ -140,6 +143,7 @@ pub fn evaluate_loaded(ds: &Dataset, cfg: &EvalConfig) -> Evaluation {
         },
         render_truth: None,
         sessions_read_back: vec![],
+        behaviour: crate::behaviour::check_behaviour(ds, cfg),
     }
 }
 
@@ -152,6 +156,17 @@ pub fn figures(ev: &Evaluation) -> Result<Vec<Figure>, EvalError> {
         windows_figure(&ev.classes, ev.fps)?,
         main_sequence_figure(&ev.classes, ev.fps)?,
     ];
+    if !ev.behaviour.is_empty() {
+        // The same figures, real recordings as "source" and the behaviour
+        // model as "generated".
+        let checks: Vec<_> = ev.behaviour.iter().map(|b| b.figures.clone()).collect();
+        let mut qq = qq_figure(&checks, ev.config.d_max)?;
+        qq.name = "behaviour_qq".into();
+        let mut strip = windows_figure(&checks, ev.fps)?;
+        strip.name = "behaviour_windows".into();
+        f.push(qq);
+        f.push(strip);
+    }
     if let VisualSection::Computed(run) = &ev.visual {
         f.push(visual_figure(
             &run.fidelity,
@@ -242,6 +257,7 @@ pub fn report_html(ev: &Evaluation, figs: &[Figure]) -> String {
     dataset_section(&mut h, ev);
     parameters_section(&mut h, ev);
     distribution_section(&mut h, ev, figs);
+    behaviour_section(&mut h, ev, figs);
     extras_section(&mut h, ev, figs);
     visual_html(&mut h, ev, figs);
     h.push_str("</body></html>\n");
@@ -336,6 +352,44 @@ fn parameters_section(h: &mut String, ev: &Evaluation) {
 }
 
 /// Distributional fidelity: KS per class and metric, Q-Q and time-series figures.
+/// Behaviour models against the real recordings of their class, beside
+/// the spread between two real people.
+fn behaviour_section(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
+    if ev.behaviour.is_empty() {
+        return;
+    }
+    let fig = |name: &str| figs.iter().find(|f| f.name == name);
+    h.push_str("<h2>Behaviour models against real recordings</h2>\n<p>Within each class's source pool, the recordings a behaviour model generated against the real ones (the same metrics and KS test as above). The scale is the D between two real people of the same class: a model whose D to the real recordings is no larger is as close to them as they are to each other.</p>\n<table><tr><th>class</th><th>metric</th><th>D(model, real)</th><th>D(real, real)</th><th>real pair</th><th>n model</th><th>n real</th><th>within the real spread</th></tr>\n");
+    for c in &ev.behaviour {
+        for r in &c.rows {
+            let pair = r
+                .real_pair
+                .as_ref()
+                .map_or("only one real person".to_string(), |(a, b)| {
+                    format!("{a} / {b}")
+                });
+            h.push_str(&format!(
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+                c.class,
+                r.metric.title(),
+                f3(r.d_model),
+                f3(r.d_real),
+                esc(&pair),
+                r.n_model,
+                r.n_real,
+                r.pass().map_or("n/a", verdict)
+            ));
+        }
+    }
+    h.push_str("</table>\n");
+    if let Some(f) = fig("behaviour_qq") {
+        h.push_str(&img(f, "Q-Q plots: real recordings (source quantile) against the behaviour model (generated quantile), per class and metric"));
+    }
+    if let Some(f) = fig("behaviour_windows") {
+        h.push_str(&img(f, "Time series side by side: a real recording (left) and a generated one (right), x and y in canvas px"));
+    }
+}
+
 fn distribution_section(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
     let fig = |name: &str| figs.iter().find(|f| f.name == name);
     let c = &ev.config;

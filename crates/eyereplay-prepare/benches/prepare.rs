@@ -67,6 +67,7 @@ fn main() {
             file: format!("synthetic_{i}.csv"),
             format: "extract".into(),
             sha256: String::new(),
+            behaviour: None,
         })
         .collect();
     let dir = tempfile::tempdir().unwrap();

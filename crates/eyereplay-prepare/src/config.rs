@@ -4,6 +4,7 @@
 //! nearest valid key suggested.
 
 use crate::PrepareError;
+use eyereplay_behaviour::GeneratorSpec;
 use eyereplay_core::{Canvas, GazeClass};
 use eyereplay_signal::EdgeGaussParams;
 use eyereplay_sources::{ReadOptions, SourceSpec};
@@ -64,7 +65,13 @@ pub struct ClassConfig {
     /// reading, 1.0 for conversation.
     #[serde(default)]
     pub speed_scale: Option<f64>,
+    /// Real recordings; may be empty when `generators` make the class.
+    #[serde(default)]
     pub sources: Vec<SourceSpec>,
+    /// Behaviour models (docs/BEHAVIOUR.md): synthetic people whose gaze
+    /// is generated, one recording each, pooled after the real sources.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub generators: Vec<GeneratorSpec>,
 }
 
 fn d_sessions() -> usize {
@@ -334,8 +341,13 @@ impl DatasetConfig {
             if cc.sessions == 0 {
                 return Err(format!("classes.{class}.sessions must be at least 1"));
             }
-            if cc.sources.is_empty() {
-                return Err(format!("classes.{class} has no sources"));
+            if cc.sources.is_empty() && cc.generators.is_empty() {
+                return Err(format!(
+                    "classes.{class} has no sources and no generators (add sources = [...] or [[classes.{class}.generators]])"
+                ));
+            }
+            for (i, g) in cc.generators.iter().enumerate() {
+                g.validate(&format!("classes.{class}.generators[{i}]"))?;
             }
             if let Some(s) = cc.speed_scale {
                 if !s.is_finite() || s <= 0.0 {
@@ -353,12 +365,31 @@ impl DatasetConfig {
             .unwrap_or(class.default_speed_scale())
     }
 
-    /// Every source path, for validation before any work starts.
+    /// Every source path (and every generator's text file), for
+    /// validation before any work starts.
     pub fn source_paths(&self) -> Vec<PathBuf> {
         self.classes
             .values()
-            .flat_map(|c| c.sources.iter().map(|s| self.resolve(s.path())))
+            .flat_map(|c| {
+                c.sources.iter().map(|s| self.resolve(s.path())).chain(
+                    c.generators
+                        .iter()
+                        .filter_map(|g| g.text.as_deref().map(|t| self.resolve(t))),
+                )
+            })
             .collect()
+    }
+
+    /// Whether any class has a behaviour model.
+    pub fn has_generators(&self) -> bool {
+        self.classes.values().any(|c| !c.generators.is_empty())
+    }
+
+    /// Seconds of each generated person by default: one session and one
+    /// frame more, so that with only generated sources each session is one
+    /// whole person (the slicing stride is then exactly a person).
+    pub fn default_generated_s(&self) -> f64 {
+        (self.session_frames + 1) as f64 / self.fps
     }
 }
 

@@ -29,7 +29,7 @@ pub use config::{
     SpeedCorrection,
 };
 pub use error::PrepareError;
-pub use load::{check_source_files, load_sources};
+pub use load::{check_source_files, generated_sources, load_sources};
 pub use resample::{
     is_linear_rate, resample_recording, resampled_times, scale_about_centroid, ResampleMethod,
     SpeedCorrectionReport,
@@ -45,7 +45,7 @@ use std::collections::BTreeMap;
 
 /// One source after stage 3: frames, their blink flags, each frame's time
 /// in the source recording, and its report.
-type SourceFrames = (Vec<CanvasPos>, Vec<bool>, Vec<f64>, SourceReport);
+type SourceFrames = (Vec<CanvasPos>, Vec<bool>, Vec<f64>, Vec<bool>, SourceReport);
 
 /// `[[lo_x, hi_x], [lo_y, hi_y]]`: the percentile ranges behind an auto calibration.
 pub type PercentileRanges = [[f64; 2]; 2];
@@ -59,6 +59,17 @@ pub struct SourceInput {
     pub file: String,
     pub format: String,
     pub sha256: String,
+    /// Set for a recording a behaviour model generated.
+    pub behaviour: Option<GeneratedSource>,
+}
+
+/// What a behaviour model made besides the samples.
+#[derive(Clone, Debug)]
+pub struct GeneratedSource {
+    /// The person's drawn parameters and outcome, for `metadata.json`.
+    pub record: serde_json::Value,
+    /// `[start, end)` s of the stretches in which the person reads.
+    pub reading_spans: Vec<[f64; 2]>,
 }
 
 /// What happened to one source, for `metadata.json` and the run summary.
@@ -82,6 +93,9 @@ pub struct SourceReport {
     pub smoothing: Option<EdgeGaussReport>,
     pub speed_correction: SpeedCorrectionReport,
     pub normalization_shift_px: [f64; 2],
+    /// A generated person's drawn parameters and what they did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub behaviour: Option<serde_json::Value>,
 }
 
 /// One class after stage 5.
@@ -102,6 +116,9 @@ pub struct ClassOutput {
     pub sessions: Vec<Vec<CanvasPos>>,
     /// Per session, per frame: the source blinked here.
     pub session_blinks: Vec<Vec<bool>>,
+    /// Per session, per frame: the person reads here (a real source's
+    /// frames all carry its class; a generated interview switches).
+    pub session_reading: Vec<Vec<bool>>,
     /// Source indices present in each session, in order of appearance.
     pub session_sources: Vec<Vec<u32>>,
 }
@@ -127,13 +144,14 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
         mut frames,
         blink_flags,
         times_s,
+        reading,
         mut reports,
     } = resample_sources(cfg, inputs, &filtered, &calibrations)?;
     let global_mean = normalize(cfg, &mut frames, &mut reports);
     let mut warnings = Vec::new();
     let mut classes = Vec::new();
     for (class, cc) in &cfg.classes {
-        let pool = concatenate(*class, inputs, &frames, &blink_flags, &times_s);
+        let pool = concatenate(*class, inputs, &frames, &blink_flags, &times_s, &reading);
         let (out, warning) = slice_class(cfg, *class, cc, pool)?;
         warnings.extend(warning);
         classes.push(out);
@@ -271,6 +289,8 @@ struct Resampled {
     blink_flags: Vec<Vec<bool>>,
     /// Per frame: its time in the source recording (s).
     times_s: Vec<Vec<f64>>,
+    /// Per frame: the person reads here.
+    reading: Vec<Vec<bool>>,
     reports: Vec<SourceReport>,
 }
 
@@ -299,6 +319,13 @@ fn resample_sources(
                 resample_recording(&canvas, s.recording.rate_hz, cfg.fps, &cfg.resample);
             let times = resampled_times(&canvas, cfg.fps);
             debug_assert_eq!(times.len(), frames.len());
+            let reading: Vec<bool> = match &s.behaviour {
+                Some(b) => times
+                    .iter()
+                    .map(|t| b.reading_spans.iter().any(|r| *t >= r[0] && *t < r[1]))
+                    .collect(),
+                None => vec![s.class == GazeClass::Reading; times.len()],
+            };
             if frames.len() < 2 {
                 return Err(PrepareError::Source {
                     id: s.recording.id.clone(),
@@ -328,25 +355,29 @@ fn resample_sources(
                 smoothing,
                 speed_correction: speed,
                 normalization_shift_px: [0.0, 0.0],
+                behaviour: s.behaviour.as_ref().map(|b| b.record.clone()),
             };
-            Ok((frames, blinks, times, rep))
+            Ok((frames, blinks, times, reading, rep))
         })
         .collect();
     let mut frames = Vec::with_capacity(per_source.len());
     let mut blink_flags = Vec::with_capacity(per_source.len());
     let mut times_s = Vec::with_capacity(per_source.len());
+    let mut reading = Vec::with_capacity(per_source.len());
     let mut reports = Vec::with_capacity(per_source.len());
     for r in per_source {
-        let (f, b, t, rep) = r?;
+        let (f, b, t, rd, rep) = r?;
         frames.push(f);
         blink_flags.push(b);
         times_s.push(t);
+        reading.push(rd);
         reports.push(rep);
     }
     Ok(Resampled {
         frames,
         blink_flags,
         times_s,
+        reading,
         reports,
     })
 }
@@ -414,6 +445,8 @@ struct Pool {
     blink: Vec<bool>,
     /// Each frame's time in its source recording (s).
     time_s: Vec<f64>,
+    /// Whether the person reads at each frame.
+    reading: Vec<bool>,
 }
 
 /// Paper stage 4, concatenation: the normalized frames of one class's
@@ -424,18 +457,21 @@ fn concatenate(
     frames: &[Vec<CanvasPos>],
     blink_flags: &[Vec<bool>],
     times_s: &[Vec<f64>],
+    reading: &[Vec<bool>],
 ) -> Pool {
     let mut pool = Pool {
         frames: Vec::new(),
         source: Vec::new(),
         blink: Vec::new(),
         time_s: Vec::new(),
+        reading: Vec::new(),
     };
     for (i, f) in frames.iter().enumerate() {
         if inputs[i].class == class {
             pool.frames.extend_from_slice(f);
             pool.blink.extend_from_slice(&blink_flags[i]);
             pool.time_s.extend_from_slice(&times_s[i]);
+            pool.reading.extend_from_slice(&reading[i]);
             pool.source.extend(std::iter::repeat_n(i as u32, f.len()));
         }
     }
@@ -474,10 +510,12 @@ fn slice_class(
     scale_about_centroid(&mut scaled, scale);
     let mut sessions = Vec::with_capacity(n);
     let mut session_blinks = Vec::with_capacity(n);
+    let mut session_reading = Vec::with_capacity(n);
     let mut session_sources = Vec::with_capacity(n);
     for i in 0..n {
         sessions.push(slice_session(&scaled, i, n, cfg.session_frames));
         session_blinks.push(slice_session(&pool.blink, i, n, cfg.session_frames));
+        session_reading.push(slice_session(&pool.reading, i, n, cfg.session_frames));
         let src = slice_session(&pool.source, i, n, cfg.session_frames);
         let mut seen: Vec<u32> = Vec::new();
         for s in src {
@@ -498,6 +536,7 @@ fn slice_class(
             reuse_ratio: reuse,
             sessions,
             session_blinks,
+            session_reading,
             session_sources,
         },
         warning,

@@ -1,9 +1,11 @@
 //! Reading every configured source before any processing starts, so a bad
 //! file stops the run at once with its name.
 
-use crate::{DatasetConfig, PrepareError, SourceInput};
-use eyereplay_core::{sha256_file, GazeClass};
+use crate::{DatasetConfig, GeneratedSource, PrepareError, SourceInput};
+use eyereplay_behaviour::{draw_person, generate, person_seed, Gains, ReadingText};
+use eyereplay_core::{sha256_file, sha256_hex, GazeClass, NormPos, Sample, Trajectory};
 use eyereplay_sources::{read_source, SourceSpec};
+use eyereplay_sources::{Recording, RecordingKind};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -73,6 +75,7 @@ where
                         format: format.to_string(),
                         sha256: sha256.clone(),
                         recording: r,
+                        behaviour: None,
                     }
                 })
                 .collect())
@@ -82,7 +85,90 @@ where
     for l in loaded {
         out.extend(l?);
     }
+    out.extend(generated_sources(cfg)?);
     Ok(out)
+}
+
+/// The recordings every class's behaviour models generate: one per
+/// synthetic person, in class, generator and person order, after the real
+/// sources. Each person's parameters are drawn from the generator's ranges
+/// with a seed made of the dataset seed, the class, the generator's index
+/// and the person's index, so adding a person changes no other.
+pub fn generated_sources(cfg: &DatasetConfig) -> Result<Vec<SourceInput>, PrepareError> {
+    let gains = Gains {
+        nx_per_deg: cfg.read.eye_gains.nx_per_deg,
+        ny_per_deg: cfg.read.eye_gains.ny_per_deg,
+    };
+    let mut jobs = Vec::new();
+    for (ci, (class, cc)) in cfg.classes.iter().enumerate() {
+        for (gi, g) in cc.generators.iter().enumerate() {
+            let text = match &g.text {
+                Some(p) => {
+                    let path = cfg.resolve(p);
+                    ReadingText::from_file(&path).map_err(|e| PrepareError::Source {
+                        id: path.display().to_string(),
+                        message: match e {
+                            eyereplay_behaviour::BehaviourError::Text { message, .. } => message,
+                            other => other.to_string(),
+                        },
+                    })?
+                }
+                None => ReadingText::bundled(),
+            };
+            let people = g.people.unwrap_or(cc.sessions);
+            let duration_s = g.duration_s.unwrap_or_else(|| cfg.default_generated_s());
+            for k in 0..people {
+                jobs.push((*class, ci, gi, k, g, text.clone(), duration_s));
+            }
+        }
+    }
+    jobs.par_iter()
+        .map(|(class, ci, gi, k, g, text, duration_s)| {
+            let seed = person_seed(cfg.seed, *ci as u64, *gi as u64, *k as u64);
+            let person = draw_person(g, seed, *duration_s, &text.name);
+            let made = generate(&person, text, &gains);
+            let samples: Vec<Sample<NormPos>> = made
+                .samples
+                .iter()
+                .map(|s| Sample {
+                    t_s: s.t_s,
+                    pos: NormPos {
+                        nx: s.n[0],
+                        ny: s.n[1],
+                    },
+                    valid: true,
+                    aperture: None,
+                    blink: s.blink,
+                })
+                .collect();
+            let id = format!("{}_model#{class}/{gi}/{k}", g.model.name());
+            let record = serde_json::json!({
+                "generator": gi,
+                "person": k,
+                "params": made.person,
+                "outcome": made.outcome,
+            });
+            let text_json = serde_json::to_vec(&record).unwrap_or_default();
+            Ok(SourceInput {
+                class: *class,
+                recording: Recording {
+                    id: id.clone(),
+                    path: g.text.clone().unwrap_or_else(|| "bundled".into()),
+                    kind: RecordingKind::Model,
+                    rate_hz: eyereplay_behaviour::SAMPLE_RATE_HZ,
+                    segments: vec![Trajectory::new(samples)?],
+                    px_per_deg: None,
+                },
+                file: format!("classes.{class}.generators[{gi}]"),
+                format: format!("{}_model", g.model.name()),
+                sha256: sha256_hex(&text_json),
+                behaviour: Some(GeneratedSource {
+                    record,
+                    reading_spans: made.reading_spans,
+                }),
+            })
+        })
+        .collect()
 }
 
 /// File name of a path, for ids and labels.

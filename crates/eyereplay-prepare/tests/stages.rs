@@ -34,6 +34,7 @@ fn input(samples: Vec<Sample<NormPos>>, rate_hz: f64, kind: RecordingKind) -> So
         file: "hand.csv".into(),
         format: "extract".into(),
         sha256: String::new(),
+        behaviour: None,
     }
 }
 

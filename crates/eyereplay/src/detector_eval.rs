@@ -507,6 +507,7 @@ pub fn evaluate_detector(
                     sessions,
                     speed_scale: None,
                     sources: vec![source],
+                    generators: vec![],
                 },
             )]);
             let dir = out.join("real").join(mode).join(&r.name);

@@ -128,6 +128,7 @@ pub fn print_outcome(o: &EvaluateOutcome, json: bool) {
             }
         }
     }
+    eprint!("{}", eyereplay_eval::behaviour_table(&ev.behaviour));
     match &ev.visual {
         VisualSection::NotComputed { reason } => eprintln!("visual fidelity: {reason}"),
         VisualSection::Computed(run) => {

@@ -1,0 +1,279 @@
+//! A gaze plan (where the eye goes, when) and its synthesis into samples.
+//!
+//! The models below write a [`Plan`]: a list of shifts (at `t_s` the eye
+//! starts a saccade to `to`, an eye-in-head rotation), blink intervals,
+//! head-nod intervals and the intervals in which the person reads. The
+//! plan is turned into samples at [`SAMPLE_RATE_HZ`]: saccades follow the
+//! person's main sequence; between them the eye drifts (Brownian motion)
+//! and makes microsaccades; during a nod the eye counter-rotates against
+//! the head (the vestibulo-ocular reflex keeps gaze on the target, so the
+//! eye in the head moves opposite to the nod).
+
+use crate::geometry::{Angles, Gains};
+use crate::saccade::MainSequence;
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+/// Rate of the synthesized samples. The pipeline low-pass filters and
+/// decimates them to the dataset's frame rate as it does a 500 Hz tracker,
+/// so a saccade looks in a 25 fps frame as it would to a fast tracker.
+pub const SAMPLE_RATE_HZ: f64 = 500.0;
+
+/// A saccade starting at `t_s` towards `to`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shift {
+    pub t_s: f64,
+    pub to: Angles,
+}
+
+/// A head nod: the head pitches `amp_deg` at `freq_hz` for `cycles`
+/// cycles; the eye counter-rotates.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Nod {
+    pub t_s: f64,
+    pub amp_deg: f64,
+    pub freq_hz: f64,
+    pub cycles: f64,
+}
+
+/// Fixational eye movements of one person.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Fixational {
+    /// Drift diffusion coefficient, deg^2/s.
+    pub drift_deg2_per_s: f64,
+    /// Microsaccades per second of fixation.
+    pub microsaccade_hz: f64,
+    /// Median microsaccade amplitude, deg.
+    pub microsaccade_deg: f64,
+}
+
+/// What a model planned; [`Plan::synthesize`] makes samples of it.
+#[derive(Clone, Debug, Default)]
+pub struct Plan {
+    pub start: Angles,
+    pub shifts: Vec<Shift>,
+    /// `[start, end)` of each blink, s.
+    pub blinks: Vec<[f64; 2]>,
+    pub nods: Vec<Nod>,
+    /// `[start, end)` of each stretch of reading, s.
+    pub reading: Vec<[f64; 2]>,
+    /// Continuous head sway as sinusoids `(amplitude deg, frequency Hz,
+    /// phase rad)` on yaw and pitch; the eye counter-rotates (VOR).
+    pub sway: Vec<Sway>,
+}
+
+/// One sinusoid of head sway on one axis.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Sway {
+    pub amp_deg: f64,
+    pub freq_hz: f64,
+    pub phase: f64,
+    /// Yaw (true) or pitch.
+    pub yaw: bool,
+}
+
+/// One synthesized sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlanSample {
+    pub t_s: f64,
+    /// Normalized iris position.
+    pub n: [f64; 2],
+    pub blink: bool,
+}
+
+impl Plan {
+    /// Samples from 0 to `duration_s` at [`SAMPLE_RATE_HZ`].
+    pub fn synthesize(
+        &self,
+        duration_s: f64,
+        ms: &MainSequence,
+        fix: &Fixational,
+        gains: &Gains,
+        rng: &mut ChaCha8Rng,
+    ) -> Vec<PlanSample> {
+        let dt = 1.0 / SAMPLE_RATE_HZ;
+        let n = (duration_s * SAMPLE_RATE_HZ).round() as usize;
+        let mut out = Vec::with_capacity(n);
+        let sigma = (2.0 * fix.drift_deg2_per_s * dt).sqrt();
+        let step = Normal::new(0.0, sigma.max(1e-12)).expect("finite sigma");
+        let micro_p = fix.microsaccade_hz * dt;
+        // The planned position the eye holds, the saccade under way, and
+        // the fixational offset (drift plus microsaccades).
+        let mut base = self.start;
+        let mut sacc: Option<(f64, Angles, Angles, f64)> = None;
+        let mut offset = Angles::default();
+        let mut micro: Option<(f64, Angles, Angles, f64)> = None;
+        let mut next_shift = 0;
+        let mut blink_i = 0;
+        let mut nod_i = 0;
+        for i in 0..n {
+            let t = i as f64 * dt;
+            while next_shift < self.shifts.len() && self.shifts[next_shift].t_s <= t {
+                let s = self.shifts[next_shift];
+                let from = current(base, sacc, ms, t);
+                let amp = from.distance(s.to);
+                sacc = Some((s.t_s, from, s.to, amp));
+                base = s.to;
+                // A saccade lands where it was aimed; drift starts anew.
+                offset = Angles::default();
+                micro = None;
+                next_shift += 1;
+            }
+            if let Some((t0, _, _, amp)) = sacc {
+                if t - t0 >= ms.span_s(amp) {
+                    sacc = None;
+                }
+            }
+            let gaze = current(base, sacc, ms, t);
+            if sacc.is_none() {
+                match micro {
+                    Some((t0, from, to, amp)) => {
+                        let u = ms.progress(amp, t - t0);
+                        offset = from.lerp(to, u);
+                        if u >= 1.0 {
+                            micro = None;
+                        }
+                    }
+                    None => {
+                        if sigma > 0.0 {
+                            offset = offset
+                                .add(Angles::new(step.sample(&mut *rng), step.sample(&mut *rng)));
+                        }
+                        if rng.gen::<f64>() < micro_p {
+                            // Microsaccades tend to correct drift: aim back
+                            // past the target by a random amount.
+                            let amp = fix.microsaccade_deg * (0.5 + rng.gen::<f64>());
+                            let dir = rng.gen::<f64>() * std::f64::consts::TAU;
+                            let to = offset
+                                .scale(0.3)
+                                .add(Angles::new(amp * dir.cos(), amp * dir.sin()));
+                            micro = Some((t, offset, to, offset.distance(to)));
+                        }
+                    }
+                }
+            }
+            // Head nods: the eye turns against the head to hold the target.
+            while nod_i < self.nods.len() && nod_end(&self.nods[nod_i]) <= t {
+                nod_i += 1;
+            }
+            let mut vor = 0.0;
+            if let Some(nd) = self.nods.get(nod_i) {
+                if t >= nd.t_s {
+                    let ph = (t - nd.t_s) * nd.freq_hz * std::f64::consts::TAU;
+                    vor = -nd.amp_deg * ph.sin();
+                }
+            }
+            while blink_i < self.blinks.len() && self.blinks[blink_i][1] <= t {
+                blink_i += 1;
+            }
+            let blink = self
+                .blinks
+                .get(blink_i)
+                .is_some_and(|b| t >= b[0] && t < b[1]);
+            let (mut sway_yaw, mut sway_pitch) = (0.0, 0.0);
+            for w in &self.sway {
+                let v = w.amp_deg * (std::f64::consts::TAU * w.freq_hz * t + w.phase).sin();
+                if w.yaw {
+                    sway_yaw -= v;
+                } else {
+                    sway_pitch -= v;
+                }
+            }
+            let eye = gaze
+                .add(offset)
+                .add(Angles::new(sway_yaw, vor + sway_pitch));
+            out.push(PlanSample {
+                t_s: t,
+                n: gains.to_norm(eye),
+                blink,
+            });
+        }
+        out
+    }
+
+    /// Whether `t_s` falls in a reading stretch.
+    pub fn is_reading(&self, t_s: f64) -> bool {
+        self.reading.iter().any(|r| t_s >= r[0] && t_s < r[1])
+    }
+}
+
+fn nod_end(n: &Nod) -> f64 {
+    n.t_s + n.cycles / n.freq_hz
+}
+
+fn current(
+    base: Angles,
+    sacc: Option<(f64, Angles, Angles, f64)>,
+    ms: &MainSequence,
+    t: f64,
+) -> Angles {
+    match sacc {
+        Some((t0, from, to, amp)) => from.lerp(to, ms.progress(amp, t - t0)),
+        None => base,
+    }
+}
+
+/// Blinks as a Poisson process of `per_min` a minute over `[0, duration_s)`,
+/// each lasting 100-250 ms (a full lid closure at video rates), none
+/// overlapping.
+pub fn poisson_blinks(per_min: f64, duration_s: f64, rng: &mut ChaCha8Rng) -> Vec<[f64; 2]> {
+    let mut out = Vec::new();
+    if per_min <= 0.0 {
+        return out;
+    }
+    let rate = per_min / 60.0;
+    let mut t = 0.0;
+    loop {
+        t += -(1.0 - rng.gen::<f64>()).ln() / rate;
+        if t >= duration_s {
+            return out;
+        }
+        let d = 0.1 + 0.15 * rng.gen::<f64>();
+        out.push([t, (t + d).min(duration_s)]);
+        t += d;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn a_planned_shift_arrives_and_stays_without_noise() {
+        let plan = Plan {
+            start: Angles::new(0.0, 0.0),
+            shifts: vec![Shift {
+                t_s: 0.1,
+                to: Angles::new(10.0, 0.0),
+            }],
+            ..Plan::default()
+        };
+        let fix = Fixational {
+            drift_deg2_per_s: 0.0,
+            microsaccade_hz: 0.0,
+            microsaccade_deg: 0.0,
+        };
+        let g = Gains::default();
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let s = plan.synthesize(0.5, &MainSequence::default(), &fix, &g, &mut rng);
+        assert_eq!(s.len(), 250);
+        assert_eq!(s[0].n, [0.5, 0.5]);
+        // 10 deg right: nx = 0.5 - 0.061.
+        assert!((s[249].n[0] - 0.439).abs() < 1e-12);
+        // The saccade takes 10/600 + 4 * 6/600 s = 56.7 ms: done by 0.16 s.
+        assert!((s[80].n[0] - 0.439).abs() < 1e-12);
+        assert!(s[51].n[0] < 0.5 && s[51].n[0] > 0.439);
+    }
+
+    #[test]
+    fn blink_rate_is_what_was_asked() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let b = poisson_blinks(20.0, 3600.0, &mut rng);
+        // 1200 expected in an hour; Poisson sd ~35.
+        assert!((b.len() as f64 - 1200.0).abs() < 150.0, "{}", b.len());
+        assert!(b.windows(2).all(|w| w[0][1] <= w[1][0]));
+    }
+}
