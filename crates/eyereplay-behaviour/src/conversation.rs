@@ -121,7 +121,7 @@ fn face_point(p: &TalkerParams, rng: &mut ChaCha8Rng) -> Angles {
     } else {
         Angles::new(0.0, 0.0)
     };
-    p.partner.add(local).add(Angles::new(
+    p.partner.plus(local).plus(Angles::new(
         0.3 * (rng.gen::<f64>() - 0.5),
         0.3 * (rng.gen::<f64>() - 0.5),
     ))
@@ -133,6 +133,22 @@ pub struct Talker {
 }
 
 impl Talker {
+    /// The person's head sway for the whole recording: three sinusoids an
+    /// axis at 0.2-1.1 Hz, amplitudes around a third of `head_sway_deg`.
+    pub fn sway(&self, plan: &mut Plan, rng: &mut ChaCha8Rng) {
+        let p = &self.params;
+        for yaw in [true, false] {
+            for _ in 0..3 {
+                plan.sway.push(crate::timeline::Sway {
+                    amp_deg: p.head_sway_deg / 3.0 * (0.5 + rng.gen::<f64>()),
+                    freq_hz: 0.2 + 0.9 * rng.gen::<f64>(),
+                    phase: std::f64::consts::TAU * rng.gen::<f64>(),
+                    yaw,
+                });
+            }
+        }
+    }
+
     /// Fills `[t_start, t_end)` with turns, starting with the given role.
     /// An interview answer is one long speaking turn after a question:
     /// `turns` forces that order when given.
@@ -148,16 +164,6 @@ impl Talker {
         let mut st = ConversationStats::default();
         let mut t = t_start;
         let mut speaking = speaking_first;
-        for yaw in [true, false] {
-            for _ in 0..3 {
-                plan.sway.push(crate::timeline::Sway {
-                    amp_deg: p.head_sway_deg / 3.0 * (0.5 + rng.gen::<f64>()),
-                    freq_hz: 0.2 + 0.9 * rng.gen::<f64>(),
-                    phase: std::f64::consts::TAU * rng.gen::<f64>(),
-                    yaw,
-                });
-            }
-        }
         while t < t_end {
             let mean = if speaking {
                 p.speaking_turn_s
@@ -201,7 +207,7 @@ impl Talker {
             let end = (ts + 1.2 + 0.25 * (rng.gen::<f64>() - 0.5) * 2.0).min(te);
             plan.shifts.push(Shift {
                 t_s: start.min(ts),
-                to: p.partner.add(dir.scale(1.0 - share)),
+                to: p.partner.plus(dir.scale(1.0 - share)),
             });
             st.aversions += 1;
             st.cognitive_aversions += 1;
@@ -213,7 +219,7 @@ impl Talker {
                 let (dir, share) = aversion(p, false, rng);
                 plan.shifts.push(Shift {
                     t_s: t,
-                    to: p.partner.add(dir.scale(1.0 - share)),
+                    to: p.partner.plus(dir.scale(1.0 - share)),
                 });
                 st.aversions += 1;
                 t += gamma2(p.away_dwell_s(speaking), rng).min(te - t);
@@ -276,7 +282,7 @@ impl Talker {
                 let (dir, share) = aversion(p, false, rng);
                 plan.shifts.push(Shift {
                     t_s: t,
-                    to: p.partner.add(dir.scale(1.0 - share)),
+                    to: p.partner.plus(dir.scale(1.0 - share)),
                 });
                 st.aversions += 1;
                 t = (t + gamma2(p.away_dwell_s(speaking), rng).max(0.3))

@@ -33,11 +33,11 @@ impl Angles {
         (self.yaw_deg - o.yaw_deg).hypot(self.pitch_deg - o.pitch_deg)
     }
 
-    pub fn add(self, o: Angles) -> Angles {
+    pub fn plus(self, o: Angles) -> Angles {
         Angles::new(self.yaw_deg + o.yaw_deg, self.pitch_deg + o.pitch_deg)
     }
 
-    pub fn sub(self, o: Angles) -> Angles {
+    pub fn minus(self, o: Angles) -> Angles {
         Angles::new(self.yaw_deg - o.yaw_deg, self.pitch_deg - o.pitch_deg)
     }
 
@@ -46,7 +46,7 @@ impl Angles {
     }
 
     pub fn lerp(self, to: Angles, u: f64) -> Angles {
-        self.add(to.sub(self).scale(u))
+        self.plus(to.minus(self).scale(u))
     }
 }
 

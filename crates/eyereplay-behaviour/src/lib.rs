@@ -282,7 +282,7 @@ pub fn draw_person(spec: &GeneratorSpec, seed: u64, duration_s: f64, text_name: 
 pub fn generate(person: &Person, text: &ReadingText, gains: &Gains) -> Generated {
     // A second stream for the plan, so that drawing parameters and planning
     // do not shift each other when a range changes.
-    let mut rng = ChaCha8Rng::seed_from_u64(mix64(person.seed ^ 0x5EED_0F_B1A5));
+    let mut rng = ChaCha8Rng::seed_from_u64(mix64(person.seed ^ 0x005E_ED0F_B1A5));
     let dur = person.duration_s;
     let mut plan = Plan::default();
     let mut outcome = Outcome::default();
@@ -313,12 +313,14 @@ pub fn generate(person: &Person, text: &ReadingText, gains: &Gains) -> Generated
         Model::Conversation => {
             let t = talker.as_ref().expect("a talker");
             plan.start = t.params.partner;
+            t.sway(&mut plan, &mut rng);
             cstats = t.converse(&mut plan, 0.0, dur, rng.gen::<bool>(), &mut rng);
         }
         Model::Interview => {
             let t = talker.as_ref().expect("a talker");
             let r = reader.as_mut().expect("a reader");
             plan.start = t.params.partner;
+            t.sway(&mut plan, &mut rng);
             let mut reading = person.starts_reading == Some(true);
             let mut at = 0.0;
             while at < dur {

@@ -169,14 +169,14 @@ impl<'a> Reader<'a> {
     /// Eye-in-head rotation for looking at char `pos` of layout line `line`.
     pub fn eye_at(&self, line: usize, pos: f64) -> Angles {
         let page_line = line % self.plane.lines_per_page.max(1);
-        self.plane.gaze_to(page_line, pos).sub(self.head)
+        self.plane.gaze_to(page_line, pos).minus(self.head)
     }
 
     /// Eye-in-head rotation for looking into the camera lens.
     pub fn eye_at_camera(&self) -> Angles {
         // The lens at the plane's distance, straight ahead.
         let d = self.plane.centre_mm[2].max(300.0);
-        angles_to([0.0, 0.0, d]).sub(self.head)
+        angles_to([0.0, 0.0, d]).minus(self.head)
     }
 
     fn line(&self) -> usize {
@@ -279,8 +279,8 @@ impl<'a> Reader<'a> {
                 if nw.line != line || nxt == 0 {
                     // A return sweep (or a new page).
                     st.return_sweeps += 1;
-                    let new_page =
-                        nw.line % self.plane.lines_per_page.max(1) == 0 && !self.plane.scroll;
+                    let new_page = nw.line.is_multiple_of(self.plane.lines_per_page.max(1))
+                        && !self.plane.scroll;
                     pause_s = if new_page || nxt == 0 {
                         0.4 + 0.5 * rng.gen::<f64>()
                     } else {

@@ -94,6 +94,24 @@ impl MainSequence {
         ((self.position_deg(a, s - lead) - x0) / (x1 - x0)).clamp(0.0, 1.0)
     }
 
+    /// The waveform of one saccade with its constants worked out once, for
+    /// sample-by-sample evaluation.
+    pub fn shape(&self, amp_deg: f64) -> SaccadeShape {
+        let a = amp_deg.abs().max(1e-9);
+        let lead = LEAD_UNITS * self.c_deg / self.eta_deg_per_s;
+        let span = self.span_s(a);
+        let x0 = self.position_deg(a, -lead);
+        let x1 = self.position_deg(a, span - lead);
+        SaccadeShape {
+            ms: *self,
+            amp: a,
+            lead,
+            span,
+            x0,
+            inv_range: 1.0 / (x1 - x0),
+        }
+    }
+
     /// Time the waveform's speed stays above `threshold_deg_per_s`, s
     /// (numerically, 0.01 ms steps).
     pub fn duration_above_s(&self, amp_deg: f64, threshold_deg_per_s: f64) -> f64 {
@@ -107,6 +125,25 @@ impl MainSequence {
             })
             .count() as f64
             * dt
+    }
+}
+
+/// One saccade's waveform, ready to evaluate ([`MainSequence::shape`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SaccadeShape {
+    ms: MainSequence,
+    amp: f64,
+    lead: f64,
+    pub span: f64,
+    x0: f64,
+    inv_range: f64,
+}
+
+impl SaccadeShape {
+    /// As [`MainSequence::progress`], `s` seconds into the saccade.
+    pub fn progress(&self, s: f64) -> f64 {
+        let s = s.clamp(0.0, self.span);
+        ((self.ms.position_deg(self.amp, s - self.lead) - self.x0) * self.inv_range).clamp(0.0, 1.0)
     }
 }
 
@@ -151,6 +188,11 @@ mod tests {
         let span = ms.span_s(a);
         assert_eq!(ms.progress(a, 0.0), 0.0);
         assert_eq!(ms.progress(a, span), 1.0);
+        let shape = ms.shape(a);
+        for i in 0..=10 {
+            let t = span * i as f64 / 10.0;
+            assert!((shape.progress(t) - ms.progress(a, t)).abs() < 1e-12);
+        }
         let mut last = 0.0;
         for i in 0..=100 {
             let p = ms.progress(a, span * i as f64 / 100.0);

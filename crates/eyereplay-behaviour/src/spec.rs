@@ -152,7 +152,7 @@ impl Default for TalkerRanges {
             cognitive_aversion_prob: [0.6, 0.8],
             face_scan_s: [0.25, 0.6],
             nods_per_s: [0.05, 0.25],
-            nod_deg: [1.0, 3.0],
+            nod_deg: [0.5, 1.5],
             head_sway_deg: [0.25, 0.75],
             // Bentivoglio 26 / min; Doughty 10.5-32.5.
             blinks_per_min: [10.0, 32.0],

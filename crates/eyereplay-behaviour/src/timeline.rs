@@ -10,7 +10,7 @@
 //! eye in the head moves opposite to the nod).
 
 use crate::geometry::{Angles, Gains};
-use crate::saccade::MainSequence;
+use crate::saccade::{MainSequence, SaccadeShape};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -99,39 +99,55 @@ impl Plan {
         let sigma = (2.0 * fix.drift_deg2_per_s * dt).sqrt();
         let step = Normal::new(0.0, sigma.max(1e-12)).expect("finite sigma");
         let micro_p = fix.microsaccade_hz * dt;
-        // The planned position the eye holds, the saccade under way, and
-        // the fixational offset (drift plus microsaccades).
+        // The planned position the eye holds, the saccade under way (start,
+        // from, to, waveform), and the fixational offset (drift plus
+        // microsaccades).
         let mut base = self.start;
-        let mut sacc: Option<(f64, Angles, Angles, f64)> = None;
+        let mut sacc: Option<(f64, Angles, Angles, SaccadeShape)> = None;
         let mut offset = Angles::default();
-        let mut micro: Option<(f64, Angles, Angles, f64)> = None;
+        let mut micro: Option<(f64, Angles, Angles, SaccadeShape)> = None;
         let mut next_shift = 0;
         let mut blink_i = 0;
         let mut nod_i = 0;
+        // Head sway by rotating phasors: (amplitude, yaw?, cos, sin, cos step, sin step).
+        let mut sway: Vec<(f64, bool, f64, f64, f64, f64)> = self
+            .sway
+            .iter()
+            .map(|w| {
+                let d = std::f64::consts::TAU * w.freq_hz * dt;
+                (
+                    w.amp_deg,
+                    w.yaw,
+                    w.phase.cos(),
+                    w.phase.sin(),
+                    d.cos(),
+                    d.sin(),
+                )
+            })
+            .collect();
         for i in 0..n {
             let t = i as f64 * dt;
             while next_shift < self.shifts.len() && self.shifts[next_shift].t_s <= t {
                 let s = self.shifts[next_shift];
-                let from = current(base, sacc, ms, t);
-                let amp = from.distance(s.to);
-                sacc = Some((s.t_s, from, s.to, amp));
+                let from = current(base, &sacc, t);
+                sacc = Some((s.t_s, from, s.to, ms.shape(from.distance(s.to))));
                 base = s.to;
                 // A saccade lands where it was aimed; drift starts anew.
                 offset = Angles::default();
                 micro = None;
                 next_shift += 1;
             }
-            if let Some((t0, _, _, amp)) = sacc {
-                if t - t0 >= ms.span_s(amp) {
+            if let Some((t0, _, _, shape)) = &sacc {
+                if t - t0 >= shape.span {
                     sacc = None;
                 }
             }
-            let gaze = current(base, sacc, ms, t);
+            let gaze = current(base, &sacc, t);
             if sacc.is_none() {
-                match micro {
-                    Some((t0, from, to, amp)) => {
-                        let u = ms.progress(amp, t - t0);
-                        offset = from.lerp(to, u);
+                match &micro {
+                    Some((t0, from, to, shape)) => {
+                        let u = shape.progress(t - t0);
+                        offset = from.lerp(*to, u);
                         if u >= 1.0 {
                             micro = None;
                         }
@@ -139,7 +155,7 @@ impl Plan {
                     None => {
                         if sigma > 0.0 {
                             offset = offset
-                                .add(Angles::new(step.sample(&mut *rng), step.sample(&mut *rng)));
+                                .plus(Angles::new(step.sample(&mut *rng), step.sample(&mut *rng)));
                         }
                         if rng.gen::<f64>() < micro_p {
                             // Microsaccades tend to correct drift: aim back
@@ -148,8 +164,8 @@ impl Plan {
                             let dir = rng.gen::<f64>() * std::f64::consts::TAU;
                             let to = offset
                                 .scale(0.3)
-                                .add(Angles::new(amp * dir.cos(), amp * dir.sin()));
-                            micro = Some((t, offset, to, offset.distance(to)));
+                                .plus(Angles::new(amp * dir.cos(), amp * dir.sin()));
+                            micro = Some((t, offset, to, ms.shape(offset.distance(to))));
                         }
                     }
                 }
@@ -173,17 +189,18 @@ impl Plan {
                 .get(blink_i)
                 .is_some_and(|b| t >= b[0] && t < b[1]);
             let (mut sway_yaw, mut sway_pitch) = (0.0, 0.0);
-            for w in &self.sway {
-                let v = w.amp_deg * (std::f64::consts::TAU * w.freq_hz * t + w.phase).sin();
-                if w.yaw {
+            for (amp, yaw, c, s, dc, ds) in sway.iter_mut() {
+                let v = *amp * *s;
+                if *yaw {
                     sway_yaw -= v;
                 } else {
                     sway_pitch -= v;
                 }
+                (*c, *s) = (*c * *dc - *s * *ds, *s * *dc + *c * *ds);
             }
             let eye = gaze
-                .add(offset)
-                .add(Angles::new(sway_yaw, vor + sway_pitch));
+                .plus(offset)
+                .plus(Angles::new(sway_yaw, vor + sway_pitch));
             out.push(PlanSample {
                 t_s: t,
                 n: gains.to_norm(eye),
@@ -203,14 +220,9 @@ fn nod_end(n: &Nod) -> f64 {
     n.t_s + n.cycles / n.freq_hz
 }
 
-fn current(
-    base: Angles,
-    sacc: Option<(f64, Angles, Angles, f64)>,
-    ms: &MainSequence,
-    t: f64,
-) -> Angles {
+fn current(base: Angles, sacc: &Option<(f64, Angles, Angles, SaccadeShape)>, t: f64) -> Angles {
     match sacc {
-        Some((t0, from, to, amp)) => from.lerp(to, ms.progress(amp, t - t0)),
+        Some((t0, from, to, shape)) => from.lerp(*to, shape.progress(t - t0)),
         None => base,
     }
 }

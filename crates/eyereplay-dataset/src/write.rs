@@ -28,6 +28,9 @@ use eyereplay_prepare::{DatasetConfig, Prepared};
 use rayon::prelude::*;
 use std::path::Path;
 
+/// One session CSV to write: file, points, blink flags, reading flags.
+type SessionJob<'a> = (String, &'a [CanvasPos], &'a [bool], &'a [bool]);
+
 #[derive(Clone, Debug, Default)]
 pub struct WriteSummary {
     pub files: usize,
@@ -43,7 +46,7 @@ pub fn write_dataset(
     tool: ToolInfo,
 ) -> Result<(DatasetMetadata, WriteSummary), DatasetError> {
     let mut sessions = Vec::new();
-    let mut jobs: Vec<(String, &[CanvasPos], &[bool], &[bool])> = Vec::new();
+    let mut jobs: Vec<SessionJob> = Vec::new();
     let mut classes = Vec::new();
     for c in &prepared.classes {
         for (i, s) in c.sessions.iter().enumerate() {

@@ -182,6 +182,8 @@ fn draw_qq_panel<DB: DrawingBackend>(
         )
         .map_err(s)?;
     let label = match &cmp.ks {
+        // No threshold (the behaviour check judges against the real spread).
+        Some(k) if !d_max.is_finite() => format!("D = {:.3}   p = {}", k.d, fmt_p(k.p)),
         Some(k) => format!(
             "D = {:.3} {} {d_max} ({})   p = {}",
             k.d,
@@ -223,7 +225,8 @@ fn draw_qq<DB: DrawingBackend>(
 }
 
 /// Q-Q plots: one panel per class (rows) and metric (columns), the 1:1 line
-/// dashed, KS D (against the threshold `d_max`) and p annotated.
+/// dashed, KS D (against the threshold `d_max`, none when it is infinite)
+/// and p annotated.
 pub fn qq_figure(classes: &[ClassEvaluation], d_max: f64) -> Result<Figure, EvalError> {
     let size = (1380, 420 * classes.len().max(1) as u32);
     render(

@@ -160,7 +160,7 @@ pub fn figures(ev: &Evaluation) -> Result<Vec<Figure>, EvalError> {
         // The same figures, real recordings as "source" and the behaviour
         // model as "generated".
         let checks: Vec<_> = ev.behaviour.iter().map(|b| b.figures.clone()).collect();
-        let mut qq = qq_figure(&checks, ev.config.d_max)?;
+        let mut qq = qq_figure(&checks, f64::INFINITY)?;
         qq.name = "behaviour_qq".into();
         let mut strip = windows_figure(&checks, ev.fps)?;
         strip.name = "behaviour_windows".into();
