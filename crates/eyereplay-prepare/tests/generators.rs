@@ -134,3 +134,34 @@ fn bad_generator_tables_are_one_line_errors() {
         .to_string();
     assert!(e.contains("no_such_script.txt"), "{e}");
 }
+
+#[test]
+fn behaviour_doc_examples_parse_and_every_range_is_documented() {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/BEHAVIOUR.md");
+    let text = std::fs::read_to_string(&p).unwrap();
+    let blocks: Vec<&str> = text
+        .split("```toml\n")
+        .skip(1)
+        .map(|b| b.split("```").next().unwrap())
+        .collect();
+    assert!(!blocks.is_empty());
+    for b in blocks {
+        let cfg = DatasetConfig::parse(b).unwrap_or_else(|e| panic!("{e}\n{b}"));
+        cfg.validate().unwrap_or_else(|e| panic!("{e}\n{b}"));
+    }
+    // Every key of every range table is named in the doc.
+    let tables = [
+        serde_json::to_value(eyereplay_behaviour::ReaderRanges::default()).unwrap(),
+        serde_json::to_value(eyereplay_behaviour::TalkerRanges::default()).unwrap(),
+        serde_json::to_value(eyereplay_behaviour::EyeRanges::default()).unwrap(),
+        serde_json::to_value(eyereplay_behaviour::InterviewRanges::default()).unwrap(),
+    ];
+    for t in tables {
+        for key in t.as_object().unwrap().keys() {
+            assert!(
+                text.contains(&format!("`{key}`")) || text.contains(&format!("{key} =")),
+                "docs/BEHAVIOUR.md does not name '{key}'"
+            );
+        }
+    }
+}
