@@ -150,8 +150,6 @@ impl Talker {
     }
 
     /// Fills `[t_start, t_end)` with turns, starting with the given role.
-    /// An interview answer is one long speaking turn after a question:
-    /// `turns` forces that order when given.
     pub fn converse(
         &self,
         plan: &mut Plan,
@@ -178,8 +176,8 @@ impl Talker {
         st
     }
 
-    /// One turn `[ts, te)`.
-    fn turn(
+    /// One turn `[ts, te)` (an interview's question heard, or its answer).
+    pub fn turn(
         &self,
         plan: &mut Plan,
         ts: f64,
@@ -266,14 +264,16 @@ impl Talker {
                     let mut nt = t + exp_interval(p.nods_per_s, rng);
                     while nt < end - 0.5 {
                         let freq = 2.6 + 3.9 * rng.gen::<f64>();
+                        let cycles = (1 + rng.gen_range(0..3)) as f64;
                         plan.nods.push(Nod {
                             t_s: nt,
                             amp_deg: p.nod_deg * (0.5 + rng.gen::<f64>()),
                             freq_hz: freq,
-                            cycles: (1 + rng.gen_range(0..3)) as f64,
+                            cycles,
                         });
                         st.nods += 1;
-                        nt += 1.0 + exp_interval(p.nods_per_s, rng);
+                        // The next nod starts after this one ends.
+                        nt += cycles / freq + exp_interval(p.nods_per_s, rng);
                     }
                 }
                 t = end;

@@ -239,7 +239,8 @@ impl TextPlane {
         let x = cx + (char_pos - self.line_chars as f64 / 2.0) * self.char_width_mm;
         let down = row * self.line_pitch_mm;
         let p = match self.surface {
-            Surface::DeskSheet => [x, cy, cz - down],
+            // A sheet never reaches behind the eyes, however close it lies.
+            Surface::DeskSheet => [x, cy, (cz - down).max(50.0)],
             _ => [x, cy - down, cz],
         };
         angles_to(p)

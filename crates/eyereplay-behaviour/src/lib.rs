@@ -334,11 +334,12 @@ pub fn generate(person: &Person, text: &ReadingText, gains: &Gains) -> Generated
                     rstats.add(&r.read(&mut plan, at, end, &mut rng));
                     plan.reading.push([at, end]);
                 } else {
-                    // A question heard, then the answer given.
+                    // A question heard, then the answer given: one
+                    // listening turn and one speaking turn.
                     let q = (at + 1.5 + 3.0 * rng.gen::<f64>()).min(end);
-                    cstats.add(&t.converse(&mut plan, at, q, false, &mut rng));
+                    t.turn(&mut plan, at, q, false, &mut cstats, &mut rng);
                     if q < end {
-                        cstats.add(&t.converse(&mut plan, q, end, true, &mut rng));
+                        t.turn(&mut plan, q, end, true, &mut cstats, &mut rng);
                     }
                 }
                 at = end;

@@ -152,7 +152,11 @@ impl<'a> Reader<'a> {
             .iter()
             .position(|w| w.line == line)
             .unwrap_or(0);
-        let centre = plane.gaze_to(0, plane.line_chars as f64 / 2.0);
+        // The middle of the page (a scrolling surface has one line).
+        let centre = plane.gaze_to(
+            plane.lines_per_page.saturating_sub(1) / 2,
+            plane.line_chars as f64 / 2.0,
+        );
         Reader {
             params,
             plane,
@@ -206,22 +210,29 @@ impl<'a> Reader<'a> {
         let unit = Normal::new(0.0, 1.0).expect("unit normal");
         while t < t_end {
             let dur_ms = self.duration_ms(kind, rng);
-            st.fixations += 1;
-            st.fixation_ms_total += dur_ms;
             let t_move = t + dur_ms * 1e-3;
             if t_move >= t_end {
                 break;
             }
+            // Counted once it is complete.
+            st.fixations += 1;
+            st.fixation_ms_total += dur_ms;
             let w = &self.layout.words[self.word];
             let line = w.line;
             // The next target.
             let (next_word, next_pos, next_kind, pause_s);
+            // Past the end of the text: it starts again (committed with the
+            // move, so a stretch that ends first leaves the reader as it was).
+            let mut wrapped = false;
             if kind == FixKind::Undersweep {
                 // The corrective saccade back to the line's first word.
                 let first = self.first_word_of(line);
                 st.corrective_saccades += 1;
                 next_word = first;
-                next_pos = self.layout.words[first].centre() - 0.5 + 0.8 * unit.sample(rng);
+                next_pos = self.clamp_to_word(
+                    first,
+                    self.layout.words[first].centre() - 0.5 + 0.8 * unit.sample(rng),
+                );
                 next_kind = FixKind::First;
                 pause_s = 0.0;
             } else if self.word > 0 && rng.gen::<f64>() < self.regression_prob() {
@@ -271,9 +282,8 @@ impl<'a> Reader<'a> {
                 }
                 if nxt >= self.layout.words.len() {
                     // The end of the text: start it again (a new page).
-                    self.passes += self.layout.words.len();
                     nxt = 0;
-                    self.frontier = 0;
+                    wrapped = true;
                 }
                 let nw = &self.layout.words[nxt];
                 if nw.line != line || nxt == 0 {
@@ -307,7 +317,7 @@ impl<'a> Reader<'a> {
                         let to = self.eye_at(self.layout.words[nw_i].line, np);
                         plan.shifts.push(Shift { t_s: t, to });
                         t += self.ms.span_s(to.distance(target));
-                        self.set(nw_i, np);
+                        self.commit(wrapped, nw_i, np, nk);
                         target = to;
                         kind = nk;
                         first_on_word = true;
@@ -332,20 +342,18 @@ impl<'a> Reader<'a> {
             if t_go >= t_end {
                 break;
             }
-            if pause_s > 0.0 {
-                st.fixations += 1;
-                st.fixation_ms_total += pause_s * 1e3;
-            }
+            // A page's pause lengthens the fixation it follows.
+            st.fixation_ms_total += pause_s * 1e3;
             let to = self.eye_at(self.layout.words[next_word].line, next_pos);
             plan.shifts.push(Shift { t_s: t_go, to });
             t = t_go + self.ms.span_s(to.distance(target));
             first_on_word = next_word != self.word || next_kind == FixKind::First;
-            self.set(next_word, next_pos);
+            self.commit(wrapped, next_word, next_pos, next_kind);
             target = to;
             kind = next_kind;
         }
         st.words_read = self.words_done().saturating_sub(words_before);
-        st.reading_s = (t.min(t_end) - t_start).max(0.0);
+        st.reading_s = (t_end - t_start).max(0.0);
         st
     }
 
@@ -353,10 +361,19 @@ impl<'a> Reader<'a> {
         self.passes + self.frontier
     }
 
-    fn set(&mut self, word: usize, pos: f64) {
+    /// Moves the eye to `word` at `pos`. An undersweep landing does not
+    /// count as reaching its word: the corrective saccade goes back to the
+    /// line's start, and the words between are still to be read.
+    fn commit(&mut self, wrapped: bool, word: usize, pos: f64, kind: FixKind) {
+        if wrapped {
+            self.passes += self.layout.words.len();
+            self.frontier = 0;
+        }
         self.word = word;
         self.pos = pos;
-        self.frontier = self.frontier.max(word);
+        if kind != FixKind::Undersweep {
+            self.frontier = self.frontier.max(word);
+        }
     }
 
     /// Where a return sweep to word `nxt` (first of its line) lands: about
@@ -375,11 +392,11 @@ impl<'a> Reader<'a> {
         if rng.gen::<f64>() < self.params.corrective_prob {
             let land = 6.0 + sweep_chars * (0.05 + 0.10 * rng.gen::<f64>());
             let w = self.word_at(line, land);
-            (w, land, FixKind::Undersweep)
+            (w, self.clamp_to_word(w, land), FixKind::Undersweep)
         } else {
             let land = (6.0 + 1.5 * unit.sample(rng)).max(0.5);
             let w = self.word_at(line, land);
-            (w, land, FixKind::First)
+            (w, self.clamp_to_word(w, land), FixKind::First)
         }
     }
 

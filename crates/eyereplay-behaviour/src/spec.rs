@@ -266,8 +266,10 @@ impl GeneratorSpec {
             return Err(format!("{at}: people must be at least 1"));
         }
         if let Some(d) = self.duration_s {
-            if !(d.is_finite() && d > 0.0 && d <= 24.0 * 3600.0) {
-                return Err(format!("{at}: duration_s = {d} must be in (0, 86400]"));
+            // At least a second (the pipeline needs frames to resample), at
+            // most an hour (500 Hz samples are held in memory per person).
+            if !(d.is_finite() && (1.0..=3600.0).contains(&d)) {
+                return Err(format!("{at}: duration_s = {d} must be in [1, 3600]"));
             }
         }
         if self.surfaces.as_ref().is_some_and(|s| s.is_empty()) {

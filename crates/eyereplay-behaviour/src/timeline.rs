@@ -129,7 +129,8 @@ impl Plan {
             let t = i as f64 * dt;
             while next_shift < self.shifts.len() && self.shifts[next_shift].t_s <= t {
                 let s = self.shifts[next_shift];
-                let from = current(base, &sacc, t);
+                // From where the eye is, fixational offset included.
+                let from = current(base, &sacc, t).plus(offset);
                 sacc = Some((s.t_s, from, s.to, ms.shape(from.distance(s.to))));
                 base = s.to;
                 // A saccade lands where it was aimed; drift starts anew.

@@ -163,3 +163,32 @@ fn interviews_alternate_and_label_reading() {
     }
     assert!(any_read >= 8);
 }
+
+#[test]
+fn a_reader_who_never_skips_fixates_every_word_once_corrections_included() {
+    // No skips, regressions or refixations, every return sweep undershoots:
+    // each word gets exactly one fixation, plus one undersweep fixation a
+    // line; none is lost to the corrective saccade.
+    let text = ReadingText::bundled();
+    let mut s = spec(Model::Reading);
+    s.surfaces = Some(vec![Surface::Teleprompter]);
+    s.reader = Some(eyereplay_behaviour::ReaderRanges {
+        aloud_prob: 0.0,
+        regression_prob: [0.0, 0.0],
+        refixation_per_char: [0.0, 0.0],
+        skip_scale: [0.0, 0.0],
+        corrective_prob: [1.0, 1.0],
+        ..Default::default()
+    });
+    for seed in 0..5 {
+        let g = generate(&draw_person(&s, seed, 60.0, "bundled"), &text, &Gains::default());
+        let c = &g.outcome.reading.as_ref().unwrap().counts;
+        assert_eq!(c.skips + c.regressions + c.refixations, 0);
+        assert!(c.corrective_saccades > 10);
+        // The fixation under way at the end may be on a word not yet
+        // counted as read, and the first fixation on a line's first word is
+        // not an undersweep: allow one either way.
+        let diff = c.fixations as i64 - (c.words_read + c.corrective_saccades) as i64;
+        assert!(diff.abs() <= 1, "seed {seed}: {c:?}");
+    }
+}

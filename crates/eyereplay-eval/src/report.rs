@@ -351,7 +351,6 @@ fn parameters_section(h: &mut String, ev: &Evaluation) {
     h.push_str("</table>\n<p>Source pool metrics are computed within each source recording, so the jump where two recordings were concatenated is not counted; each generated session is measured as a whole, as it would be rendered. Sessions overlap (circular slicing), so they are not independent draws.</p>\n");
 }
 
-/// Distributional fidelity: KS per class and metric, Q-Q and time-series figures.
 /// Behaviour models against the real recordings of their class, beside
 /// the spread between two real people.
 fn behaviour_section(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
@@ -390,6 +389,7 @@ fn behaviour_section(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
     }
 }
 
+/// Distributional fidelity: KS per class and metric, Q-Q and time-series figures.
 fn distribution_section(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
     let fig = |name: &str| figs.iter().find(|f| f.name == name);
     let c = &ev.config;

@@ -100,7 +100,10 @@ pub fn generated_sources(cfg: &DatasetConfig) -> Result<Vec<SourceInput>, Prepar
         ny_per_deg: cfg.read.eye_gains.ny_per_deg,
     };
     let mut jobs = Vec::new();
-    for (ci, (class, cc)) in cfg.classes.iter().enumerate() {
+    for (class, cc) in &cfg.classes {
+        // The class by its label, not its position: adding a class to a
+        // config changes none of the other class's people.
+        let ci = class.label() as usize;
         for (gi, g) in cc.generators.iter().enumerate() {
             let text = match &g.text {
                 Some(p) => {
