@@ -7,7 +7,7 @@
 #   scripts/dev/cuda-check.sh ORT_GPU_LIB [VIDEO]
 #
 # EYEREPLAY_CUDA_CHECK_WORKERS lists the worker counts (default "2 1"; the
-# README's table also has 8).
+# docs/EXTRACTION.md's table also has 8).
 #
 # ORT_GPU_LIB: the libonnxruntime.so.<version> of an onnxruntime-gpu install
 # (for example `pip install onnxruntime-gpu==1.31.1`, built for CUDA 13: its

@@ -8,18 +8,7 @@ use eyereplay_behaviour::{draw_person, generate, Gains, GeneratorSpec, Model, Re
 use std::time::Instant;
 
 fn spec(model: Model) -> GeneratorSpec {
-    GeneratorSpec {
-        model,
-        people: None,
-        duration_s: None,
-        text: None,
-        surfaces: None,
-        layout: None,
-        reader: None,
-        talker: None,
-        eye: None,
-        interview: None,
-    }
+    GeneratorSpec::new(model)
 }
 
 fn bench(c: &mut Criterion) {

@@ -90,6 +90,8 @@ pub struct Person {
     pub duration_s: f64,
     pub main_sequence: MainSequence,
     pub fixational: Fixational,
+    /// Slow postural drift the eyes counter-rotate, deg.
+    pub posture_deg: f64,
     pub blinks_per_min: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reader: Option<ReaderParams>,
@@ -176,6 +178,7 @@ pub fn draw_person(spec: &GeneratorSpec, seed: u64, duration_s: f64, text_name: 
         microsaccade_hz: draw(eye.microsaccade_hz, &mut rng),
         microsaccade_deg: draw(eye.microsaccade_deg, &mut rng),
     };
+    let posture_deg = draw(eye.posture_deg, &mut rng);
     let reads = matches!(spec.model, Model::Reading | Model::Interview);
     let talks = matches!(spec.model, Model::Conversation | Model::Interview);
     let iv = spec.interview.clone().unwrap_or_default();
@@ -266,6 +269,7 @@ pub fn draw_person(spec: &GeneratorSpec, seed: u64, duration_s: f64, text_name: 
         duration_s,
         main_sequence,
         fixational,
+        posture_deg,
         blinks_per_min,
         reader,
         plane,
@@ -348,6 +352,19 @@ pub fn generate(person: &Person, text: &ReadingText, gains: &Gains) -> Generated
         }
     }
     plan.blinks = timeline::poisson_blinks(person.blinks_per_min, dur, &mut rng);
+    // Posture: the head drifts slowly (two sinusoids an axis at 0.02-0.1
+    // Hz) while the eyes hold their targets, so the eye in the head drifts
+    // against it, as real webcam talkers' iris tracks do over seconds.
+    for yaw in [true, false] {
+        for _ in 0..2 {
+            plan.sway.push(timeline::Sway {
+                amp_deg: person.posture_deg / 2.0 * (0.5 + rng.gen::<f64>()),
+                freq_hz: 0.02 + 0.08 * rng.gen::<f64>(),
+                phase: std::f64::consts::TAU * rng.gen::<f64>(),
+                yaw,
+            });
+        }
+    }
     // Shifts must be in time order for the synthesis; models append in
     // order except where an aversion starts before its turn.
     plan.shifts

@@ -172,6 +172,9 @@ pub struct EyeRanges {
     /// Yuval-Greenberg et al. 2014: 2-3 Hz (fewer in reading fixations).
     pub microsaccade_hz: Range,
     pub microsaccade_deg: Range,
+    /// Slow postural drift of the head (0.02-0.1 Hz) that the eyes
+    /// counter-rotate, deg.
+    pub posture_deg: Range,
 }
 
 impl Default for EyeRanges {
@@ -182,6 +185,7 @@ impl Default for EyeRanges {
             drift_deg2_per_s: [0.002, 0.01],
             microsaccade_hz: [0.5, 2.5],
             microsaccade_deg: [0.15, 0.5],
+            posture_deg: [0.5, 3.0],
         }
     }
 }
@@ -235,6 +239,22 @@ fn check_prob(key: &str, p: f64) -> Result<(), String> {
 }
 
 impl GeneratorSpec {
+    /// A generator of `model` with every range at its default.
+    pub fn new(model: Model) -> Self {
+        GeneratorSpec {
+            model,
+            people: None,
+            duration_s: None,
+            text: None,
+            surfaces: None,
+            layout: None,
+            reader: None,
+            talker: None,
+            eye: None,
+            interview: None,
+        }
+    }
+
     /// Rejects ranges that cannot be drawn from and tables that do not
     /// apply to the model; `at` names the table in messages.
     pub fn validate(&self, at: &str) -> Result<(), String> {
@@ -361,6 +381,7 @@ impl GeneratorSpec {
             ("eye.drift_deg2_per_s", y.drift_deg2_per_s, 0.0, 1.0),
             ("eye.microsaccade_hz", y.microsaccade_hz, 0.0, 10.0),
             ("eye.microsaccade_deg", y.microsaccade_deg, 0.0, 3.0),
+            ("eye.posture_deg", y.posture_deg, 0.0, 15.0),
         ] {
             e(check_range(k, v, lo, hi))?;
         }

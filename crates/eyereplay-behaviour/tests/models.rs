@@ -7,18 +7,7 @@ use eyereplay_behaviour::{
 };
 
 fn spec(model: Model) -> GeneratorSpec {
-    GeneratorSpec {
-        model,
-        people: None,
-        duration_s: None,
-        text: None,
-        surfaces: None,
-        layout: None,
-        reader: None,
-        talker: None,
-        eye: None,
-        interview: None,
-    }
+    GeneratorSpec::new(model)
 }
 
 #[test]
@@ -181,7 +170,11 @@ fn a_reader_who_never_skips_fixates_every_word_once_corrections_included() {
         ..Default::default()
     });
     for seed in 0..5 {
-        let g = generate(&draw_person(&s, seed, 60.0, "bundled"), &text, &Gains::default());
+        let g = generate(
+            &draw_person(&s, seed, 60.0, "bundled"),
+            &text,
+            &Gains::default(),
+        );
         let c = &g.outcome.reading.as_ref().unwrap().counts;
         assert_eq!(c.skips + c.regressions + c.refixations, 0);
         assert!(c.corrective_saccades > 10);

@@ -179,7 +179,7 @@ pub fn init_runtime(dir: &Path) -> Result<()> {
 /// so small (about 0.1-0.25 GFLOP an inference) that the CUDA execution
 /// provider's per-inference launch, copy and synchronisation cost exceeds
 /// the CPU's whole inference. Measured on an NVIDIA H200 with onnxruntime-gpu
-/// 1.31.1 (README, "Where extraction's CPU time goes"): 2.2-2.5x the wall time
+/// 1.31.1 (docs/EXTRACTION.md, "Where extraction's CPU time goes"): 2.2-2.5x the wall time
 /// and 1.8-2x the CPU time per frame of the CPU path with 2 workers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Device {

@@ -171,7 +171,7 @@ impl Tracker {
     /// iris model's error depends on where the eye sits in its crop, and
     /// the crop moves with the tracked eye, so a single view's error drifts
     /// with the gaze and the head; averaged views cancel much of it (the
-    /// README, "A whole face in a webcam frame"). Costs about `views` times
+    /// docs/FACE.md, "A whole face in a webcam frame"). Costs about `views` times
     /// the iris inference. 1 (the default) is MediaPipe's single crop.
     pub fn set_iris_views(&mut self, views: usize) {
         self.iris_views = views.clamp(1, MAX_IRIS_VIEWS);

@@ -708,7 +708,7 @@ fn cuda_request_falls_back_to_the_cpu_with_identical_results() {
 }
 
 /// The CPU is the default device, also for a library that has CUDA: these
-/// networks ran slower on a GPU (README, "Where extraction's CPU time goes").
+/// networks ran slower on a GPU (docs/EXTRACTION.md, "Where extraction's CPU time goes").
 #[test]
 fn the_default_device_is_the_cpu() {
     assert_eq!(Device::default(), Device::Cpu);

@@ -56,7 +56,7 @@ def test_agrees_with_mediapipe(both):
             ok.append((float(t["nx"][i]), (float(r["nx_l"]) + float(r["nx_r"])) / 2))
     a, b = np.array(ok).T
     assert len(a) > 100
-    # The README's table over the whole video: median |dx| 0.008, p95 0.025
+    # docs/EXTRACTION.md's table over the whole video: median |dx| 0.008, p95 0.025
     # (r needs the whole video's range; 6 s of one face hardly move).
     dx = np.abs(a - b)
     assert np.median(dx) < 0.015 and np.quantile(dx, 0.95) < 0.04

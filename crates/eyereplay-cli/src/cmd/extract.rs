@@ -72,7 +72,7 @@ pub struct Args {
     /// MediaPipe's iris pipeline does. attention: MediaPipe's attention face mesh,
     /// which its Python face mesh runs with refine_landmarks=True, reading mesh, eye
     /// contours and irises from the one face crop on every frame: the peer tool's
-    /// own network, and fewer CPU-seconds per frame (README, "Where extraction's CPU
+    /// own network, and fewer CPU-seconds per frame (docs/EXTRACTION.md, "Where extraction's CPU
     /// time goes"). --iris-views and --mesh-every do not apply to it.
     #[arg(long, value_enum, default_value_t = LandmarksArg::Cascade)]
     pub landmarks: LandmarksArg,
