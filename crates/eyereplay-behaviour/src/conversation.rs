@@ -42,6 +42,9 @@ pub struct TalkerParams {
     /// Nods a second while listening.
     pub nods_per_s: f64,
     pub nod_deg: f64,
+    /// Share of looks at the face that go to the eyes rather than the
+    /// mouth or nose (a stable personal trait: Rogers et al. 2018).
+    pub eye_preference: f64,
     /// Amplitude of the head's continuous sway, deg (split over three
     /// sinusoids a axis at 0.2-1.1 Hz).
     pub head_sway_deg: f64,
@@ -110,16 +113,32 @@ fn aversion(p: &TalkerParams, cognitive: bool, rng: &mut ChaCha8Rng) -> (Angles,
 }
 
 /// A point on the partner's face: an eye or the mouth.
-fn face_point(p: &TalkerParams, rng: &mut ChaCha8Rng) -> Angles {
-    let u = rng.gen::<f64>();
-    let local = if u < 0.35 {
-        Angles::new(-1.2, 0.8)
-    } else if u < 0.7 {
-        Angles::new(1.2, 0.8)
-    } else if u < 0.9 {
-        Angles::new(0.0, -1.8)
-    } else {
-        Angles::new(0.0, 0.0)
+/// Chance that the next look at the face stays in the region the eyes are
+/// in (a small refixation rather than a jump to another feature).
+pub const FACE_REGION_PERSISTENCE: f64 = 0.4;
+
+/// A point on the partner's face: an eye, the mouth or the nose, by the
+/// person's preference for the eyes, staying in the current region
+/// (`region`, updated) with [`FACE_REGION_PERSISTENCE`].
+fn face_point(p: &TalkerParams, region: &mut usize, rng: &mut ChaCha8Rng) -> Angles {
+    if rng.gen::<f64>() >= FACE_REGION_PERSISTENCE {
+        let u = rng.gen::<f64>();
+        let e = p.eye_preference;
+        *region = if u < e / 2.0 {
+            0
+        } else if u < e {
+            1
+        } else if u < e + (1.0 - e) * 0.7 {
+            2
+        } else {
+            3
+        };
+    }
+    let local = match *region {
+        0 => Angles::new(-1.2, 0.8),
+        1 => Angles::new(1.2, 0.8),
+        2 => Angles::new(0.0, -1.8),
+        _ => Angles::new(0.0, 0.0),
     };
     p.partner.plus(local).plus(Angles::new(
         0.3 * (rng.gen::<f64>() - 0.5),
@@ -138,9 +157,11 @@ impl Talker {
     pub fn sway(&self, plan: &mut Plan, rng: &mut ChaCha8Rng) {
         let p = &self.params;
         for yaw in [true, false] {
+            // Talkers' heads sway more from side to side than up and down.
+            let axis = if yaw { 1.0 } else { 0.5 };
             for _ in 0..3 {
                 plan.sway.push(crate::timeline::Sway {
-                    amp_deg: p.head_sway_deg / 3.0 * (0.5 + rng.gen::<f64>()),
+                    amp_deg: axis * p.head_sway_deg / 3.0 * (0.5 + rng.gen::<f64>()),
                     freq_hz: 0.2 + 0.9 * rng.gen::<f64>(),
                     phase: std::f64::consts::TAU * rng.gen::<f64>(),
                     yaw,
@@ -202,11 +223,9 @@ impl Talker {
             let start = (ts - 1.0 + 0.25 * (rng.gen::<f64>() - 0.5) * 2.0).max(0.0);
             // What the listening turn planned for its last second gives way.
             plan.shifts.retain(|s| s.t_s < start);
+            plan.head.retain(|s| s.t_s < start);
             let end = (ts + 1.2 + 0.25 * (rng.gen::<f64>() - 0.5) * 2.0).min(te);
-            plan.shifts.push(Shift {
-                t_s: start.min(ts),
-                to: p.partner.plus(dir.scale(1.0 - share)),
-            });
+            look_away(plan, p, start.min(ts), dir, share);
             st.aversions += 1;
             st.cognitive_aversions += 1;
             t = end;
@@ -215,10 +234,7 @@ impl Talker {
             on_face = rng.gen::<f64>() < if speaking { 0.5 } else { 0.8 };
             if !on_face {
                 let (dir, share) = aversion(p, false, rng);
-                plan.shifts.push(Shift {
-                    t_s: t,
-                    to: p.partner.plus(dir.scale(1.0 - share)),
-                });
+                look_away(plan, p, t, dir, share);
                 st.aversions += 1;
                 t += gamma2(p.away_dwell_s(speaking), rng).min(te - t);
                 on_face = true;
@@ -243,12 +259,18 @@ impl Talker {
                     (t + gamma2(dwell_mean, rng)).min(te)
                 };
                 let end = if speaking && end > look_back { te } else { end };
+                // Back on the face, the head comes back too.
+                plan.head.push(Shift {
+                    t_s: t + HEAD_LAG_S,
+                    to: Angles::default(),
+                });
                 // Scan the face while looking at it.
+                let mut region = 3;
                 let mut ft = t;
                 while ft < end {
                     plan.shifts.push(Shift {
                         t_s: ft,
-                        to: face_point(p, rng),
+                        to: face_point(p, &mut region, rng),
                     });
                     // Shape 4: fixations on a face are rarely under 200 ms.
                     ft += Gamma::new(4.0, p.face_scan_s / 4.0)
@@ -280,18 +302,42 @@ impl Talker {
                 face_next = false;
             } else {
                 let (dir, share) = aversion(p, false, rng);
-                plan.shifts.push(Shift {
-                    t_s: t,
-                    to: p.partner.plus(dir.scale(1.0 - share)),
-                });
+                look_away(plan, p, t, dir, share);
                 st.aversions += 1;
-                t = (t + gamma2(p.away_dwell_s(speaking), rng).max(0.3))
-                    .min(look_back.max(t + 0.3))
-                    .min(te);
+                let limit = look_back.max(t + 0.3).min(te);
+                t = (t + gamma2(p.away_dwell_s(speaking), rng).max(0.3)).min(limit);
+                // Now and then the eyes go on elsewhere before coming back.
+                if t < limit && rng.gen::<f64>() < AVERSION_CHAIN_PROB {
+                    let (dir, share) = aversion(p, false, rng);
+                    look_away(plan, p, t, dir, share);
+                    t = (t + gamma2(p.away_dwell_s(speaking), rng).max(0.3)).min(limit);
+                }
                 face_next = true;
             }
         }
     }
+}
+
+/// Chance that an aversion goes on to a second place before the eyes come
+/// back to the partner.
+pub const AVERSION_CHAIN_PROB: f64 = 0.3;
+
+/// How long after the eyes the head starts to move, s.
+pub const HEAD_LAG_S: f64 = 0.05;
+
+/// An aversion: the eyes saccade to the whole gaze offset `dir` from the
+/// partner; the head then takes its `share` of it, and the eyes
+/// counter-rotate back by as much (fast out, slow back: the shape of a
+/// real eye-head gaze shift in the eye-in-head track).
+fn look_away(plan: &mut Plan, p: &TalkerParams, t: f64, dir: Angles, share: f64) {
+    plan.shifts.push(Shift {
+        t_s: t,
+        to: p.partner.plus(dir),
+    });
+    plan.head.push(Shift {
+        t_s: t + HEAD_LAG_S,
+        to: dir.scale(share),
+    });
 }
 
 fn exp_interval(rate: f64, rng: &mut ChaCha8Rng) -> f64 {
@@ -320,6 +366,7 @@ mod tests {
             face_scan_s: 0.8,
             nods_per_s: 0.1,
             nod_deg: 2.0,
+            eye_preference: 0.7,
             head_sway_deg: 1.0,
         };
         // Listening: 3 (1 - 0.75) / 0.75 = 1.0 s; speaking: 1.5 x 0.59 / 0.41 = 2.159 s.

@@ -92,6 +92,8 @@ pub struct Person {
     pub fixational: Fixational,
     /// Slow postural drift the eyes counter-rotate, deg.
     pub posture_deg: f64,
+    /// Time constant of the head following a gaze shift, s.
+    pub head_tau_s: f64,
     pub blinks_per_min: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reader: Option<ReaderParams>,
@@ -179,6 +181,9 @@ pub fn draw_person(spec: &GeneratorSpec, seed: u64, duration_s: f64, text_name: 
         microsaccade_deg: draw(eye.microsaccade_deg, &mut rng),
     };
     let posture_deg = draw(eye.posture_deg, &mut rng);
+    // Head movements of 10-40 deg take 200-600 ms (Freedman & Sparks
+    // 1997): an exponential approach with a 0.12-0.3 s time constant.
+    let head_tau_s = draw([0.12, 0.3], &mut rng);
     let reads = matches!(spec.model, Model::Reading | Model::Interview);
     let talks = matches!(spec.model, Model::Conversation | Model::Interview);
     let iv = spec.interview.clone().unwrap_or_default();
@@ -251,6 +256,7 @@ pub fn draw_person(spec: &GeneratorSpec, seed: u64, duration_s: f64, text_name: 
             nods_per_s: draw(t.nods_per_s, &mut rng),
             nod_deg: draw(t.nod_deg, &mut rng),
             head_sway_deg: draw(t.head_sway_deg, &mut rng),
+            eye_preference: draw(t.eye_preference, &mut rng),
         };
         (Some(params), draw(t.blinks_per_min, &mut rng))
     } else {
@@ -270,6 +276,7 @@ pub fn draw_person(spec: &GeneratorSpec, seed: u64, duration_s: f64, text_name: 
         main_sequence,
         fixational,
         posture_deg,
+        head_tau_s,
         blinks_per_min,
         reader,
         plane,
@@ -317,6 +324,7 @@ pub fn generate(person: &Person, text: &ReadingText, gains: &Gains) -> Generated
         Model::Conversation => {
             let t = talker.as_ref().expect("a talker");
             plan.start = t.params.partner;
+            plan.head_tau_s = person.head_tau_s;
             t.sway(&mut plan, &mut rng);
             cstats = t.converse(&mut plan, 0.0, dur, rng.gen::<bool>(), &mut rng);
         }
@@ -324,6 +332,7 @@ pub fn generate(person: &Person, text: &ReadingText, gains: &Gains) -> Generated
             let t = talker.as_ref().expect("a talker");
             let r = reader.as_mut().expect("a reader");
             plan.start = t.params.partner;
+            plan.head_tau_s = person.head_tau_s;
             t.sway(&mut plan, &mut rng);
             let mut reading = person.starts_reading == Some(true);
             let mut at = 0.0;
@@ -379,6 +388,8 @@ pub fn generate(person: &Person, text: &ReadingText, gains: &Gains) -> Generated
         }
     }
     plan.shifts = kept;
+    plan.head
+        .sort_by(|a, b| a.t_s.partial_cmp(&b.t_s).expect("finite head times"));
     plan.nods
         .sort_by(|a, b| a.t_s.partial_cmp(&b.t_s).expect("finite nod times"));
     let samples = plan.synthesize(

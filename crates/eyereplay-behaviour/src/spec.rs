@@ -132,6 +132,7 @@ pub struct TalkerRanges {
     pub face_scan_s: Range,
     pub nods_per_s: Range,
     pub nod_deg: Range,
+    pub eye_preference: Range,
     pub head_sway_deg: Range,
     pub blinks_per_min: Range,
 }
@@ -150,9 +151,10 @@ impl Default for TalkerRanges {
             listening_turn_s: [3.0, 10.0],
             aversion_deg: [3.0, 9.0],
             cognitive_aversion_prob: [0.6, 0.8],
-            face_scan_s: [0.25, 0.6],
+            face_scan_s: [0.2, 0.45],
             nods_per_s: [0.05, 0.25],
             nod_deg: [0.5, 1.5],
+            eye_preference: [0.4, 0.9],
             head_sway_deg: [0.25, 0.75],
             // Bentivoglio 26 / min; Doughty 10.5-32.5.
             blinks_per_min: [10.0, 32.0],
@@ -370,6 +372,7 @@ impl GeneratorSpec {
             ("talker.nods_per_s", t.nods_per_s, 0.0, 5.0),
             ("talker.nod_deg", t.nod_deg, 0.0, 15.0),
             ("talker.head_sway_deg", t.head_sway_deg, 0.0, 15.0),
+            ("talker.eye_preference", t.eye_preference, 0.0, 1.0),
             ("talker.blinks_per_min", t.blinks_per_min, 0.0, 120.0),
         ] {
             e(check_range(k, v, lo, hi))?;

@@ -59,6 +59,12 @@ pub struct Plan {
     pub nods: Vec<Nod>,
     /// `[start, end)` of each stretch of reading, s.
     pub reading: Vec<[f64; 2]>,
+    /// Where the head turns, and when (`to` relative to where it points
+    /// at the start): the eye saccades to the gaze target first, then
+    /// counter-rotates while the head follows with time constant
+    /// `head_tau_s`, as in natural eye-head gaze shifts.
+    pub head: Vec<Shift>,
+    pub head_tau_s: f64,
     /// Continuous head sway as sinusoids `(amplitude deg, frequency Hz,
     /// phase rad)` on yaw and pitch; the eye counter-rotates (VOR).
     pub sway: Vec<Sway>,
@@ -107,6 +113,12 @@ impl Plan {
         let mut offset = Angles::default();
         let mut micro: Option<(f64, Angles, Angles, SaccadeShape)> = None;
         let mut next_shift = 0;
+        let (mut head, mut head_to, mut next_head) = (Angles::default(), Angles::default(), 0);
+        let head_k = if self.head_tau_s > 0.0 {
+            1.0 - (-dt / self.head_tau_s).exp()
+        } else {
+            1.0
+        };
         let mut blink_i = 0;
         let mut nod_i = 0;
         // Head sway by rotating phasors: (amplitude, yaw?, cos, sin, cos step, sin step).
@@ -144,6 +156,11 @@ impl Plan {
                 }
             }
             let gaze = current(base, &sacc, t);
+            while next_head < self.head.len() && self.head[next_head].t_s <= t {
+                head_to = self.head[next_head].to;
+                next_head += 1;
+            }
+            head = head.plus(head_to.minus(head).scale(head_k));
             if sacc.is_none() {
                 match &micro {
                     Some((t0, from, to, shape)) => {
@@ -200,6 +217,7 @@ impl Plan {
                 (*c, *s) = (*c * *dc - *s * *ds, *s * *dc + *c * *ds);
             }
             let eye = gaze
+                .minus(head)
                 .plus(offset)
                 .plus(Angles::new(sway_yaw, vor + sway_pitch));
             out.push(PlanSample {
@@ -279,6 +297,40 @@ mod tests {
         // The saccade takes 10/600 + 4 * 6/600 s = 56.7 ms: done by 0.16 s.
         assert!((s[80].n[0] - 0.439).abs() < 1e-12);
         assert!(s[51].n[0] < 0.5 && s[51].n[0] > 0.439);
+    }
+
+    #[test]
+    fn the_eye_counter_rotates_while_the_head_follows() {
+        // Gaze 10 deg right at 0.1 s; the head takes 4 deg from 0.15 s with
+        // a 0.2 s time constant. The eye in the head goes out to 10 deg,
+        // then back to 10 - 4 = 6 deg: at 0.15 + 0.2 s it is 4 (1 - 1/e)
+        // = 2.528 deg back.
+        let plan = Plan {
+            shifts: vec![Shift {
+                t_s: 0.1,
+                to: Angles::new(10.0, 0.0),
+            }],
+            head: vec![Shift {
+                t_s: 0.15,
+                to: Angles::new(4.0, 0.0),
+            }],
+            head_tau_s: 0.2,
+            ..Plan::default()
+        };
+        let fix = Fixational {
+            drift_deg2_per_s: 0.0,
+            microsaccade_hz: 0.0,
+            microsaccade_deg: 0.0,
+        };
+        let g = Gains::default();
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let s = plan.synthesize(2.0, &MainSequence::default(), &fix, &g, &mut rng);
+        let yaw = |i: usize| (0.5 - s[i].n[0]) / g.nx_per_deg;
+        // 0.35 s is sample 175; the discrete approach is exact at samples.
+        assert!((yaw(175) - (10.0 - 4.0 * (1.0 - (-1.0f64).exp()))).abs() < 0.02, "{}", yaw(175));
+        assert!((yaw(999) - 6.0).abs() < 1e-3);
+        // Out fast: within 60 ms of the saccade's start the eye is past 9 deg.
+        assert!(yaw(80) > 9.0, "{}", yaw(80));
     }
 
     #[test]
