@@ -272,6 +272,23 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
 
+    /// Samples of `plan` with no fixational movement, default eye.
+    fn still(plan: &Plan, duration_s: f64) -> Vec<PlanSample> {
+        let fix = Fixational {
+            drift_deg2_per_s: 0.0,
+            microsaccade_hz: 0.0,
+            microsaccade_deg: 0.0,
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        plan.synthesize(
+            duration_s,
+            &MainSequence::default(),
+            &fix,
+            &Gains::default(),
+            &mut rng,
+        )
+    }
+
     #[test]
     fn a_planned_shift_arrives_and_stays_without_noise() {
         let plan = Plan {
@@ -282,14 +299,7 @@ mod tests {
             }],
             ..Plan::default()
         };
-        let fix = Fixational {
-            drift_deg2_per_s: 0.0,
-            microsaccade_hz: 0.0,
-            microsaccade_deg: 0.0,
-        };
-        let g = Gains::default();
-        let mut rng = ChaCha8Rng::seed_from_u64(1);
-        let s = plan.synthesize(0.5, &MainSequence::default(), &fix, &g, &mut rng);
+        let s = still(&plan, 0.5);
         assert_eq!(s.len(), 250);
         assert_eq!(s[0].n, [0.5, 0.5]);
         // 10 deg right: nx = 0.5 - 0.061.
@@ -317,14 +327,8 @@ mod tests {
             head_tau_s: 0.2,
             ..Plan::default()
         };
-        let fix = Fixational {
-            drift_deg2_per_s: 0.0,
-            microsaccade_hz: 0.0,
-            microsaccade_deg: 0.0,
-        };
         let g = Gains::default();
-        let mut rng = ChaCha8Rng::seed_from_u64(1);
-        let s = plan.synthesize(2.0, &MainSequence::default(), &fix, &g, &mut rng);
+        let s = still(&plan, 2.0);
         let yaw = |i: usize| (0.5 - s[i].n[0]) / g.nx_per_deg;
         // 0.35 s is sample 175 (the per-sample approach is within 0.02 deg).
         assert!(
