@@ -214,7 +214,6 @@ impl Talker {
             st.listening_s += te - ts;
         }
         let mut t = ts;
-        let mut on_face;
         if speaking && rng.gen::<f64>() < p.cognitive_aversion_prob {
             // Looking away to plan the utterance: it started about 1 s
             // before speech (the listening turn's last second) and lasts
@@ -229,22 +228,16 @@ impl Talker {
             st.aversions += 1;
             st.cognitive_aversions += 1;
             t = end;
-            on_face = false;
-        } else {
-            on_face = rng.gen::<f64>() < if speaking { 0.5 } else { 0.8 };
-            if !on_face {
-                let (dir, share) = aversion(p, false, rng);
-                look_away(plan, p, t, dir, share);
-                st.aversions += 1;
-                t += gamma2(p.away_dwell_s(speaking), rng).min(te - t);
-                on_face = true;
-            } else {
-                on_face = false;
-            }
+        } else if rng.gen::<f64>() >= if speaking { 0.5 } else { 0.8 } {
+            // Otherwise the turn starts looking away (half the speaking
+            // turns, a fifth of the listening ones) or on the face.
+            let (dir, share) = aversion(p, false, rng);
+            look_away(plan, p, t, dir, share);
+            st.aversions += 1;
+            t += gamma2(p.away_dwell_s(speaking), rng).min(te - t);
         }
         // Speakers look back at the partner for the end of their turn.
         let look_back = if speaking { (te - 2.3).max(t) } else { te };
-        let _ = on_face;
         let mut face_next = true;
         while t < te {
             if face_next || t >= look_back {

@@ -28,6 +28,7 @@ pub use saccade::MainSequence;
 pub use spec::{EyeRanges, GeneratorSpec, InterviewRanges, Model, ReaderRanges, TalkerRanges};
 pub use timeline::{Fixational, Plan, PlanSample, SAMPLE_RATE_HZ};
 
+use eyereplay_core::splitmix64;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -145,18 +146,10 @@ pub struct Generated {
 /// Shortest interval between two saccade onsets, s.
 pub const REFRACTORY_S: f64 = 0.1;
 
-/// splitmix64: one well-mixed 64-bit value from another.
-pub fn mix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// The seed of person `person` of generator `generator` in class `class`
 /// under the dataset seed.
 pub fn person_seed(dataset_seed: u64, class: u64, generator: u64, person: u64) -> u64 {
-    mix64(mix64(mix64(mix64(dataset_seed) ^ class) ^ generator) ^ person)
+    splitmix64(splitmix64(splitmix64(splitmix64(dataset_seed) ^ class) ^ generator) ^ person)
 }
 
 fn draw(r: [f64; 2], rng: &mut ChaCha8Rng) -> f64 {
@@ -293,7 +286,7 @@ pub fn draw_person(spec: &GeneratorSpec, seed: u64, duration_s: f64, text_name: 
 pub fn generate(person: &Person, text: &ReadingText, gains: &Gains) -> Generated {
     // A second stream for the plan, so that drawing parameters and planning
     // do not shift each other when a range changes.
-    let mut rng = ChaCha8Rng::seed_from_u64(mix64(person.seed ^ 0x005E_ED0F_B1A5));
+    let mut rng = ChaCha8Rng::seed_from_u64(splitmix64(person.seed ^ 0x005E_ED0F_B1A5));
     let dur = person.duration_s;
     let mut plan = Plan::default();
     let mut outcome = Outcome::default();

@@ -313,7 +313,7 @@ impl<'a> Reader<'a> {
                         if t >= t_end {
                             break;
                         }
-                        let (nw_i, np, nk) = self.sweep_landing(nxt, line, rng, &unit);
+                        let (nw_i, np, nk) = self.sweep_landing(nxt, rng, &unit);
                         let to = self.eye_at(self.layout.words[nw_i].line, np);
                         plan.shifts.push(Shift { t_s: t, to });
                         t += self.ms.span_s(to.distance(target));
@@ -323,7 +323,7 @@ impl<'a> Reader<'a> {
                         first_on_word = true;
                         continue;
                     }
-                    let (nw_i, np, nk) = self.sweep_landing(nxt, line, rng, &unit);
+                    let (nw_i, np, nk) = self.sweep_landing(nxt, rng, &unit);
                     next_word = nw_i;
                     next_pos = np;
                     next_kind = nk;
@@ -382,13 +382,11 @@ impl<'a> Reader<'a> {
     fn sweep_landing(
         &self,
         nxt: usize,
-        from_line: usize,
         rng: &mut ChaCha8Rng,
         unit: &Normal<f64>,
     ) -> (usize, f64, FixKind) {
         let line = self.layout.words[nxt].line;
         let sweep_chars = self.pos.max(10.0);
-        let _ = from_line;
         if rng.gen::<f64>() < self.params.corrective_prob {
             let land = 6.0 + sweep_chars * (0.05 + 0.10 * rng.gen::<f64>());
             let w = self.word_at(line, land);

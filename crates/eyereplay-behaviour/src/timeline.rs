@@ -228,11 +228,6 @@ impl Plan {
         }
         out
     }
-
-    /// Whether `t_s` falls in a reading stretch.
-    pub fn is_reading(&self, t_s: f64) -> bool {
-        self.reading.iter().any(|r| t_s >= r[0] && t_s < r[1])
-    }
 }
 
 fn nod_end(n: &Nod) -> f64 {

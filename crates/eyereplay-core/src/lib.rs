@@ -11,6 +11,7 @@ mod calibration;
 mod class;
 mod error;
 mod fsio;
+mod hash;
 mod position;
 mod session_csv;
 mod trajectory;
@@ -22,10 +23,11 @@ pub use fsio::{
     atomic_write, atomic_write_with, find_upwards, read_json_cache, sha256_file, sha256_hex,
     stale_temp_files, write_json,
 };
+pub use hash::{mix64, splitmix64, SPLITMIX_GOLDEN};
 pub use position::{Canvas, CanvasPos, NormPos, PlanePos, ScreenPos, ScreenSize};
 pub use session_csv::{
     push_fixed3, push_point_row, push_u64, read_session_csv, write_session_csv,
-    write_session_csv_with_blinks, write_session_csv_with_reading, SessionRow,
+    write_session_csv_columns, write_session_csv_with_blinks, SessionRow,
 };
 pub use trajectory::{mean_of, path_length, Sample, Trajectory};
 

@@ -20,63 +20,47 @@ pub fn write_session_csv_with_blinks(
     points: &[CanvasPos],
     blinks: &[bool],
 ) -> Result<(), CoreError> {
-    assert_eq!(points.len(), blinks.len(), "one blink flag per point");
-    atomic_write_with(path, |w| {
-        w.write_all(b"frame,x,y,blink\n")?;
-        let mut line = Vec::with_capacity(48);
-        for (i, (p, b)) in points.iter().zip(blinks).enumerate() {
-            line.clear();
-            push_point_row(&mut line, i as u64, *p);
-            line.extend_from_slice(if *b { b",1\n" } else { b",0\n" });
-            w.write_all(&line)?;
-        }
-        Ok(())
-    })
-}
-
-/// Writes `frame,x,y[,blink],reading` rows atomically: the per-frame
-/// reading label of a dataset with behaviour models (`reading` 1 where the
-/// person reads), with the blink column when `blinks` is given.
-pub fn write_session_csv_with_reading(
-    path: &Path,
-    points: &[CanvasPos],
-    blinks: Option<&[bool]>,
-    reading: &[bool],
-) -> Result<(), CoreError> {
-    assert_eq!(points.len(), reading.len(), "one reading flag per point");
-    if let Some(b) = blinks {
-        assert_eq!(points.len(), b.len(), "one blink flag per point");
-    }
-    atomic_write_with(path, |w| {
-        w.write_all(if blinks.is_some() {
-            b"frame,x,y,blink,reading\n"
-        } else {
-            b"frame,x,y,reading\n"
-        })?;
-        let mut line = Vec::with_capacity(48);
-        for (i, (p, r)) in points.iter().zip(reading).enumerate() {
-            line.clear();
-            push_point_row(&mut line, i as u64, *p);
-            if let Some(b) = blinks {
-                line.extend_from_slice(if b[i] { b",1" } else { b",0" });
-            }
-            line.extend_from_slice(if *r { b",1\n" } else { b",0\n" });
-            w.write_all(&line)?;
-        }
-        Ok(())
-    })
+    write_session_csv_columns(path, points, Some(blinks), None)
 }
 
 /// Writes `frame,x,y` rows atomically. Coordinates are written with 3
 /// decimals (1/1000 px), which keeps files small and byte-identical across
 /// runs.
 pub fn write_session_csv(path: &Path, points: &[CanvasPos]) -> Result<(), CoreError> {
+    write_session_csv_columns(path, points, None, None)
+}
+
+/// Writes `frame,x,y[,blink][,reading]` rows atomically: the optional
+/// columns are there when given, one flag per point, written 1/0. `reading`
+/// is the per-frame label of a dataset with behaviour models (1 where the
+/// person reads).
+pub fn write_session_csv_columns(
+    path: &Path,
+    points: &[CanvasPos],
+    blinks: Option<&[bool]>,
+    reading: Option<&[bool]>,
+) -> Result<(), CoreError> {
+    let flags: Vec<(&str, &[bool])> = [("blink", blinks), ("reading", reading)]
+        .into_iter()
+        .filter_map(|(name, f)| f.map(|f| (name, f)))
+        .collect();
+    for (name, f) in &flags {
+        assert_eq!(points.len(), f.len(), "one {name} flag per point");
+    }
     atomic_write_with(path, |w| {
-        w.write_all(b"frame,x,y\n")?;
+        w.write_all(b"frame,x,y")?;
+        for (name, _) in &flags {
+            w.write_all(b",")?;
+            w.write_all(name.as_bytes())?;
+        }
+        w.write_all(b"\n")?;
         let mut line = Vec::with_capacity(48);
         for (i, p) in points.iter().enumerate() {
             line.clear();
             push_point_row(&mut line, i as u64, *p);
+            for (_, f) in &flags {
+                line.extend_from_slice(if f[i] { b",1" } else { b",0" });
+            }
             line.push(b'\n');
             w.write_all(&line)?;
         }

@@ -21,9 +21,7 @@ use crate::metadata::{
 };
 use crate::pool::write_pool;
 use crate::DatasetError;
-use eyereplay_core::{
-    write_session_csv, write_session_csv_with_blinks, write_session_csv_with_reading, CanvasPos,
-};
+use eyereplay_core::{write_session_csv_columns, CanvasPos};
 use eyereplay_prepare::{DatasetConfig, Prepared};
 use rayon::prelude::*;
 use std::path::Path;
@@ -82,18 +80,12 @@ pub fn write_dataset(
     let with_reading = cfg.has_generators();
     jobs.par_iter()
         .try_for_each(|(file, pts, blinks, reading)| {
-            if with_reading {
-                write_session_csv_with_reading(
-                    &out.join(file),
-                    pts,
-                    with_blinks.then_some(*blinks),
-                    reading,
-                )
-            } else if with_blinks {
-                write_session_csv_with_blinks(&out.join(file), pts, blinks)
-            } else {
-                write_session_csv(&out.join(file), pts)
-            }
+            write_session_csv_columns(
+                &out.join(file),
+                pts,
+                with_blinks.then_some(*blinks),
+                with_reading.then_some(*reading),
+            )
         })?;
 
     for c in &prepared.classes {

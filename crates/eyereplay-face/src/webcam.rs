@@ -85,6 +85,7 @@
 //! to the largest motion smear seen.
 
 use crate::RgbImage;
+use eyereplay_core::mix64;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Uniform};
@@ -435,18 +436,8 @@ fn srgb_encode(linear: f64) -> f64 {
         }
 }
 
-/// splitmix64's output function: a bijective 64-bit mix with full
-/// avalanche; derives each frame's noise keys from the seed and the frame
-/// index.
-#[inline(always)]
-fn mix64(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// splitmix64's increment.
-const GOLDEN: u64 = 0x9E37_79B9_7F4A_7C15;
+const GOLDEN: u64 = eyereplay_core::SPLITMIX_GOLDEN;
 
 /// Chris Wellons' lowbias32: a bijective 32-bit mix with near-ideal
 /// avalanche, cheap enough to vectorize (32-bit multiplies).

@@ -28,11 +28,7 @@ impl SplitMix64 {
     }
 }
 
-pub fn mix64(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
+pub use eyereplay_core::mix64;
 
 /// Seeded 2-D value noise with smooth interpolation, range about [-1, 1].
 #[derive(Clone, Copy, Debug)]

@@ -469,14 +469,7 @@ pub fn start_frame(times_s: &[f64], frames: usize, fps: f64, seed: u64) -> usize
     } else {
         times_s.len().saturating_sub(1)
     };
-    (splitmix(seed) % (last_start as u64 + 1)) as usize
-}
-
-fn splitmix(seed: u64) -> u64 {
-    let mut z = seed.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
+    (eyereplay_core::splitmix64(seed) % (last_start as u64 + 1)) as usize
 }
 
 /// The carrier frame each of `frames` output frames (at `fps`) shows,
