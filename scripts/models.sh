@@ -9,7 +9,7 @@
 #   mediapipe==0.10.21 wheel   -> 4 .tflite models + Apache-2.0 LICENSE
 #   onnxruntime==1.22.1 wheel  -> libonnxruntime.so (MIT) for ort's load-dynamic
 #   tflite, onnx, numpy        -> a venv that runs scripts/tflite_to_onnx.py
-# `eyereplay models fetch` runs this same script (embedded in the binary).
+# scripts/setup.sh and `cargo xtask models [--dir DIR]` run this script.
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"

@@ -9,7 +9,7 @@
 # sha256 (crates/eyereplay-py/requirements-build.txt), into a venv in the
 # cache; the wheel goes to target/wheels/. `pip install target/wheels/eyereplay-*.whl`
 # is then all a user needs for extraction and datasets (plus the models,
-# eyereplay.fetch_models(); rendering MP4s runs the ffmpeg program, as the
+# scripts/models.sh DIR; rendering MP4s runs the ffmpeg program, as the
 # command line does, so that x264 stays in its own process).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

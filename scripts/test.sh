@@ -18,8 +18,17 @@ phase() {
 export CI="${CI:-1}"
 phase "setup done; cargo fmt --check"
 cargo fmt --all -- --check
+phase "module cycles (cargo xtask cycles)"
+cargo xtask cycles
 phase "cargo clippy"
 cargo clippy --workspace --all-targets --quiet -- -D warnings
+phase "the library without its optional features; every library crate packages alone"
+cargo check -p eyereplay --no-default-features --quiet
+for manifest in crates/*/Cargo.toml; do
+  crate="$(basename "$(dirname "$manifest")")"
+  [[ "$crate" == eyereplay-cli || "$crate" == eyereplay-py ]] && continue
+  cargo package --list --allow-dirty -p "$crate" > /dev/null
+done
 phase "cargo test"
 mkdir -p target
 set +e

@@ -1,7 +1,7 @@
 //! Declares `cfg(has_sample_data)`, `cfg(has_models)`, `cfg(has_ffmpeg)` for
-//! the tests that need them (see build-support/test_prereqs.rs).
+//! the tests that need them (see the eyereplay-build-support crate).
 
-include!("../../build-support/test_prereqs.rs");
+use eyereplay_build_support::{test_prerequisites, Prereq};
 
 fn main() {
     test_prerequisites(&[

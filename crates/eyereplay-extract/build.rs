@@ -1,8 +1,8 @@
 //! Declares `cfg(has_sample_data)`, `cfg(has_models)` and `cfg(has_ffmpeg)`
 //! for the end-to-end tests on real video (see
-//! build-support/test_prereqs.rs).
+//! the eyereplay-build-support crate).
 
-include!("../../build-support/test_prereqs.rs");
+use eyereplay_build_support::{test_prerequisites, Prereq};
 
 fn main() {
     test_prerequisites(&[

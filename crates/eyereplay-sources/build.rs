@@ -1,7 +1,7 @@
 //! Declares `cfg(has_sample_data)` for the tests on real recordings (see
-//! build-support/test_prereqs.rs).
+//! the eyereplay-build-support crate).
 
-include!("../../build-support/test_prereqs.rs");
+use eyereplay_build_support::{test_prerequisites, Prereq};
 
 fn main() {
     test_prerequisites(&[(

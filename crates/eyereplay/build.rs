@@ -1,8 +1,8 @@
 //! Records the git revision in the library for `metadata.json` provenance,
 //! and declares `cfg(has_models)`, `cfg(has_carriers)` and `cfg(has_ffmpeg)`
-//! for the tests that need them (see build-support/test_prereqs.rs).
+//! for the tests that need them (see the eyereplay-build-support crate).
 
-include!("../../build-support/test_prereqs.rs");
+use eyereplay_build_support::{test_prerequisites, Prereq};
 
 fn main() {
     test_prerequisites(&[

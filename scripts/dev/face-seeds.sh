@@ -10,8 +10,9 @@
 # 1 gives the one-crop probe and read-back of earlier versions; with
 # --probe-only, `match_readback = false`: each session drawn through its
 # probe's match alone, as before the read-back match) and the dataset OUT_ROOT/seedN (complete
-# sessions of an earlier run are kept), then runs
-# `scripts/face-table.py OUT_ROOT/seed... --horizontal --vertical`, whose
+# sessions of an earlier run are kept) with its evaluation reading every
+# session back (`--read-back-all`), then runs
+# `cargo xtask face-table OUT_ROOT/seed... --horizontal --vertical`, whose
 # last lines are the pooled means. Needs scripts/setup.sh's data and a
 # release build (scripts/run.sh does both).
 set -euo pipefail
@@ -49,7 +50,7 @@ for seed in "$@"; do
   mv "$cfg.part" "$cfg"
   out="$root/seed$seed"
   # generate resumes: complete sessions are skipped, a half folder finished.
-  "$bin" generate --config "$cfg" --out "$out" --no-evaluate
+  "$bin" generate --config "$cfg" --out "$out" --read-back-all
   dirs+=("$out")
 done
-python3 "$repo/scripts/face-table.py" "${dirs[@]}" --eyereplay "$bin" --horizontal --vertical
+cargo run --quiet --manifest-path "$repo/Cargo.toml" -p xtask -- face-table "${dirs[@]}" --horizontal --vertical

@@ -5,6 +5,7 @@
 //! train on one range and test on another.
 
 use crate::geometry::Surface;
+use crate::BehaviourError;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -217,25 +218,27 @@ impl Default for InterviewRanges {
     }
 }
 
-fn check_range(key: &str, r: Range, min: f64, max: f64) -> Result<(), String> {
+fn check_range(at: &str, key: &str, r: Range, min: f64, max: f64) -> Result<(), BehaviourError> {
     if !(r[0].is_finite() && r[1].is_finite() && r[0] <= r[1]) {
-        return Err(format!(
-            "{key} = [{}, {}] must be [low, high] with low <= high",
+        return Err(BehaviourError::Spec(format!(
+            "{at}: {key} = [{}, {}] must be [low, high] with low <= high",
             r[0], r[1]
-        ));
+        )));
     }
     if r[0] < min || r[1] > max {
-        return Err(format!(
-            "{key} = [{}, {}] must lie within [{min}, {max}]",
+        return Err(BehaviourError::Spec(format!(
+            "{at}: {key} = [{}, {}] must lie within [{min}, {max}]",
             r[0], r[1]
-        ));
+        )));
     }
     Ok(())
 }
 
-fn check_prob(key: &str, p: f64) -> Result<(), String> {
+fn check_prob(at: &str, key: &str, p: f64) -> Result<(), BehaviourError> {
     if !(0.0..=1.0).contains(&p) {
-        return Err(format!("{key} = {p} must be a probability in [0, 1]"));
+        return Err(BehaviourError::Spec(format!(
+            "{at}: {key} = {p} must be a probability in [0, 1]"
+        )));
     }
     Ok(())
 }
@@ -258,12 +261,17 @@ impl GeneratorSpec {
     }
 
     /// Rejects ranges that cannot be drawn from and tables that do not
-    /// apply to the model; `at` names the table in messages.
-    pub fn validate(&self, at: &str) -> Result<(), String> {
+    /// apply to the model; `at` names the table in messages (one line,
+    /// as [`BehaviourError::Spec`]).
+    pub fn validate(&self, at: &str) -> Result<(), BehaviourError> {
         let reads = matches!(self.model, Model::Reading | Model::Interview);
         let talks = matches!(self.model, Model::Conversation | Model::Interview);
         let m = self.model.name();
-        let not_for = |key: &str| Err(format!("{at}: '{key}' does not apply to model = \"{m}\""));
+        let not_for = |key: &str| {
+            Err(BehaviourError::Spec(format!(
+                "{at}: '{key}' does not apply to model = \"{m}\""
+            )))
+        };
         if !reads {
             if self.text.is_some() {
                 return not_for("text");
@@ -285,19 +293,22 @@ impl GeneratorSpec {
             return not_for("interview");
         }
         if self.people == Some(0) {
-            return Err(format!("{at}: people must be at least 1"));
+            return Err(BehaviourError::Spec(format!(
+                "{at}: people must be at least 1"
+            )));
         }
         if let Some(d) = self.duration_s {
             // At least a second (the pipeline needs frames to resample), at
             // most an hour (500 Hz samples are held in memory per person).
             if !(d.is_finite() && (1.0..=3600.0).contains(&d)) {
-                return Err(format!("{at}: duration_s = {d} must be in [1, 3600]"));
+                return Err(BehaviourError::Spec(format!(
+                    "{at}: duration_s = {d} must be in [1, 3600]"
+                )));
             }
         }
         if self.surfaces.as_ref().is_some_and(|s| s.is_empty()) {
-            return Err(format!("{at}: surfaces is empty"));
+            return Err(BehaviourError::Spec(format!("{at}: surfaces is empty")));
         }
-        let e = |r: Result<(), String>| r.map_err(|m| format!("{at}: {m}"));
         if let Some(l) = &self.layout {
             for (k, r, lo, hi) in [
                 ("layout.distance_mm", l.distance_mm, 100.0, 5000.0),
@@ -308,12 +319,12 @@ impl GeneratorSpec {
                 ("layout.lines_per_page", l.lines_per_page, 1.0, 200.0),
             ] {
                 if let Some(r) = r {
-                    e(check_range(k, r, lo, hi))?;
+                    check_range(at, k, r, lo, hi)?;
                 }
             }
         }
         let r = self.reader.clone().unwrap_or_default();
-        e(check_prob("reader.aloud_prob", r.aloud_prob))?;
+        check_prob(at, "reader.aloud_prob", r.aloud_prob)?;
         for (k, v, lo, hi) in [
             ("reader.fixation_mean_ms", r.fixation_mean_ms, 80.0, 1000.0),
             ("reader.fixation_shape", r.fixation_shape, 1.0, 100.0),
@@ -329,7 +340,7 @@ impl GeneratorSpec {
             ("reader.undersweep_ms", r.undersweep_ms, 50.0, 1000.0),
             ("reader.blinks_per_min", r.blinks_per_min, 0.0, 120.0),
         ] {
-            e(check_range(k, v, lo, hi))?;
+            check_range(at, k, v, lo, hi)?;
         }
         let t = self.talker.clone().unwrap_or_default();
         for (k, v, lo, hi) in [
@@ -375,7 +386,7 @@ impl GeneratorSpec {
             ("talker.eye_preference", t.eye_preference, 0.0, 1.0),
             ("talker.blinks_per_min", t.blinks_per_min, 0.0, 120.0),
         ] {
-            e(check_range(k, v, lo, hi))?;
+            check_range(at, k, v, lo, hi)?;
         }
         let y = self.eye.clone().unwrap_or_default();
         for (k, v, lo, hi) in [
@@ -386,21 +397,13 @@ impl GeneratorSpec {
             ("eye.microsaccade_deg", y.microsaccade_deg, 0.0, 3.0),
             ("eye.posture_deg", y.posture_deg, 0.0, 15.0),
         ] {
-            e(check_range(k, v, lo, hi))?;
+            check_range(at, k, v, lo, hi)?;
         }
         let i = self.interview.clone().unwrap_or_default();
-        e(check_range("interview.talk_s", i.talk_s, 1.0, 3600.0))?;
-        e(check_range("interview.read_s", i.read_s, 1.0, 3600.0))?;
-        e(check_range(
-            "interview.glance_prob",
-            i.glance_prob,
-            0.0,
-            1.0,
-        ))?;
-        e(check_prob(
-            "interview.start_reading_prob",
-            i.start_reading_prob,
-        ))?;
+        check_range(at, "interview.talk_s", i.talk_s, 1.0, 3600.0)?;
+        check_range(at, "interview.read_s", i.read_s, 1.0, 3600.0)?;
+        check_range(at, "interview.glance_prob", i.glance_prob, 0.0, 1.0)?;
+        check_prob(at, "interview.start_reading_prob", i.start_reading_prob)?;
         Ok(())
     }
 }

@@ -130,8 +130,10 @@ pub fn run_bench(
     let mut first_frame = None;
     for (i, s) in shots.iter().enumerate() {
         let t = Instant::now();
-        let (rgb, iw, ih) = decode_image(s, settings.format)
-            .map_err(|message| BrowserError::Frame { frame: i, message })?;
+        let (rgb, iw, ih) = decode_image(s, settings.format).map_err(|e| BrowserError::Frame {
+            frame: i,
+            message: e.to_string(),
+        })?;
         let mut yuv = vec![0u8; w * h * 3 / 2];
         rgb_to_yuv420(&rgb, iw, [0, 0, w, h], &mut yuv, w, h);
         decode_s += t.elapsed().as_secs_f64();

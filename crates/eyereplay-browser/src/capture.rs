@@ -7,7 +7,7 @@
 use crate::cdp::Cdp;
 use crate::launch::{find_browser, Browser};
 use crate::settings::{BrowserSettings, TEST_PAGE_URL};
-use crate::BrowserError;
+use crate::{BrowserError, RemoteError};
 use serde_json::{json, Value};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -273,9 +273,9 @@ impl Capture {
             self.begin_frame(false)?;
             if !navigated {
                 if let Some(r) = self.cdp.take_response(nav_id) {
-                    let r = r.map_err(|m| BrowserError::Load {
+                    let r = r.map_err(|e| BrowserError::Load {
                         url: self.url.clone(),
-                        message: m,
+                        message: e.0,
                     })?;
                     if let Some(err) = r.get("errorText").and_then(Value::as_str) {
                         return Err(BrowserError::Load {
@@ -293,7 +293,7 @@ impl Capture {
                 match self.eval_raw(&check)? {
                     Ok(Value::Bool(true)) => return Ok(()),
                     Ok(_) => {}
-                    Err(m) => last_error = m,
+                    Err(e) => last_error = e.0,
                 }
             }
         }
@@ -405,11 +405,11 @@ impl Capture {
     /// Evaluates `expr` in the page; a thrown exception is an error.
     pub fn eval(&mut self, expr: &str) -> Result<Value, BrowserError> {
         self.eval_raw(expr)?
-            .map_err(|m| BrowserError::protocol("Runtime.evaluate", m))
+            .map_err(|e| BrowserError::protocol("Runtime.evaluate", e.0))
     }
 
     /// Evaluates `expr`: Ok(Ok(value)), or Ok(Err(exception text)).
-    fn eval_raw(&mut self, expr: &str) -> Result<Result<Value, String>, BrowserError> {
+    fn eval_raw(&mut self, expr: &str) -> Result<Result<Value, RemoteError>, BrowserError> {
         let r = self.page(
             "Runtime.evaluate",
             json!({ "expression": expr, "returnByValue": true }),
@@ -423,7 +423,7 @@ impl Capture {
                 .next()
                 .unwrap_or("")
                 .to_string();
-            return Ok(Err(text));
+            return Ok(Err(RemoteError(text)));
         }
         Ok(Ok(r["result"].get("value").cloned().unwrap_or(Value::Null)))
     }

@@ -9,7 +9,7 @@
 //! detach, main-frame navigation once armed) are turned into an error that
 //! every later wait returns.
 
-use crate::BrowserError;
+use crate::{BrowserError, RemoteError};
 use serde_json::{json, Value};
 use std::collections::{HashMap, VecDeque};
 use std::net::TcpStream;
@@ -26,7 +26,7 @@ const KEPT_EVENTS: &[&str] = &[
 pub struct Cdp {
     ws: WebSocket<TcpStream>,
     next_id: u64,
-    responses: HashMap<u64, Result<Value, String>>,
+    responses: HashMap<u64, Result<Value, RemoteError>>,
     events: VecDeque<(String, Value)>,
     /// Set by an event that ends the session; returned by every wait.
     fatal: Option<String>,
@@ -99,7 +99,7 @@ impl Cdp {
         let deadline = Instant::now() + self.timeout;
         loop {
             if let Some(r) = self.responses.remove(&id) {
-                return r.map_err(|m| BrowserError::protocol(method, m));
+                return r.map_err(|e| BrowserError::protocol(method, e.0));
             }
             self.check_fatal()?;
             self.read_one(deadline, method)?;
@@ -131,7 +131,7 @@ impl Cdp {
 
     /// Removes and returns the answer to command `id` if it has arrived
     /// (read while waiting for something else).
-    pub fn take_response(&mut self, id: u64) -> Option<Result<Value, String>> {
+    pub fn take_response(&mut self, id: u64) -> Option<Result<Value, RemoteError>> {
         self.responses.remove(&id)
     }
 
@@ -200,11 +200,12 @@ impl Cdp {
         })?;
         if let Some(id) = v.get("id").and_then(Value::as_u64) {
             let r = match v.get("error") {
-                Some(err) => Err(err
-                    .get("message")
-                    .and_then(Value::as_str)
-                    .unwrap_or("unknown error")
-                    .to_string()),
+                Some(err) => Err(RemoteError(
+                    err.get("message")
+                        .and_then(Value::as_str)
+                        .unwrap_or("unknown error")
+                        .to_string(),
+                )),
                 None => Ok(v.get("result").cloned().unwrap_or(Value::Null)),
             };
             self.responses.insert(id, r);

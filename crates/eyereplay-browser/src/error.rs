@@ -46,6 +46,14 @@ pub enum BrowserError {
     Settings(String),
     #[error("invalid input: {0}")]
     Input(String),
+    /// A frame whose test-page codes cannot be read (too small, no code
+    /// strip, a checksum that does not match).
+    #[error("{0}")]
+    Codes(String),
+    /// A screenshot that does not decode ([`crate::decode_image`]); the
+    /// capture reports it as [`BrowserError::Frame`] with the frame.
+    #[error("{0}")]
+    Image(String),
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,
@@ -64,6 +72,12 @@ pub enum BrowserError {
     #[error(transparent)]
     Core(#[from] eyereplay_core::CoreError),
 }
+
+/// An error message the browser itself sent back: a DevTools command's
+/// error message, or the first line of a JavaScript exception.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct RemoteError(pub String);
 
 impl BrowserError {
     pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {

@@ -43,7 +43,7 @@ pub mod test_page;
 
 pub use bench::{run_bench, BrowserBenchReport};
 pub use capture::{file_url, Capture, Shot, INITIAL_VIRTUAL_TIME_S, TEST_PAGE_HTML};
-pub use error::BrowserError;
+pub use error::{BrowserError, RemoteError};
 pub use launch::{find_browser, find_browser_in, BROWSER_ENV, DEBIAN_HEADLESS_SHELL};
 pub use session::{
     decode_image, render_session_browser, render_sessions, session_name, BrowserJob,

@@ -44,8 +44,12 @@ impl BrowserSessionStats {
     }
 }
 
-/// Screenshot bytes -> RGB (whole viewport).
-pub fn decode_image(bytes: &[u8], format: ImageFormat) -> Result<(Vec<u8>, usize, usize), String> {
+/// Screenshot bytes -> RGB (whole viewport); a screenshot that does not
+/// decode is a [`BrowserError::Image`].
+pub fn decode_image(
+    bytes: &[u8],
+    format: ImageFormat,
+) -> Result<(Vec<u8>, usize, usize), BrowserError> {
     match format {
         ImageFormat::Jpeg => {
             use zune_jpeg::zune_core::{
@@ -53,18 +57,24 @@ pub fn decode_image(bytes: &[u8], format: ImageFormat) -> Result<(Vec<u8>, usize
             };
             let opts = DecoderOptions::default().jpeg_set_out_colorspace(ColorSpace::RGB);
             let mut d = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), opts);
-            let rgb = d.decode().map_err(|e| format!("bad JPEG: {e:?}"))?;
-            let info = d.info().ok_or("JPEG without size")?;
+            let rgb = d
+                .decode()
+                .map_err(|e| BrowserError::Image(format!("bad JPEG: {e:?}")))?;
+            let info = d
+                .info()
+                .ok_or_else(|| BrowserError::Image("JPEG without size".into()))?;
             Ok((rgb, info.width as usize, info.height as usize))
         }
         ImageFormat::Png => {
             let mut dec = png::Decoder::new(bytes);
             dec.set_transformations(png::Transformations::normalize_to_color8());
-            let mut r = dec.read_info().map_err(|e| format!("bad PNG: {e}"))?;
+            let mut r = dec
+                .read_info()
+                .map_err(|e| BrowserError::Image(format!("bad PNG: {e}")))?;
             let mut buf = vec![0; r.output_buffer_size()];
             let info = r
                 .next_frame(&mut buf)
-                .map_err(|e| format!("bad PNG: {e}"))?;
+                .map_err(|e| BrowserError::Image(format!("bad PNG: {e}")))?;
             let (w, h) = (info.width as usize, info.height as usize);
             buf.truncate(info.buffer_size());
             let rgb = match info.color_type {
@@ -78,7 +88,9 @@ pub fn decode_image(bytes: &[u8], format: ImageFormat) -> Result<(Vec<u8>, usize
                     .chunks_exact(2)
                     .flat_map(|p| [p[0], p[0], p[0]])
                     .collect(),
-                png::ColorType::Indexed => return Err("indexed PNG after expansion".into()),
+                png::ColorType::Indexed => {
+                    return Err(BrowserError::Image("indexed PNG after expansion".into()))
+                }
             };
             Ok((rgb, w, h))
         }
@@ -118,8 +130,10 @@ impl FrameConverter {
     }
 
     fn convert(&mut self, frame: usize, bytes: &[u8], yuv: &mut [u8]) -> Result<(), BrowserError> {
-        let (rgb, w, h) = decode_image(bytes, self.format)
-            .map_err(|message| BrowserError::Frame { frame, message })?;
+        let (rgb, w, h) = decode_image(bytes, self.format).map_err(|e| BrowserError::Frame {
+            frame,
+            message: e.to_string(),
+        })?;
         if (w, h) != self.viewport {
             return Err(BrowserError::Frame {
                 frame,

@@ -3,6 +3,8 @@
 //! Rust, so tests can check captured frames against values known
 //! independently of the browser.
 
+use crate::BrowserError;
+
 /// Side of one code cell, px (JPEG blocks are 8x8, so a cell never shares a
 /// block with another).
 pub const CELL_PX: usize = 8;
@@ -51,10 +53,13 @@ impl PageCodes {
 /// Reads the codes from an RGB frame of the whole viewport (crop origin
 /// 0,0). Each cell's value is the mean luma of its central 4x4 pixels
 /// against 128, which survives JPEG and x264 at the qualities used here;
-/// the magic field and the checksum reject anything misread.
-pub fn decode_codes(rgb: &[u8], width: usize, height: usize) -> Result<PageCodes, String> {
+/// the magic field and the checksum reject anything misread
+/// ([`BrowserError::Codes`]).
+pub fn decode_codes(rgb: &[u8], width: usize, height: usize) -> Result<PageCodes, BrowserError> {
     if width < ROW_CELLS * CELL_PX || height < 2 * CELL_PX || rgb.len() < width * height * 3 {
-        return Err(format!("frame {width}x{height} too small for the codes"));
+        return Err(BrowserError::Codes(format!(
+            "frame {width}x{height} too small for the codes"
+        )));
     }
     let mut f = [0u32; FIELDS];
     for idx in 0..FIELDS * 24 {
@@ -72,11 +77,16 @@ pub fn decode_codes(rgb: &[u8], width: usize, height: usize) -> Result<PageCodes
         f[idx / 24] |= bit << (23 - idx % 24);
     }
     if f[0] != MAGIC {
-        return Err(format!("no code strip (magic {:06x})", f[0]));
+        return Err(BrowserError::Codes(format!(
+            "no code strip (magic {:06x})",
+            f[0]
+        )));
     }
     let sum = f[1..6].iter().sum::<u32>();
     if ((sum ^ 0x5A5A5A) & MASK) != f[6] {
-        return Err(format!("code checksum mismatch (fields {f:?})"));
+        return Err(BrowserError::Codes(format!(
+            "code checksum mismatch (fields {f:?})"
+        )));
     }
     Ok(PageCodes {
         frame: f[1],
@@ -214,6 +224,7 @@ mod tests {
         }
         assert!(decode_codes(&rgb, 1280, 32)
             .unwrap_err()
+            .to_string()
             .contains("checksum"));
     }
 

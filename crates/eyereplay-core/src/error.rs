@@ -19,6 +19,9 @@ pub enum CoreError {
     Invalid { path: PathBuf, message: String },
     #[error("trajectory: {0}")]
     Trajectory(String),
+    /// An option or setting out of range (one line naming it).
+    #[error("{0}")]
+    Setting(String),
 }
 
 impl CoreError {

@@ -7,15 +7,21 @@
 //! generic over the position type, so a normalized trajectory can never be fed
 //! where canvas pixels are expected.
 
+mod cache;
 mod calibration;
 mod class;
+pub mod color;
 mod error;
 mod fsio;
 mod hash;
+mod image;
 mod position;
+mod progress;
 mod session_csv;
+mod shard;
 mod trajectory;
 
+pub use cache::{cache_dir, ArtifactCache, ArtifactKey};
 pub use calibration::Calibration;
 pub use class::GazeClass;
 pub use error::CoreError;
@@ -24,11 +30,14 @@ pub use fsio::{
     stale_temp_files, write_json,
 };
 pub use hash::{mix64, splitmix64, SPLITMIX_GOLDEN};
+pub use image::RgbImage;
 pub use position::{Canvas, CanvasPos, NormPos, PlanePos, ScreenPos, ScreenSize};
+pub use progress::{NoProgress, Progress, Stage};
 pub use session_csv::{
     push_fixed3, push_point_row, push_u64, read_session_csv, write_session_csv,
     write_session_csv_columns, write_session_csv_with_blinks, SessionRow,
 };
+pub use shard::{parse_usize_pair, Shard};
 pub use trajectory::{mean_of, path_length, Sample, Trajectory};
 
 /// Version of the eyereplay toolkit, recorded in every metadata file.

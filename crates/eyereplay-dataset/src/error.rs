@@ -21,6 +21,11 @@ pub enum DatasetError {
         tool: &'static str,
         written_by: String,
     },
+    /// A session path (as in labels.csv) that would leave the dataset
+    /// folder: empty, absolute or with `..` (no file named: the caller
+    /// knows which file held it).
+    #[error("bad session file '{0}'")]
+    SessionFile(String),
     #[error(transparent)]
     Core(#[from] eyereplay_core::CoreError),
     #[error(transparent)]

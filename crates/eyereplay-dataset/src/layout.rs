@@ -26,6 +26,18 @@ pub fn session_file(class: GazeClass, index: usize) -> String {
     format!("{}/{}_{:04}.csv", class.name(), class.name(), index)
 }
 
+/// The index of a session CSV's file name (`<class>_NNNN.csv` of `class`),
+/// the inverse of [`session_file`]; `None` for any other file.
+pub fn session_index(class: GazeClass, file_name: &str) -> Option<usize> {
+    let num = file_name
+        .strip_prefix(class.name())?
+        .strip_prefix('_')?
+        .strip_suffix(".csv")?;
+    (num.len() == 4 && num.bytes().all(|b| b.is_ascii_digit()))
+        .then(|| num.parse().ok())
+        .flatten()
+}
+
 /// `pool/<class>.csv`, relative to the dataset folder.
 pub fn pool_file(class: GazeClass) -> String {
     format!("pool/{}.csv", class.name())
@@ -52,10 +64,11 @@ pub struct SessionPaths {
 
 impl SessionPaths {
     /// Paths of session `file` (relative) in dataset `dir`. The relative
-    /// path must stay inside the dataset: no absolute paths, no `..`.
-    pub fn new(dir: &Path, file: &str) -> Result<Self, String> {
+    /// path must stay inside the dataset: no absolute paths, no `..`
+    /// ([`DatasetError::SessionFile`] otherwise).
+    pub fn new(dir: &Path, file: &str) -> Result<Self, DatasetError> {
         if file.is_empty() || Path::new(file).is_absolute() || file.contains("..") {
-            return Err(format!("bad session file '{file}'"));
+            return Err(DatasetError::SessionFile(file.to_string()));
         }
         Ok(Self::of_csv(&dir.join(file), file))
     }
@@ -129,7 +142,7 @@ pub(crate) fn session_paths(
     line: usize,
 ) -> Result<SessionPaths, DatasetError> {
     SessionPaths::new(dir, file)
-        .map_err(|m| DatasetError::invalid(dir.join(LABELS_FILE), format!("line {line}: {m}")))
+        .map_err(|e| DatasetError::invalid(dir.join(LABELS_FILE), format!("line {line}: {e}")))
 }
 
 #[cfg(test)]
@@ -157,5 +170,24 @@ mod tests {
         for bad in ["", "/etc/passwd", "../x.csv", "a/../../b.csv"] {
             assert!(SessionPaths::new(Path::new("/d"), bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn session_index_inverts_session_file() {
+        for (class, i) in [(GazeClass::Reading, 0), (GazeClass::Conversation, 1234)] {
+            let f = session_file(class, i);
+            let name = f.rsplit('/').next().unwrap();
+            assert_eq!(session_index(class, name), Some(i));
+        }
+        assert_eq!(
+            session_index(GazeClass::Reading, "reading_0001_truth.csv"),
+            None
+        );
+        assert_eq!(
+            session_index(GazeClass::Reading, "conversation_0001.csv"),
+            None
+        );
+        assert_eq!(session_index(GazeClass::Reading, "reading_01.csv"), None);
+        assert_eq!(session_index(GazeClass::Reading, "reading_+001.csv"), None);
     }
 }

@@ -36,7 +36,7 @@ mod write;
 pub use error::DatasetError;
 pub use identity::{EyeGeometry, SessionIdentity, Side};
 pub use labels::{read_labels, session_paths_of, write_labels, LabelRow, LABELS_HEADER};
-pub use layout::{pool_file, pool_head_file, session_file, SessionPaths};
+pub use layout::{pool_file, pool_head_file, session_file, session_index, SessionPaths};
 pub use metadata::{
     metadata_bytes, parse_metadata, read_metadata, write_metadata, ClassMetadata, DatasetMetadata,
     FileDigest, Metadata, RenderMetadata, SessionEntry, ToolInfo, FORMAT_VERSION,
@@ -45,7 +45,10 @@ pub use pool::{
     frame_sources, read_pool, read_pool_heads, write_pool, write_pool_heads, PoseRow, Segment,
     POOL_HEADER, POOL_HEAD_HEADER,
 };
-pub use render_settings::{HeadMotion, RenderBackend, RenderSettings};
+pub use render_settings::{
+    BackendSettings, ExtractorMatchSettings, FaceBackendSettings, HeadMotion, RenderBackend,
+    RenderSettings,
+};
 pub use session::{
     read_blink_column, read_session_csv, session_calibrations, write_session_csv,
     write_session_csv_with_blinks,

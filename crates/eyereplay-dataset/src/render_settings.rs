@@ -10,10 +10,229 @@ use eyereplay_prepare::DatasetConfig;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// The `[render]` table of a dataset config.
+/// The `[render]` table of a dataset config: the keys every backend reads,
+/// and the chosen backend with its own keys. A key that does not apply to
+/// the chosen backend is an error naming it, so a setting is never
+/// silently ignored.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Video width in px; default: the canvas width.
+    pub width: Option<usize>,
+    /// Video height in px; default: the canvas height.
+    pub height: Option<usize>,
+    /// Amplification of the iris excursion (1 = the source's amplitude).
+    pub gain: f64,
+    /// Distance from the eyes to the screen, for vergence (mm).
+    pub viewing_distance_mm: f64,
+    /// Blink at a natural rate (besides the sources' own blinks).
+    pub natural_blinks: bool,
+    /// x264 preset.
+    pub preset: String,
+    /// x264 constant rate factor.
+    pub crf: u32,
+    /// Sessions rendered at once; 0 = one per core (our renderer) or one
+    /// browser per two cores (the browser backend).
+    pub jobs: usize,
+    /// The simulator and its own settings.
+    pub backend: BackendSettings,
+}
+
+/// `render.match_extractor` and the extractor it matches: the eyes and
+/// face backends draw each identity's eye where the extractor's iris model
+/// reads the trajectory's position.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ExtractorMatchSettings {
+    /// Measure the response per session from probe frames (needs the
+    /// models) and draw through its inverse.
+    pub match_extractor: bool,
+    /// Crops per eye the extractor reads, 1-9, in the probe and in the
+    /// evaluation's read-back (recorded as `extractor_iris_views`).
+    pub extractor_iris_views: usize,
+}
+
+/// The chosen simulator (`render.backend`) and the keys that are its own.
+#[derive(Clone, Debug, PartialEq)]
+pub enum BackendSettings {
+    /// eyereplay's own ray-traced eyes (the default).
+    Eyes { extractor: ExtractorMatchSettings },
+    /// A web page driven frame by frame in a headless Chromium.
+    Browser {
+        /// `[render.browser]`, typed by the browser backend.
+        browser: Option<toml::Table>,
+        /// Where the page draws its eyes (per eye `[inner_x, inner_y,
+        /// outer_x, outer_y]` in video px, image-left eye first), for the
+        /// read-back.
+        eye_corners_px: Option<[[f64; 4]; 2]>,
+    },
+    /// A whole face from a real photo in a webcam frame.
+    Face(FaceBackendSettings),
+    /// A real video of a person, their irises redrawn.
+    Replay {
+        /// Carrier videos; empty = the bundled ones.
+        carriers: Vec<std::path::PathBuf>,
+    },
+}
+
+/// The full-face backend's keys.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FaceBackendSettings {
+    pub extractor: ExtractorMatchSettings,
+    /// After the probe, draw once, read back, refit and draw again.
+    pub match_readback: bool,
+    /// Frontal photos whose faces become the identities; empty = bundled.
+    pub identities: Vec<std::path::PathBuf>,
+    /// The face's height over the frame height, drawn from this range.
+    pub face_height_frac: [f64; 2],
+    /// Scale of the head's drift and sway (0 = none, 1 = default RMS).
+    pub head_sway: f64,
+    /// What moves the head.
+    pub head_motion: HeadMotion,
+    /// `[render.webcam]`, typed by the face backend.
+    pub webcam: Option<toml::Table>,
+}
+
+impl BackendSettings {
+    /// The backend's name, as `render.backend` spells it.
+    pub fn kind(&self) -> RenderBackend {
+        match self {
+            BackendSettings::Eyes { .. } => RenderBackend::Eyes,
+            BackendSettings::Browser { .. } => RenderBackend::Browser,
+            BackendSettings::Face(_) => RenderBackend::Face,
+            BackendSettings::Replay { .. } => RenderBackend::Replay,
+        }
+    }
+
+    /// The extractor match, for the backends that have one.
+    pub fn extractor(&self) -> Option<ExtractorMatchSettings> {
+        match self {
+            BackendSettings::Eyes { extractor } => Some(*extractor),
+            BackendSettings::Face(f) => Some(f.extractor),
+            _ => None,
+        }
+    }
+}
+
+impl RenderBackend {
+    /// As `render.backend` spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            RenderBackend::Eyes => "eyes",
+            RenderBackend::Browser => "browser",
+            RenderBackend::Face => "face",
+            RenderBackend::Replay => "replay",
+        }
+    }
+
+    /// The `[render]` keys that apply to this backend besides `backend`.
+    pub fn keys(self) -> &'static [&'static str] {
+        match self {
+            RenderBackend::Eyes => &[
+                "width",
+                "height",
+                "gain",
+                "viewing_distance_mm",
+                "natural_blinks",
+                "preset",
+                "crf",
+                "jobs",
+                "match_extractor",
+                "extractor_iris_views",
+            ],
+            RenderBackend::Browser => &[
+                "width",
+                "height",
+                "gain",
+                "viewing_distance_mm",
+                "preset",
+                "crf",
+                "jobs",
+                "browser",
+                "browser_eye_corners_px",
+            ],
+            RenderBackend::Face => &[
+                "width",
+                "height",
+                "gain",
+                "viewing_distance_mm",
+                "natural_blinks",
+                "match_extractor",
+                "extractor_iris_views",
+                "match_readback",
+                "identities",
+                "face_height_frac",
+                "head_sway",
+                "head_motion",
+                "webcam",
+            ],
+            RenderBackend::Replay => &["gain", "viewing_distance_mm", "preset", "crf", "carriers"],
+        }
+    }
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderTable::default().into_settings()
+    }
+}
+
+impl Default for FaceBackendSettings {
+    /// The face backend's keys when `[render]` has only `backend = "face"`.
+    fn default() -> Self {
+        let raw = RenderTable {
+            backend: RenderBackend::Face,
+            ..RenderTable::default()
+        };
+        match raw.into_settings().backend {
+            BackendSettings::Face(f) => f,
+            _ => unreachable!("a face table gives face settings"),
+        }
+    }
+}
+
+impl RenderTable {
+    fn into_settings(self) -> RenderSettings {
+        let extractor = ExtractorMatchSettings {
+            match_extractor: self.match_extractor,
+            extractor_iris_views: self.extractor_iris_views,
+        };
+        let backend = match self.backend {
+            RenderBackend::Eyes => BackendSettings::Eyes { extractor },
+            RenderBackend::Browser => BackendSettings::Browser {
+                browser: self.browser,
+                eye_corners_px: self.browser_eye_corners_px,
+            },
+            RenderBackend::Face => BackendSettings::Face(FaceBackendSettings {
+                extractor,
+                match_readback: self.match_readback,
+                identities: self.identities,
+                face_height_frac: self.face_height_frac,
+                head_sway: self.head_sway,
+                head_motion: self.head_motion,
+                webcam: self.webcam,
+            }),
+            RenderBackend::Replay => BackendSettings::Replay {
+                carriers: self.carriers,
+            },
+        };
+        RenderSettings {
+            width: self.width,
+            height: self.height,
+            gain: self.gain,
+            viewing_distance_mm: self.viewing_distance_mm,
+            natural_blinks: self.natural_blinks,
+            preset: self.preset,
+            crf: self.crf,
+            jobs: self.jobs,
+            backend,
+        }
+    }
+}
+
+/// The `[render]` table as written: every key of every backend, typed and
+/// defaulted, before the keys are sorted by the backend they apply to.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct RenderSettings {
+struct RenderTable {
     /// Video width in px; default: the canvas width.
     pub width: Option<usize>,
     /// Video height in px; default: the canvas height.
@@ -122,9 +341,9 @@ pub enum RenderBackend {
     Replay,
 }
 
-impl Default for RenderSettings {
+impl Default for RenderTable {
     fn default() -> Self {
-        RenderSettings {
+        RenderTable {
             width: None,
             height: None,
             gain: 1.0,
@@ -170,19 +389,39 @@ impl RenderSettings {
     /// Deserializes the table; a type error names the key at fault (the
     /// table's own error does not), found by trying each key alone.
     fn from_table(table: &toml::Table) -> Result<Self, toml::de::Error> {
-        toml::Value::Table(table.clone()).try_into().map_err(|e| {
+        let raw: RenderTable = toml::Value::Table(table.clone()).try_into().map_err(|e| {
             let key = table.iter().find(|(k, v)| {
                 let mut one = toml::Table::new();
                 one.insert((*k).clone(), (*v).clone());
-                toml::Value::Table(one)
-                    .try_into::<RenderSettings>()
-                    .is_err()
+                toml::Value::Table(one).try_into::<RenderTable>().is_err()
             });
             match key {
                 Some((k, _)) => serde::de::Error::custom(format!("'{k}': {e}")),
                 None => e,
             }
-        })
+        })?;
+        let backend = raw.backend;
+        if let Some(key) = table
+            .keys()
+            .find(|k| *k != "backend" && !backend.keys().contains(&k.as_str()))
+        {
+            let owners: Vec<String> = [
+                RenderBackend::Eyes,
+                RenderBackend::Browser,
+                RenderBackend::Face,
+                RenderBackend::Replay,
+            ]
+            .into_iter()
+            .filter(|b| b.keys().contains(&key.as_str()))
+            .map(|b| format!("\"{}\"", b.name()))
+            .collect();
+            return Err(serde::de::Error::custom(format!(
+                "'{key}' does not apply to backend = \"{}\" (only to {})",
+                backend.name(),
+                owners.join(" and ")
+            )));
+        }
+        Ok(raw.into_settings())
     }
 
     /// Sessions to render at once: `jobs`, or one per core.
@@ -217,11 +456,21 @@ mod tests {
         );
         let s = RenderSettings::from_config(&cfg("[render]\ngain = 2.0\njobs = 3"), p).unwrap();
         assert_eq!((s.gain, s.jobs, s.crf), (2.0, 3, 18));
-        let s = RenderSettings::from_config(&cfg("[render]\nhead_motion = \"source\""), p).unwrap();
-        assert_eq!(s.head_motion, HeadMotion::Source);
-        let e = RenderSettings::from_config(&cfg("[render]\nhead_motion = \"video\""), p)
-            .unwrap_err()
-            .to_string();
+        let s = RenderSettings::from_config(
+            &cfg("[render]\nbackend = \"face\"\nhead_motion = \"source\""),
+            p,
+        )
+        .unwrap();
+        let BackendSettings::Face(f) = s.backend else {
+            panic!("not face: {s:?}")
+        };
+        assert_eq!(f.head_motion, HeadMotion::Source);
+        let e = RenderSettings::from_config(
+            &cfg("[render]\nbackend = \"face\"\nhead_motion = \"video\""),
+            p,
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("head_motion") && e.contains("source"), "{e}");
         let e = RenderSettings::from_config(&cfg("[render]\ngian = 2.0"), p)
             .unwrap_err()
@@ -234,5 +483,39 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("data.toml") && e.contains("crf"), "{e}");
+    }
+
+    #[test]
+    fn a_key_of_another_backend_is_an_error_naming_it() {
+        let p = Path::new("data.toml");
+        let e = RenderSettings::from_config(&cfg("[render]\ncarriers = [\"a.mp4\"]"), p)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "data.toml: [render]: 'carriers' does not apply to backend = \"eyes\" (only to \"replay\")"
+        );
+        let e = RenderSettings::from_config(&cfg("[render]\nbackend = \"replay\"\nwidth = 640"), p)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("'width' does not apply to backend = \"replay\""),
+            "{e}"
+        );
+        // Every key of the raw table applies to at least one backend.
+        let all = toml::Value::try_from(RenderTable::default()).unwrap();
+        for key in all.as_table().unwrap().keys().filter(|k| *k != "backend") {
+            assert!(
+                [
+                    RenderBackend::Eyes,
+                    RenderBackend::Browser,
+                    RenderBackend::Face,
+                    RenderBackend::Replay
+                ]
+                .iter()
+                .any(|b| b.keys().contains(&key.as_str())),
+                "{key} applies to no backend"
+            );
+        }
     }
 }

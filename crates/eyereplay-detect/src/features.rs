@@ -11,6 +11,7 @@
 //! horizontal. [`FEATURE_NAMES`] lists them in order; `docs/DETECTOR.md`
 //! explains each.
 
+pub use crate::moments::skewness;
 use crate::window::{lagged_steps, Window, FPS};
 use eyereplay_signal::stats::{median, pearson, quantile};
 
@@ -186,28 +187,6 @@ pub fn positive_fraction(v: &[f64]) -> f64 {
     v.iter().filter(|&&d| d > 0.0).count() as f64 / v.len() as f64
 }
 
-/// Sample skewness `m3 / m2^1.5` (scipy.stats.skew's default, biased);
-/// 0 for fewer than 3 values or no spread.
-pub fn skewness(v: &[f64]) -> f64 {
-    if v.len() < 3 {
-        return 0.0;
-    }
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    let (mut m2, mut m3) = (0.0, 0.0);
-    for &a in v {
-        let d = a - m;
-        m2 += d * d;
-        m3 += d * d * d;
-    }
-    m2 /= n;
-    m3 /= n;
-    if m2 <= 1e-300 {
-        return 0.0;
-    }
-    m3 / m2.powf(1.5)
-}
-
 /// Autocorrelation at `lag` (statsmodels' `acf`: the lagged sum of
 /// products over the full variance); 0 when undefined.
 pub fn autocorrelation(v: &[f64], lag: usize) -> f64 {
@@ -230,16 +209,6 @@ pub fn autocorrelation(v: &[f64], lag: usize) -> f64 {
 mod tests {
     use super::*;
     use crate::window::prepare_window;
-
-    #[test]
-    fn skewness_matches_scipy() {
-        // scipy.stats.skew([1, 2, 3, 10]), worked by hand: mean 4, deviations -3 -2 -1 6, m2 = 50/4 = 12.5, m3 = 180/4 = 45,
-        // 45 / 12.5^1.5 = 1.01823...
-        let s = skewness(&[1.0, 2.0, 3.0, 10.0]);
-        assert!((s - 45.0 / 12.5f64.powf(1.5)).abs() < 1e-12, "{s}");
-        assert!((s - 1.018_233_764_908_628).abs() < 1e-12);
-        assert_eq!(skewness(&[2.0, 2.0, 2.0]), 0.0);
-    }
 
     #[test]
     fn autocorrelation_matches_statsmodels() {

@@ -14,11 +14,13 @@
 //! input in training (on rendered video) and in use (on a real one); the
 //! umbrella crate `eyereplay` wires it to datasets and videos.
 
+#[cfg(feature = "cnn")]
 pub mod cnn;
 mod error;
 pub mod features;
 pub mod metrics;
 pub mod model;
+mod moments;
 pub mod window;
 
 pub use error::DetectError;

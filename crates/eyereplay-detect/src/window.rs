@@ -139,7 +139,7 @@ pub fn prepare_window(xy: &[[f64; 2]], start: usize) -> Option<Window> {
         *v = (*v - my) / scale;
     }
     let steps = lagged_steps(&x, LAG_200MS);
-    let mirrored = crate::features::skewness(&steps) > 0.0;
+    let mirrored = crate::moments::skewness(&steps) > 0.0;
     if mirrored {
         for v in x.iter_mut() {
             *v = -*v;

@@ -24,6 +24,12 @@ pub enum EvalError {
     Plot { name: String, message: String },
 }
 
+/// A drawing backend's failure while a figure is drawn; [`EvalError::Plot`]
+/// adds the figure's name.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub(crate) struct DrawError(pub String);
+
 impl EvalError {
     pub fn dataset(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
         EvalError::Dataset {

@@ -8,6 +8,7 @@ pub mod behaviour;
 pub mod dataset;
 pub mod distribution;
 mod error;
+mod evaluation;
 pub mod json;
 pub mod ks;
 pub mod metrics;
@@ -28,8 +29,10 @@ pub use visual::{
 };
 pub mod plot;
 pub mod report;
-pub use eyereplay_core::Calibration;
-pub use report::{
-    evaluate_dataset, metrics_json, write_report, Evaluation, HeadYawReadBack, SessionReadBack,
-    VisualRun, VisualSection, HEAD_YAW_READ_BACK_S, TARGET_HEAD_YAW_R_MIN,
+pub use evaluation::{
+    evaluate_dataset, Evaluation, HeadYawReadBack, SessionReadBack, VisualRun, VisualSection,
+    HEAD_YAW_READ_BACK_S, TARGET_HEAD_YAW_R_MIN,
 };
+pub use eyereplay_core::Calibration;
+pub use metrics_doc::metrics_json;
+pub use report::{html_escape, write_report};

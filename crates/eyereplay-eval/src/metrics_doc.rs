@@ -7,8 +7,8 @@
 //! `visual.{x,y}.{r,amplitude_ratio,gain}` and `visual.error.{mean,median,p95}`.
 
 use crate::distribution::{ClassEvaluation, Extras, MetricComparison};
+use crate::evaluation::{Evaluation, HeadYawReadBack, VisualSection};
 use crate::json::Json;
-use crate::report::{Evaluation, VisualSection};
 use crate::visual::{
     AxisFidelity, ErrorStats, VisualFidelity, TARGET_AMPLITUDE_RATIO, TARGET_R_MIN,
 };
@@ -154,7 +154,7 @@ struct SessionRow<'a> {
     error: Error,
     /// Full-face sessions only.
     #[serde(skip_serializing_if = "Option::is_none")]
-    head_yaw: Option<crate::HeadYawReadBack>,
+    head_yaw: Option<HeadYawReadBack>,
     /// Sessions read by the face detector's pipeline with a truth CSV.
     #[serde(skip_serializing_if = "Option::is_none")]
     budget: Option<crate::ReadBackBudget>,

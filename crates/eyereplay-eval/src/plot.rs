@@ -4,6 +4,7 @@
 //! depends on the fonts installed on the machine.
 
 use crate::distribution::{ClassEvaluation, Metric};
+use crate::error::DrawError;
 use crate::visual::VisualFidelity;
 use crate::EvalError;
 use plotters::coord::types::RangedCoordf64;
@@ -40,10 +41,12 @@ fn ensure_font() {
     });
 }
 
-type DrawResult = Result<(), String>;
+type DrawResult = Result<(), DrawError>;
 
-fn s<E: std::fmt::Display>(e: E) -> String {
-    e.to_string()
+/// A backend's error as a [`DrawError`] (its message, one line as the
+/// backend gives it).
+fn s<E: std::fmt::Display>(e: E) -> DrawError {
+    DrawError(e.to_string())
 }
 
 /// Draws with `draw` on a PNG bitmap and on an SVG string.
@@ -54,9 +57,9 @@ fn render(
     draw_svg: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> DrawResult,
 ) -> Result<Figure, EvalError> {
     ensure_font();
-    let err = |m: String| EvalError::Plot {
+    let err = |e: DrawError| EvalError::Plot {
         name: name.to_string(),
-        message: m,
+        message: e.0,
     };
     let mut buf = vec![255u8; size.0 as usize * size.1 as usize * 3];
     {

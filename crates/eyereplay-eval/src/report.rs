@@ -3,150 +3,20 @@
 //! (self-contained, figures inlined as base64 PNG), `report/figures/*.{png,svg}`
 //! and `report/events/<class>/<stem>.csv` (pymovements' events layout).
 
-use crate::dataset::{load_dataset, Dataset};
-use crate::distribution::{evaluate_class, ClassEvaluation, EvalConfig, Metric};
+use crate::distribution::Metric;
 use crate::metrics::events_csv;
 use crate::plot::{main_sequence_figure, qq_figure, visual_figure, windows_figure, Figure};
-use crate::visual::{VisualFidelity, TARGET_AMPLITUDE_RATIO, TARGET_R_MIN};
+use crate::visual::{TARGET_AMPLITUDE_RATIO, TARGET_R_MIN};
 use crate::EvalError;
 use base64::Engine;
-use eyereplay_core::{atomic_write, Canvas};
+use eyereplay_core::atomic_write;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
-/// A visual-fidelity run: a source iris trajectory against the iris
-/// extracted back from its render.
-#[derive(Clone, Debug)]
-pub struct VisualRun {
-    pub fidelity: VisualFidelity,
-    pub source_n: Vec<[f64; 2]>,
-    pub rendered_n: Vec<[f64; 2]>,
-    /// The video that was compared, as given.
-    pub video: String,
-    /// How the eye was found in the render (e.g. "face detector" or
-    /// "eye crops from the render's known geometry").
-    pub eye_locator: String,
-    /// Share of compared frames where the extractor found the eyes.
-    pub detection_rate: f64,
-}
-
-/// Whether the visual section was computed.
-#[derive(Clone, Debug)]
-pub enum VisualSection {
-    NotComputed { reason: String },
-    Computed(Box<VisualRun>),
-}
-
-/// Everything `eyereplay evaluate` measures.
-#[derive(Clone, Debug)]
-pub struct Evaluation {
-    pub config: EvalConfig,
-    pub fps: f64,
-    pub canvas: Canvas,
-    pub session_frames: usize,
-    pub classes: Vec<ClassEvaluation>,
-    pub pool_frames: Vec<usize>,
-    pub pool_segments: Vec<usize>,
-    /// Per class: sources by recording kind (see [`crate::dataset::ClassData`]).
-    pub source_kinds: Vec<std::collections::BTreeMap<String, usize>>,
-    pub visual: VisualSection,
-    /// The renderer's ground truth (`<stem>_truth.csv`) of a rendered
-    /// session against its source, without the extractor: (truth CSV,
-    /// comparison). Set whenever a truth file exists, even when the
-    /// extractor cannot read the video.
-    pub render_truth: Option<(String, VisualFidelity)>,
-    /// Every rendered session read back whole, when asked for
-    /// (`eyereplay evaluate --read-back-all`); empty otherwise.
-    pub sessions_read_back: Vec<SessionReadBack>,
-    /// Behaviour models against the real recordings of their class, for
-    /// every class that has both.
-    pub behaviour: Vec<crate::behaviour::BehaviourCheck>,
-}
-
-/// One session's video read back by the extractor, against its source.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SessionReadBack {
-    /// The session CSV, relative to the dataset.
-    pub session: String,
-    pub class: String,
-    /// Frames in which the extractor measured an iris (blinks excluded).
-    pub detection_rate: f64,
-    pub fidelity: VisualFidelity,
-    /// Full-face sessions (a `_head.csv` beside the video): the head's yaw
-    /// solved from the landmarks the extractor finds, against the drawn one.
-    pub head_yaw: Option<HeadYawReadBack>,
-    /// Sessions read by the face detector's pipeline with a truth CSV:
-    /// the movement to be read against the extractor's own error.
-    pub budget: Option<crate::ReadBackBudget>,
-}
-
-/// A rendered head's yaw read back from its video against its ground
-/// truth (both relative to their own means, so the fixed offset between
-/// the photo's rest pose and the canonical face shape drops out).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct HeadYawReadBack {
-    /// Frames compared (those in which a face was found).
-    pub frames: usize,
-    /// Frames read (the first [`HEAD_YAW_READ_BACK_S`] seconds at most).
-    pub frames_read: usize,
-    /// Pearson r, read against drawn; `None` when either is constant.
-    pub r: Option<f64>,
-    /// Least-squares slope of read on drawn.
-    pub slope: Option<f64>,
-    /// Standard deviation of the drawn yaw over those frames, degrees.
-    pub truth_sd_deg: f64,
-}
-
-/// How much of each full-face session's video the head yaw read-back
-/// solves: whole sessions up to this length (the bundled default's are
-/// 30 s). The landmarks on every frame cost about as much as the iris
-/// read-back; a longer session is judged on its first minute. The first
-/// 12 s alone read r under 0.9 for two default sessions whose heads
-/// happened to move little then (yaw sd 1.0 deg), 0.95 and 0.98 over the
-/// whole 30 s.
-pub const HEAD_YAW_READ_BACK_S: f64 = 60.0;
-
-/// The target for [`HeadYawReadBack::r`].
-pub const TARGET_HEAD_YAW_R_MIN: f64 = 0.9;
-
-/// Why the visual section is empty when no video was compared.
-pub const VISUAL_NOT_WIRED: &str = "not computed: no rendered video was compared. \
-'eyereplay evaluate' compares one rendered session (<class>/<stem>.mp4 beside its CSV) with \
-its source; the library entry point is eyereplay_eval::compare_visual";
-
-/// Loads a dataset folder and measures its distributional fidelity.
-pub fn evaluate_dataset(dir: &Path, cfg: &EvalConfig) -> Result<Evaluation, EvalError> {
-    let ds = load_dataset(dir)?;
-    Ok(evaluate_loaded(&ds, cfg))
-}
-
-/// [`evaluate_dataset`] on an already loaded dataset.
-pub fn evaluate_loaded(ds: &Dataset, cfg: &EvalConfig) -> Evaluation {
-    let classes = (0..ds.classes.len())
-        .map(|i| evaluate_class(ds, i, cfg))
-        .collect();
-    Evaluation {
-        config: cfg.clone(),
-        fps: ds.fps,
-        canvas: ds.canvas,
-        session_frames: ds.session_frames,
-        classes,
-        pool_frames: ds
-            .classes
-            .iter()
-            .map(|c| c.pool.iter().map(|s| s.points.len()).sum())
-            .collect(),
-        pool_segments: ds.classes.iter().map(|c| c.pool.len()).collect(),
-        source_kinds: ds.classes.iter().map(|c| c.source_kinds.clone()).collect(),
-        visual: VisualSection::NotComputed {
-            reason: VISUAL_NOT_WIRED.to_string(),
-        },
-        render_truth: None,
-        sessions_read_back: vec![],
-        behaviour: crate::behaviour::check_behaviour(ds, cfg),
-    }
-}
-
+pub use crate::evaluation::{
+    evaluate_dataset, evaluate_loaded, Evaluation, HeadYawReadBack, SessionReadBack, VisualRun,
+    VisualSection, HEAD_YAW_READ_BACK_S, TARGET_HEAD_YAW_R_MIN, VISUAL_NOT_WIRED,
+};
 pub use crate::metrics_doc::metrics_json;
 
 /// All figures of an evaluation.
@@ -178,7 +48,9 @@ pub fn figures(ev: &Evaluation) -> Result<Vec<Figure>, EvalError> {
     Ok(f)
 }
 
-fn esc(s: &str) -> String {
+/// Text escaped for HTML element content and double-quoted attribute
+/// values (`&`, `<`, `>`, `"`).
+pub fn html_escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -203,7 +75,7 @@ fn img(f: &Figure, alt: &str) -> String {
     format!(
         "<figure><img alt=\"{}\" width=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{} \
 (<a href=\"figures/{}.svg\">SVG</a>, <a href=\"figures/{}.png\">PNG</a>)</figcaption></figure>\n",
-        esc(alt),
+        html_escape(alt),
         f.size.0,
         base64::engine::general_purpose::STANDARD.encode(&f.png),
         alt,
@@ -373,7 +245,7 @@ fn behaviour_section(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
                 r.metric.title(),
                 f3(r.d_model),
                 f3(r.d_real),
-                esc(&pair),
+                html_escape(&pair),
                 r.n_model,
                 r.n_real,
                 r.pass().map_or("n/a", verdict)
@@ -516,7 +388,7 @@ fn visual_html(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
     h.push_str("<h2>Visual mapping fidelity</h2>\n");
     match &ev.visual {
         VisualSection::NotComputed { reason } => {
-            let _ = writeln!(h, "<p class=\"note\">{}</p>", esc(reason));
+            let _ = writeln!(h, "<p class=\"note\">{}</p>", html_escape(reason));
         }
         VisualSection::Computed(run) => {
             let v = &run.fidelity;
@@ -524,9 +396,9 @@ fn visual_html(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
             let _ = writeln!(
                 h,
                 "<p>Video <code>{}</code>, {} frames compared; eye located by: {} (iris measured in {:.1} % of the frames).</p>",
-                esc(&run.video),
+                html_escape(&run.video),
                 v.n_frames,
-                esc(&run.eye_locator),
+                html_escape(&run.eye_locator),
                 100.0 * run.detection_rate
             );
             h.push_str("<table><tr><th>measure</th><th>value</th><th>target</th><th>verdict</th><th>paper</th></tr>\n");
@@ -568,7 +440,7 @@ fn visual_html(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
         let _ = writeln!(
             h,
             "<h3>Renderer ground truth against the source</h3>\n<p>The renderer's own per-frame iris position (<code>{}</code>, mean of both eyes) against the source, without the extractor, {} frames: {}. This isolates the simulator's mapping from extraction error.</p>",
-            esc(file),
+            html_escape(file),
             t.n_frames,
             t.summary()
         );
@@ -624,7 +496,7 @@ fn sessions_read_back_html(h: &mut String, rows: &[SessionReadBack]) {
         let _ = writeln!(
             h,
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>{head}</tr>",
-            esc(c),
+            html_escape(c),
             rows.iter().filter(|r| r.class == c).count(),
             of(&|r| r.fidelity.x.r),
             of(&|r| r.fidelity.x.amplitude_ratio),
@@ -648,7 +520,7 @@ fn sessions_read_back_html(h: &mut String, rows: &[SessionReadBack]) {
         let _ = writeln!(
             h,
             "<tr><td><code>{}</code></td><td>{}</td><td>{:.1} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td>{head}</tr>",
-            esc(&r.session),
+            html_escape(&r.session),
             v.n_frames,
             100.0 * r.detection_rate,
             f3(v.x.r),
@@ -679,7 +551,7 @@ fn budget_html(h: &mut String, rows: &[SessionReadBack]) {
         let _ = writeln!(
             h,
             "<tr><td><code>{}</code></td><td>{}</td><td>{:.2}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.2}</td><td>{}</td></tr>",
-            esc(&r.session),
+            html_escape(&r.session),
             f3(r.fidelity.x.r),
             b.x.movement_px,
             b.x.iris_error_px,

@@ -11,6 +11,7 @@
 //! sixth of the network's time; here they take some tens of microseconds.
 
 use crate::error::{ExtractError, Result};
+use crate::shapes::FACE_MESH_LANDMARKS;
 
 /// Where one eye's crop lies and how its points return, as the eye
 /// model's metadata states them (`<eye>.crop`, `<eye>.points`).
@@ -82,8 +83,10 @@ impl EyeCropSpec {
             matrix_scale,
         };
         let top = spec.subset.iter().chain(&spec.rotation_idx).max();
-        if spec.subset.is_empty() || top.is_some_and(|&i| i >= 468) {
-            return Err(bad("mesh indices outside 0..468".into()));
+        if spec.subset.is_empty() || top.is_some_and(|&i| i >= FACE_MESH_LANDMARKS) {
+            return Err(bad(format!(
+                "mesh indices outside 0..{FACE_MESH_LANDMARKS}"
+            )));
         }
         Ok(spec)
     }

@@ -2,6 +2,7 @@
 //! MediaPipe's weighted non-maximum suppression.
 
 use crate::geom::Roi;
+use crate::shapes::{DETECTOR_ANCHORS, DETECTOR_ANCHOR_VALUES};
 
 pub const INPUT: usize = 128;
 const SCORE_THRESHOLD: f32 = 0.5;
@@ -20,11 +21,11 @@ pub struct Detection {
     pub kp: [[f32; 2]; 6],
 }
 
-/// The 896 anchor centres: stride 8 -> 16x16 cells x 2 anchors, stride 16 ->
+/// The [`DETECTOR_ANCHORS`] (896) anchor centres: stride 8 -> 16x16 cells x 2 anchors, stride 16 ->
 /// 8x8 cells x 6 anchors (MediaPipe's SsdAnchorsCalculator options for the
 /// short-range model: 4 layers, strides 8/16/16/16, same-stride layers merged).
 pub fn anchors() -> Vec<[f32; 2]> {
-    let mut a = Vec::with_capacity(896);
+    let mut a = Vec::with_capacity(DETECTOR_ANCHORS);
     for (cells, per_cell) in [(16usize, 2usize), (8, 6)] {
         for y in 0..cells {
             for x in 0..cells {
@@ -44,7 +45,8 @@ fn sigmoid(x: f32) -> f32 {
     1.0 / (1.0 + (-x.clamp(-100.0, 100.0)).exp())
 }
 
-/// Decodes raw outputs (896x16 regressors, 896 logits) into detections
+/// Decodes raw outputs ([`DETECTOR_ANCHORS`] x [`DETECTOR_ANCHOR_VALUES`]
+/// regressors, [`DETECTOR_ANCHORS`] logits) into detections
 /// above the score threshold, merged by weighted NMS, best first.
 pub fn decode(reg: &[f32], logits: &[f32], anchors: &[[f32; 2]]) -> Vec<Detection> {
     let s = INPUT as f32;
@@ -56,7 +58,7 @@ pub fn decode(reg: &[f32], logits: &[f32], anchors: &[[f32; 2]]) -> Vec<Detectio
             if score < SCORE_THRESHOLD {
                 return None;
             }
-            let r = &reg[i * 16..i * 16 + 16];
+            let r = &reg[i * DETECTOR_ANCHOR_VALUES..(i + 1) * DETECTOR_ANCHOR_VALUES];
             let a = anchors[i];
             let mut kp = [[0.0; 2]; 6];
             for (k, p) in kp.iter_mut().enumerate() {

@@ -15,10 +15,10 @@ pub enum ExtractError {
     #[error("{path}: no face found in any of its {frames} frames")]
     NoFace { path: PathBuf, frames: usize },
     #[error(
-        "models not found in {dir}: missing {missing}; run `eyereplay models fetch` (or scripts/models.sh)"
+        "models not found in {dir}: missing {missing}; run scripts/setup.sh (or `cargo xtask models` in a checkout)"
     )]
     ModelsMissing { dir: PathBuf, missing: String },
-    #[error("{path}: sha256 {actual} does not match the pinned {expected}; run `eyereplay models fetch`")]
+    #[error("{path}: sha256 {actual} does not match the pinned {expected}; run scripts/setup.sh (or `cargo xtask models`)")]
     ModelChecksum {
         path: PathBuf,
         expected: String,
@@ -26,12 +26,27 @@ pub enum ExtractError {
     },
     #[error("ONNX Runtime: {0}")]
     Runtime(String),
+    /// An output path that cannot hold what was asked (one CSV file for
+    /// several videos).
+    #[error("{0}")]
+    Output(String),
+    /// A network's output of another size than the pinned model's.
+    #[error("{model}: output {output} has {got} values, expected {expected}; run scripts/setup.sh (or `cargo xtask models`) to convert it again")]
+    ModelOutput {
+        model: String,
+        output: String,
+        got: usize,
+        expected: usize,
+    },
     #[error("{path}: line {line}: {message}")]
     Reference {
         path: PathBuf,
         line: u64,
         message: String,
     },
+    /// Reading a rendered video back failed.
+    #[error("{path}: {message}")]
+    ReadBack { path: PathBuf, message: String },
     #[error(transparent)]
     Core(#[from] eyereplay_core::CoreError),
     #[error("{path}: {source}")]

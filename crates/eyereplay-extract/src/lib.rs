@@ -40,7 +40,10 @@ mod models;
 mod output;
 mod preview;
 mod profile;
+mod readback;
 mod run;
+mod shapes;
+mod stage_progress;
 mod tracker;
 
 pub use compare::{compare, pearson, percentile, Agreement, Series};
@@ -55,20 +58,24 @@ pub use geom::{Pt, Roi};
 pub use image::{Border, ImageView, Planes, Rotation, YuvMatrix};
 pub use models::{
     check as check_models, default_models_dir, init_runtime, missing_files, runtime_library,
-    AttentionOut, Device, LandmarkModel, Models,
+    AttentionOut, DetectorOutput, Device, FaceMeshOutput, IrisOutput, LandmarkModel, Models,
 };
 pub use output::{
     flag_blinks, output_csv_paths, save_csv, write_csv, EyeRow, Row, CSV_HEADER,
     DEFAULT_BLINK_RATIO,
 };
-pub use profile::{
-    children_cpu_s, children_major_faults, process_cpu_s, thread_cpu_s, Stage, StageClock,
-    StageTimes,
+pub use profile::{process_cpu_s, thread_cpu_s, Stage, StageClock, StageTimes};
+pub use readback::{
+    extract_at_corners, extract_with_detector, row_norm, widen_blinks, BLINK_MARGIN_FRAMES,
 };
 pub use run::{
     extract_many, extract_video_to_csv, ExtractOptions, Extraction, NoProgress, Progress,
     DEFAULT_MESH_EVERY,
 };
+pub use shapes::{
+    DETECTOR_ANCHORS, DETECTOR_ANCHOR_VALUES, EYE_CONTOUR_POINTS, FACE_MESH_LANDMARKS, IRIS_POINTS,
+};
+pub use stage_progress::StageFrames;
 pub use tracker::{Eye, EyeMeasure, Face, Tracker, IRIS_VIEW_SHIFT_PX, MAX_IRIS_VIEWS};
 
 /// The revision of the rows an extraction writes: raised whenever a change
@@ -80,9 +87,3 @@ pub use tracker::{Eye, EyeMeasure, Face, Tracker, IRIS_VIEW_SHIFT_PX, MAX_IRIS_V
 /// `franck.mp4`). 2: segments of about 15 s starting on keyframes,
 /// whatever the number of workers (1: one segment per worker).
 pub const ROWS_REVISION: u32 = 3;
-
-/// The fetch script, embedded so that `eyereplay models fetch` works from
-/// an installed binary too.
-pub const MODELS_SCRIPT: &str = include_str!("../../../scripts/models.sh");
-/// The TFLite -> ONNX converter the fetch script runs.
-pub const CONVERTER_SCRIPT: &str = include_str!("../../../scripts/tflite_to_onnx.py");

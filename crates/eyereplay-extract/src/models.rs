@@ -10,6 +10,9 @@
 
 use crate::attention::EyeCropSpec;
 use crate::error::{ExtractError, Result};
+use crate::shapes::{
+    DETECTOR_ANCHORS, DETECTOR_ANCHOR_VALUES, EYE_CONTOUR_POINTS, FACE_MESH_LANDMARKS, IRIS_POINTS,
+};
 use ort::execution_providers::{CUDAExecutionProvider, ExecutionProvider};
 use ort::session::builder::{GraphOptimizationLevel, SessionBuilder};
 use ort::session::Session;
@@ -113,20 +116,23 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
     // One inference each on a grey image proves the graphs run and have the
     // expected output sizes.
     let grey = vec![0.5f32; 3 * 192 * 192];
-    let (reg, scores) = m.detect(&grey[..3 * 128 * 128])?;
+    let det = m.detect(&grey[..3 * 128 * 128])?;
     lines.push(format!(
         "{DETECTOR}: runs, {} anchors x {} values",
-        scores.len(),
-        reg.len() / scores.len().max(1)
+        det.scores.len(),
+        det.regressors.len() / det.scores.len().max(1)
     ));
-    let (lm, _) = m.mesh(&grey)?;
-    lines.push(format!("{MESH}: runs, {} landmarks", lm.len() / 3));
+    let mesh = m.mesh(&grey)?;
+    lines.push(format!(
+        "{MESH}: runs, {} landmarks",
+        mesh.landmarks.len() / 3
+    ));
     let eyes = vec![0.5f32; 2 * 3 * 64 * 64];
     let out = m.iris(&eyes)?;
     lines.push(format!(
         "{IRIS}: runs, 2 eyes x ({} contour + {} iris points)",
-        out[0].0.len() / 3,
-        out[0].1.len() / 3
+        out[0].contour.len() / 3,
+        out[0].iris.len() / 3
     ));
     let att = m.attention(&grey)?;
     lines.push(format!(
@@ -150,27 +156,33 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
     Ok(lines)
 }
 
-static RUNTIME: OnceLock<std::result::Result<(), String>> = OnceLock::new();
+/// The outcome of loading the runtime library: `Ok`, or an
+/// [`ExtractError::Runtime`].
+static RUNTIME: OnceLock<Result<()>> = OnceLock::new();
 
 /// Loads `libonnxruntime.so` from the models folder (once per process).
 pub fn init_runtime(dir: &Path) -> Result<()> {
     let lib = runtime_library(dir);
-    RUNTIME
-        .get_or_init(|| {
-            if !lib.is_file() {
-                return Err(format!(
-                    "{} not found; run `eyereplay models fetch`",
-                    lib.display()
-                ));
-            }
-            ort::init_from(lib.to_string_lossy().to_string())
-                .with_name("eyereplay")
-                .commit()
-                .map(|_| ())
-                .map_err(|e| e.to_string())
-        })
-        .clone()
-        .map_err(ExtractError::Runtime)
+    let r = RUNTIME.get_or_init(|| {
+        if !lib.is_file() {
+            return Err(ExtractError::Runtime(format!(
+                "{} not found; run scripts/setup.sh (or `cargo xtask models`)",
+                lib.display()
+            )));
+        }
+        ort::init_from(lib.to_string_lossy().to_string())
+            .with_name("eyereplay")
+            .commit()
+            .map(|_| ())
+            .map_err(ExtractError::from)
+    });
+    // A copy for each caller (ExtractError is not Clone: some variants hold
+    // an io::Error); only `Runtime` is ever stored.
+    match r {
+        Ok(()) => Ok(()),
+        Err(ExtractError::Runtime(m)) => Err(ExtractError::Runtime(m.clone())),
+        Err(e) => Err(ExtractError::Runtime(e.to_string())),
+    }
 }
 
 /// Where the networks run.
@@ -248,7 +260,7 @@ impl AttentionSessions {
             let get = |key: String| -> Result<String> {
                 meta.custom(&key)?.ok_or_else(|| {
                     ExtractError::Runtime(format!(
-                        "{what}: no metadata {key}; run `eyereplay models fetch` to convert it again"
+                        "{what}: no metadata {key}; run scripts/setup.sh (or `cargo xtask models`) to convert it again"
                     ))
                 })
             };
@@ -267,6 +279,51 @@ impl AttentionSessions {
             eye_in: [vec![], vec![]],
         })
     }
+}
+
+/// A network's output of another size than the pinned model gives: a typed
+/// error instead of an index out of bounds further on.
+fn expect_len(model: &str, output: &str, got: usize, expected: usize) -> Result<()> {
+    if got == expected {
+        Ok(())
+    } else {
+        Err(ExtractError::ModelOutput {
+            model: model.to_string(),
+            output: output.to_string(),
+            got,
+            expected,
+        })
+    }
+}
+
+/// The face detector's raw outputs on one 128-px input.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DetectorOutput {
+    /// [`DETECTOR_ANCHORS`] x [`DETECTOR_ANCHOR_VALUES`]: per anchor the box
+    /// (cx, cy, w, h) and six keypoints (x, y), in input pixels relative to
+    /// the anchor.
+    pub regressors: Vec<f32>,
+    /// Per anchor a face score logit.
+    pub scores: Vec<f32>,
+}
+
+/// The face mesh's outputs on one 192-px face crop.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FaceMeshOutput {
+    /// [`FACE_MESH_LANDMARKS`] x (x, y, z) in the crop's pixels.
+    pub landmarks: Vec<f32>,
+    /// Face presence logit.
+    pub face_flag: f32,
+}
+
+/// The iris model's outputs for one eye, each point (x, y, z) in the
+/// 64x64 crop's pixels.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IrisOutput {
+    /// [`EYE_CONTOUR_POINTS`] points: the eye contour and brow.
+    pub contour: Vec<f32>,
+    /// [`IRIS_POINTS`] points, the centre first.
+    pub iris: Vec<f32>,
 }
 
 /// What the attention face mesh reads from one 192-px face crop, in the
@@ -363,10 +420,6 @@ fn want_cuda(device: Device, dir: &Path) -> bool {
     }
 }
 
-/// Iris model output for one eye: 71 contour points and 5 iris points, each
-/// (x, y, z) in the 64x64 crop's pixels.
-pub type IrisOut = (Vec<f32>, Vec<f32>);
-
 impl Models {
     /// [`Models::load_on`] with the default [`Device`] (the CPU).
     pub fn load(dir: &Path) -> Result<Models> {
@@ -412,8 +465,23 @@ impl Models {
             .try_extract_tensor::<f32>()?
             .1
             .to_vec();
-        let face_logit = out["conv_faceflag_flat"].try_extract_tensor::<f32>()?.1[0];
+        expect_len(
+            ATTENTION,
+            "output_mesh_identity_flat",
+            mesh.len(),
+            FACE_MESH_LANDMARKS * 3,
+        )?;
+        let flag = out["conv_faceflag_flat"].try_extract_tensor::<f32>()?.1;
+        expect_len(ATTENTION, "conv_faceflag_flat", flag.len(), 1)?;
+        let face_logit = flag[0];
         let (shape, map) = out["eye_features"].try_extract_tensor::<f32>()?;
+        if shape.len() != 4 {
+            return Err(ExtractError::Runtime(format!(
+                "{ATTENTION}: output eye_features has {} dimensions, expected 4 (NCHW); \
+                 run scripts/setup.sh (or `cargo xtask models`) to convert it again",
+                shape.len()
+            )));
+        }
         let [_, c, h, w] = [0, 1, 2, 3].map(|k| shape[k] as usize);
         let matrices = [att.crops[0].matrix(&mesh), att.crops[1].matrix(&mesh)];
         for ((spec, m), input) in att.crops.iter().zip(&matrices).zip(&mut att.eye_in) {
@@ -429,54 +497,83 @@ impl Models {
         let out = att
             .eyes
             .run(ort::inputs!["left_eye_features" => left, "right_eye_features" => right])?;
-        let local = |name: &str| -> Result<Vec<f32>> {
-            Ok(out[name].try_extract_tensor::<f32>()?.1.to_vec())
+        // Each eye model output, checked against its (x, y) point count.
+        let local = |name: &str, points: usize| -> Result<Vec<f32>> {
+            let v = out[name].try_extract_tensor::<f32>()?.1.to_vec();
+            expect_len(ATTENTION_EYES, name, v.len(), points * 2)?;
+            Ok(v)
         };
         let back = |k: usize, pts: Vec<f32>| att.crops[k].points_back(&pts, &matrices[k]);
         Ok(AttentionOut {
-            eyes: [back(0, local("left_eye")?), back(1, local("right_eye")?)],
-            irises: [back(0, local("left_iris")?), back(1, local("right_iris")?)],
+            eyes: [
+                back(0, local("left_eye", EYE_CONTOUR_POINTS)?),
+                back(1, local("right_eye", EYE_CONTOUR_POINTS)?),
+            ],
+            irises: [
+                back(0, local("left_iris", IRIS_POINTS)?),
+                back(1, local("right_iris", IRIS_POINTS)?),
+            ],
             mesh,
             face_logit,
         })
     }
 
-    /// Face detector on a 1x3x128x128 input in [-1, 1]: (regressors 896x16,
-    /// score logits 896).
-    pub fn detect(&mut self, input: &[f32]) -> Result<(Vec<f32>, Vec<f32>)> {
+    /// Face detector on a 1x3x128x128 input in [-1, 1]: regressors
+    /// ([`DETECTOR_ANCHORS`] x [`DETECTOR_ANCHOR_VALUES`]) and score logits
+    /// (one per anchor).
+    pub fn detect(&mut self, input: &[f32]) -> Result<DetectorOutput> {
         let t = TensorRef::from_array_view(([1usize, 3, 128, 128], input))?;
         let out = self.detector.run(ort::inputs!["input" => t])?;
         let (_, reg) = out["regressors"].try_extract_tensor::<f32>()?;
         let (_, sc) = out["classificators"].try_extract_tensor::<f32>()?;
-        Ok((reg.to_vec(), sc.to_vec()))
+        expect_len(
+            DETECTOR,
+            "regressors",
+            reg.len(),
+            DETECTOR_ANCHORS * DETECTOR_ANCHOR_VALUES,
+        )?;
+        expect_len(DETECTOR, "classificators", sc.len(), DETECTOR_ANCHORS)?;
+        Ok(DetectorOutput {
+            regressors: reg.to_vec(),
+            scores: sc.to_vec(),
+        })
     }
 
-    /// Face mesh on a 1x3x192x192 input in [0, 1]: (468 x (x,y,z) in crop
-    /// pixels, face presence logit).
-    pub fn mesh(&mut self, input: &[f32]) -> Result<(Vec<f32>, f32)> {
+    /// Face mesh on a 1x3x192x192 input in [0, 1]: [`FACE_MESH_LANDMARKS`]
+    /// x (x, y, z) in crop pixels and the face presence logit.
+    pub fn mesh(&mut self, input: &[f32]) -> Result<FaceMeshOutput> {
         let t = TensorRef::from_array_view(([1usize, 3, 192, 192], input))?;
         let mesh = lazy_session(&mut self.mesh, &self.dir, MESH, &mut self.on_cuda)?;
         let out = mesh.run(ort::inputs!["input" => t])?;
         let (_, lm) = out["conv2d_21_flat"].try_extract_tensor::<f32>()?;
         let (_, sc) = out["conv2d_31_flat"].try_extract_tensor::<f32>()?;
-        Ok((lm.to_vec(), sc[0]))
+        expect_len(MESH, "conv2d_21_flat", lm.len(), FACE_MESH_LANDMARKS * 3)?;
+        expect_len(MESH, "conv2d_31_flat", sc.len(), 1)?;
+        Ok(FaceMeshOutput {
+            landmarks: lm.to_vec(),
+            face_flag: sc[0],
+        })
     }
 
     /// Iris model on one eye (a 1x3x64x64 input in [0, 1]). The pipeline
     /// batches both eyes ([`Models::iris`]); this is the unbatched
     /// reference the batch must equal.
-    pub fn iris_single(&mut self, input: &[f32]) -> Result<IrisOut> {
+    pub fn iris_single(&mut self, input: &[f32]) -> Result<IrisOutput> {
         let t = TensorRef::from_array_view(([1usize, 3, 64, 64], input))?;
         let iris = lazy_session(&mut self.iris, &self.dir, IRIS, &mut self.on_cuda)?;
         let out = iris.run(ort::inputs!["input" => t])?;
         let (_, contour) = out["output_eyes_contours_and_brows"].try_extract_tensor::<f32>()?;
         let (_, iris) = out["output_iris"].try_extract_tensor::<f32>()?;
-        Ok((contour.to_vec(), iris.to_vec()))
+        check_iris_lens(contour.len(), iris.len(), 1)?;
+        Ok(IrisOutput {
+            contour: contour.to_vec(),
+            iris: iris.to_vec(),
+        })
     }
 
     /// Iris model on both eyes at once (a 2x3x64x64 batch in [0, 1]): one
     /// inference instead of two halves the per-run overhead of ONNX Runtime.
-    pub fn iris(&mut self, input: &[f32]) -> Result<[IrisOut; 2]> {
+    pub fn iris(&mut self, input: &[f32]) -> Result<[IrisOutput; 2]> {
         let mut out = self.iris_batch(&input[..2 * 3 * 64 * 64], 2)?;
         let second = out.pop().expect("two eyes");
         let first = out.pop().expect("two eyes");
@@ -485,16 +582,31 @@ impl Models {
 
     /// Iris model on `eyes` crops at once (an `eyes`x3x64x64 batch in [0, 1],
     /// `input` exactly that long): one output per crop, in order.
-    pub fn iris_batch(&mut self, input: &[f32], eyes: usize) -> Result<Vec<IrisOut>> {
+    pub fn iris_batch(&mut self, input: &[f32], eyes: usize) -> Result<Vec<IrisOutput>> {
         let t = TensorRef::from_array_view(([eyes, 3, 64, 64], input))?;
         let iris = lazy_session(&mut self.iris, &self.dir, IRIS, &mut self.on_cuda)?;
         let out = iris.run(ort::inputs!["input" => t])?;
         let (_, contour) = out["output_eyes_contours_and_brows"].try_extract_tensor::<f32>()?;
         let (_, iris) = out["output_iris"].try_extract_tensor::<f32>()?;
+        check_iris_lens(contour.len(), iris.len(), eyes)?;
         Ok(contour
-            .chunks_exact(213)
-            .zip(iris.chunks_exact(15))
-            .map(|(c, i)| (c.to_vec(), i.to_vec()))
+            .chunks_exact(EYE_CONTOUR_POINTS * 3)
+            .zip(iris.chunks_exact(IRIS_POINTS * 3))
+            .map(|(c, i)| IrisOutput {
+                contour: c.to_vec(),
+                iris: i.to_vec(),
+            })
             .collect())
     }
+}
+
+/// The iris model's two outputs for `eyes` crops: (x, y, z) per point.
+fn check_iris_lens(contour: usize, iris: usize, eyes: usize) -> Result<()> {
+    expect_len(
+        IRIS,
+        "output_eyes_contours_and_brows",
+        contour,
+        eyes * EYE_CONTOUR_POINTS * 3,
+    )?;
+    expect_len(IRIS, "output_iris", iris, eyes * IRIS_POINTS * 3)
 }

@@ -5,7 +5,7 @@
 //! image-right corner (1) for both eyes, `ny` from the upper lid (0) to the
 //! lower lid (1); `nx`, `ny` and `aperture` are the means of the two eyes.
 
-use crate::error::Result;
+use crate::error::{ExtractError, Result};
 use crate::geom::Pt;
 use crate::tracker::Face;
 use std::io::Write;
@@ -196,21 +196,21 @@ pub fn write_csv(w: &mut dyn Write, rows: &[Row]) -> std::io::Result<()> {
 
 /// Where the extraction CSVs of `videos` go for an output `out`: `out`
 /// itself when it names a `.csv` file (one video only), else `<out>/<video
-/// stem>.csv` each. The error is the one line the command line and the
-/// Python package print.
+/// stem>.csv` each. The error ([`ExtractError::Output`]) is the one line
+/// the command line and the Python package print.
 pub fn output_csv_paths(
     out: &Path,
     videos: &[std::path::PathBuf],
-) -> std::result::Result<Vec<std::path::PathBuf>, String> {
+) -> Result<Vec<std::path::PathBuf>> {
     let single_file = out
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
     if single_file && videos.len() > 1 {
-        return Err(format!(
+        return Err(ExtractError::Output(format!(
             "--out {} is one file but {} videos were given; pass a folder",
             out.display(),
             videos.len()
-        ));
+        )));
     }
     Ok(videos
         .iter()

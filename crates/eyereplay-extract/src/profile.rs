@@ -127,32 +127,6 @@ pub fn process_cpu_s() -> f64 {
     clock_s(libc::CLOCK_PROCESS_CPUTIME_ID)
 }
 
-/// CPU time (user + system) of the children this process has waited for,
-/// and of their waited-for descendants, in seconds (for whole-process
-/// benchmarks of child commands).
-pub fn children_cpu_s() -> f64 {
-    let ru = children_rusage();
-    let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
-    tv(ru.ru_utime) + tv(ru.ru_stime)
-}
-
-/// Major page faults (pages read back from disk) of the waited-for
-/// children: many of them mean the machine was short of memory during a
-/// benchmark, which inflates CPU time.
-pub fn children_major_faults() -> u64 {
-    children_rusage().ru_majflt.max(0) as u64
-}
-
-fn children_rusage() -> libc::rusage {
-    // SAFETY: an all-zero rusage is a valid value to be overwritten.
-    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
-    // SAFETY: `ru` is a valid, writable rusage; RUSAGE_CHILDREN always exists.
-    unsafe {
-        libc::getrusage(libc::RUSAGE_CHILDREN, &mut ru);
-    }
-    ru
-}
-
 fn clock_s(clock: libc::clockid_t) -> f64 {
     let mut ts = libc::timespec {
         tv_sec: 0,
@@ -202,20 +176,6 @@ mod tests {
         let total = clock.times.total_s();
         assert!((total - (clock.last_s - started_s)).abs() < 1e-9, "{total}");
         assert!(total >= 0.002 * 21.0);
-    }
-
-    #[test]
-    fn children_cpu_time_counts_a_busy_child() {
-        let before = children_cpu_s();
-        // A child that burns about 0.2 s of CPU (a shell loop).
-        let ok = std::process::Command::new("sh")
-            .args(["-c", "i=0; while [ $i -lt 200000 ]; do i=$((i+1)); done"])
-            .status()
-            .map(|s| s.success())
-            .unwrap_or(false);
-        if ok {
-            assert!(children_cpu_s() > before);
-        }
     }
 
     #[test]

@@ -453,7 +453,7 @@ fn run_jobs(
     std::thread::scope(|s| {
         for _ in 0..workers {
             s.spawn(|| {
-                let mut tracker: Option<std::result::Result<Tracker, String>> = None;
+                let mut tracker: Option<Result<Tracker>> = None;
                 // The last video's decoder, kept for its next segment.
                 let mut open: Option<(usize, Decoder)> = None;
                 loop {
@@ -461,13 +461,14 @@ fn run_jobs(
                         break;
                     };
                     let t = tracker.get_or_insert_with(|| {
-                        Models::load_on(&opts.models_dir, opts.device)
-                            .map(|m| new_tracker(m, opts))
-                            .map_err(|e| e.to_string())
+                        Models::load_on(&opts.models_dir, opts.device).map(|m| new_tracker(m, opts))
                     });
                     let out = match t {
                         Ok(t) => run_segment(t, &mut open, &paths[job.video], job, opts, progress),
-                        Err(e) => Err(ExtractError::Runtime(e.clone())),
+                        // Every segment of this worker fails with the load's
+                        // message (ExtractError is not Clone: some variants
+                        // hold an io::Error).
+                        Err(e) => Err(ExtractError::Runtime(e.to_string())),
                     };
                     *slots[job.video][job.segment].lock().expect("slot lock") = Some(out);
                 }

@@ -9,7 +9,7 @@ use crate::detect::{self, Detection};
 use crate::error::Result;
 use crate::geom::{Pt, Roi};
 use crate::image::{Border, ImageView};
-use crate::models::{AttentionOut, IrisOut, LandmarkModel, Models};
+use crate::models::{AttentionOut, IrisOutput, LandmarkModel, Models};
 use crate::profile::{Stage, StageClock};
 
 const MESH_INPUT: usize = 192;
@@ -215,9 +215,9 @@ impl Tracker {
             &mut self.det_in,
         );
         self.clock.lap(Stage::Crop);
-        let (reg, logits) = self.models.detect(&self.det_in)?;
+        let raw = self.models.detect(&self.det_in)?;
         self.clock.lap(Stage::Detector);
-        let dets = detect::decode(&reg, &logits, &self.anchors);
+        let dets = detect::decode(&raw.regressors, &raw.scores, &self.anchors);
         let best: Option<&Detection> = dets
             .iter()
             .max_by(|a, b| detect::area_px(a, &lb).total_cmp(&detect::area_px(b, &lb)));
@@ -343,8 +343,8 @@ impl Tracker {
             self.clock.lap(Stage::Crop);
             let (lm, logit, attention) = match self.landmarks {
                 LandmarkModel::Cascade => {
-                    let (lm, logit) = self.models.mesh(&self.mesh_in)?;
-                    (lm, logit, None)
+                    let out = self.models.mesh(&self.mesh_in)?;
+                    (out.landmarks, out.face_flag, None)
                 }
                 LandmarkModel::Attention => {
                     let mut out = self.models.attention(&self.mesh_in)?;
@@ -557,7 +557,7 @@ pub(crate) fn iris_step(
         };
         // The mean over the views of each point (one view: the points
         // themselves, bit for bit, since x / 1 is exact).
-        let mean = |part: fn(&IrisOut) -> &[f32]| -> Vec<Pt> {
+        let mean = |part: fn(&IrisOutput) -> &[f32]| -> Vec<Pt> {
             let mut sum = in_image(k, part(&outs[k]));
             for v in 1..views {
                 let j = 2 * v + k;
@@ -568,8 +568,8 @@ pub(crate) fn iris_step(
             let n = views as f32;
             sum.into_iter().map(|p| Pt::new(p.x / n, p.y / n)).collect()
         };
-        let contour = mean(|o| &o.0);
-        let rim = mean(|o| &o.1);
+        let contour = mean(|o| &o.contour);
+        let rim = mean(|o| &o.iris);
         let (a, b) = (contour[CONTOUR_CORNER_A], contour[CONTOUR_CORNER_B]);
         // Contour point 0 is the corner that sits on the crop's left in
         // the model's view: mesh 33 for the first eye, 263 (mirrored) for

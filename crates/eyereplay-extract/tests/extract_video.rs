@@ -353,7 +353,7 @@ fn bad_inputs_fail_with_one_line_errors() {
         ..Default::default()
     };
     let e = extract_one(&junk, &missing).unwrap_err();
-    assert!(e.to_string().contains("eyereplay models fetch"), "{e}");
+    assert!(e.to_string().contains("scripts/setup.sh"), "{e}");
 
     let audio = dir.path().join("audio.m4a");
     run_ffmpeg(&[
@@ -609,10 +609,12 @@ fn batched_iris_equals_two_single_inferences() {
     let mut models = Models::load_on(&m, Device::Cpu).unwrap();
     let batched = models.iris(&crops).unwrap();
     let plane = 3 * 64 * 64;
-    for (k, (contour, iris)) in batched.iter().enumerate() {
-        let (c1, i1) = models
+    for (k, out) in batched.iter().enumerate() {
+        let (contour, iris) = (&out.contour, &out.iris);
+        let single = models
             .iris_single(&crops[k * plane..(k + 1) * plane])
             .unwrap();
+        let (c1, i1) = (single.contour, single.iris);
         assert_eq!((contour.len(), iris.len()), (c1.len(), i1.len()));
         let diff = contour
             .iter()

@@ -12,6 +12,14 @@ pub enum FaceError {
     },
     #[error("{path}: not a face mesh: {message}")]
     Mesh { path: PathBuf, message: String },
+    /// What is wrong with serialized mesh bytes ([`crate::parse_mesh`]);
+    /// reading a file turns it into [`FaceError::Mesh`] with the path.
+    #[error("{0}")]
+    MeshFormat(String),
+    /// A `[render.webcam]` range out of its limits
+    /// ([`crate::webcam::WebcamRanges::validate`]).
+    #[error("{0}")]
+    Webcam(String),
     #[error("{path}: cannot read the image: {message}")]
     Unreadable { path: PathBuf, message: String },
     #[error("{path}: no face found in the photo")]

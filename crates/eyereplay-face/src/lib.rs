@@ -71,7 +71,7 @@ pub use probe::{
     match_extractor, read_frame, refine_match, ExtractorMatch, ProbeHeadRange, SessionRead,
     REFINE_MIN_READS,
 };
-pub use raster::{DrawStats, Rasterizer, RgbImage, TexturedMesh};
+pub use raster::{DrawStats, Rasterizer, RgbImage, SavePng, TexturedMesh};
 pub use scene::{EyeImage, FaceScene, FaceState, Framing};
 pub use session::{
     head_path, render_face_session, run_face_bench, DrawnFrame, FaceSessionParams,

@@ -138,9 +138,9 @@ impl CanonicalMesh {
             path: path.to_path_buf(),
             source,
         })?;
-        parse(&bytes).map_err(|message| FaceError::Mesh {
+        parse(&bytes).map_err(|e| FaceError::Mesh {
             path: path.to_path_buf(),
-            message,
+            message: e.to_string(),
         })
     }
 
@@ -210,9 +210,10 @@ impl CanonicalMesh {
     }
 }
 
-/// Parses a serialized `GeometryPipelineMetadata`; the error says what is
-/// wrong (the caller adds the path).
-pub fn parse(bytes: &[u8]) -> std::result::Result<CanonicalMesh, String> {
+/// Parses a serialized `GeometryPipelineMetadata`; the error
+/// ([`FaceError::MeshFormat`]) says what is wrong (the caller adds the
+/// path).
+pub fn parse(bytes: &[u8]) -> Result<CanonicalMesh> {
     let mut mesh_bytes: Option<&[u8]> = None;
     let mut procrustes = vec![];
     let mut input_source = 0u32;
@@ -233,14 +234,19 @@ pub fn parse(bytes: &[u8]) -> std::result::Result<CanonicalMesh, String> {
                 }
                 match (id, weight) {
                     (Some(i), Some(wt)) => procrustes.push((i, wt)),
-                    _ => return Err("a Procrustes landmark lacks its id or weight".into()),
+                    _ => {
+                        return Err(FaceError::MeshFormat(
+                            "a Procrustes landmark lacks its id or weight".into(),
+                        ))
+                    }
                 }
             }
             (3, WIRE_VARINT) => input_source = r.varint()? as u32,
             (_, wt) => r.skip(wt)?,
         }
     }
-    let mesh_bytes = mesh_bytes.ok_or("no canonical_mesh (field 1)")?;
+    let mesh_bytes =
+        mesh_bytes.ok_or_else(|| FaceError::MeshFormat("no canonical_mesh (field 1)".into()))?;
     let mut floats = vec![];
     let mut indices = vec![];
     let mut r = Reader::new(mesh_bytes);
@@ -249,7 +255,9 @@ pub fn parse(bytes: &[u8]) -> std::result::Result<CanonicalMesh, String> {
             (1 | 2, WIRE_VARINT) => {
                 // VERTEX_PT and TRIANGLE are the only values the schema has.
                 if r.varint()? != 0 {
-                    return Err("vertex or primitive type other than VERTEX_PT/TRIANGLE".into());
+                    return Err(FaceError::MeshFormat(
+                        "vertex or primitive type other than VERTEX_PT/TRIANGLE".into(),
+                    ));
                 }
             }
             (3, WIRE_I32) => floats.push(r.f32()?),
@@ -270,20 +278,22 @@ pub fn parse(bytes: &[u8]) -> std::result::Result<CanonicalMesh, String> {
         }
     }
     if floats.len() != MESH_VERTICES * 5 {
-        return Err(format!(
+        return Err(FaceError::MeshFormat(format!(
             "{} vertex floats, expected {} (468 vertices x 5)",
             floats.len(),
             MESH_VERTICES * 5
-        ));
+        )));
     }
     if indices.is_empty() || indices.len() % 3 != 0 {
-        return Err(format!(
+        return Err(FaceError::MeshFormat(format!(
             "{} triangle indices, expected a positive multiple of 3",
             indices.len()
-        ));
+        )));
     }
     if let Some(&bad) = indices.iter().find(|&&i| i as usize >= MESH_VERTICES) {
-        return Err(format!("triangle index {bad} out of range"));
+        return Err(FaceError::MeshFormat(format!(
+            "triangle index {bad} out of range"
+        )));
     }
     let positions_cm = floats.chunks_exact(5).map(|v| [v[0], v[1], v[2]]).collect();
     let uvs = floats.chunks_exact(5).map(|v| [v[3], v[4]]).collect();
@@ -318,50 +328,60 @@ impl<'a> Reader<'a> {
     fn done(&self) -> bool {
         self.pos >= self.b.len()
     }
-    fn varint(&mut self) -> std::result::Result<u64, String> {
+    fn varint(&mut self) -> Result<u64> {
         let mut v = 0u64;
         for shift in (0..64).step_by(7) {
-            let byte = *self
-                .b
-                .get(self.pos)
-                .ok_or_else(|| format!("truncated varint at byte {}", self.pos))?;
+            let byte = *self.b.get(self.pos).ok_or_else(|| {
+                FaceError::MeshFormat(format!("truncated varint at byte {}", self.pos))
+            })?;
             self.pos += 1;
             v |= ((byte & 0x7f) as u64) << shift;
             if byte & 0x80 == 0 {
                 return Ok(v);
             }
         }
-        Err(format!("varint longer than 10 bytes at byte {}", self.pos))
+        Err(FaceError::MeshFormat(format!(
+            "varint longer than 10 bytes at byte {}",
+            self.pos
+        )))
     }
-    fn key(&mut self) -> std::result::Result<(u64, u8), String> {
+    fn key(&mut self) -> Result<(u64, u8)> {
         let k = self.varint()?;
         Ok((k >> 3, (k & 7) as u8))
     }
-    fn take(&mut self, n: usize) -> std::result::Result<&'a [u8], String> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8]> {
         let end = self
             .pos
             .checked_add(n)
             .filter(|&e| e <= self.b.len())
-            .ok_or_else(|| format!("field of {n} bytes runs past the end at byte {}", self.pos))?;
+            .ok_or_else(|| {
+                FaceError::MeshFormat(format!(
+                    "field of {n} bytes runs past the end at byte {}",
+                    self.pos
+                ))
+            })?;
         let s = &self.b[self.pos..end];
         self.pos = end;
         Ok(s)
     }
-    fn len_delimited(&mut self) -> std::result::Result<&'a [u8], String> {
+    fn len_delimited(&mut self) -> Result<&'a [u8]> {
         let n = self.varint()? as usize;
         self.take(n)
     }
-    fn f32(&mut self) -> std::result::Result<f32, String> {
+    fn f32(&mut self) -> Result<f32> {
         let s = self.take(4)?;
         Ok(f32::from_le_bytes([s[0], s[1], s[2], s[3]]))
     }
-    fn skip(&mut self, wire: u8) -> std::result::Result<(), String> {
+    fn skip(&mut self, wire: u8) -> Result<()> {
         match wire {
             WIRE_VARINT => self.varint().map(|_| ()),
             WIRE_I64 => self.take(8).map(|_| ()),
             WIRE_LEN => self.len_delimited().map(|_| ()),
             WIRE_I32 => self.take(4).map(|_| ()),
-            w => Err(format!("unsupported wire type {w} at byte {}", self.pos)),
+            w => Err(FaceError::MeshFormat(format!(
+                "unsupported wire type {w} at byte {}",
+                self.pos
+            ))),
         }
     }
 }
@@ -408,9 +428,16 @@ mod tests {
     fn rejects_truncation_and_bad_indices() {
         assert!(parse(&[(1 << 3) | 2, 50, 1, 2])
             .unwrap_err()
+            .to_string()
             .contains("past the end"));
-        assert!(parse(&[]).unwrap_err().contains("no canonical_mesh"));
+        assert!(parse(&[])
+            .unwrap_err()
+            .to_string()
+            .contains("no canonical_mesh"));
         let msg = [(1 << 3) | 2, 2, 4 << 3, 1];
-        assert!(parse(&msg).unwrap_err().contains("0 vertex floats"));
+        assert!(parse(&msg)
+            .unwrap_err()
+            .to_string()
+            .contains("0 vertex floats"));
     }
 }

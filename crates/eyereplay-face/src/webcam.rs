@@ -84,7 +84,8 @@
 //! set stays in cache. No allocation per frame once the buffers have grown
 //! to the largest motion smear seen.
 
-use crate::RgbImage;
+use crate::{FaceError, RgbImage};
+use eyereplay_core::color::srgb_to_linear;
 use eyereplay_core::mix64;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -222,22 +223,26 @@ impl WebcamRanges {
 
     /// Checks every range: finite, lo <= hi, and inside physically
     /// meaningful limits. Error: a one-line message naming the field, e.g.
-    /// "render.webcam.noise_sigma: lo 4 > hi 2".
-    pub fn validate(&self) -> Result<(), String> {
+    /// "render.webcam.noise_sigma: lo 4 > hi 2" ([`FaceError::Webcam`]).
+    pub fn validate(&self) -> Result<(), FaceError> {
         for (name, [lo, hi], min, max) in self.fields() {
             for (end, v) in [("lo", lo), ("hi", hi)] {
                 if !v.is_finite() {
-                    return Err(format!("render.webcam.{name}: {end} {v} is not finite"));
+                    return Err(FaceError::Webcam(format!(
+                        "render.webcam.{name}: {end} {v} is not finite"
+                    )));
                 }
             }
             if lo > hi {
-                return Err(format!("render.webcam.{name}: lo {lo} > hi {hi}"));
+                return Err(FaceError::Webcam(format!(
+                    "render.webcam.{name}: lo {lo} > hi {hi}"
+                )));
             }
             for (end, v) in [("lo", lo), ("hi", hi)] {
                 if v < min || v > max {
-                    return Err(format!(
+                    return Err(FaceError::Webcam(format!(
                         "render.webcam.{name}: {end} {v} is outside the limits {min}..={max}"
-                    ));
+                    )));
                 }
             }
         }
@@ -412,28 +417,6 @@ fn planckian_xy(kelvin: f64) -> [f64; 2] {
         / (1.0 - 2.89741816e-5 * t + 1.61456053e-7 * t * t);
     let d = 2.0 * u - 8.0 * v + 4.0;
     [3.0 * u / d, 2.0 * v / d]
-}
-
-/// sRGB code value (0-255) to linear light (0-1), IEC 61966-2-1.
-fn srgb_decode(code: f64) -> f64 {
-    let c = code / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
-
-/// Linear light (0-1) to an sRGB code value (0-255, not rounded).
-#[cfg(test)]
-fn srgb_encode(linear: f64) -> f64 {
-    let l = linear.clamp(0.0, 1.0);
-    255.0
-        * if l <= 0.0031308 {
-            12.92 * l
-        } else {
-            1.055 * l.powf(1.0 / 2.4) - 0.055
-        }
 }
 
 /// splitmix64's increment.
@@ -645,7 +628,7 @@ pub struct Webcam {
 
 impl Webcam {
     pub fn new(look: &WebcamLook, width: usize, height: usize) -> Webcam {
-        let decode: [f32; 256] = std::array::from_fn(|c| srgb_decode(c as f64) as f32);
+        let decode: [f32; 256] = std::array::from_fn(|c| srgb_to_linear(c as f64) as f32);
         let noise = look.noise_sigma > 0.0 || look.shot_noise > 0.0;
         let noise_std = noise_std_poly(look.noise_sigma, look.shot_noise);
         let wb = look.white_balance_gains();
@@ -1161,6 +1144,7 @@ fn pad_row(row: &mut [f32], pad: usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use eyereplay_core::color::linear_to_srgb;
 
     /// The eyes' light comes from where the frame's gradient does:
     /// azimuth 0 from above, +90 from the image's right, 45 deg off the
@@ -1205,7 +1189,7 @@ mod tests {
     }
 
     fn lin(code: u8) -> f64 {
-        srgb_decode(code as f64)
+        srgb_to_linear(code as f64)
     }
 
     fn mean_std(v: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
@@ -1245,7 +1229,7 @@ mod tests {
         // The polynomial against the exact curve.
         for i in 0..=100_000 {
             let l = i as f32 / 100_000.0;
-            let err = encode_f32(l, l.sqrt()) as f64 - srgb_encode(l as f64);
+            let err = encode_f32(l, l.sqrt()) as f64 - linear_to_srgb(l as f64);
             assert!(err.abs() < 0.05, "{l}: {err}");
         }
     }
@@ -1255,7 +1239,7 @@ mod tests {
         for code in [40u8, 100, 150, 180] {
             let f = RgbImage::filled(16, 8, [code; 3]);
             let out = applied(&look_with(|l| l.exposure_ev = 1.0), &f, 0, [0.0; 2]);
-            let want = srgb_encode(2.0 * lin(code));
+            let want = linear_to_srgb(2.0 * lin(code));
             for &v in &out.data {
                 assert!((v as f64 - want).abs() <= 1.0, "{code}: {v} vs {want}");
             }
@@ -1425,7 +1409,7 @@ mod tests {
                         .step_by(3)
                         .map(|&v| lin(v))
                         .sum::<f64>();
-                    srgb_encode(v / (w * h) as f64)
+                    linear_to_srgb(v / (w * h) as f64)
                 };
                 let (a, b) = (m(&f), m(&out));
                 assert!((a - b).abs() < 0.5, "{l:?} channel {c}: {a} vs {b}");
@@ -1606,7 +1590,7 @@ mod tests {
         let bad = |f: &dyn Fn(&mut WebcamRanges)| {
             let mut r = WebcamRanges::default();
             f(&mut r);
-            r.validate().unwrap_err()
+            r.validate().unwrap_err().to_string()
         };
         assert_eq!(
             bad(&|r| r.noise_sigma = [4.0, 2.0]),

@@ -3,7 +3,7 @@
 //! 1.05 (reading) / 1.0 (conversation). Unknown keys are rejected with the
 //! nearest valid key suggested.
 
-use crate::PrepareError;
+use crate::error::{ConfigError, PrepareError};
 use eyereplay_behaviour::GeneratorSpec;
 use eyereplay_core::{Canvas, GazeClass};
 use eyereplay_signal::EdgeGaussParams;
@@ -260,9 +260,9 @@ impl DatasetConfig {
     /// Python dict, say): errors name `label` where [`load`](Self::load)
     /// names the file, and relative source paths resolve against `base_dir`.
     pub fn from_text(text: &str, label: &Path, base_dir: &Path) -> Result<Self, PrepareError> {
-        let config_error = |message| PrepareError::Config {
+        let config_error = |e: ConfigError| PrepareError::Config {
             path: label.into(),
-            message,
+            message: e.to_string(),
         };
         let mut cfg = Self::parse(text).map_err(config_error)?;
         cfg.base_dir = base_dir.to_path_buf();
@@ -272,8 +272,9 @@ impl DatasetConfig {
 
     /// Parses TOML text; errors are one line with position and, for an
     /// unknown key, the nearest valid one.
-    pub fn parse(text: &str) -> Result<Self, String> {
-        toml::from_str::<DatasetConfig>(text).map_err(|e| describe_toml_error(text, &e))
+    pub fn parse(text: &str) -> Result<Self, ConfigError> {
+        toml::from_str::<DatasetConfig>(text)
+            .map_err(|e| ConfigError::Parse(describe_toml_error(text, &e)))
     }
 
     /// A source path as written in the config, resolved against the
@@ -294,31 +295,44 @@ impl DatasetConfig {
         s
     }
 
-    pub fn validate(&self) -> Result<(), String> {
+    /// Rejects values out of range and classes with nothing to draw from;
+    /// the message is one line.
+    pub fn validate(&self) -> Result<(), ConfigError> {
         if !self.fps.is_finite() || self.fps <= 0.0 {
-            return Err(format!("fps must be a positive number, got {}", self.fps));
+            return Err(ConfigError::Invalid(format!(
+                "fps must be a positive number, got {}",
+                self.fps
+            )));
         }
         if self.session_frames == 0 {
-            return Err("session_frames must be at least 1 (the paper uses 7500)".into());
+            return Err(ConfigError::Invalid(
+                "session_frames must be at least 1 (the paper uses 7500)".into(),
+            ));
         }
         if self.canvas.width_px == 0 || self.canvas.height_px == 0 {
-            return Err("canvas width_px and height_px must be positive".into());
+            return Err(ConfigError::Invalid(
+                "canvas width_px and height_px must be positive".into(),
+            ));
         }
         if self.classes.is_empty() {
-            return Err(
+            return Err(ConfigError::Invalid(
                 "no classes: add [classes.reading] and/or [classes.conversation] with sources"
                     .into(),
-            );
+            ));
         }
         let c = &self.calibration;
         let ordered = (0.0..100.0).contains(&c.low_percentile)
             && c.low_percentile < c.high_percentile
             && c.high_percentile <= 100.0;
         if !ordered {
-            return Err("calibration percentiles must satisfy 0 <= low < high <= 100".into());
+            return Err(ConfigError::Invalid(
+                "calibration percentiles must satisfy 0 <= low < high <= 100".into(),
+            ));
         }
         if c.fill_fraction.is_nan() || c.fill_fraction <= 0.0 || c.fill_fraction > 1.0 {
-            return Err("calibration.fill_fraction must be in (0, 1]".into());
+            return Err(ConfigError::Invalid(
+                "calibration.fill_fraction must be in (0, 1]".into(),
+            ));
         }
         if c.mode == CalibrationMode::Manual {
             for (k, v) in [
@@ -328,30 +342,36 @@ impl DatasetConfig {
                 ("mu_y", c.mu_y),
             ] {
                 if v.is_none() {
-                    return Err(format!(
+                    return Err(ConfigError::Invalid(format!(
                         "calibration.mode = \"manual\" needs calibration.{k}"
-                    ));
+                    )));
                 }
             }
         }
         if self.blink_filter.iqr_k <= 0.0 {
-            return Err("blink_filter.iqr_k must be positive".into());
+            return Err(ConfigError::Invalid(
+                "blink_filter.iqr_k must be positive".into(),
+            ));
         }
         for (class, cc) in &self.classes {
             if cc.sessions == 0 {
-                return Err(format!("classes.{class}.sessions must be at least 1"));
+                return Err(ConfigError::Invalid(format!(
+                    "classes.{class}.sessions must be at least 1"
+                )));
             }
             if cc.sources.is_empty() && cc.generators.is_empty() {
-                return Err(format!(
+                return Err(ConfigError::Invalid(format!(
                     "classes.{class} has no sources and no generators (add sources = [...] or [[classes.{class}.generators]])"
-                ));
+                )));
             }
             for (i, g) in cc.generators.iter().enumerate() {
                 g.validate(&format!("classes.{class}.generators[{i}]"))?;
             }
             if let Some(s) = cc.speed_scale {
                 if !s.is_finite() || s <= 0.0 {
-                    return Err(format!("classes.{class}.speed_scale must be positive"));
+                    return Err(ConfigError::Invalid(format!(
+                        "classes.{class}.speed_scale must be positive"
+                    )));
                 }
             }
         }
@@ -455,18 +475,22 @@ mod tests {
 
     #[test]
     fn unknown_key_suggests_nearest() {
-        let e = DatasetConfig::parse("[classes.reading]\nsesions = 3\nsources = []\n").unwrap_err();
+        let e = DatasetConfig::parse("[classes.reading]\nsesions = 3\nsources = []\n")
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("line 2") && e.contains("did you mean 'sessions'"),
             "{e}"
         );
         let e = DatasetConfig::parse("sesion_frames = 3\n[classes.reading]\nsources = []\n")
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("did you mean 'session_frames'"), "{e}");
         let e = DatasetConfig::parse(
             "[classes.reading]\nsources = [{ format = \"eyelnk\", path = \"a\" }]\n",
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("did you mean 'eyelink'"), "{e}");
         assert!(!e.contains('\n'));
     }
@@ -477,9 +501,13 @@ mod tests {
             "session_frames = 0\n[classes.reading]\nsources = [{ format = \"extract\", path = \"a.csv\" }]\n",
         )
         .unwrap();
-        assert!(c.validate().unwrap_err().contains("session_frames"));
+        assert!(c
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("session_frames"));
         c.session_frames = 10;
         c.classes.get_mut(&GazeClass::Reading).unwrap().sessions = 0;
-        assert!(c.validate().unwrap_err().contains("sessions"));
+        assert!(c.validate().unwrap_err().to_string().contains("sessions"));
     }
 }

@@ -28,7 +28,7 @@ pub use config::{
     CalibrationScope, ClassConfig, DatasetConfig, ResampleConfig, SmoothingConfig, SmoothingMethod,
     SpeedCorrection,
 };
-pub use error::PrepareError;
+pub use error::{ConfigError, PrepareError};
 pub use load::{check_source_files, generated_sources, load_sources};
 pub use resample::{
     is_linear_rate, resample_recording, resampled_times, scale_about_centroid, ResampleMethod,

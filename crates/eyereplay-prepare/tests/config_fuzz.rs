@@ -124,6 +124,7 @@ fn dataset_config_survives_mutation() {
             );
         }
         if let Err(m) = r.1 {
+            let m = m.to_string();
             assert!(!m.contains('\n'), "case {case}: {m}");
         }
     }

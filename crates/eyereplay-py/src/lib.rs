@@ -44,7 +44,7 @@ create_exception!(
     eyereplay,
     ModelError,
     EyereplayError,
-    "The face/iris models or the ONNX Runtime library are missing or do not match their pinned sha256 (run eyereplay.fetch_models())."
+    "The face/iris models or the ONNX Runtime library are missing or do not match their pinned sha256 (run scripts/setup.sh or scripts/models.sh in an eyereplay checkout)."
 );
 create_exception!(
     eyereplay,
@@ -73,7 +73,19 @@ fn kind_of(e: &Error) -> Kind {
             Kind::Model
         }
         Error::Extract(_) | Error::Render(_) | Error::Face(_) | Error::Replay(_) => Kind::Video,
-        Error::Dataset(_) | Error::Eval(_) | Error::SessionsFailed(_) => Kind::Dataset,
+        Error::Backend(b) => {
+            use eyereplay::backends::BackendError as B;
+            match b {
+                B::Setting(_) => Kind::Config,
+                B::Extract(X::ModelsMissing { .. } | X::ModelChecksum { .. } | X::Runtime(_)) => {
+                    Kind::Model
+                }
+                B::Dataset(_) | B::Eval(_) | B::SessionsFailed(_) => Kind::Dataset,
+                B::Core(_) | B::Input { .. } => Kind::Other,
+                _ => Kind::Video,
+            }
+        }
+        Error::Dataset(_) | Error::Eval(_) => Kind::Dataset,
         Error::Core(_) | Error::Input { .. } | Error::Detect(_) => Kind::Other,
     }
 }
@@ -278,7 +290,9 @@ fn extract<'py>(
     }
     // Where each CSV goes, checked before any work (as the command does).
     let csv_paths = match &out {
-        Some(o) => Some(ex::output_csv_paths(o, &videos).map_err(ConfigError::new_err)?),
+        Some(o) => Some(
+            ex::output_csv_paths(o, &videos).map_err(|e| ConfigError::new_err(e.to_string()))?,
+        ),
         None => None,
     };
     let opts = ex::ExtractOptions {
@@ -568,15 +582,6 @@ fn dataset_index<'py>(
     Ok((meta_text, rows))
 }
 
-/// `eyereplay models fetch`: download (pip, pinned), convert and check.
-#[pyfunction]
-#[pyo3(signature = (dir=None))]
-fn fetch_models(py: Python<'_>, dir: Option<PathBuf>) -> PyResult<Vec<String>> {
-    let dir = dir.unwrap_or_else(ex::default_models_dir);
-    py.allow_threads(|| eyereplay::fetch_models(&dir))
-        .map_err(|e| raise(Kind::Model, e.to_string()))
-}
-
 /// `eyereplay models check`: the models folder verified, one inference each.
 #[pyfunction]
 #[pyo3(signature = (dir=None))]
@@ -623,7 +628,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(merge, m)?)?;
     m.add_function(wrap_pyfunction!(dataset_index, m)?)?;
-    m.add_function(wrap_pyfunction!(fetch_models, m)?)?;
     m.add_function(wrap_pyfunction!(check_models, m)?)?;
     m.add_function(wrap_pyfunction!(default_models_dir, m)?)?;
     m.add_function(wrap_pyfunction!(default_config, m)?)?;

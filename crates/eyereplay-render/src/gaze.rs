@@ -21,6 +21,7 @@
 //!    `atan((ipd / 2) / viewing_distance)` to converge on a target at the
 //!    viewing distance; the two eyes' mean `n` stays at `n'`.
 
+use crate::error::RenderError;
 use eyereplay_core::{Canvas, CanvasPos, NormPos};
 use serde::{Deserialize, Serialize};
 
@@ -262,26 +263,31 @@ impl GazeMapping {
         (0.5 * ipd_mm / self.viewing_distance_mm).atan()
     }
 
-    pub fn validate(&self) -> Result<(), String> {
+    /// Rejects a calibration, gain or viewing distance that cannot map gaze
+    /// (as [`RenderError::Params`]).
+    pub fn validate(&self) -> Result<(), RenderError> {
         let c = &self.calibration;
         for (name, v) in [("s_x", c.s_x), ("s_y", c.s_y)] {
             if !(v.is_finite() && v.abs() > 1e-9) {
-                return Err(format!(
+                return Err(RenderError::Params(format!(
                     "calibration {name} must be a non-zero number, got {v}"
-                ));
+                )));
             }
         }
         if !(c.mu_x.is_finite() && c.mu_y.is_finite()) {
-            return Err("calibration mu must be finite".into());
+            return Err(RenderError::Params("calibration mu must be finite".into()));
         }
         if !(self.gain.is_finite() && self.gain > 0.0) {
-            return Err(format!("gain must be > 0, got {}", self.gain));
+            return Err(RenderError::Params(format!(
+                "gain must be > 0, got {}",
+                self.gain
+            )));
         }
         if !(self.viewing_distance_mm.is_finite() && self.viewing_distance_mm > 50.0) {
-            return Err(format!(
+            return Err(RenderError::Params(format!(
                 "viewing distance must be > 50 mm, got {}",
                 self.viewing_distance_mm
-            ));
+            )));
         }
         Ok(())
     }

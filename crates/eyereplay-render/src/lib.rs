@@ -7,7 +7,7 @@
 //! per-frame ground-truth CSV beside the video.
 //!
 //! Entry points: [`render_session`] (one trajectory to MP4 + truth CSV),
-//! [`render_dataset`] (every session a `prepare` run wrote), [`run_bench`]
+//! [`list_sessions`] (every session a `prepare` run wrote), [`run_bench`]
 //! (speed), [`Identity::sample`] (a seeded face, serializable to JSON).
 //!
 //! # Gaze mapping
@@ -68,8 +68,7 @@ pub use bench::{
 };
 pub use blink::{closure_at, closure_track};
 pub use dataset::{
-    is_complete, list_sessions, read_dataset_info, render_dataset, session_seed, DatasetInfo,
-    DatasetOptions, DatasetSummary, ResponseProbe, SessionJob, SessionOutcome,
+    is_complete, list_sessions, read_dataset_info, session_seed, DatasetInfo, SessionJob,
 };
 pub use encode::{
     ffprobe_for, probe_video, rgb_to_yuv420, Codec, Encoder, EncoderSettings, VideoInfo,

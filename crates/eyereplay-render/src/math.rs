@@ -202,14 +202,10 @@ pub fn clamp01(x: f32) -> f32 {
     x.clamp(0.0, 1.0)
 }
 
-/// sRGB-encoded 0..255 to linear.
+/// sRGB-encoded 0..255 to linear, in f32
+/// ([`eyereplay_core::color::srgb_to_linear_f32`]).
 pub fn srgb_to_linear(c: f32) -> f32 {
-    let c = c / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
+    eyereplay_core::color::srgb_to_linear_f32(c)
 }
 
 /// Linear 0..=1 -> sRGB byte through a lookup table, so per-pixel output
@@ -224,12 +220,9 @@ impl SrgbLut {
         let table = (0..Self::N)
             .map(|i| {
                 let l = i as f64 / (Self::N - 1) as f64;
-                let s = if l <= 0.003_130_8 {
-                    l * 12.92
-                } else {
-                    1.055 * l.powf(1.0 / 2.4) - 0.055
-                };
-                (s * 255.0).round().clamp(0.0, 255.0) as u8
+                eyereplay_core::color::linear_to_srgb(l)
+                    .round()
+                    .clamp(0.0, 255.0) as u8
             })
             .collect();
         SrgbLut { table }
@@ -281,5 +274,36 @@ mod tests {
         assert_eq!(l.encode(0.2159), 128);
         assert_eq!(l.encode(0.2140), 127);
         assert!((srgb_to_linear(128.0) - 0.2158).abs() < 1e-3);
+    }
+    /// The table built from eyereplay-core's encode holds the bytes of the
+    /// formula the renderer wrote out itself before, entry for entry; and
+    /// the f32 decode gives that formula's bits.
+    #[test]
+    fn srgb_lut_and_decode_match_the_former_formulas() {
+        let n = SrgbLut::N;
+        let old: Vec<u8> = (0..n)
+            .map(|i| {
+                let l = i as f64 / (n - 1) as f64;
+                let s = if l <= 0.003_130_8 {
+                    l * 12.92
+                } else {
+                    1.055 * l.powf(1.0 / 2.4) - 0.055
+                };
+                (s * 255.0).round().clamp(0.0, 255.0) as u8
+            })
+            .collect();
+        assert_eq!(SrgbLut::new().table, old);
+        let old_decode = |c: f32| {
+            let c = c / 255.0;
+            if c <= 0.04045 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            }
+        };
+        for i in 0..=255 * 256 {
+            let c = i as f32 / 256.0;
+            assert_eq!(srgb_to_linear(c).to_bits(), old_decode(c).to_bits(), "{c}");
+        }
     }
 }

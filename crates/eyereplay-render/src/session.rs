@@ -52,7 +52,7 @@ impl RenderParams {
                 self.fps
             )));
         }
-        self.mapping.validate().map_err(RenderError::Params)
+        self.mapping.validate()
     }
 }
 

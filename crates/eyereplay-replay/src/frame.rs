@@ -2,22 +2,26 @@
 //! needs in the order it needs them.
 
 use crate::error::Result;
+use eyereplay_core::RgbImage;
 use eyereplay_extract::{Decoder, ImageView, Planes, Rotation};
 use std::ops::ControlFlow;
 use std::path::Path;
 
-/// A frame as packed 8-bit RGB, upright.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RgbFrame {
-    pub width: usize,
-    pub height: usize,
-    pub data: Vec<u8>,
-}
+/// A frame as packed 8-bit RGB, upright: eyereplay-core's [`RgbImage`].
+pub type RgbFrame = RgbImage;
 
-impl RgbFrame {
+/// A carrier frame to and from the extractor's image type (the image type
+/// lives in eyereplay-core, which does not know the extractor's).
+pub trait FrameView {
     /// The decoded frame in RGB, cropped to even width and height (the
     /// encoder's yuv420p needs them).
-    pub fn from_view(img: &ImageView) -> RgbFrame {
+    fn from_view(img: &ImageView) -> Self;
+    /// The frame as the extractor's image type (to read it back).
+    fn view(&self) -> ImageView<'_>;
+}
+
+impl FrameView for RgbFrame {
+    fn from_view(img: &ImageView) -> RgbFrame {
         let (w, h) = img.size();
         let (ew, eh) = (w & !1, h & !1);
         let mut data = Vec::with_capacity(ew * eh * 3);
@@ -56,8 +60,7 @@ impl RgbFrame {
         }
     }
 
-    /// The frame as the extractor's image type (to read it back).
-    pub fn view(&self) -> ImageView<'_> {
+    fn view(&self) -> ImageView<'_> {
         ImageView {
             planes: Planes::Rgb24 {
                 data: &self.data,
@@ -67,18 +70,6 @@ impl RgbFrame {
             raw_h: self.height,
             rotation: Rotation::None,
         }
-    }
-
-    #[inline]
-    pub fn get(&self, x: usize, y: usize) -> [u8; 3] {
-        let i = (y * self.width + x) * 3;
-        [self.data[i], self.data[i + 1], self.data[i + 2]]
-    }
-
-    #[inline]
-    pub fn set(&mut self, x: usize, y: usize, c: [u8; 3]) {
-        let i = (y * self.width + x) * 3;
-        self.data[i..i + 3].copy_from_slice(&c);
     }
 }
 

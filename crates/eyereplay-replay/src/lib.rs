@@ -40,7 +40,7 @@ pub use carrier::{
     MIN_EYE_WIDTH_RATIO, MIN_FRAME_EYE_WIDTH_PX, MIN_USABLE_FRACTION, TRACK_FORMAT_VERSION,
 };
 pub use error::{ReplayError, Result};
-pub use frame::RgbFrame;
+pub use frame::{FrameView, RgbFrame};
 pub use session::{
     plan_frames, psnr_outside_eyes, read_carrier_csv, render_replay_session, run_replay_bench,
     start_frame, Calibration, Carrier, CarrierCsvRow, ReplayStats, Response, APPEARANCE_FRAMES,

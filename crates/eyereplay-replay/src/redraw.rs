@@ -476,7 +476,7 @@ impl EyeAppearance {
                 if d <= SCLERA_CLEARANCE * r || signed_distance(&e.lid, p) < 1.0 {
                     continue;
                 }
-                let c = frame.get(x, y);
+                let c = frame.pixel(x, y);
                 let m = self.plate_at(ax.uv(p));
                 for k in 0..3 {
                     sf[k] += c[k] as f32;
@@ -560,7 +560,7 @@ pub fn redraw_eye(
             } else {
                 clean
             };
-            let old = frame.get(x, y);
+            let old = frame.pixel(x, y);
             let px = [0, 1, 2].map(|k| {
                 let v = content[k] * gain[k];
                 (old[k] as f32 + m * (v - old[k] as f32))
@@ -579,6 +579,7 @@ pub fn redraw_eye(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::FrameView;
 
     fn eye() -> CarrierEye {
         // A 40 px eye on a level head: lower lid arc below, upper above.
@@ -690,17 +691,17 @@ mod tests {
         let out = redraw_eye(&mut f, &e, &app, [0.75, 0.5]);
         assert_eq!(out.iris_px, [130.0, 99.0]);
         // The new pupil at (130, 99): dark.
-        let c = f.get(130, 99);
+        let c = f.pixel(130, 99);
         assert!(c.iter().all(|&v| v < 60), "pupil {c:?}");
         // The iris ring: blue over red.
-        let c = f.get(135, 99);
+        let c = f.pixel(135, 99);
         assert!(c[2] > c[0] + 50, "iris {c:?}");
         // The old iris place (112, 99): sclera now.
-        let c = f.get(112, 99);
+        let c = f.pixel(112, 99);
         assert!(c.iter().all(|&v| v > 180), "old iris place {c:?}");
         // Outside the contour: untouched.
         for (x, y) in [(90, 100), (120, 80), (150, 100), (10, 10)] {
-            assert_eq!(f.get(x, y), before.get(x, y));
+            assert_eq!(f.pixel(x, y), before.pixel(x, y));
         }
     }
 }

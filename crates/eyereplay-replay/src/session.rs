@@ -5,7 +5,7 @@
 
 use crate::carrier::{CarrierTrack, CarrierUsage, Skip};
 use crate::error::{ReplayError, Result};
-use crate::frame::{for_each_planned, nearest_frame, RgbFrame};
+use crate::frame::{for_each_planned, nearest_frame, FrameView, RgbFrame};
 use crate::redraw::{redraw_eye, AppearanceBuilder, EyeAppearance};
 use eyereplay_core::CanvasPos;
 use eyereplay_dataset::{EyeTruthRow, TruthRow};
@@ -752,7 +752,7 @@ pub fn psnr_outside_eyes(
                 {
                     continue;
                 }
-                let (a, b) = (src.get(x, y), out.get(x, y));
+                let (a, b) = (src.pixel(x, y), out.pixel(x, y));
                 for c in 0..3 {
                     let d = a[c] as f64 - b[c] as f64;
                     se += d * d;

@@ -18,6 +18,9 @@ pub enum SourceError {
     },
     #[error("{path}: {message}")]
     File { path: PathBuf, message: String },
+    /// A saccade model setting out of range (no file: the reader adds it).
+    #[error("{0}")]
+    Saccade(String),
     #[error(transparent)]
     Core(#[from] eyereplay_core::CoreError),
 }

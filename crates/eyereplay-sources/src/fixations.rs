@@ -78,12 +78,13 @@ impl SaccadeModel {
     /// Rejects settings that cannot make samples: a rate outside (0, 100 kHz]
     /// (above that, memory runs out before the file does), negative or
     /// non-finite durations or drift.
-    pub fn check(&self) -> Result<(), String> {
+    /// The message is one line, without a file ([`SourceError::Saccade`]).
+    pub fn check(&self) -> Result<(), SourceError> {
         if !(self.synth_rate_hz > 0.0 && self.synth_rate_hz <= 1e5) {
-            return Err(format!(
+            return Err(SourceError::Saccade(format!(
                 "saccade.synth_rate_hz = {} must be in (0, 100000]",
                 self.synth_rate_hz
-            ));
+            )));
         }
         for (k, v) in [
             ("base_ms", self.base_ms),
@@ -91,7 +92,9 @@ impl SaccadeModel {
             ("drift_deg2_per_s", self.drift_deg2_per_s),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(format!("saccade.{k} = {v} must be a finite number >= 0"));
+                return Err(SourceError::Saccade(format!(
+                    "saccade.{k} = {v} must be a finite number >= 0"
+                )));
             }
         }
         Ok(())
@@ -139,7 +142,9 @@ pub(crate) fn read(spec: &SourceSpec, opts: &ReadOptions) -> Result<Vec<Recordin
         unreachable!("fixations::read called with another format");
     };
     let path = path.as_path();
-    saccade.check().map_err(|m| SourceError::file(path, m))?;
+    saccade
+        .check()
+        .map_err(|e| SourceError::file(path, e.to_string()))?;
     let (headers, mut rdr) = open_table(path, b',')?;
     let need = |name: &str| {
         column_index(&headers, &[name]).ok_or_else(|| {

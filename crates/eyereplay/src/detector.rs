@@ -3,11 +3,12 @@
 //! CSVs; training on generated datasets; detection on one recording.
 //! The model itself is [`eyereplay_detect`]'s.
 
-use crate::inputs::check_models;
-use crate::progress::{ExtractFrames, Progress, Stage};
+use crate::inputs::{check_models, extract_cached, extraction_cache_path};
 use crate::{Error, Result};
 use eyereplay_core::{NormPos, Sample};
+use eyereplay_core::{Progress, Stage};
 use eyereplay_detect::{windows, DetectorModel, Example, Track, TrainOptions, WindowSpec, FPS};
+use eyereplay_extract::StageFrames;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -22,64 +23,6 @@ pub fn is_video(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| VIDEO_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
-}
-
-/// The cache file of `video`'s extraction: by content, tool version and
-/// the extractor's rows revision, as for the dataset's video sources.
-pub fn extraction_cache_path(video: &Path, cache: &Path) -> Result<PathBuf> {
-    let sha = eyereplay_core::sha256_file(video)?;
-    Ok(cache.join("extract").join(format!(
-        "{sha}-v{}-r{}.csv",
-        eyereplay_core::TOOL_VERSION,
-        eyereplay_extract::ROWS_REVISION
-    )))
-}
-
-/// Extracts every video not yet in the cache (all at once, so the
-/// extractor's workers share them) and returns each video's CSV. Cached by
-/// the video's sha256 and the extractor version, so a renamed copy is not
-/// extracted twice and a new extractor does not reuse old results.
-pub fn extract_cached(
-    videos: &[PathBuf],
-    cache: &Path,
-    progress: &dyn Progress,
-) -> Result<Vec<PathBuf>> {
-    let mut csvs = Vec::with_capacity(videos.len());
-    let mut todo: Vec<(PathBuf, PathBuf)> = Vec::new();
-    for v in videos {
-        if !v.is_file() {
-            return Err(Error::input(v, "no such video"));
-        }
-        let csv = extraction_cache_path(v, cache)?;
-        if !csv.is_file() && !todo.iter().any(|(_, c)| *c == csv) {
-            todo.push((v.clone(), csv.clone()));
-        }
-        csvs.push(csv);
-    }
-    if todo.is_empty() {
-        return Ok(csvs);
-    }
-    check_models()?;
-    let paths: Vec<PathBuf> = todo.iter().map(|(v, _)| v.clone()).collect();
-    progress.begin(Stage::Extract, 0);
-    let results = eyereplay_extract::extract_many(
-        &paths,
-        &eyereplay_extract::ExtractOptions::default(),
-        &ExtractFrames(progress),
-    );
-    progress.end(Stage::Extract);
-    for ((video, csv), r) in todo.iter().zip(results) {
-        let ex = r?;
-        eyereplay_extract::save_csv(csv, &ex.rows)?;
-        progress.info(&format!(
-            "extracted {}: {} frames, face in {:.1} %, cached as {}",
-            video.display(),
-            ex.rows.len(),
-            100.0 * ex.detection_rate(),
-            csv.display()
-        ));
-    }
-    Ok(csvs)
 }
 
 /// What a track was made from.
@@ -265,7 +208,7 @@ pub fn dataset_tracks(
         }
         for row in &labels {
             let paths = eyereplay_dataset::SessionPaths::new(dir, &row.file)
-                .map_err(|m| Error::input(dir.join("labels.csv"), m))?;
+                .map_err(|e| Error::input(dir.join("labels.csv"), e.to_string()))?;
             let file = match input {
                 TrainInput::Extracted => paths.mp4.clone(),
                 TrainInput::Trajectory => paths.csv.clone(),
@@ -354,7 +297,7 @@ pub fn video_tracks(
         corner_todo
             .par_iter()
             .map(|&(i, c)| -> Result<()> {
-                let n = crate::evaluate::extract_at_corners(
+                let n = eyereplay_extract::extract_at_corners(
                     &videos[i],
                     &eyereplay_extract::default_models_dir(),
                     c,
@@ -376,7 +319,7 @@ pub fn video_tracks(
         let results = eyereplay_extract::extract_many(
             &list,
             &eyereplay_extract::ExtractOptions::default(),
-            &ExtractFrames(progress),
+            &StageFrames(progress),
         );
         progress.end(Stage::Extract);
         for (&i, r) in full_todo.iter().zip(results) {

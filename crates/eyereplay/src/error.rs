@@ -24,15 +24,14 @@ pub enum Error {
     Replay(#[from] eyereplay_replay::ReplayError),
     #[error(transparent)]
     Detect(#[from] eyereplay_detect::DetectError),
+    #[error(transparent)]
+    Backend(#[from] eyereplay_backends::BackendError),
     /// A file or folder the job needs is missing or unusable.
     #[error("{path}: {message}")]
     Input { path: PathBuf, message: String },
     /// An option or setting out of range.
     #[error("{0}")]
     Setting(String),
-    /// Some sessions failed; the others were written. Rerun to retry.
-    #[error("{} session(s) failed (rerun the same command to retry): {}", .0.len(), .0.join("; "))]
-    SessionsFailed(Vec<String>),
 }
 
 impl Error {
@@ -42,7 +41,7 @@ impl Error {
             message: message.into(),
         }
     }
-    pub(crate) fn io(path: &std::path::Path, e: std::io::Error) -> Self {
+    pub fn io(path: &std::path::Path, e: std::io::Error) -> Self {
         Error::input(path, e.to_string())
     }
 }

@@ -16,6 +16,7 @@ use eyereplay_eval::{
     compare_visual, evaluate_dataset, write_report, EvalConfig, Evaluation, VisualRun,
     VisualSection,
 };
+use eyereplay_extract::{extract_at_corners, extract_with_detector, row_norm, widen_blinks};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -127,7 +128,7 @@ fn visual_target(
     dir: &Path,
     choice: &VisualChoice,
     ev: &Evaluation,
-) -> Result<std::result::Result<VisualTarget, String>> {
+) -> Result<std::result::Result<VisualTarget, NotComputed>> {
     let session = match choice {
         VisualChoice::Video { video, trajectory } => {
             if !video.is_file() {
@@ -150,16 +151,16 @@ fn visual_target(
             match first {
                 Some(f) => f,
                 None => {
-                    return Ok(Err(
+                    return Ok(Err(NotComputed(
                         "not computed: no rendered session found (a video <class>/<stem>.mp4 \
 beside a session CSV); run 'eyereplay render' first, or pass --video and --trajectory"
                             .into(),
-                    ))
+                    )))
                 }
             }
         }
     };
-    let paths = SessionPaths::new(dir, &session).map_err(Error::Setting)?;
+    let paths = SessionPaths::new(dir, &session)?;
     if !paths.mp4.is_file() {
         return Err(Error::input(
             &paths.mp4,
@@ -218,34 +219,15 @@ fn closed_frames(target: &VisualTarget, frames: usize) -> Result<Vec<bool>> {
     // eyes, not the session's.
     let carrier_csv = SessionPaths::beside_video(&target.video).carrier_csv();
     if carrier_csv.is_file() {
-        for (c, row) in closed
-            .iter_mut()
-            .zip(eyereplay_replay::read_carrier_csv(&carrier_csv)?)
-        {
+        for (c, row) in closed.iter_mut().zip(
+            eyereplay_backends::replay::read_carrier_csv(&carrier_csv)
+                .map_err(eyereplay_backends::BackendError::from)?,
+        ) {
             *c |= !row.redrawn;
         }
     }
     Ok(widen_blinks(&closed))
 }
-
-/// Closed-eye flags widened by [`BLINK_MARGIN_FRAMES`] each side: the
-/// frames a read-back is not compared on (the evaluation) or fitted to
-/// (the full-face mode's `match_readback`).
-pub(crate) fn widen_blinks(flagged: &[bool]) -> Vec<bool> {
-    let n = flagged.len();
-    let mut closed = flagged.to_vec();
-    for (i, _) in flagged.iter().enumerate().filter(|(_, &b)| b) {
-        for c in
-            &mut closed[i.saturating_sub(BLINK_MARGIN_FRAMES)..(i + BLINK_MARGIN_FRAMES + 1).min(n)]
-        {
-            *c = true;
-        }
-    }
-    closed
-}
-
-/// Frames each side of a flagged blink whose lids are still part-closed.
-const BLINK_MARGIN_FRAMES: usize = 2;
 
 fn masked(n: &[[f64; 2]], closed: &[bool]) -> Vec<[f64; 2]> {
     n.iter()
@@ -270,7 +252,7 @@ fn visual_section(
     };
     let target = match visual_target(dir, choice, ev)? {
         Ok(t) => t,
-        Err(reason) => return Ok(VisualSection::NotComputed { reason }),
+        Err(NotComputed(reason)) => return Ok(VisualSection::NotComputed { reason }),
     };
     let models = opts
         .models
@@ -279,7 +261,7 @@ fn visual_section(
     let missing = eyereplay_extract::missing_files(&models);
     if !missing.is_empty() {
         return not_computed(format!(
-            "not computed: iris models missing in {} ({}); run 'eyereplay models fetch'",
+            "not computed: iris models missing in {} ({}); run scripts/setup.sh (or `cargo xtask models`)",
             models.display(),
             missing.join(", ")
         ));
@@ -296,7 +278,7 @@ fn visual_section(
     let (rendered_n, locator) = match read_back(dir, &target.video, &models, n, ev.fps, &geometry)?
     {
         Ok(r) => (r.n, r.how),
-        Err(reason) => return not_computed(reason),
+        Err(NotComputed(reason)) => return not_computed(reason),
     };
     let n = n.min(rendered_n.len());
     if n < 2 {
@@ -350,7 +332,7 @@ fn sessions_read_back(
             let back = match read_back(dir, &target.video, &models, input.len(), ev.fps, &geometry)?
             {
                 Ok(r) => r,
-                Err(reason) => return Err(Error::input(&target.video, reason)),
+                Err(NotComputed(reason)) => return Err(Error::input(&target.video, reason)),
             };
             let n = back.n.len().min(input.len());
             let read = masked(&back.n[..n], &closed[..n]);
@@ -387,7 +369,7 @@ fn sessions_read_back(
         .par_iter()
         .map(|(_, video, frames)| {
             let paths = SessionPaths::beside_video(video);
-            crate::face::head_yaw_read_back(
+            eyereplay_backends::face::head_yaw_read_back(
                 video,
                 &paths.head_csv(),
                 &paths.identity_json,
@@ -395,6 +377,7 @@ fn sessions_read_back(
                 ev.fps,
                 *frames,
             )
+            .map_err(Error::from)
         })
         .collect();
     for ((k, ..), yaw) in heads.iter().zip(yaws) {
@@ -478,7 +461,7 @@ fn read_back(
     n: usize,
     fps: f64,
     geometry: &Path,
-) -> Result<std::result::Result<ReadBack, String>> {
+) -> Result<std::result::Result<ReadBack, NotComputed>> {
     // When the render's geometry is at hand, a 4-s trial decides first
     // whether the detector sees a face at all, so a close-up does not cost
     // a full detector pass.
@@ -524,17 +507,17 @@ fn read_back(
         first => {
             let Some(identity) = identity else {
                 let e = first.expect_err("handled above");
-                return Ok(Err(format!(
+                return Ok(Err(NotComputed(format!(
                     "not computed: {e}; no render geometry ({}) to place the eye crops",
                     shown(dir, geometry)
-                )));
+                ))));
             };
             let Some(corners) = identity.corner_pairs_px() else {
-                return Ok(Err(format!(
+                return Ok(Err(NotComputed(format!(
                     "not computed: the face detector found no face, and {} does not say where the eyes are \
 (for a browser page set render.browser_eye_corners_px)",
                     shown(dir, geometry)
-                )));
+                ))));
             };
             let r = extract_at_corners(video, models, corners, n, views)?;
             let seen = match &first {
@@ -554,6 +537,10 @@ because the face detector found the face in {seen} of the compared frames",
         }
     }
 }
+
+/// Why a read-back could not run, as the report shows it ("not computed:
+/// ..."): the report says so instead of failing the evaluation.
+struct NotComputed(String);
 
 /// What [`read_back`] read from a video.
 struct ReadBack {
@@ -578,73 +565,6 @@ fn detection_rate(n: &[[f64; 2]]) -> f64 {
         .filter(|p| p[0].is_finite() && p[1].is_finite())
         .count() as f64
         / n.len().max(1) as f64
-}
-
-/// The extractor's rows for the first `n_max` frames by its full pipeline,
-/// each eye read from `iris_views` crops.
-pub(crate) fn extract_with_detector(
-    video: &Path,
-    models: &Path,
-    n_max: usize,
-    fps: f64,
-    iris_views: usize,
-) -> Result<Vec<eyereplay_extract::Row>> {
-    let opts = eyereplay_extract::ExtractOptions {
-        models_dir: models.to_path_buf(),
-        iris_views,
-        max_duration_s: Some(n_max as f64 / fps),
-        ..Default::default()
-    };
-    let ext = eyereplay_extract::extract_many(
-        &[video.to_path_buf()],
-        &opts,
-        &eyereplay_extract::NoProgress,
-    )
-    .pop()
-    .expect("one result per video")
-    .map_err(|e| Error::input(video, format!("extracting the iris: {e}")))?;
-    let mut rows = ext.rows;
-    rows.truncate(n_max);
-    Ok(rows)
-}
-
-fn row_norm(r: &eyereplay_extract::Row) -> [f64; 2] {
-    match r.mean_n() {
-        Some((x, y)) if r.valid() => [x, y],
-        _ => [f64::NAN, f64::NAN],
-    }
-}
-
-/// The extractor's iris step without face detection
-/// ([`eyereplay_extract::EyeCropTracker`]): the iris model on eye crops
-/// placed at the render's known corners as MediaPipe places them; `nx`
-/// against those fixed corners (camera and head do not move in a close-up
-/// render), `ny` against the model's lids; blinks by the extractor's
-/// aperture rule are NaN.
-pub(crate) fn extract_at_corners(
-    video: &Path,
-    models: &Path,
-    corners: [([f64; 2], [f64; 2]); 2],
-    n_max: usize,
-    iris_views: usize,
-) -> Result<Vec<[f64; 2]>> {
-    use eyereplay_extract::Pt;
-    let pt = |p: [f64; 2]| Pt::new(p[0] as f32, p[1] as f32);
-    // Image-left eye first, each pair left to right, as the crops expect.
-    let corners = eyereplay_extract::order_eye_corners(corners.map(|(a, b)| (pt(a), pt(b))));
-    let m = eyereplay_extract::Models::load(models)?;
-    let mut tracker = eyereplay_extract::EyeCropTracker::new(m);
-    tracker.iris_views = iris_views;
-    let rows = tracker
-        .measure_video_rows(
-            video,
-            &corners,
-            eyereplay_extract::CornerReference::Fixed,
-            Some(n_max),
-            eyereplay_extract::DEFAULT_BLINK_RATIO,
-        )
-        .map_err(|e| Error::input(video, format!("measuring the eyes: {e}")))?;
-    Ok(rows.iter().map(row_norm).collect())
 }
 
 /// A video whose frame count differs from its trajectory is bad input.

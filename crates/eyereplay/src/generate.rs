@@ -2,12 +2,11 @@
 //! finalize and evaluate. Resumable and shardable.
 
 use crate::evaluate::EvaluateOptions;
-use crate::inputs::{cache_dir, check_ffmpeg, check_models, free_bytes, video_sources};
-use crate::progress::Progress;
-use crate::render::{render_params, render_sessions, RenderSummary};
-use crate::shard::Shard;
+use crate::inputs::{check_ffmpeg, check_models, free_bytes, video_sources};
 use crate::{prepare_dataset, Error, Result};
-use eyereplay_dataset::RenderSettings;
+use eyereplay_backends::{render_params, render_sessions, RenderSummary};
+use eyereplay_core::{cache_dir, Progress, Shard};
+use eyereplay_dataset::{BackendSettings, HeadMotion, RenderSettings};
 use eyereplay_prepare::DatasetConfig;
 use eyereplay_render::RenderParams;
 use std::io::Write;
@@ -57,94 +56,35 @@ pub fn plan(config_path: &Path, shard: Option<Shard>) -> Result<Job> {
 /// [`plan`] for a config already loaded (from text or built in code);
 /// `config_path` is the name errors give it.
 pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shard>) -> Result<Job> {
-    let mut settings = RenderSettings::from_config(&config, config_path)?;
+    let settings = RenderSettings::from_config(&config, config_path)?;
     let params =
         render_params(&settings, &config).map_err(|e| Error::input(config_path, e.to_string()))?;
-    crate::render::browser_settings(&settings)
-        .map_err(|e| Error::input(config_path, e.to_string()))?;
     eyereplay_prepare::check_source_files(&config)?;
-    let eyes = settings.backend == eyereplay_dataset::RenderBackend::Eyes;
-    let face = settings.backend == eyereplay_dataset::RenderBackend::Face;
-    if settings.head_motion == eyereplay_dataset::HeadMotion::Source {
-        if !face {
-            return Err(Error::input(
-                config_path,
-                "[render]: head_motion = \"source\" applies to backend = \"face\" only",
-            ));
-        }
-        if video_sources(&config).is_empty() {
+    if let BackendSettings::Face(f) = &settings.backend {
+        if f.head_motion == HeadMotion::Source && video_sources(&config).is_empty() {
             return Err(Error::input(
                 config_path,
                 "[render]: head_motion = \"source\" needs at least one source with format = \"video\" (its head pose drives the head)",
             ));
         }
     }
-    if settings.match_readback && !(face && settings.match_extractor) {
-        return Err(Error::input(
-            config_path,
-            "[render]: match_readback applies to backend = \"face\" with match_extractor = true (it refines the probe's response map from the session's own read-back)",
-        ));
-    }
-    let views = settings.extractor_iris_views;
-    if !(1..=eyereplay_extract::MAX_IRIS_VIEWS).contains(&views) {
-        return Err(Error::input(
-            config_path,
-            format!(
-                "[render]: extractor_iris_views {views} must be between 1 and {}",
-                eyereplay_extract::MAX_IRIS_VIEWS
-            ),
-        ));
-    }
-    if views > 1 && !(face || eyes) {
-        return Err(Error::input(
-            config_path,
-            "[render]: extractor_iris_views applies to backend = \"face\" and \"eyes\" (their match_extractor probe and read-back)",
-        ));
-    }
-    if face {
-        crate::face::FaceSettings::from_render(&settings)
-            .map_err(|e| Error::input(config_path, e.to_string()))?;
-        // Photos resolved against the config's folder, checked now.
-        let photos = crate::face::identity_photos(&settings, |p| config.resolve(p));
-        for p in &photos {
-            if !p.is_file() {
-                return Err(Error::input(
-                    p,
-                    "identity photo not found (render.identities; the bundled ones come with scripts/setup.sh)",
-                ));
-            }
-        }
-        let mesh = eyereplay_face::default_faces_dir().join(eyereplay_face::MESH_FILE);
-        if !mesh.is_file() {
-            return Err(Error::input(
-                mesh,
-                "canonical face mesh not found (run scripts/setup.sh)",
-            ));
-        }
-        check_models()?;
-        // A user's photo without a usable face fails now, before the
-        // dataset is prepared (the bundled ones are known to fit).
-        if !settings.identities.is_empty() {
-            crate::face::fit_identities(&photos)?;
-        }
-        settings.identities = photos;
-    }
-    if settings.backend == eyereplay_dataset::RenderBackend::Replay {
-        if settings.width.is_some() || settings.height.is_some() {
-            return Err(Error::input(
-                config_path,
-                "[render]: width and height do not apply to backend = \"replay\" (each video keeps its carrier's size)",
-            ));
-        }
-        // Carriers resolved against the config's folder, each measured
-        // (cached), checked and learned now: a carrier that cannot serve
-        // fails before the dataset is prepared.
-        let videos = crate::replay::carrier_videos(&settings, |p| config.resolve(p));
-        check_models()?;
-        crate::replay::prepare_carriers(&videos, &crate::cache_dir(None), &crate::NoProgress)?;
-        settings.carriers = videos;
-    }
-    if !video_sources(&config).is_empty() || (eyes && settings.match_extractor) {
+    // The backend's own checks (photos fitted, carriers measured, the
+    // browser found), its paths resolved against the config's folder.
+    let settings = eyereplay_backends::check_settings(
+        &settings,
+        &|p: &Path| config.resolve(p),
+        &cache_dir(None),
+    )
+    .map_err(|e| match e {
+        eyereplay_backends::BackendError::Setting(m) => Error::input(config_path, m),
+        e => e.into(),
+    })?;
+    let probe = settings
+        .backend
+        .extractor()
+        .is_some_and(|e| e.match_extractor)
+        && !matches!(settings.backend, BackendSettings::Face(_));
+    if !video_sources(&config).is_empty() || probe {
         check_models()?;
     }
     check_ffmpeg(&params.encoder.ffmpeg)?;
@@ -236,8 +176,9 @@ pub fn generate(
     let cache = opts.cache.clone().unwrap_or_else(|| cache_dir(None));
     let prepared = prepare_dataset(&job.config, out, &cache, progress)?;
     // (`plan` allows head_motion = source with the face backend only.)
-    if job.settings.head_motion == eyereplay_dataset::HeadMotion::Source {
-        crate::source_head::write_source_heads(
+    if matches!(&job.settings.backend, BackendSettings::Face(f) if f.head_motion == HeadMotion::Source)
+    {
+        eyereplay_backends::source_head::write_source_heads(
             out,
             &job.config,
             &prepared.prepared,
@@ -250,7 +191,14 @@ pub fn generate(
     // Render this shard's sessions (the renderer first removes what a
     // killed run left half-written of each of them).
     let t = Instant::now();
-    let render = render_sessions(out, &job.settings, job.params.clone(), job.shard, progress)?;
+    let render = render_sessions(
+        out,
+        &job.settings,
+        job.params.clone(),
+        job.shard,
+        &cache,
+        progress,
+    )?;
     stage("render", t, &mut log);
 
     // Finish (a sharded run leaves it to 'eyereplay merge').
@@ -288,7 +236,7 @@ fn forget_renders_of_another_config(
     let mut removed = 0;
     for s in &old.sessions {
         let paths = eyereplay_dataset::SessionPaths::new(out, &s.file)
-            .map_err(|e| Error::input(out.join(&s.file), e))?;
+            .map_err(|e| Error::input(out.join(&s.file), e.to_string()))?;
         let mut any = false;
         for p in paths.outputs().iter().filter(|p| p.is_file()) {
             std::fs::remove_file(p).map_err(|e| Error::io(p, e))?;

@@ -1,9 +1,10 @@
 //! Everything a job needs before work starts: which videos to extract, the
 //! extraction cache, the models, ffmpeg, disk space, and provenance.
 
-use crate::progress::Progress;
 use crate::{Error, Result};
+use eyereplay_core::{ArtifactCache, ArtifactKey, Progress, Stage};
 use eyereplay_dataset::{FileDigest, ToolInfo};
+use eyereplay_extract::StageFrames;
 use eyereplay_prepare::{DatasetConfig, PrepareError};
 use eyereplay_sources::SourceSpec;
 use std::collections::{BTreeMap, BTreeSet};
@@ -21,21 +22,6 @@ pub fn video_sources(cfg: &DatasetConfig) -> Vec<PathBuf> {
         .map(|s| cfg.resolve(s.path()))
         .filter(|p| seen.insert(p.clone()))
         .collect()
-}
-
-/// Where cached extractions live: `flag`, `$EYEREPLAY_CACHE`, or
-/// `~/.cache/eyereplay`.
-pub fn cache_dir(flag: Option<&Path>) -> PathBuf {
-    if let Some(p) = flag {
-        return p.to_path_buf();
-    }
-    if let Some(p) = std::env::var_os("EYEREPLAY_CACHE") {
-        return PathBuf::from(p);
-    }
-    let home = std::env::var_os("HOME")
-        .map(PathBuf::from)
-        .unwrap_or_else(std::env::temp_dir);
-    home.join(".cache/eyereplay")
 }
 
 /// Extractions of a config's videos: each video's iris CSV in the cache.
@@ -66,50 +52,66 @@ pub fn extract_videos_cached(
     progress: &dyn Progress,
 ) -> Result<Extracted> {
     let videos = video_sources(cfg);
-    let csvs = crate::detector::extract_cached(&videos, cache, progress)?;
+    let csvs = extract_cached(&videos, cache, progress)?;
     Ok(Extracted {
         csv_of: videos.into_iter().zip(csvs).collect(),
     })
 }
 
-/// Downloads (pip, pinned by version and sha256), extracts and converts the
-/// face and iris models into `dir`, skipping finished steps, then checks
-/// them; returns the check's lines. The fetch script and converter are
-/// embedded, so this works from an installed binary or Python wheel; the
-/// script's messages go to this process's stdout and stderr, and downloads
-/// are cached in `dir`'s parent folder.
-pub fn fetch_models(dir: &Path) -> Result<Vec<String>> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::input(dir, format!("cannot create: {e}")))?;
-    let dir = dir.canonicalize().map_err(|e| Error::io(dir, e))?;
-    let tmp = tempfile_dir()?;
-    let script = tmp.join("models.sh");
-    let converter = tmp.join("tflite_to_onnx.py");
-    let write = |p: &Path, text: &str| std::fs::write(p, text).map_err(|e| Error::io(p, e));
-    write(&script, eyereplay_extract::MODELS_SCRIPT)?;
-    write(&converter, eyereplay_extract::CONVERTER_SCRIPT)?;
-    let cache = dir.parent().map_or_else(|| dir.clone(), Path::to_path_buf);
-    let status = std::process::Command::new("bash")
-        .arg(&script)
-        .arg(&dir)
-        .env("EYEREPLAY_CACHE", &cache)
-        .env("EYEREPLAY_CONVERTER", &converter)
-        .status();
-    let _ = std::fs::remove_dir_all(&tmp);
-    let status = status.map_err(|e| Error::input("bash", format!("cannot run: {e}")))?;
-    if !status.success() {
-        return Err(Error::input(
-            &dir,
-            "fetching the models failed (see the messages above)",
-        ));
-    }
-    Ok(eyereplay_extract::check_models(&dir)?)
+/// The cache file of `video`'s extraction: by content, tool version and
+/// the extractor's rows revision, as for the dataset's video sources.
+pub fn extraction_cache_path(video: &Path, cache: &Path) -> Result<PathBuf> {
+    let key = ArtifactKey::of_file("extract", video, "csv")?
+        .version("v", eyereplay_core::TOOL_VERSION)
+        .version("r", eyereplay_extract::ROWS_REVISION);
+    Ok(ArtifactCache::new(cache).path(&key))
 }
 
-/// A fresh folder for the fetch script (removed by the caller).
-fn tempfile_dir() -> Result<PathBuf> {
-    let tmp = std::env::temp_dir().join(format!("eyereplay-models-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).map_err(|e| Error::io(&tmp, e))?;
-    Ok(tmp)
+/// Extracts every video not yet in the cache (all at once, so the
+/// extractor's workers share them) and returns each video's CSV. Cached by
+/// the video's sha256 and the extractor version, so a renamed copy is not
+/// extracted twice and a new extractor does not reuse old results.
+pub fn extract_cached(
+    videos: &[PathBuf],
+    cache: &Path,
+    progress: &dyn Progress,
+) -> Result<Vec<PathBuf>> {
+    let mut csvs = Vec::with_capacity(videos.len());
+    let mut todo: Vec<(PathBuf, PathBuf)> = Vec::new();
+    for v in videos {
+        if !v.is_file() {
+            return Err(Error::input(v, "no such video"));
+        }
+        let csv = extraction_cache_path(v, cache)?;
+        if !csv.is_file() && !todo.iter().any(|(_, c)| *c == csv) {
+            todo.push((v.clone(), csv.clone()));
+        }
+        csvs.push(csv);
+    }
+    if todo.is_empty() {
+        return Ok(csvs);
+    }
+    check_models()?;
+    let paths: Vec<PathBuf> = todo.iter().map(|(v, _)| v.clone()).collect();
+    progress.begin(Stage::Extract, 0);
+    let results = eyereplay_extract::extract_many(
+        &paths,
+        &eyereplay_extract::ExtractOptions::default(),
+        &StageFrames(progress),
+    );
+    progress.end(Stage::Extract);
+    for ((video, csv), r) in todo.iter().zip(results) {
+        let ex = r?;
+        eyereplay_extract::save_csv(csv, &ex.rows)?;
+        progress.info(&format!(
+            "extracted {}: {} frames, face in {:.1} %, cached as {}",
+            video.display(),
+            ex.rows.len(),
+            100.0 * ex.detection_rate(),
+            csv.display()
+        ));
+    }
+    Ok(csvs)
 }
 
 /// Fails with the command that fetches the models when they are missing.

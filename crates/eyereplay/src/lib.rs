@@ -57,21 +57,11 @@
 //! ```
 
 pub mod detector;
-pub mod detector_eval;
-mod detector_report;
 mod error;
 mod evaluate;
-pub mod face;
 mod finalize;
 mod generate;
 mod inputs;
-mod progress;
-mod render;
-pub mod replay;
-pub mod replay_eval;
-mod response;
-mod shard;
-pub mod source_head;
 
 pub use error::{Error, Result};
 pub use evaluate::{evaluate, EvaluateOptions, EvaluateOutcome, VisualChoice};
@@ -80,26 +70,48 @@ pub use generate::{
     estimate_bytes_per_frame, generate, plan, plan_config, GenerateOptions, GenerateSummary, Job,
 };
 pub use inputs::{
-    cache_dir, check_ffmpeg, check_models, extract_videos_cached, fetch_models, free_bytes,
-    model_digests, tool_info, video_sources, Extracted,
+    check_ffmpeg, check_models, extract_cached, extract_videos_cached, extraction_cache_path,
+    free_bytes, model_digests, tool_info, video_sources, Extracted,
 };
-pub use progress::{NoProgress, Progress, Stage};
-pub use render::{browser_settings, render_params, render_sessions, RenderSummary};
-pub use response::{match_extractor_probe, measure_response, response_probe};
-pub use shard::Shard;
 
+pub use eyereplay_backends::{
+    check_settings, open_backend, render_dataset, render_params, RenderSummary, ResponseProbe,
+    SessionBackend,
+};
+pub use eyereplay_core::{cache_dir, parse_usize_pair, NoProgress, Progress, Shard, Stage};
 pub use eyereplay_dataset::{DatasetMetadata, RenderSettings};
 pub use eyereplay_eval::EvalConfig;
 pub use eyereplay_prepare::{DatasetConfig, Prepared};
 
 /// The layers, for what the functions above do not cover.
 pub use {
-    eyereplay_core as core, eyereplay_dataset as dataset, eyereplay_detect as detect,
-    eyereplay_eval as eval, eyereplay_extract as extract, eyereplay_prepare as prepare_stages,
-    eyereplay_render as render_stage, eyereplay_sources as sources,
+    eyereplay_backends as backends, eyereplay_core as core, eyereplay_dataset as dataset,
+    eyereplay_detect as detect, eyereplay_eval as eval, eyereplay_extract as extract,
+    eyereplay_prepare as prepare_stages, eyereplay_render as render_stage,
+    eyereplay_sources as sources,
 };
 
 use std::path::Path;
+
+/// Renders the sessions of the dataset in `out` (this shard's only) with
+/// the backend `settings` choose; artifacts it measures (carriers) are
+/// cached in [`cache_dir`]. See [`eyereplay_backends::render_sessions`].
+pub fn render_sessions(
+    out: &Path,
+    settings: &RenderSettings,
+    params: eyereplay_render::RenderParams,
+    shard: Option<Shard>,
+    progress: &dyn Progress,
+) -> Result<RenderSummary> {
+    Ok(eyereplay_backends::render_sessions(
+        out,
+        settings,
+        params,
+        shard,
+        &cache_dir(None),
+        progress,
+    )?)
+}
 
 /// A trajectory dataset written by [`prepare_dataset`].
 pub struct PreparedDataset {
@@ -152,43 +164,17 @@ pub fn prepare_only(
 /// for part of this dataset; remove those beyond the new count.
 fn remove_stale_sessions(out: &Path, p: &Prepared) -> std::io::Result<()> {
     for c in &p.classes {
-        let dir = out.join(c.class.name());
-        let Ok(entries) = std::fs::read_dir(&dir) else {
+        let Ok(entries) = std::fs::read_dir(out.join(c.class.name())) else {
             continue;
         };
-        let prefix = format!("{}_", c.class.name());
         for e in entries.flatten() {
             let name = e.file_name().to_string_lossy().into_owned();
-            let Some(num) = name
-                .strip_prefix(&prefix)
-                .and_then(|r| r.strip_suffix(".csv"))
-            else {
-                continue;
-            };
-            if num.len() == 4 && num.parse::<usize>().is_ok_and(|i| i >= c.sessions.len()) {
+            if eyereplay_dataset::session_index(c.class, &name)
+                .is_some_and(|i| i >= c.sessions.len())
+            {
                 std::fs::remove_file(e.path())?;
             }
         }
     }
     Ok(())
-}
-
-/// Two numbers joined by one of `seps`, as in `--shard 0/4` or `--size
-/// 1280x720`; errors name the flag, the value and the expected form.
-pub fn parse_usize_pair(
-    flag: &str,
-    s: &str,
-    seps: &[char],
-    form: &str,
-    names: [&str; 2],
-) -> Result<(usize, usize)> {
-    let (a, b) = s
-        .split_once(seps)
-        .ok_or_else(|| Error::Setting(format!("{flag} '{s}': expected {form}")))?;
-    let num = |v: &str, name: &str| -> Result<usize> {
-        v.trim()
-            .parse()
-            .map_err(|_| Error::Setting(format!("{flag} '{s}': {name} is not a number")))
-    };
-    Ok((num(a, names[0])?, num(b, names[1])?))
 }

@@ -1,3 +1,4 @@
+#![cfg(feature = "browser")]
 //! `render.backend = "browser"` end to end through the library: prepare,
 //! render through the bundled test page, finalize, and the paper's visual
 //! fidelity table for that page (iris measured in the video at the page's
@@ -50,7 +51,6 @@ fn a_dataset_rendered_through_a_web_page_gets_its_visual_fidelity_table() {
 session_frames = 60
 [render]
 backend = "browser"
-natural_blinks = false
 browser_eye_corners_px = [[470.0, 381.6, 170.0, 381.6], [810.0, 381.6, 1110.0, 381.6]]
 [render.browser]
 truth_js = "eyereplayTruth()"

@@ -99,7 +99,7 @@ sources = [{{ format = "video", path = "{}" }}]
     .unwrap();
     // The evaluation report's head read-back of session `stem` (200 frames).
     let report_head = |stem: &str| {
-        eyereplay::face::head_yaw_read_back(
+        eyereplay::backends::face::head_yaw_read_back(
             &out.join(format!("{stem}.mp4")),
             &out.join(format!("{stem}_head.csv")),
             &out.join(format!("{stem}_identity.json")),
@@ -212,7 +212,7 @@ sources = [{{ format = "video", path = "{}" }}]
     // Without the pool's head file, the renderer says which file and who
     // writes it.
     std::fs::remove_file(&pool).unwrap();
-    let e = eyereplay::source_head::session_heads(
+    let e = eyereplay::backends::source_head::session_heads(
         &out,
         &meta,
         &meta.sessions[0].file,

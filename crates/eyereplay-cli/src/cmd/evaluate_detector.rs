@@ -1,5 +1,5 @@
 use super::Bars;
-use eyereplay::detector_eval::evaluate_detector;
+use eyereplay_protocols::evaluate_detector;
 use std::path::PathBuf;
 
 /// Does a detector trained on synthetic video work on real recordings?

@@ -1,5 +1,5 @@
 use super::Bars;
-use eyereplay::replay_eval::evaluate_replay;
+use eyereplay_protocols::evaluate_replay;
 use std::path::PathBuf;
 
 /// Checks a real-face replay dataset (render.backend = "replay").

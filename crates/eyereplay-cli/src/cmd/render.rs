@@ -1,8 +1,8 @@
-use anyhow::bail;
+use eyereplay::backends::{eyes::EyesBackend, face, render_dataset, replay, ResponseProbe};
 use eyereplay_core::{read_session_csv, Canvas};
 use eyereplay_render::{
-    read_blink_column, read_dataset_info, render_dataset, render_session, render_session_pngs,
-    run_bench, Codec, DatasetOptions, Identity, RenderParams, SessionOutcome,
+    read_blink_column, read_dataset_info, render_session, render_session_pngs, run_bench, Codec,
+    Identity, RenderParams,
 };
 use std::path::PathBuf;
 
@@ -58,7 +58,8 @@ pub struct Args {
     #[arg(long, requires = "bench", value_name = "VIDEO")]
     pub replay: Option<PathBuf>,
     /// Identity seed (face, iris, lighting, camera); 0 is the reference face.
-    /// With --dataset, the dataset seed each session's seed is derived from.
+    /// With --dataset, each session's identity comes from the dataset's own
+    /// seed (metadata.json), as `eyereplay generate` draws it.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Amplify the normalized iris excursion by this factor.
@@ -159,9 +160,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.bench {
         anyhow::ensure!(args.frames >= 25, "--frames must be at least 25");
         let report = if args.face {
-            eyereplay::face::bench(p.width, p.height, args.frames)?
+            face::bench(p.width, p.height, args.frames)?
         } else if let Some(video) = &args.replay {
-            eyereplay::replay::bench(video, args.frames, &p.encoder, &eyereplay::NoProgress)?
+            replay::bench(video, args.frames, &p.encoder, &eyereplay::NoProgress)?
         } else {
             run_bench(&p, args.frames)?
         };
@@ -174,9 +175,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let traj_path = args.trajectory.as_ref().expect("clap requires it");
     let traj = read_session_csv(traj_path)?;
     let mut p = p;
-    let probe = eyereplay::match_extractor_probe(args.match_extractor, 1)?;
+    let probe = ResponseProbe::when(args.match_extractor, 1)?;
     if let Some(probe) = &probe {
-        p.mapping.extractor_response = probe.measure(&p, &traj).map_err(anyhow::Error::msg)?;
+        p.mapping.extractor_response = probe.measure(&p, &traj)?;
     }
     let blinks = read_blink_column(traj_path)?;
     let out = args
@@ -226,59 +227,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `--dataset`: every unfinished session of a prepared dataset with the
+/// eyes backend, through the same driver as `eyereplay generate`.
 fn run_dataset(dir: &std::path::Path, args: &Args, p: RenderParams) -> anyhow::Result<()> {
-    let jobs = eyereplay_render::list_sessions(dir, args.seed)?;
-    let bar = indicatif::ProgressBar::new(jobs.len() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} render [{bar:30}] {pos}/{len} sessions  {elapsed_precise} (eta {eta})  {msg}",
-        )
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-        .progress_chars("=> "),
-    );
     let t0 = std::time::Instant::now();
-    let opts = DatasetOptions {
-        dataset_seed: args.seed,
-        jobs: args.jobs,
-        natural_blinks: args.natural_blinks,
-        params: p,
-        shard: None,
-        response: eyereplay::match_extractor_probe(args.match_extractor, 1)?,
-    };
-    let summary = render_dataset(dir, &opts, &|job, outcome| {
-        match outcome {
-            SessionOutcome::Failed(m) => bar.println(format!("error: {m}")),
-            SessionOutcome::Rendered {
-                clamped_points,
-                frames,
-            } if *clamped_points > 0 => bar.println(format!(
-                "warning: {}: {clamped_points} of {frames} points off the canvas were clamped",
-                job.paths.file
-            )),
-            _ => {}
-        }
-        bar.set_message(job.paths.file.clone());
-        bar.inc(1);
-    })?;
-    bar.finish_and_clear();
+    let probe = ResponseProbe::when(args.match_extractor, 1)?;
+    let backend = EyesBackend::new(p, read_dataset_info(dir)?, args.jobs.max(1), probe);
+    let summary = render_dataset(dir, &backend, None, &super::Bars::default())?;
     let secs = t0.elapsed().as_secs_f64();
     eprintln!(
-        "{}: {} sessions: {} rendered, {} already complete, {} failed; {} frames in {:.1} s ({:.0} frames/s)",
+        "{}: {} rendered, {} already complete; {} frames in {:.1} s ({:.0} frames/s)",
         dir.display(),
-        summary.sessions,
         summary.rendered,
         summary.skipped,
-        summary.failed.len(),
         summary.frames,
         secs,
         summary.frames as f64 / secs.max(1e-9)
     );
-    if !summary.failed.is_empty() {
-        bail!(
-            "{} of {} sessions failed (first: {})",
-            summary.failed.len(),
-            summary.sessions,
-            summary.failed[0]
+    if summary.clamped_points > 0 {
+        eprintln!(
+            "warning: {} trajectory points were off the canvas and were clamped to its edge",
+            summary.clamped_points
         );
     }
     Ok(())

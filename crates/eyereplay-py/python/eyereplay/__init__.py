@@ -54,7 +54,6 @@ __all__ = [
     "load_dataset",
     "Dataset",
     "Session",
-    "fetch_models",
     "check_models",
     "default_models_dir",
     "read_csv",
@@ -142,7 +141,7 @@ def extract(
     closest to MediaPipe's output, and about 1.5x fewer CPU-seconds than the
     default ``"cascade"``); the other options are the command's flags.
     Raises :class:`VideoError` for an unreadable video or one with no face,
-    :class:`ModelError` when the models are missing (see :func:`fetch_models`).
+    :class:`ModelError` when the models are missing (see :func:`check_models`).
     """
     tables = extract_many(
         [video],
@@ -325,16 +324,11 @@ def evaluate(
     return metrics
 
 
-def fetch_models(dir: Optional[PathLike] = None) -> List[str]:
-    """Downloads (pip, pinned by version and sha256), extracts and converts
-    MediaPipe's face and iris models and the ONNX Runtime library into
-    ``dir`` (default: :func:`default_models_dir`), skipping finished steps;
-    needs bash, python3 and network once. Returns the check's lines."""
-    return _native.fetch_models(_opt_path(dir))
-
-
 def check_models(dir: Optional[PathLike] = None) -> List[str]:
-    """Verifies the models folder (sha256, one inference per model)."""
+    """Verifies the models folder (sha256, one inference per model). The
+    models are fetched and converted by a checkout's ``scripts/setup.sh``
+    (``scripts/models.sh DIR``), into ``$EYEREPLAY_MODELS`` or
+    :func:`default_models_dir`."""
     return _native.check_models(_opt_path(dir))
 
 

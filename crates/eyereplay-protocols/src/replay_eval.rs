@@ -6,8 +6,8 @@
 //! face score (detector unaffected), and, outside the eyes, with the
 //! carrier's decoded frames (PSNR).
 
-use crate::progress::Progress;
-use crate::{Error, Result};
+use eyereplay::{Error, Result};
+use eyereplay_core::Progress;
 use eyereplay_eval::stats::{linear_fit, mean, pearson};
 use eyereplay_eval::visual::{compare_visual, AxisFidelity};
 use serde::Serialize;
@@ -170,29 +170,31 @@ pub fn evaluate_replay(
     let meta = eyereplay_dataset::read_metadata(dataset)?;
     let settings =
         eyereplay_dataset::RenderSettings::from_config(&meta.dataset.config, &meta_path)?;
-    if settings.backend != eyereplay_dataset::RenderBackend::Replay {
+    let eyereplay_dataset::BackendSettings::Replay {
+        carriers: configured,
+    } = &settings.backend
+    else {
         return Err(Error::input(
             &meta_path,
             "not a replay dataset (render.backend is not \"replay\")",
         ));
-    }
+    };
     let mut candidates = carriers.to_vec();
-    candidates.extend(settings.carriers.iter().cloned());
-    candidates.extend(crate::replay::carrier_videos(
-        &eyereplay_dataset::RenderSettings::default(),
-        |p| p.to_path_buf(),
-    ));
-    let cache = crate::cache_dir(None);
+    candidates.extend(configured.iter().cloned());
+    candidates.extend(eyereplay_backends::replay::carrier_videos(&[], |p| {
+        p.to_path_buf()
+    }));
+    let cache = eyereplay_core::cache_dir(None);
     let labels = eyereplay_dataset::read_labels(dataset)?;
     let paths: Vec<eyereplay_dataset::SessionPaths> = labels
         .iter()
         .map(|l| {
             eyereplay_dataset::SessionPaths::new(dataset, &l.file)
-                .map_err(|m| Error::input(dataset.join("labels.csv"), m))
+                .map_err(|e| Error::input(dataset.join("labels.csv"), e.to_string()))
         })
         .collect::<Result<_>>()?;
     let videos: Vec<PathBuf> = paths.iter().map(|p| p.mp4.clone()).collect();
-    let csvs = crate::detector::extract_cached(&videos, &cache, progress)?;
+    let csvs = eyereplay::extract_cached(&videos, &cache, progress)?;
     let mut hashes = BTreeMap::new();
     let mut prepared: BTreeMap<String, eyereplay_replay::Carrier> = BTreeMap::new();
     let mut groups: BTreeMap<(String, String), Frames> = BTreeMap::new();
@@ -213,7 +215,7 @@ pub fn evaluate_replay(
                     format!("carrier {name} (sha256 {sha}) not found; pass it with --carrier PATH"),
                 )
             })?;
-            let track = crate::replay::carrier_track(&video, &cache, progress)?;
+            let track = eyereplay_backends::replay::carrier_track(&video, &cache, progress)?;
             let carrier = eyereplay_replay::Carrier::prepare(&video, track)?;
             prepared.insert(sha.clone(), carrier);
         }

@@ -1,16 +1,16 @@
-// Shared by the build scripts of crates whose tests need the real sample data
-// (.cache/data), the models (.cache/models) or the ffmpeg command; pulled in
-// with `include!`, so it needs no crate of its own.
-//
-// For each prerequisite that is there, sets `cfg(<name>)`; tests that need it
-// carry `#[cfg_attr(not(<name>), ignore = "needs ...: run scripts/setup.sh")]`,
-// so a plain `cargo test` without them lists those tests as ignored, with the
-// reason, instead of passing them silently. With `CI` set (non-empty, not
-// "false" or "0") a missing prerequisite fails the build in one line.
+//! Shared by the build scripts of crates whose tests need the real sample
+//! data (.cache/data), the models (.cache/models) or the ffmpeg command: a
+//! build-dependency, so every crate packages on its own.
+//!
+//! For each prerequisite that is there, sets `cfg(<name>)`; tests that need
+//! it carry `#[cfg_attr(not(<name>), ignore = "needs ...: run
+//! scripts/setup.sh")]`, so a plain `cargo test` without them lists those
+//! tests as ignored, with the reason, instead of passing them silently.
+//! With `CI` set (non-empty, not "false" or "0") a missing prerequisite
+//! fails the build in one line.
 
 /// One thing tests need.
-#[allow(dead_code)]
-enum Prereq {
+pub enum Prereq {
     /// Files under the repository root.
     Files(&'static [&'static str]),
     /// The model files, in `$EYEREPLAY_MODELS` or `.cache/models`.
@@ -20,7 +20,6 @@ enum Prereq {
 }
 
 /// The files `eyereplay_extract::missing_files` checks.
-#[allow(dead_code)]
 const MODEL_FILES: &[&str] = &[
     "face_detection_short_range.onnx",
     "face_landmark.onnx",
@@ -30,7 +29,7 @@ const MODEL_FILES: &[&str] = &[
 
 /// Declares every cfg in `prereqs` (name, what it needs), sets those whose
 /// prerequisites are present, and fails the build under CI when one is not.
-fn test_prerequisites(prereqs: &[(&str, Prereq)]) {
+pub fn test_prerequisites(prereqs: &[(&str, Prereq)]) {
     use std::path::PathBuf;
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"));
     let root = manifest.join("../..");

@@ -12,10 +12,10 @@
 //! face was found there); a session's frames are pool frames
 //! `(pool_start + j) mod T`, so the renderer finds each frame's head there.
 
-use crate::progress::{ExtractFrames, Progress, Stage};
-use crate::{Error, Result};
-use eyereplay_core::GazeClass;
+use crate::{BackendError as Error, Result};
+use eyereplay_core::{ArtifactCache, ArtifactKey, GazeClass, Progress, Stage};
 use eyereplay_dataset::{pool_head_file, DatasetMetadata, PoseRow};
+use eyereplay_extract::StageFrames;
 use eyereplay_face::{
     default_faces_dir, video_head_poses, CanonicalMesh, HeadPose, SourceHeadTrack, MESH_FILE,
     SOURCE_HEAD_SMOOTHING_S, SOURCE_VFOV_DEG,
@@ -24,19 +24,19 @@ use eyereplay_prepare::{DatasetConfig, Prepared};
 use eyereplay_sources::RecordingKind;
 use std::collections::btree_map::Entry;
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Version of the cached per-frame poses: bump when the solve changes.
 const HEAD_CACHE_VERSION: u32 = 1;
 
-/// Where a video's per-frame head poses are cached: by the video, the
-/// solve's version and the extractor's rows revision (the poses come from
-/// its face mesh).
-fn cache_file(cache: &Path, sha256: &str) -> PathBuf {
-    cache.join("head").join(format!(
-        "{sha256}-v{HEAD_CACHE_VERSION}-r{}-vfov{SOURCE_VFOV_DEG}.json",
-        eyereplay_extract::ROWS_REVISION
-    ))
+/// The cache key of a video's per-frame head poses: the video, the
+/// solve's version, the extractor's rows revision (the poses come from its
+/// face mesh) and the field of view assumed.
+fn cache_key(sha256: &str) -> ArtifactKey {
+    ArtifactKey::new("head", sha256, "json")
+        .version("v", HEAD_CACHE_VERSION)
+        .version("r", eyereplay_extract::ROWS_REVISION)
+        .version("vfov", SOURCE_VFOV_DEG)
 }
 
 /// A video's raw per-frame head poses, from the cache or solved now (and
@@ -49,26 +49,25 @@ fn video_poses(
     mesh: &CanonicalMesh,
     progress: &dyn Progress,
 ) -> Result<Vec<(f64, Option<HeadPose>)>> {
-    let file = cache_file(cache, sha256);
-    const WHAT: &str = "head pose cache";
-    if let Some(poses) = eyereplay_core::read_json_cache(&file, WHAT)? {
-        return Ok(poses);
-    }
-    progress.info(&format!(
-        "head pose of {}: solving every frame's landmarks (once; cached)",
-        video.display()
-    ));
-    let poses = video_head_poses(
-        video,
-        &eyereplay_extract::default_models_dir(),
-        mesh,
-        &mesh.positions_cm,
-        SOURCE_VFOV_DEG,
-        &ExtractFrames(progress),
-    )?;
-    eyereplay_core::write_json(&file, &poses)?;
-    eyereplay_core::read_json_cache(&file, WHAT)?
-        .ok_or_else(|| Error::input(&file, "vanished right after it was written"))
+    ArtifactCache::new(cache).get_or_make(
+        &cache_key(sha256),
+        |file| Ok(eyereplay_core::read_json_cache(file, "head pose cache")?),
+        || {
+            progress.info(&format!(
+                "head pose of {}: solving every frame's landmarks (once; cached)",
+                video.display()
+            ));
+            Ok(video_head_poses(
+                video,
+                &eyereplay_extract::default_models_dir(),
+                mesh,
+                &mesh.positions_cm,
+                SOURCE_VFOV_DEG,
+                &StageFrames(progress),
+            )?)
+        },
+        |file, poses: &Vec<(f64, Option<HeadPose>)>| Ok(eyereplay_core::write_json(file, poses)?),
+    )
 }
 
 /// Every video source's head track (by the video's sha256; a video that
@@ -95,9 +94,11 @@ fn source_tracks(
     }
     let mesh = CanonicalMesh::load(&default_faces_dir().join(MESH_FILE))?;
     // A progress bar only when some video is not cached yet.
-    let solving = videos
-        .iter()
-        .any(|s| !cache_file(cache, &s.sha256).is_file());
+    let solving = videos.iter().any(|s| {
+        !ArtifactCache::new(cache)
+            .path(&cache_key(&s.sha256))
+            .is_file()
+    });
     if solving {
         progress.begin(Stage::Extract, 0);
     }

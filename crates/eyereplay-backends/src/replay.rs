@@ -1,14 +1,13 @@
-//! The real-face replay mode for a whole dataset (`[render] backend =
-//! "replay"`): every configured carrier measured once (cached by content),
-//! checked and learned before any session, then each session drawn into
-//! the carrier its seed picks, from a start its seed picks.
+//! `backend = "replay"`: every configured carrier measured once (cached by
+//! content), checked and learned before any session, then each session
+//! drawn into the carrier its seed picks, from a start its seed picks.
 
-use crate::progress::{Progress, Stage};
-use crate::render::RenderSummary;
-use crate::shard::Shard;
-use crate::{Error, Result};
-use eyereplay_dataset::{DatasetMetadata, RenderSettings, SessionIdentity};
-use eyereplay_render::RenderParams;
+use crate::backend::{Rendered, Session, SessionBackend, SessionOutputs};
+use crate::{BackendError as Error, Result};
+use eyereplay_core::{ArtifactCache, ArtifactKey, Progress, Stage};
+use eyereplay_dataset::{SessionIdentity, SessionPaths};
+use eyereplay_render::{EncoderSettings, GazeMapping, RenderParams};
+pub use eyereplay_replay::read_carrier_csv;
 use eyereplay_replay::{Calibration, Carrier, CarrierTrack, ReplayStats, Response};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -34,29 +33,23 @@ pub fn default_carriers_dir() -> PathBuf {
 
 /// The videos a replay config uses: its `carriers` resolved against the
 /// config's folder, or the bundled ones.
-pub fn carrier_videos(
-    settings: &RenderSettings,
-    resolve: impl Fn(&Path) -> PathBuf,
-) -> Vec<PathBuf> {
-    if settings.carriers.is_empty() {
+pub fn carrier_videos(carriers: &[PathBuf], resolve: impl Fn(&Path) -> PathBuf) -> Vec<PathBuf> {
+    if carriers.is_empty() {
         let dir = default_carriers_dir();
         BUNDLED_CARRIERS.iter().map(|n| dir.join(n)).collect()
     } else {
-        settings.carriers.iter().map(|p| resolve(p)).collect()
+        carriers.iter().map(|p| resolve(p)).collect()
     }
 }
 
-/// Where a carrier's measured geometry is cached: by the video's sha256,
+/// The cache key of a carrier's measured geometry: the video's sha256,
 /// the tool version, the track format and the extractor's rows revision
 /// (the geometry is measured with its networks).
-pub fn track_cache_path(video: &Path, cache: &Path) -> Result<PathBuf> {
-    let sha = eyereplay_core::sha256_file(video)?;
-    Ok(cache.join("replay").join(format!(
-        "{sha}-v{}-t{}-r{}.json",
-        eyereplay_core::TOOL_VERSION,
-        eyereplay_replay::TRACK_FORMAT_VERSION,
-        eyereplay_extract::ROWS_REVISION
-    )))
+pub fn track_cache_key(video: &Path) -> Result<ArtifactKey> {
+    Ok(ArtifactKey::of_file("replay", video, "json")?
+        .version("v", eyereplay_core::TOOL_VERSION)
+        .version("t", eyereplay_replay::TRACK_FORMAT_VERSION)
+        .version("r", eyereplay_extract::ROWS_REVISION))
 }
 
 /// A carrier's geometry from the cache, or measured now (and cached).
@@ -67,11 +60,11 @@ pub fn carrier_track(video: &Path, cache: &Path, progress: &dyn Progress) -> Res
             "carrier video not found (render.carriers; the bundled ones come with scripts/setup.sh)",
         ));
     }
-    let path = track_cache_path(video, cache)?;
+    let path = ArtifactCache::new(cache).path(&track_cache_key(video)?);
     if let Some(t) = CarrierTrack::load(&path)? {
         return Ok(t);
     }
-    crate::check_models()?;
+    eyereplay_extract::check_models(&eyereplay_extract::default_models_dir())?;
     let models = load_models()?;
     progress.begin(Stage::Extract, 0);
     progress.status(&format!("measuring carrier {}", video.display()));
@@ -104,10 +97,10 @@ pub fn prepare_carriers(
     for v in videos {
         let track = carrier_track(v, cache, progress)?;
         let mut c = Carrier::prepare(v, track)?;
-        let cal_path = track_cache_path(v, cache)?.with_extension(format!(
+        let cal_path = ArtifactCache::new(cache).path(&track_cache_key(v)?.with_ext(&format!(
             "c{}.calibration.json",
             eyereplay_replay::CALIBRATION_VERSION
-        ));
+        )));
         let cached = Calibration::load(&cal_path)?;
         if !cached.is_some_and(|cal| c.set_calibration(cal)) {
             progress.status(&format!("calibrating carrier {}", v.display()));
@@ -138,10 +131,7 @@ pub fn prepare_carriers(
 }
 
 /// The normalized iris position each canvas point asks for.
-fn targets(
-    mapping: &eyereplay_render::GazeMapping,
-    traj: &[eyereplay_core::CanvasPos],
-) -> Vec<[f64; 2]> {
+fn targets(mapping: &GazeMapping, traj: &[eyereplay_core::CanvasPos]) -> Vec<[f64; 2]> {
     traj.iter()
         .map(|&c| {
             let n = mapping.target_norm(c);
@@ -165,86 +155,97 @@ struct ReplayIdentityRecord<'a> {
     stats: &'a ReplayStats,
 }
 
-/// Renders the unfinished sessions of `out` in the replay mode.
-pub(crate) fn render_sessions_replay(
-    out: &Path,
-    meta: &DatasetMetadata,
-    settings: &RenderSettings,
-    params: &RenderParams,
-    shard: Option<Shard>,
-    progress: &dyn Progress,
-) -> Result<RenderSummary> {
-    let videos = carrier_videos(settings, |p| p.to_path_buf());
-    let cache = crate::cache_dir(None);
-    let carriers = prepare_carriers(&videos, &cache, progress)?;
-    let shas = videos
-        .iter()
-        .map(|v| eyereplay_core::sha256_file(v))
-        .collect::<std::result::Result<Vec<_>, _>>()?;
-    let ffprobe = eyereplay_render::ffprobe_for(&params.encoder.ffmpeg);
-    let sessions = crate::render::shard_sessions(out, meta.seed, shard)?;
-    let mapping = eyereplay_render::read_dataset_info(out)?.mapping(&params.mapping);
-    progress.begin(Stage::Render, (sessions.len() * meta.session_frames) as u64);
-    let mut summary = RenderSummary::default();
-    let mut failed = vec![];
-    for (n, job) in sessions.iter().enumerate() {
-        progress.status(&format!("{}/{} sessions", n + 1, sessions.len()));
-        let files = &job.paths;
-        let carrier_csv = files.carrier_csv();
-        let Some(traj) = crate::render::open_session(job, &carrier_csv, &ffprobe)? else {
-            summary.skipped += 1;
-            progress.advance(meta.session_frames as u64);
-            continue;
-        };
-        let seed = job.seed;
-        let k = job.balanced_choice(meta.seed, carriers.len());
-        let carrier = &carriers[k];
-        let targets = targets(&mapping, &traj);
-        let start = eyereplay_replay::start_frame(&carrier.times_s, traj.len(), meta.fps, seed);
+/// The replay backend, ready to draw sessions: every carrier measured,
+/// learned and calibrated.
+pub struct ReplayBackend {
+    carriers: Vec<Carrier>,
+    shas: Vec<String>,
+    encoder: EncoderSettings,
+    mapping: GazeMapping,
+}
+
+impl ReplayBackend {
+    /// The backend for the dataset in `out`, its carriers `videos`
+    /// (resolved), measurements cached in `cache`.
+    pub fn new(
+        out: &Path,
+        videos: &[PathBuf],
+        params: &RenderParams,
+        cache: &Path,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        let carriers = prepare_carriers(videos, cache, progress)?;
+        let shas = videos
+            .iter()
+            .map(|v| eyereplay_core::sha256_file(v))
+            .collect::<std::result::Result<Vec<_>, _>>()?;
+        Ok(ReplayBackend {
+            carriers,
+            shas,
+            encoder: params.encoder.clone(),
+            mapping: eyereplay_render::read_dataset_info(out)?.mapping(&params.mapping),
+        })
+    }
+}
+
+impl SessionBackend for ReplayBackend {
+    fn name(&self) -> &'static str {
+        "replay"
+    }
+
+    fn ffmpeg(&self) -> &Path {
+        &self.encoder.ffmpeg
+    }
+
+    fn extra_outputs(&self, paths: &SessionPaths) -> Vec<PathBuf> {
+        vec![paths.carrier_csv()]
+    }
+
+    fn render(&self, s: &Session, out: &SessionOutputs, _: &dyn Progress) -> Result<Rendered> {
+        let files = &s.job.paths;
+        let traj = &s.trajectory;
+        let seed = s.job.seed;
+        let k = s.job.balanced_choice(s.dataset_seed, self.carriers.len());
+        let carrier = &self.carriers[k];
+        let targets = targets(&self.mapping, traj);
+        let start = eyereplay_replay::start_frame(&carrier.times_s, traj.len(), s.fps, seed);
         let (w, h) = carrier.size();
-        let result = eyereplay_replay::render_replay_session(
+        let stats = eyereplay_replay::render_replay_session(
             carrier,
             &targets,
-            &traj,
-            meta.fps,
+            traj,
+            s.fps,
             start,
-            &params.encoder,
-            &files.mp4,
-            &files.truth,
-            &carrier_csv,
-        )
-        .map_err(Error::from)
-        .and_then(|stats| {
-            let fps = (carrier.usage.frames.max(2) - 1) as f64 / carrier.duration_s().max(1e-9);
-            SessionIdentity {
-                file: files.file.clone(),
-                seed,
-                identity: ReplayIdentityRecord {
-                    backend: "replay",
-                    carrier: carrier.name(),
-                    carrier_sha256: shas[k].clone(),
-                    carrier_loop: "ping-pong",
-                    carrier_fps: (fps * 1000.0).round() / 1000.0,
-                    response: &carrier.response,
-                    stats: &stats,
-                },
-                mapping: &mapping,
-                width: w,
-                height: h,
-                fps: meta.fps,
-                eyes: None,
-                extractor_iris_views: None,
-            }
-            .write(&files.identity_json)?;
-            Ok(stats)
-        });
-        progress.advance(traj.len() as u64);
-        match result {
-            Ok(stats) => summary.add(stats.frames, 0),
-            Err(e) => crate::render::fail(&mut failed, &files.file, &e, progress),
-        }
+            &self.encoder,
+            &out.mp4(),
+            &out.truth(),
+            &out.extra(&files.carrier_csv()),
+        )?;
+        let fps = (carrier.usage.frames.max(2) - 1) as f64 / carrier.duration_s().max(1e-9);
+        out.write_identity(&SessionIdentity {
+            file: files.file.clone(),
+            seed,
+            identity: ReplayIdentityRecord {
+                backend: "replay",
+                carrier: carrier.name(),
+                carrier_sha256: self.shas[k].clone(),
+                carrier_loop: "ping-pong",
+                carrier_fps: (fps * 1000.0).round() / 1000.0,
+                response: &carrier.response,
+                stats: &stats,
+            },
+            mapping: &self.mapping,
+            width: w,
+            height: h,
+            fps: s.fps,
+            eyes: None,
+            extractor_iris_views: None,
+        })?;
+        Ok(Rendered {
+            frames: stats.frames,
+            clamped_points: 0,
+        })
     }
-    crate::render::finish(summary, failed, progress)
 }
 
 /// The replay mode's speed bench (`eyereplay render --bench --replay
@@ -254,12 +255,16 @@ pub(crate) fn render_sessions_replay(
 pub fn bench(
     video: &Path,
     frames: usize,
-    encoder: &eyereplay_render::EncoderSettings,
+    encoder: &EncoderSettings,
     progress: &dyn Progress,
 ) -> Result<eyereplay_render::BenchReport> {
-    let carriers = prepare_carriers(&[video.to_path_buf()], &crate::cache_dir(None), progress)?;
+    let carriers = prepare_carriers(
+        &[video.to_path_buf()],
+        &eyereplay_core::cache_dir(None),
+        progress,
+    )?;
     let canvas = eyereplay_core::Canvas::default();
-    let mapping = eyereplay_render::GazeMapping::new(canvas);
+    let mapping = GazeMapping::new(canvas);
     let traj = eyereplay_render::reading_trajectory(
         frames,
         canvas.width_px as f64,

@@ -32,17 +32,3 @@ pub trait Progress: Sync {
 pub struct NoProgress;
 
 impl Progress for NoProgress {}
-
-/// Adapts [`Progress`] to the extractor's per-video progress callbacks.
-pub(crate) struct ExtractFrames<'a>(pub &'a dyn Progress);
-
-impl eyereplay_extract::Progress for ExtractFrames<'_> {
-    fn start(&self, _video: usize, frames: Option<u64>) {
-        if let Some(n) = frames {
-            self.0.add_total(n);
-        }
-    }
-    fn advance(&self, _video: usize, n: u64) {
-        self.0.advance(n);
-    }
-}

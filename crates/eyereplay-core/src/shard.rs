@@ -4,7 +4,9 @@
 //! `i mod N`. Round-robin rather than contiguous blocks, so every shard gets
 //! both classes and about the same work.
 
-use crate::{Error, Result};
+use crate::CoreError as Error;
+
+type Result<T> = std::result::Result<T, Error>;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Shard {
@@ -28,7 +30,7 @@ impl Shard {
 
     /// `K/N`.
     pub fn parse(s: &str) -> Result<Self> {
-        let (k, n) = crate::parse_usize_pair("--shard", s, &['/'], "K/N, e.g. 0/4", ["K", "N"])?;
+        let (k, n) = parse_usize_pair("--shard", s, &['/'], "K/N, e.g. 0/4", ["K", "N"])?;
         Shard::new(k, n)
     }
 
@@ -89,6 +91,26 @@ impl Shard {
     pub fn count_of(&self, total: usize) -> usize {
         (0..total).filter(|i| self.contains(*i)).count()
     }
+}
+
+/// Two numbers joined by one of `seps`, as in `--shard 0/4` or `--size
+/// 1280x720`; errors name the flag, the value and the expected form.
+pub fn parse_usize_pair(
+    flag: &str,
+    s: &str,
+    seps: &[char],
+    form: &str,
+    names: [&str; 2],
+) -> Result<(usize, usize)> {
+    let (a, b) = s
+        .split_once(seps)
+        .ok_or_else(|| Error::Setting(format!("{flag} '{s}': expected {form}")))?;
+    let num = |v: &str, name: &str| -> Result<usize> {
+        v.trim()
+            .parse()
+            .map_err(|_| Error::Setting(format!("{flag} '{s}': {name} is not a number")))
+    };
+    Ok((num(a, names[0])?, num(b, names[1])?))
 }
 
 #[cfg(test)]

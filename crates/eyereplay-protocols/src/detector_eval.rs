@@ -23,11 +23,9 @@
 //! and averaged ([`eyereplay_detect::pairwise_auroc`]); intervals come from
 //! a bootstrap over people.
 
-use crate::detector::{dataset_tracks, extract_cached, extract_csv_track, TrainInput};
-use crate::generate::{generate, plan_config, GenerateOptions};
-use crate::progress::Progress;
-use crate::{Error, Result};
-use eyereplay_core::GazeClass;
+use eyereplay::detector::{dataset_tracks, extract_csv_track, TrainInput};
+use eyereplay::{extract_cached, generate, plan_config, Error, GenerateOptions, Result};
+use eyereplay_core::{GazeClass, Progress};
 use eyereplay_detect::metrics::{
     balanced_threshold, pairwise_auroc, rate_at, roc_curve, PairAuroc,
 };
@@ -435,8 +433,8 @@ fn generate_into(
 }
 
 /// Runs the protocol into `out`: the generated datasets under `train/` and
-/// `real/`, the results in `detector_eval.json` and `index.html`.
-pub fn evaluate_detector(
+/// `real/`; the results are written by [`crate::evaluate_detector`].
+pub fn run_protocol(
     protocol_path: &Path,
     out: &Path,
     cache: &Path,
@@ -496,7 +494,7 @@ pub fn evaluate_detector(
                 .map(|seg| {
                     let v: Vec<&eyereplay_core::Sample<eyereplay_core::NormPos>> =
                         seg.samples().iter().collect();
-                    crate::detector::resample_samples(&v).len()
+                    eyereplay::detector::resample_samples(&v).len()
                 })
                 .sum();
             // As many whole sessions as the recording fills (at least one).
@@ -546,7 +544,7 @@ pub fn evaluate_detector(
     let mut models = Vec::new();
     let mut conditions = Vec::new();
     let mut webcam = Vec::new();
-    let mut train_tracks: BTreeMap<(String, String), Vec<crate::detector::LabeledTrack>> =
+    let mut train_tracks: BTreeMap<(String, String), Vec<eyereplay::detector::LabeledTrack>> =
         BTreeMap::new();
     for (key, dir) in &train_dirs {
         train_tracks.insert(
@@ -579,7 +577,7 @@ pub fn evaluate_detector(
                     noise_copies: p.training_noise_copies,
                     ..TrainOptions::default()
                 };
-                let examples = crate::detector::training_examples(tt, w, &train_opts);
+                let examples = eyereplay::detector::training_examples(tt, w, &train_opts);
                 let model = eyereplay_detect::train(&examples, w, train_opts, vec![], "extracted")?;
                 let (rs, rl): (Vec<f64>, Vec<bool>) = tt
                     .iter()
@@ -730,7 +728,6 @@ pub fn evaluate_detector(
         conditions,
         webcam,
     };
-    crate::detector_report::write(out, &eval)?;
     Ok(eval)
 }
 

@@ -1,15 +1,14 @@
-//! The full-face render mode for a whole dataset (`[render] backend =
-//! "face"`): identities fitted once from the configured photos (or the
-//! bundled ones), then each session drawn by eyereplay-face with its own
-//! identity, head-movement person, and webcam look, all from its seed.
+//! `backend = "face"`: identities fitted once from the configured photos
+//! (or the bundled ones), then each session drawn by eyereplay-face with
+//! its own identity, head-movement person, and webcam look, all from its
+//! seed.
 
-use crate::progress::{Progress, Stage};
-use crate::render::RenderSummary;
-use crate::shard::Shard;
-use crate::{Error, Result};
-use eyereplay_core::NormPos;
-use eyereplay_dataset::SessionPaths;
-use eyereplay_dataset::{DatasetMetadata, HeadMotion, RenderSettings, SessionIdentity};
+use crate::backend::{Rendered, Session, SessionBackend, SessionOutputs};
+use crate::{BackendError as Error, Result};
+use eyereplay_core::{CanvasPos, GazeClass, NormPos, Progress};
+use eyereplay_dataset::{
+    DatasetMetadata, FaceBackendSettings, HeadMotion, PoseRow, SessionIdentity, SessionPaths,
+};
 use eyereplay_face::coordination::{CoordinationParams, HeadDynamics, Task, DEFAULT_SWAY_RMS};
 use eyereplay_face::webcam::{WebcamLook, WebcamRanges};
 use eyereplay_face::{
@@ -22,11 +21,12 @@ use rand::SeedableRng;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 /// The photos a face-mode config uses: its `identities` resolved against
 /// the config's folder, or the bundled photos.
 pub fn identity_photos(
-    settings: &RenderSettings,
+    settings: &FaceBackendSettings,
     resolve: impl Fn(&Path) -> PathBuf,
 ) -> Vec<PathBuf> {
     if settings.identities.is_empty() {
@@ -61,7 +61,7 @@ impl FaceSettings {
     /// `[render.webcam]` typed, and the face mode's `[render]` keys
     /// (`face_height_frac`, `head_sway`) checked: one-line errors naming
     /// the key.
-    pub fn from_render(settings: &RenderSettings) -> Result<FaceSettings> {
+    pub fn from_backend(settings: &FaceBackendSettings) -> Result<FaceSettings> {
         let mut table = settings.webcam.clone().unwrap_or_default();
         let x264_preset = match table.remove("x264_preset") {
             None => FACE_X264_PRESET.to_string(),
@@ -75,7 +75,9 @@ impl FaceSettings {
         let webcam: WebcamRanges = toml::Value::Table(table)
             .try_into()
             .map_err(|e| Error::Setting(format!("[render.webcam]: {}", e.message())))?;
-        webcam.validate().map_err(Error::Setting)?;
+        webcam
+            .validate()
+            .map_err(|e| Error::Setting(e.to_string()))?;
         let [lo, hi] = settings.face_height_frac;
         if !(lo.is_finite() && hi.is_finite() && 0.15 <= lo && lo <= hi && hi <= 0.8) {
             return Err(Error::Setting(format!(
@@ -179,75 +181,120 @@ struct ReadbackMatchRecord {
     refined: bool,
 }
 
-/// Renders the unfinished sessions of `out` in the full-face mode.
-pub(crate) fn render_sessions_face(
-    out: &Path,
-    meta: &DatasetMetadata,
-    settings: &RenderSettings,
-    params: &RenderParams,
-    shard: Option<Shard>,
-    progress: &dyn Progress,
-) -> Result<RenderSummary> {
-    let face = FaceSettings::from_render(settings)?;
-    let encoder = face.encoder(&params.encoder);
-    let photos = identity_photos(settings, |p| p.to_path_buf());
-    let ffprobe = eyereplay_render::ffprobe_for(&params.encoder.ffmpeg);
-    let sessions = crate::render::shard_sessions(out, meta.seed, shard)?;
-    let (mesh, identities, mut fitter) = fit_identities(&photos)?;
-    fitter.set_iris_views(settings.extractor_iris_views);
-    let mapping = eyereplay_render::read_dataset_info(out)?.mapping(&params.mapping);
-    // head_motion = source: each class's source head poses, read once.
-    let mut pool_heads = BTreeMap::new();
-    progress.begin(Stage::Render, (sessions.len() * meta.session_frames) as u64);
-    let mut summary = RenderSummary::default();
-    let mut failed = vec![];
-    for (n, job) in sessions.iter().enumerate() {
-        progress.status(&format!("{}/{} sessions", n + 1, sessions.len()));
-        let files = &job.paths;
-        let head_csv = files.head_csv();
-        let Some(traj) = crate::render::open_session(job, &head_csv, &ffprobe)? else {
-            summary.skipped += 1;
-            progress.advance(meta.session_frames as u64);
-            continue;
-        };
-        let blinks = eyereplay_render::read_blink_column(&files.csv)?;
-        let seed = job.seed;
-        let photo = &identities[job.balanced_choice(meta.seed, identities.len())];
-        let look = face.webcam.sample(seed ^ 0x00ca_3e4a);
+/// The full-face backend, ready to draw sessions: photos fitted, mesh
+/// loaded, the probe's fitter shared.
+pub struct FaceBackend {
+    settings: FaceBackendSettings,
+    face: FaceSettings,
+    encoder: EncoderSettings,
+    width: usize,
+    height: usize,
+    natural_blinks: bool,
+    mapping: GazeMapping,
+    meta: DatasetMetadata,
+    out: PathBuf,
+    mesh: CanonicalMesh,
+    identities: Vec<PhotoIdentity>,
+    fitter: Mutex<PhotoFitter>,
+    /// head_motion = source: each class's source head poses, read once.
+    pool_heads: Mutex<BTreeMap<GazeClass, Vec<Option<PoseRow>>>>,
+}
+
+impl FaceBackend {
+    /// The backend for the dataset in `out`: photos fitted (a photo
+    /// without a usable face fails here, with its name, before any
+    /// session). `params` carries the video size, encoder and mapping
+    /// template of the `[render]` settings.
+    pub fn new(
+        out: &Path,
+        settings: &FaceBackendSettings,
+        params: &RenderParams,
+        natural_blinks: bool,
+    ) -> Result<Self> {
+        let face = FaceSettings::from_backend(settings)?;
+        let encoder = face.encoder(&params.encoder);
+        let photos = identity_photos(settings, |p| p.to_path_buf());
+        let (mesh, identities, mut fitter) = fit_identities(&photos)?;
+        fitter.set_iris_views(settings.extractor.extractor_iris_views);
+        let mapping = eyereplay_render::read_dataset_info(out)?.mapping(&params.mapping);
+        Ok(FaceBackend {
+            settings: settings.clone(),
+            face,
+            encoder,
+            width: params.width,
+            height: params.height,
+            natural_blinks,
+            mapping,
+            meta: eyereplay_dataset::read_metadata(out)?.dataset,
+            out: out.to_path_buf(),
+            mesh,
+            identities,
+            fitter: Mutex::new(fitter),
+            pool_heads: Mutex::new(BTreeMap::new()),
+        })
+    }
+}
+
+impl SessionBackend for FaceBackend {
+    fn name(&self) -> &'static str {
+        "face"
+    }
+
+    fn ffmpeg(&self) -> &Path {
+        &self.encoder.ffmpeg
+    }
+
+    fn extra_outputs(&self, paths: &SessionPaths) -> Vec<PathBuf> {
+        vec![paths.head_csv()]
+    }
+
+    fn render(
+        &self,
+        s: &Session,
+        out: &SessionOutputs,
+        progress: &dyn Progress,
+    ) -> Result<Rendered> {
+        let settings = &self.settings;
+        let files = &s.job.paths;
+        let traj = &s.trajectory;
+        let head_csv = out.extra(&files.head_csv());
+        let mapping = self.mapping;
+        let seed = s.job.seed;
+        let photo = &self.identities[s.job.balanced_choice(s.dataset_seed, self.identities.len())];
+        let look = self.face.webcam.sample(seed ^ 0x00ca_3e4a);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x4ead);
         let coordination = CoordinationParams::sample(&mut rng);
         let [lo, hi] = settings.face_height_frac;
         let frac = lo + (hi - lo) * rand::Rng::gen::<f64>(&mut rng);
         let eye_identity = Identity::sample(seed);
-        let framing = framing(&look, params.width, params.height, frac);
-        let scene = FaceScene::new(photo.clone(), &mesh, eye_identity.clone(), &framing);
-        let class = files.file.split('/').next().unwrap_or("");
-        let task = if class.to_ascii_lowercase().contains("read") {
-            Task::Reading
-        } else {
-            Task::Saccades
+        let framing = framing(&look, self.width, self.height, frac);
+        let scene = FaceScene::new(photo.clone(), &self.mesh, eye_identity.clone(), &framing);
+        let task = match s.class {
+            GazeClass::Reading => Task::Reading,
+            GazeClass::Conversation => Task::Saccades,
         };
         let source_head = if settings.head_motion == HeadMotion::Source {
+            let mut pools = self.pool_heads.lock().unwrap_or_else(|p| p.into_inner());
             Some(crate::source_head::session_heads(
-                out,
-                meta,
+                &self.out,
+                &self.meta,
                 &files.file,
-                &mut pool_heads,
+                &mut pools,
             )?)
         } else {
             None
         };
         let mut p = FaceSessionParams {
-            fps: meta.fps,
+            fps: s.fps,
             mapping,
-            natural_blinks: settings.natural_blinks,
+            natural_blinks: self.natural_blinks,
             blink_rate_per_min: eye_identity.blink_rate_per_min,
             task,
             coordination,
             dynamics: HeadDynamics::default(),
             sway_rms: DEFAULT_SWAY_RMS.map(|r| r * settings.head_sway),
             look: look.clone(),
-            encoder: encoder.clone(),
+            encoder: self.encoder.clone(),
             seed,
             pose_slopes: None,
             source_head,
@@ -259,11 +306,13 @@ pub(crate) fn render_sessions_face(
         // through the inverse.
         let mut probe_head_centre_deg = None;
         let targets: Vec<NormPos> = traj.iter().map(|&c| mapping.target_norm(c)).collect();
-        let matched = if settings.match_extractor {
-            let planned = eyereplay_face::head_path(&scene, &traj, &p);
+        let iris_views = settings.extractor.extractor_iris_views;
+        let matched = if settings.extractor.match_extractor {
+            let planned = eyereplay_face::head_path(&scene, traj, &p);
             let head =
                 ProbeHeadRange::of_path(planned.iter().map(|(h, _)| (h.yaw_deg, h.pitch_deg)));
             probe_head_centre_deg = Some(head.centre_deg());
+            let mut fitter = self.fitter.lock().unwrap_or_else(|p| p.into_inner());
             eyereplay_face::match_extractor(&scene, &look, &mut fitter, &targets, &head)?
         } else {
             ExtractorMatch::default()
@@ -273,82 +322,68 @@ pub(crate) fn render_sessions_face(
             ..mapping
         };
         p.pose_slopes = matched.pose_slopes;
-        let rendered = if settings.match_readback && matched.response.is_some() {
-            progress.status(&format!(
-                "{}/{} sessions (first pass, then its read-back)",
-                n + 1,
-                sessions.len()
-            ));
-            render_matched_to_readback(
+        let (mp4, truth) = (out.mp4(), out.truth());
+        let (stats, readback_match) = if settings.match_readback && matched.response.is_some() {
+            progress.status(&format!("{} (first pass, then its read-back)", files.file));
+            let (stats, record) = render_matched_to_readback(
                 &scene,
-                &traj,
-                blinks.as_deref(),
+                traj,
+                s.blinks.as_deref(),
                 &mut p,
-                files,
+                [&mp4, &truth, &head_csv],
                 &targets,
-                settings.extractor_iris_views,
-            )
-            .map(|(stats, record)| (stats, Some(record)))
+                iris_views,
+            )?;
+            (stats, Some(record))
         } else {
-            eyereplay_face::render_face_session(
+            let stats = eyereplay_face::render_face_session(
                 &scene,
-                &traj,
-                blinks.as_deref(),
+                traj,
+                s.blinks.as_deref(),
                 &p,
-                &files.mp4,
-                &files.truth,
+                &mp4,
+                &truth,
                 &head_csv,
-            )
-            .map(|stats| (stats, None))
-            .map_err(Error::from)
+            )?;
+            (stats, None)
         };
         // What the session was drawn through in the end.
-        let session_mapping = p.mapping;
-        let pose_slopes = p.pose_slopes;
-        let result = rendered.and_then(|(stats, readback_match)| {
-            SessionIdentity {
-                file: files.file.clone(),
-                seed,
-                identity: FaceIdentityRecord {
-                    backend: "face",
-                    photo: photo.name.clone(),
-                    eye_identity: &eye_identity,
-                    webcam: &look,
-                    face_height_frac: scene.face_frac,
-                    coordination_e0_deg: coordination.e0_deg,
-                    coordination_k: coordination.k,
-                    task: if task == Task::Reading {
-                        "reading"
-                    } else {
-                        "saccades"
-                    },
-                    max_head_yaw_deg: stats.max_head_yaw_deg,
-                    max_head_pitch_deg: stats.max_head_pitch_deg,
-                    pose_slopes,
-                    probe_head_centre_deg,
-                    head_motion: settings.head_motion,
-                    source_head_frames: stats.source_head_frames,
-                    readback_match,
+        out.write_identity(&SessionIdentity {
+            file: files.file.clone(),
+            seed,
+            identity: FaceIdentityRecord {
+                backend: "face",
+                photo: photo.name.clone(),
+                eye_identity: &eye_identity,
+                webcam: &look,
+                face_height_frac: scene.face_frac,
+                coordination_e0_deg: coordination.e0_deg,
+                coordination_k: coordination.k,
+                task: if task == Task::Reading {
+                    "reading"
+                } else {
+                    "saccades"
                 },
-                mapping: &session_mapping,
-                width: params.width,
-                height: params.height,
-                fps: meta.fps,
-                eyes: None,
-                extractor_iris_views: settings
-                    .match_extractor
-                    .then_some(settings.extractor_iris_views),
-            }
-            .write(&files.identity_json)?;
-            Ok(stats)
-        });
-        progress.advance(traj.len() as u64);
-        match result {
-            Ok(stats) => summary.add(stats.frames, stats.clamped_points),
-            Err(e) => crate::render::fail(&mut failed, &files.file, &e, progress),
-        }
+                max_head_yaw_deg: stats.max_head_yaw_deg,
+                max_head_pitch_deg: stats.max_head_pitch_deg,
+                pose_slopes: p.pose_slopes,
+                probe_head_centre_deg,
+                head_motion: settings.head_motion,
+                source_head_frames: stats.source_head_frames,
+                readback_match,
+            },
+            mapping: &p.mapping,
+            width: self.width,
+            height: self.height,
+            fps: s.fps,
+            eyes: None,
+            extractor_iris_views: settings.extractor.match_extractor.then_some(iris_views),
+        })?;
+        Ok(Rendered {
+            frames: stats.frames,
+            clamped_points: stats.clamped_points,
+        })
     }
-    crate::render::finish(summary, failed, progress)
 }
 
 /// `render.match_readback`: draws the session once through the probe's
@@ -366,19 +401,18 @@ pub(crate) fn render_sessions_face(
 /// removed; where the fit is unusable, it becomes the session.
 fn render_matched_to_readback(
     scene: &FaceScene,
-    traj: &[eyereplay_core::CanvasPos],
+    traj: &[CanvasPos],
     blinks: Option<&[bool]>,
     p: &mut FaceSessionParams,
-    files: &SessionPaths,
+    files: [&Path; 3],
     targets: &[NormPos],
     iris_views: usize,
 ) -> Result<(FaceSessionStats, ReadbackMatchRecord)> {
-    let head_csv = files.head_csv();
     let first_pass = |path: &Path| {
         let name = path.file_name().unwrap_or_default().to_string_lossy();
         path.with_file_name(format!(".first-pass.{name}"))
     };
-    let temp = [&files.mp4, &files.truth, &head_csv].map(|f| first_pass(f));
+    let temp = files.map(first_pass);
     let remove_temp = || {
         for f in &temp {
             let _ = std::fs::remove_file(f);
@@ -386,7 +420,7 @@ fn render_matched_to_readback(
     };
     let [mp4, truth, head] = &temp;
     let first = eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)?;
-    let rows = match crate::evaluate::extract_with_detector(
+    let rows = match eyereplay_extract::extract_with_detector(
         mp4,
         &eyereplay_extract::default_models_dir(),
         traj.len(),
@@ -396,7 +430,7 @@ fn render_matched_to_readback(
         Ok(rows) => rows,
         Err(e) => {
             remove_temp();
-            return Err(e);
+            return Err(e.into());
         }
     };
     let reads = session_reads(&first.drawn, &rows);
@@ -408,7 +442,7 @@ fn render_matched_to_readback(
     };
     let Some(refit) = eyereplay_face::refine_match(targets, &reads) else {
         // The first pass stands: it becomes the session.
-        for (from, to) in temp.iter().zip([&files.mp4, &files.truth, &head_csv]) {
+        for (from, to) in temp.iter().zip(files) {
             if let Err(e) = std::fs::rename(from, to) {
                 remove_temp();
                 return Err(Error::io(to, e));
@@ -421,24 +455,18 @@ fn render_matched_to_readback(
     p.mapping.extractor_response = refit.response;
     p.pose_slopes = refit.pose_slopes;
     p.head_path = Some(first.head_path());
-    let second = eyereplay_face::render_face_session(
-        scene,
-        traj,
-        blinks,
-        p,
-        &files.mp4,
-        &files.truth,
-        &head_csv,
-    )?;
+    let [mp4, truth, head] = files;
+    let second = eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)?;
     Ok((second, record))
 }
 
 /// The frames of a first pass that the read-back fit uses: read by the
 /// extractor (a face, both eyes, not its blink), and clear of any drawn
 /// blink as the evaluation compares them
-/// ([`crate::evaluate::widen_blinks`]).
+/// ([`eyereplay_extract::widen_blinks`]).
 fn session_reads(drawn: &[DrawnFrame], rows: &[eyereplay_extract::Row]) -> Vec<SessionRead> {
-    let closed = crate::evaluate::widen_blinks(&drawn.iter().map(|d| d.blink).collect::<Vec<_>>());
+    let closed =
+        eyereplay_extract::widen_blinks(&drawn.iter().map(|d| d.blink).collect::<Vec<_>>());
     (0..drawn.len().min(rows.len()))
         .filter(|&k| !closed[k])
         .filter_map(|k| {
@@ -462,7 +490,8 @@ fn session_reads(drawn: &[DrawnFrame], rows: &[eyereplay_extract::Row]) -> Vec<S
 /// a 150-frame clip per session (drawn, filmed and read by the extractor),
 /// whatever the session's length.
 pub fn bench(width: usize, height: usize, frames: usize) -> Result<eyereplay_render::BenchReport> {
-    let photos = identity_photos(&RenderSettings::default(), |p| p.to_path_buf());
+    let settings = FaceBackendSettings::default();
+    let photos = identity_photos(&settings, |p| p.to_path_buf());
     let (mesh, ids, _) = fit_identities(&photos[..1])?;
     let look = WebcamRanges::default().sample(1);
     let framing = framing(&look, width, height, 0.42);
@@ -484,8 +513,7 @@ pub fn bench(width: usize, height: usize, frames: usize) -> Result<eyereplay_ren
         dynamics: HeadDynamics::default(),
         sway_rms: DEFAULT_SWAY_RMS,
         look,
-        encoder: FaceSettings::from_render(&RenderSettings::default())?
-            .encoder(&EncoderSettings::default()),
+        encoder: FaceSettings::from_backend(&settings)?.encoder(&EncoderSettings::default()),
         seed: 1,
         pose_slopes: None,
         source_head: None,
@@ -558,4 +586,40 @@ pub fn head_yaw_read_back(
         slope: linear_fit(&drawn, &read).map(|(slope, _)| slope),
         truth_sd_deg: std_pop(&drawn).unwrap_or(0.0),
     })
+}
+
+/// Checks the face backend's settings before any work: the look's ranges,
+/// `match_readback`'s need of the probe, the photos (resolved by
+/// `resolve`, replaced by their resolved paths) and the canonical mesh;
+/// a user's photo without a usable face fails now, naming it.
+pub fn check(settings: &mut FaceBackendSettings, resolve: &dyn Fn(&Path) -> PathBuf) -> Result<()> {
+    FaceSettings::from_backend(settings)?;
+    if settings.match_readback && !settings.extractor.match_extractor {
+        return Err(Error::Setting(
+            "[render]: match_readback needs match_extractor = true (it refines the probe's response map from the session's own read-back)".into(),
+        ));
+    }
+    let photos = identity_photos(settings, resolve);
+    for p in &photos {
+        if !p.is_file() {
+            return Err(Error::input(
+                p,
+                "identity photo not found (render.identities; the bundled ones come with scripts/setup.sh)",
+            ));
+        }
+    }
+    let mesh = default_faces_dir().join(MESH_FILE);
+    if !mesh.is_file() {
+        return Err(Error::input(
+            mesh,
+            "canonical face mesh not found (run scripts/setup.sh)",
+        ));
+    }
+    eyereplay_extract::check_models(&eyereplay_extract::default_models_dir())?;
+    // The bundled photos are known to fit.
+    if !settings.identities.is_empty() {
+        fit_identities(&photos)?;
+    }
+    settings.identities = photos;
+    Ok(())
 }

@@ -3,19 +3,14 @@
 //! figures as PNG and SVG under `figures/`.
 
 use crate::detector_eval::{ConditionResult, DetectorEvaluation};
-use crate::Result;
+use eyereplay::Result;
 use eyereplay_detect::model::write_atomic;
 use eyereplay_detect::AurocCi;
 use eyereplay_eval::plot::{roc_figure, Figure, RocCurve};
 use std::fmt::Write as _;
 use std::path::Path;
 
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
+use eyereplay_eval::html_escape as esc;
 
 fn auc(a: &Option<AurocCi>) -> String {
     match a {
@@ -36,7 +31,7 @@ fn png_b64(f: &Figure) -> String {
     base64::engine::general_purpose::STANDARD.encode(&f.png)
 }
 
-pub(crate) fn write(out: &Path, ev: &DetectorEvaluation) -> Result<()> {
+pub fn write(out: &Path, ev: &DetectorEvaluation) -> Result<()> {
     let mut json = serde_json::to_string_pretty(ev).expect("evaluation serializes");
     json.push('\n');
     write_atomic(&out.join("detector_eval.json"), json.as_bytes())?;

@@ -3,14 +3,14 @@
 //! shows the trajectory as the extractor (the one that measured the source)
 //! will read it back. See [`eyereplay_render::ResponseMap`].
 
-use crate::{Error, Result};
+use crate::{BackendError, Result};
 use eyereplay_core::{CanvasPos, NormPos};
 use eyereplay_extract::{
     order_eye_corners, EyeCropTracker, ImageView, Models, Planes, Pt, Rotation, YuvMatrix,
 };
-use eyereplay_render::{probe_grid, RenderParams, ResponseMap, ResponseProbe, Scene};
+use eyereplay_render::{probe_grid, RenderParams, ResponseMap, Scene};
 use std::path::Path;
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 
 /// Probe grid: 5 x 7 targets (nx, ny) per pass, two passes per identity.
 /// The iris model's per-frame noise is about 0.005 in n; over 35 frames
@@ -39,7 +39,7 @@ pub fn measure_response(
     params: &RenderParams,
     traj: &[CanvasPos],
     tracker: &mut EyeCropTracker,
-) -> std::result::Result<Option<ResponseMap>, String> {
+) -> Result<Option<ResponseMap>> {
     if traj.is_empty() {
         return Ok(None);
     }
@@ -64,7 +64,7 @@ fn probe_pass(
     grid: &[NormPos],
     correction: Option<&ResponseMap>,
     tracker: &mut EyeCropTracker,
-) -> std::result::Result<Option<ResponseMap>, String> {
+) -> Result<Option<ResponseMap>> {
     let (w, h) = (params.width, params.height);
     let geo = scene.geometry();
     let pt = |p: [f64; 2]| Pt::new(p[0] as f32, p[1] as f32);
@@ -96,7 +96,7 @@ fn probe_pass(
             raw_h: h,
             rotation: Rotation::None,
         };
-        let eyes = tracker.measure(&img, &corners).map_err(|e| e.to_string())?;
+        let eyes = tracker.measure(&img, &corners)?;
         let m = [0, 1].map(|k| eyes[k].measure_against(corners[k].0, corners[k].1));
         let mean = NormPos {
             nx: 0.5 * (m[0].nx + m[1].nx),
@@ -109,33 +109,49 @@ fn probe_pass(
     Ok(ResponseMap::fit(&pairs))
 }
 
-/// [`response_probe`] on the default models folder when `enabled`
-/// (`render.match_extractor`), each eye read from `iris_views` crops
-/// (`render.extractor_iris_views`), else `None`.
-pub fn match_extractor_probe(enabled: bool, iris_views: usize) -> Result<Option<ResponseProbe>> {
-    enabled
-        .then(|| response_probe(&eyereplay_extract::default_models_dir(), iris_views))
-        .transpose()
+/// `render.match_extractor`'s probe: one iris model shared by the render
+/// workers (probing takes about 1 s per session at 1280x720), each eye
+/// read from `iris_views` crops.
+pub struct ResponseProbe {
+    tracker: Mutex<EyeCropTracker>,
+    /// Crops per eye (`render.extractor_iris_views`), recorded in each
+    /// session's identity file so the read-back reads the same way.
+    pub iris_views: usize,
 }
 
-/// The probe a dataset render calls per session: one iris model shared by
-/// the render workers (probing takes about 1 s per session at 1280x720),
-/// each eye read from `iris_views` crops.
-pub fn response_probe(models_dir: &Path, iris_views: usize) -> Result<ResponseProbe> {
-    eyereplay_extract::init_runtime(models_dir)?;
-    let models = Models::load(models_dir).map_err(|e| {
-        Error::Setting(format!(
-            "render.match_extractor needs the iris model: {e} (or set match_extractor = false in [render])"
-        ))
-    })?;
-    let mut tracker = EyeCropTracker::new(models);
-    tracker.iris_views = iris_views;
-    let tracker = Mutex::new(tracker);
-    Ok(ResponseProbe::new(
-        iris_views,
-        Arc::new(move |params: &RenderParams, traj: &[CanvasPos]| {
-            let mut t = tracker.lock().unwrap_or_else(|p| p.into_inner());
-            measure_response(params, traj, &mut t)
-        }),
-    ))
+impl ResponseProbe {
+    /// The probe on the models in `models_dir`.
+    pub fn load(models_dir: &Path, iris_views: usize) -> Result<ResponseProbe> {
+        eyereplay_extract::init_runtime(models_dir)?;
+        let models = Models::load(models_dir).map_err(|e| {
+            BackendError::Setting(format!(
+                "render.match_extractor needs the iris model: {e} (or set match_extractor = false in [render])"
+            ))
+        })?;
+        let mut tracker = EyeCropTracker::new(models);
+        tracker.iris_views = iris_views;
+        Ok(ResponseProbe {
+            tracker: Mutex::new(tracker),
+            iris_views,
+        })
+    }
+
+    /// The probe on the default models folder when `enabled`
+    /// (`render.match_extractor`), else `None`.
+    pub fn when(enabled: bool, iris_views: usize) -> Result<Option<ResponseProbe>> {
+        enabled
+            .then(|| Self::load(&eyereplay_extract::default_models_dir(), iris_views))
+            .transpose()
+    }
+
+    /// The response map for one session's parameters and trajectory
+    /// ([`measure_response`]).
+    pub fn measure(
+        &self,
+        params: &RenderParams,
+        traj: &[CanvasPos],
+    ) -> Result<Option<ResponseMap>> {
+        let mut t = self.tracker.lock().unwrap_or_else(|p| p.into_inner());
+        measure_response(params, traj, &mut t)
+    }
 }

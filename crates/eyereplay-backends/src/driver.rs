@@ -1,0 +1,138 @@
+//! The one driver every backend runs under: lists the dataset's sessions
+//! (one shard's, with a [`Shard`]), removes what a killed run left, skips
+//! sessions already whole, draws the rest `parallel_sessions` at a time,
+//! commits each session's files together, and reports every failure after
+//! the other sessions are written.
+
+use crate::backend::{Rendered, Session, SessionBackend, SessionOutputs};
+use crate::{BackendError, Result};
+use eyereplay_core::{Progress, Shard, Stage};
+use eyereplay_render::{is_complete, list_sessions, SessionJob};
+use rayon::prelude::*;
+use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// What a dataset render did.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RenderSummary {
+    pub rendered: usize,
+    pub skipped: usize,
+    pub frames: usize,
+    pub clamped_points: usize,
+}
+
+/// The sessions of `out` in labels.csv order, this shard's only.
+pub fn shard_sessions(out: &Path, seed: u64, shard: Option<Shard>) -> Result<Vec<SessionJob>> {
+    let sessions = list_sessions(out, seed)?;
+    Ok(match shard {
+        None => sessions,
+        Some(s) => sessions
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| s.contains(*i))
+            .map(|(_, j)| j)
+            .collect(),
+    })
+}
+
+/// Renders the unfinished sessions of the dataset in `out` (this shard's
+/// only) with `backend`; fails listing the sessions that failed after the
+/// others are written.
+pub fn render_dataset(
+    out: &Path,
+    backend: &dyn SessionBackend,
+    shard: Option<Shard>,
+    progress: &dyn Progress,
+) -> Result<RenderSummary> {
+    let meta = eyereplay_dataset::read_metadata(out)?.dataset;
+    let labels = eyereplay_dataset::read_labels(out)?;
+    let class_of: std::collections::BTreeMap<String, eyereplay_core::GazeClass> =
+        labels.iter().map(|l| (l.file.clone(), l.class)).collect();
+    let ffprobe = eyereplay_render::ffprobe_for(backend.ffmpeg());
+    let mut summary = RenderSummary::default();
+    let mut todo = Vec::new();
+    // A session whose trajectory cannot be read fails alone, after the
+    // others are rendered.
+    let mut failed = Vec::new();
+    for job in shard_sessions(out, meta.seed, shard)? {
+        let extra = backend.extra_outputs(&job.paths);
+        // Leftovers of an interrupted render of this session only: other
+        // shards may be writing theirs.
+        for p in SessionOutputs::leftovers(&job.paths, &extra) {
+            std::fs::remove_file(&p).map_err(|e| BackendError::io(&p, e))?;
+        }
+        let trajectory = match eyereplay_core::read_session_csv(&job.paths.csv) {
+            Ok(t) => t,
+            Err(e) => {
+                progress.warn(&format!("error: {}: {e}", job.paths.file));
+                failed.push(format!("{}: {e}", job.paths.file));
+                continue;
+            }
+        };
+        if extra.iter().all(|p| p.exists()) && is_complete(&job, trajectory.len(), &ffprobe) {
+            summary.skipped += 1;
+            continue;
+        }
+        todo.push((job, trajectory, extra));
+    }
+    let total_frames: usize = todo.iter().map(|(_, t, _)| t.len()).sum();
+    progress.begin(Stage::Render, total_frames as u64);
+    let sessions = todo.len();
+    let done = AtomicUsize::new(0);
+    let draw = |(job, trajectory, extra): &(SessionJob, Vec<_>, Vec<_>)| -> Result<Rendered> {
+        let class = *class_of
+            .get(&job.paths.file)
+            .ok_or_else(|| BackendError::input(&job.paths.csv, "not listed in labels.csv"))?;
+        let session = Session {
+            job,
+            class,
+            trajectory: trajectory.clone(),
+            blinks: eyereplay_dataset::read_blink_column(&job.paths.csv)?,
+            dataset_seed: meta.seed,
+            fps: meta.fps,
+        };
+        let outputs = SessionOutputs::new(&job.paths, extra);
+        match backend.render(&session, &outputs, progress) {
+            Ok(r) => outputs.commit().map(|()| r),
+            Err(e) => {
+                outputs.discard();
+                Err(e)
+            }
+        }
+    };
+    let run_one = |item: &(SessionJob, Vec<_>, Vec<_>)| {
+        let r = draw(item);
+        let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+        progress.status(&format!("{n}/{sessions} sessions"));
+        progress.advance(item.1.len() as u64);
+        if let Err(e) = &r {
+            progress.warn(&format!("error: {}: {e}", item.0.paths.file));
+        }
+        r
+    };
+    let threads = backend.parallel_sessions().max(1);
+    let results: Vec<Result<Rendered>> = if threads == 1 {
+        todo.iter().map(run_one).collect()
+    } else {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| BackendError::Setting(format!("render threads: {e}")))?;
+        pool.install(|| todo.par_iter().map(run_one).collect())
+    };
+    progress.end(Stage::Render);
+    for ((job, _, _), r) in todo.iter().zip(results) {
+        match r {
+            Ok(r) => {
+                summary.rendered += 1;
+                summary.frames += r.frames;
+                summary.clamped_points += r.clamped_points;
+            }
+            Err(e) => failed.push(format!("{}: {e}", job.paths.file)),
+        }
+    }
+    if !failed.is_empty() {
+        return Err(BackendError::SessionsFailed(failed));
+    }
+    Ok(summary)
+}

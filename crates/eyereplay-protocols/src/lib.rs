@@ -1,0 +1,36 @@
+//! # eyereplay-protocols
+//!
+//! The research protocols that measure what eyereplay's data is worth,
+//! over the pipeline of the `eyereplay` crate:
+//!
+//! - [`evaluate_detector`]: does a reading detector trained only on
+//!   synthetic video work on real recordings (`eyereplay
+//!   evaluate-detector`; [`detector_eval`] runs it, [`detector_report`]
+//!   writes what it found);
+//! - [`replay_eval`]: the replay mode's proofs on a rendered dataset
+//!   (`eyereplay evaluate-replay`).
+
+pub mod detector_eval;
+pub mod detector_report;
+pub mod replay_eval;
+
+pub use detector_eval::{DetectorEvaluation, Protocol};
+pub use replay_eval::{evaluate_replay, ReplayEval};
+
+use eyereplay::Result;
+use eyereplay_core::Progress;
+use std::path::Path;
+
+/// Runs the detector protocol of `protocol_path` into `out`: the generated
+/// datasets under `train/` and `real/`, the results in
+/// `detector_eval.json` and `index.html`.
+pub fn evaluate_detector(
+    protocol_path: &Path,
+    out: &Path,
+    cache: &Path,
+    progress: &dyn Progress,
+) -> Result<DetectorEvaluation> {
+    let eval = detector_eval::run_protocol(protocol_path, out, cache, progress)?;
+    detector_report::write(out, &eval)?;
+    Ok(eval)
+}
