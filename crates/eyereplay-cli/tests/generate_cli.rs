@@ -205,6 +205,61 @@ fn generate_is_deterministic_resumable_and_shardable() {
     assert!(hidden.is_empty(), "{hidden:?}");
 }
 
+#[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_ffmpeg)),
+    ignore = "needs .cache/data and ffmpeg: run scripts/setup.sh"
+)]
+fn render_dataset_draws_what_generate_draws() {
+    // `prepare` then `render --dataset` is `generate`'s render stage: the
+    // same driver, backend and settings (from the recorded [render]
+    // table), so the same files, byte for byte, videos included.
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    ok(&generate(&a, &["--no-evaluate"]));
+    let cfg = tiny();
+    ok(&eyereplay(&[
+        "prepare",
+        "--config",
+        cfg.as_str(),
+        "--out",
+        b.to_str().unwrap(),
+    ]));
+    let o = eyereplay(&["render", "--dataset", b.to_str().unwrap()]);
+    ok(&o);
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("8 sessions drawn by the eyes backend"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    for f in walk_files(&a) {
+        let rel = f.strip_prefix(&a).unwrap();
+        let name = rel.display().to_string();
+        if !(name.ends_with(".mp4")
+            || name.ends_with("_truth.csv")
+            || name.ends_with("_identity.json"))
+        {
+            continue;
+        }
+        assert_eq!(
+            eyereplay_core::sha256_file(&f).unwrap(),
+            eyereplay_core::sha256_file(&b.join(rel)).unwrap(),
+            "{name}"
+        );
+    }
+    assert_eq!(walk_count(&a, "mp4"), 8);
+    assert_eq!(walk_count(&b, "mp4"), 8);
+    // A rerun finds every session whole.
+    let o = eyereplay(&["render", "--dataset", b.to_str().unwrap()]);
+    ok(&o);
+    assert!(
+        String::from_utf8_lossy(&o.stderr)
+            .contains("0 sessions drawn by the eyes backend, 8 already complete"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
 fn walk_files(dir: &Path) -> Vec<PathBuf> {
     let mut v = Vec::new();
     if let Ok(rd) = std::fs::read_dir(dir) {
@@ -304,23 +359,23 @@ fn bad_inputs_stop_before_work() {
         &[],
     );
     assert!(e.contains("head_motion") && e.contains("face"), "{e}");
-    // The read-back match refines the face mode's probe: it needs both.
-    for render in [
-        "match_readback = true\nmatch_extractor = false".to_string(),
-        face("match_readback = true").replace("backend = \"face\"", "backend = \"eyes\""),
-    ] {
-        let cfg = if render.contains("[classes") {
-            render
-        } else {
-            face(&render)
-        };
-        let e = generate(&cfg, &[]);
-        assert!(
-            e.contains("match_readback") && e.contains("match_extractor = true"),
-            "{e}"
-        );
-        assert_eq!(e.trim_end().lines().count(), 1, "{e}");
-    }
+    // The read-back match refines the face mode's probe: it needs both,
+    // and no other backend has it.
+    let e = generate(&face("match_readback = true\nmatch_extractor = false"), &[]);
+    assert!(
+        e.contains("match_readback") && e.contains("match_extractor = true"),
+        "{e}"
+    );
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    let e = generate(
+        &face("match_readback = true").replace("backend = \"face\"", "backend = \"eyes\""),
+        &[],
+    );
+    assert!(
+        e.contains("'match_readback' does not apply to backend = \"eyes\" (only to \"face\")"),
+        "{e}"
+    );
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
     // One class only: the evaluation would fail after the rendering.
     let e = generate(&face("").replace("backend = \"face\"", ""), &[]);
     assert!(

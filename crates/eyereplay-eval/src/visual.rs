@@ -360,7 +360,7 @@ mod tests {
     }
 
     /// Movement s px and iris error d px per frame, worked by hand: std(s)
-    /// = sqrt(10 / 4) and std(d) = 1 (the cases of face-table.py's test).
+    /// = sqrt(10 / 4) and std(d) = 1.
     const S: [f64; 4] = [-2.0, -1.0, 1.0, 2.0];
     const D: [f64; 4] = [1.0, -1.0, 1.0, -1.0];
 

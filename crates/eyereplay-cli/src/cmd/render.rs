@@ -1,4 +1,4 @@
-use eyereplay::backends::{eyes::EyesBackend, face, render_dataset, replay, ResponseProbe};
+use eyereplay::backends::{face, render_dataset, replay, ResponseProbe};
 use eyereplay_core::{read_session_csv, Canvas};
 use eyereplay_render::{
     read_blink_column, read_dataset_info, render_session, render_session_pngs, run_bench, Codec,
@@ -18,7 +18,7 @@ eyereplay render data/reading/reading_0000.csv --out s.mp4       # s.mp4 + s_tru
 eyereplay render traj.csv --out s.mp4 --seed 7 --gain 2 --natural-blinks\n  \
 eyereplay render traj.csv --out s.mp4 --calibration data/metadata.json\n  \
 eyereplay render traj.csv --png-frames frames/                   # lossless stills\n  \
-eyereplay render --dataset data/ --jobs 2                        # every session of a prepared dataset\n  \
+eyereplay render --dataset data/                                 # every session of a prepared dataset, its [render] backend\n  \
 eyereplay render --bench --frames 1000                           # frames/s, real-time factor\n  \
 eyereplay render --bench --face --size 640x480                   # the full-face webcam mode's speed\n  \
 eyereplay render --bench --replay clip.mp4                       # real-face replay's speed on a carrier")]
@@ -35,12 +35,16 @@ pub struct Args {
     /// Write PNG frames into this folder instead of a video (lossless).
     #[arg(long, value_name = "DIR", conflicts_with = "lossless")]
     pub png_frames: Option<PathBuf>,
-    /// Render every session of a dataset folder written by 'eyereplay prepare'.
+    /// Render every unfinished session of a dataset folder written by
+    /// 'eyereplay prepare', with the backend and settings of the `[render]`
+    /// table its metadata.json records (the same driver as 'eyereplay
+    /// generate'; relative paths in it are taken from the current folder).
     #[arg(long, value_name = "DIR", conflicts_with = "bench")]
     pub dataset: Option<PathBuf>,
-    /// Sessions rendered at once with --dataset.
-    #[arg(long, default_value_t = 2)]
-    pub jobs: usize,
+    /// With --dataset: sessions rendered at once, instead of the table's
+    /// `jobs` (eyes and browser backends).
+    #[arg(long)]
+    pub jobs: Option<usize>,
     /// Print render-only, encode-only and end-to-end speed, measured in one run.
     #[arg(long)]
     pub bench: bool,
@@ -156,6 +160,9 @@ fn params(args: &Args) -> anyhow::Result<RenderParams> {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(dir) = &args.dataset {
+        return run_dataset(dir, &args);
+    }
     let p = params(&args)?;
     if args.bench {
         anyhow::ensure!(args.frames >= 25, "--frames must be at least 25");
@@ -168,9 +175,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         };
         println!("{report}");
         return Ok(());
-    }
-    if let Some(dir) = &args.dataset {
-        return run_dataset(dir, &args, p);
     }
     let traj_path = args.trajectory.as_ref().expect("clap requires it");
     let traj = read_session_csv(traj_path)?;
@@ -228,17 +232,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 /// `--dataset`: every unfinished session of a prepared dataset with the
-/// eyes backend, through the same driver as `eyereplay generate`.
-fn run_dataset(dir: &std::path::Path, args: &Args, p: RenderParams) -> anyhow::Result<()> {
+/// backend its recorded `[render]` table chooses, through the same driver
+/// as `eyereplay generate`.
+fn run_dataset(dir: &std::path::Path, args: &Args) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
-    let probe = ResponseProbe::when(args.match_extractor, 1)?;
-    let backend = EyesBackend::new(p, read_dataset_info(dir)?, args.jobs.max(1), probe);
-    let summary = render_dataset(dir, &backend, None, &super::Bars::default())?;
+    let meta_path = dir.join(eyereplay_dataset::layout::METADATA_FILE);
+    let config = eyereplay_dataset::read_metadata(dir)?.dataset.config;
+    let mut settings = eyereplay::RenderSettings::from_config(&config, &meta_path)?;
+    if let Some(jobs) = args.jobs {
+        settings.jobs = jobs;
+    }
+    let cache = eyereplay::cache_dir(None);
+    let settings =
+        eyereplay::check_settings(&settings, &|p: &std::path::Path| p.to_path_buf(), &cache)?;
+    let params = eyereplay::render_params(&settings, &config)?;
+    let bars = super::Bars::default();
+    let backend = eyereplay::open_backend(dir, &settings, params, &cache, &bars)?;
+    let summary = render_dataset(dir, backend.as_ref(), None, &bars)?;
     let secs = t0.elapsed().as_secs_f64();
     eprintln!(
-        "{}: {} rendered, {} already complete; {} frames in {:.1} s ({:.0} frames/s)",
+        "{}: {} sessions drawn by the {} backend, {} already complete; {} frames in {:.1} s ({:.0} frames/s)",
         dir.display(),
         summary.rendered,
+        backend.name(),
         summary.skipped,
         summary.frames,
         secs,
