@@ -49,3 +49,28 @@ echo "python-test: pytest"
 cd "$root/crates/eyereplay-py/tests"
 EYEREPLAY_BIN="$root/target/$dir/eyereplay" EYEREPLAY_ROOT="$root" \
   "$venv/bin/python" -m pytest -q -p no:cacheprovider "$@" .
+
+echo "python-test: the wheel alone (fresh venv, empty folder, fresh HOME, no checkout)"
+# pip resolves the wheel's declared dependencies (numpy) as it would from
+# the package registry, here from a wheelhouse holding only what it needs;
+# the check runs with no EYEREPLAY_* variable and a HOME of its own, so the
+# checkout's .cache is out of reach.
+alone="$(mktemp -d)"
+trap 'rm -rf "$alone"' EXIT
+mkdir -p "$alone/wheels" "$alone/home" "$alone/work"
+cp "$EYEREPLAY_CACHE"/pip/numpy-1.26.4-*.whl "$root"/target/wheels/eyereplay-*.whl "$alone/wheels/"
+"$py" -m venv "$alone/venv"
+"$alone/venv/bin/pip" install --quiet --no-index --find-links "$alone/wheels" eyereplay
+ls -l "$root"/target/wheels/eyereplay-*.whl | awk '{printf "python-test: wheel size %.1f MB\n", $5 / 1e6}'
+# 12 s of a real talking face, its frames as raw RGB, and the command
+# line's CSV of it to compare with.
+ffmpeg -loglevel error -y -i "$EYEREPLAY_CACHE/data/franck.mp4" -t 12 -c:v libx264 -preset veryfast \
+  -an "$alone/clip.mp4"
+ffmpeg -loglevel error -y -i "$alone/clip.mp4" -f rawvideo -pix_fmt rgb24 "$alone/frames.rgb"
+"$root/target/$dir/eyereplay" extract "$alone/clip.mp4" --out "$alone/want.csv" > /dev/null
+size=$(ffprobe -v error -select_streams v:0 -show_entries stream=width,height -of csv=p=0 "$alone/clip.mp4")
+cp "$root/crates/eyereplay-py/tests/standalone/check.py" "$alone/check.py"
+cd "$alone/work"
+env -i HOME="$alone/home" PATH=/usr/local/bin:/usr/bin:/bin "$alone/venv/bin/python" "$alone/check.py" \
+  "$alone/clip.mp4" "$alone/frames.rgb" "$alone/want.csv" "${size%,*}" "${size#*,}"
+echo "python-test: the wheel alone: ok"

@@ -32,6 +32,26 @@ fi
 bash "$root/scripts/ffmpeg-static.sh"
 # The shared build behind the link (scripts/ffmpeg-static.sh).
 export FFMPEG_DIR="$(readlink -f "$cache/ffmpeg-static")"
+# The package is self-contained: MediaPipe's networks (converted, Apache-2.0)
+# and the pinned ONNX Runtime library (MIT, from the onnxruntime wheel that
+# scripts/models.sh unpacks) go inside it with their licenses and NOTICE,
+# and so does the default reading detector. Copied in for the build only
+# (git-ignored): the repository itself holds no weights.
+pkg="$root/crates/eyereplay-py/python/eyereplay"
+rm -rf "$pkg/models"
+mkdir -p "$pkg/models"
+# The .tflite sources too: `check_models` verifies their pinned sha256, and
+# metadata.json lists every model file's sha256, so the package writes the
+# same provenance (and the same bytes) as the command line.
+for f in face_detection_short_range.onnx face_landmark.onnx iris_landmark.onnx \
+    face_landmark_with_attention.onnx face_landmark_with_attention_eyes.onnx \
+    face_detection_short_range.tflite face_landmark.tflite iris_landmark.tflite \
+    face_landmark_with_attention.tflite \
+    libonnxruntime.so.1.22.1 LICENSE-mediapipe LICENSE-onnxruntime ThirdPartyNotices-onnxruntime.txt; do
+  [[ -f "$cache/models/$f" ]] || { echo "python-wheel: $cache/models/$f missing: run scripts/setup.sh" >&2; exit 1; }
+  cp "$cache/models/$f" "$pkg/models/$f"
+done
+cp "$root/NOTICE" "$pkg/models/NOTICE"
 rm -f target/wheels/eyereplay-*.whl
 echo "python-wheel: maturin build --profile $profile"
 # manylinux_2_35: the extension links only glibc (2.35 or later: Ubuntu

@@ -54,9 +54,12 @@ failed=$(grep -oE 'test result: [a-zA-Z]+\. [0-9]+ passed; [0-9]+ failed' target
 read -r cp cf < <(grep -oE '^[0-9]+ passed, [0-9]+ failed' target/test-cluster.log | tail -1 | awk '{print $1, $3}') || true
 passed=$((passed + ${cp:-0}))
 failed=$((failed + ${cf:-0}))
-# pytest's last line: "N passed[, M failed][, ...] in S s"
-pp=$(tail -1 target/test-python.log | grep -oE '[0-9]+ passed' | awk '{print $1}') || true
-pf=$(tail -1 target/test-python.log | grep -oE '[0-9]+ (failed|error)' | awk '{s+=$1} END {print s+0}') || true
+# pytest's summary line: "N passed[, M failed][, ...] in S s"; the wheel-alone
+# check after it counts as one test.
+summary=$(grep -E '^(=+ )?[0-9]+ (passed|failed|error)' target/test-python.log | tail -1) || true
+pp=$(grep -oE '[0-9]+ passed' <<< "$summary" | awk '{print $1}') || true
+pf=$(grep -oE '[0-9]+ (failed|error)' <<< "$summary" | awk '{s+=$1} END {print s+0}') || true
+if grep -q "the wheel alone: ok" target/test-python.log; then pp=$(( ${pp:-0} + 1 )); else pf=$(( ${pf:-0} + 1 )); fi
 passed=$((passed + ${pp:-0}))
 failed=$((failed + ${pf:-0}))
 echo "${passed} passed, ${failed} failed"

@@ -48,6 +48,11 @@ pub const SCRIPTS: &[Script] = &[
         about: "A small static FFmpeg for the Python wheel",
     },
     Script {
+        name: "default-detector",
+        path: "scripts/default-detector.sh",
+        about: "Train the default reading detector on the bundled default and put it in the wheel",
+    },
+    Script {
         name: "python-wheel",
         path: "scripts/python-wheel.sh",
         about: "Build the Python package into a manylinux wheel (target/wheels/)",

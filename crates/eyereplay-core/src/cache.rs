@@ -8,18 +8,30 @@
 use crate::{sha256_file, CoreError};
 use std::path::{Path, PathBuf};
 
-/// Where cached artifacts live: `flag`, `$EYEREPLAY_CACHE`, or
-/// `~/.cache/eyereplay`.
+/// Where cached artifacts live: `flag`, `$EYEREPLAY_CACHE`, or the
+/// user's cache folder (`$XDG_CACHE_HOME/eyereplay`, else
+/// `~/.cache/eyereplay`), never the current folder: the command line and
+/// the Python package share it.
 pub fn cache_dir(flag: Option<&Path>) -> PathBuf {
+    cache_dir_with(flag, |k| std::env::var_os(k))
+}
+
+fn cache_dir_with(
+    flag: Option<&Path>,
+    env: impl Fn(&str) -> Option<std::ffi::OsString>,
+) -> PathBuf {
     if let Some(p) = flag {
         return p.to_path_buf();
     }
-    if let Some(p) = std::env::var_os("EYEREPLAY_CACHE") {
-        return PathBuf::from(p);
+    let set = |k: &str| env(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    if let Some(p) = set("EYEREPLAY_CACHE") {
+        return p;
     }
-    let home = std::env::var_os("HOME")
-        .map(PathBuf::from)
-        .unwrap_or_else(std::env::temp_dir);
+    // XDG: a relative value is invalid and ignored.
+    if let Some(p) = set("XDG_CACHE_HOME").filter(|p| p.is_absolute()) {
+        return p.join("eyereplay");
+    }
+    let home = set("HOME").unwrap_or_else(std::env::temp_dir);
     home.join(".cache/eyereplay")
 }
 
@@ -137,6 +149,35 @@ impl ArtifactCache {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_cache_folder_follows_the_flag_then_the_environment() {
+        let env = |pairs: &'static [(&'static str, &'static str)]| {
+            move |k: &str| {
+                pairs
+                    .iter()
+                    .find(|(a, _)| *a == k)
+                    .map(|(_, v)| std::ffi::OsString::from(v))
+            }
+        };
+        let all = env(&[
+            ("EYEREPLAY_CACHE", "/e"),
+            ("XDG_CACHE_HOME", "/x"),
+            ("HOME", "/h"),
+        ]);
+        assert_eq!(cache_dir_with(Some(Path::new("/f")), all), Path::new("/f"));
+        assert_eq!(cache_dir_with(None, all), Path::new("/e"));
+        let xdg = env(&[("XDG_CACHE_HOME", "/x"), ("HOME", "/h")]);
+        assert_eq!(cache_dir_with(None, xdg), Path::new("/x/eyereplay"));
+        // A relative XDG_CACHE_HOME is ignored, as the spec says.
+        let rel = env(&[("XDG_CACHE_HOME", "x"), ("HOME", "/h")]);
+        assert_eq!(cache_dir_with(None, rel), Path::new("/h/.cache/eyereplay"));
+        let empty = env(&[("EYEREPLAY_CACHE", ""), ("HOME", "/h")]);
+        assert_eq!(
+            cache_dir_with(None, empty),
+            Path::new("/h/.cache/eyereplay")
+        );
+    }
 
     #[test]
     fn names_carry_content_and_every_version() {

@@ -10,6 +10,9 @@ pub enum ExtractError {
     NoVideoStream { path: PathBuf },
     #[error("{path}: no video frames could be decoded")]
     NoFrames { path: PathBuf },
+    /// Frames given in memory that cannot be read (wrong size, times).
+    #[error("frames: {0}")]
+    Frames(String),
     #[error("{path}: decoding failed: {message}")]
     Decode { path: PathBuf, message: String },
     #[error("{path}: no face found in any of its {frames} frames")]

@@ -58,7 +58,8 @@ pub use geom::{Pt, Roi};
 pub use image::{Border, ImageView, Planes, Rotation, YuvMatrix};
 pub use models::{
     check as check_models, default_models_dir, init_runtime, missing_files, runtime_library,
-    AttentionOut, DetectorOutput, Device, FaceMeshOutput, IrisOutput, LandmarkModel, Models,
+    use_package_files, AttentionOut, DetectorOutput, Device, FaceMeshOutput, IrisOutput,
+    LandmarkModel, Models,
 };
 pub use output::{
     flag_blinks, output_csv_paths, save_csv, write_csv, EyeRow, Row, CSV_HEADER,
@@ -69,8 +70,8 @@ pub use readback::{
     extract_at_corners, extract_with_detector, row_norm, widen_blinks, BLINK_MARGIN_FRAMES,
 };
 pub use run::{
-    extract_many, extract_video_to_csv, ExtractOptions, Extraction, NoProgress, Progress,
-    DEFAULT_MESH_EVERY,
+    extract_many, extract_video_to_csv, ExtractOptions, Extraction, FrameExtraction, FrameStream,
+    NoProgress, Progress, DEFAULT_MESH_EVERY,
 };
 pub use shapes::{
     DETECTOR_ANCHORS, DETECTOR_ANCHOR_VALUES, EYE_CONTOUR_POINTS, FACE_MESH_LANDMARKS, IRIS_POINTS,

@@ -53,12 +53,38 @@ pub const TFLITE_SHA256: [(&str, &str); 4] = [
     ),
 ];
 
-/// Where the models live: `$EYEREPLAY_MODELS`, else `.cache/models` in the
+/// Model and runtime locations an installed package supplies
+/// ([`use_package_files`]): used when no environment variable names them.
+static PACKAGE_FILES: std::sync::RwLock<Option<(PathBuf, Option<PathBuf>)>> =
+    std::sync::RwLock::new(None);
+
+/// Makes `models_dir` (and, when given, `runtime_library` as the ONNX
+/// Runtime library) this process's defaults: how an installed package
+/// (the Python wheel, which ships the models and the library inside it)
+/// works from any folder. `$EYEREPLAY_MODELS` and `$EYEREPLAY_ORT_LIB`
+/// still win.
+pub fn use_package_files(models_dir: PathBuf, runtime_library: Option<PathBuf>) {
+    let mut g = PACKAGE_FILES.write().unwrap_or_else(|p| p.into_inner());
+    *g = Some((models_dir, runtime_library));
+}
+
+fn package_files() -> Option<(PathBuf, Option<PathBuf>)> {
+    PACKAGE_FILES
+        .read()
+        .unwrap_or_else(|p| p.into_inner())
+        .clone()
+}
+
+/// Where the models live: `$EYEREPLAY_MODELS`; else the installed
+/// package's own ([`use_package_files`]); else `.cache/models` in the
 /// current directory or the nearest ancestor that has one (so the binary
 /// works from anywhere inside the checkout).
 pub fn default_models_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("EYEREPLAY_MODELS") {
         return PathBuf::from(d);
+    }
+    if let Some((dir, _)) = package_files() {
+        return dir;
     }
     if let Some(marker) = eyereplay_core::find_upwards(&Path::new(".cache/models").join(DETECTOR)) {
         return marker.parent().expect("a file has a folder").to_path_buf();
@@ -68,11 +94,15 @@ pub fn default_models_dir() -> PathBuf {
 
 /// The ONNX Runtime library: `$EYEREPLAY_ORT_LIB` when set (for example
 /// the `libonnxruntime.so` of an `onnxruntime-gpu` install, which has the
-/// CUDA execution provider), else the pinned CPU build in the models folder.
+/// CUDA execution provider); else the installed package's own
+/// ([`use_package_files`]); else the pinned CPU build in the models folder.
 pub fn runtime_library(dir: &Path) -> PathBuf {
-    match std::env::var_os("EYEREPLAY_ORT_LIB") {
-        Some(p) => PathBuf::from(p),
-        None => dir.join(ORT_LIB),
+    if let Some(p) = std::env::var_os("EYEREPLAY_ORT_LIB") {
+        return PathBuf::from(p);
+    }
+    match package_files() {
+        Some((_, Some(lib))) => lib,
+        _ => dir.join(ORT_LIB),
     }
 }
 
@@ -101,6 +131,11 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
     let mut lines = vec![];
     for (file, want) in TFLITE_SHA256 {
         let p = dir.join(file);
+        if !p.is_file() {
+            // An installed package ships the converted networks only.
+            lines.push(format!("{file}: source not here (converted networks only)"));
+            continue;
+        }
         let got = eyereplay_core::sha256_file(&p)?;
         if got != want {
             return Err(ExtractError::ModelChecksum {

@@ -10,6 +10,7 @@
 
 use crate::decode::{Decoder, VideoInfo};
 use crate::error::{ExtractError, Result};
+use crate::image::{ImageView, Planes, Rotation};
 use crate::models::{Device, LandmarkModel, Models};
 use crate::output::{flag_blinks, Row, DEFAULT_BLINK_RATIO};
 use crate::preview;
@@ -580,6 +581,104 @@ fn run_segment(
         times: tracker.clock.times,
         on_cuda: tracker.on_cuda(),
     })
+}
+
+/// Extraction from frames already in memory (packed RGB, as OpenCV after
+/// a colour conversion, decord or torchvision give them), one after
+/// another as a video's frames would be decoded, on one tracker: for
+/// callers that have frames and no video file. The rows are the same as
+/// [`extract_many`] gives for a video of the same frames and times.
+pub struct FrameStream {
+    tracker: Tracker,
+    rows: Vec<Row>,
+    width: usize,
+    height: usize,
+    blink_ratio: f64,
+}
+
+/// What a [`FrameStream`] found.
+#[derive(Clone, Debug)]
+pub struct FrameExtraction {
+    pub rows: Vec<Row>,
+    pub face_frames: usize,
+    pub blinks: usize,
+}
+
+impl FrameStream {
+    /// A stream of `width` x `height` frames, read as `opts` says (models,
+    /// device, landmark model, iris views, mesh period, blink ratio).
+    pub fn new(opts: &ExtractOptions, width: usize, height: usize) -> Result<FrameStream> {
+        if width < 2 || height < 2 {
+            return Err(ExtractError::Frames(format!(
+                "frames of {width}x{height} px: too small to hold a face"
+            )));
+        }
+        let models = Models::load_on(&opts.models_dir, opts.device)?;
+        Ok(FrameStream {
+            tracker: new_tracker(models, opts),
+            rows: Vec::new(),
+            width,
+            height,
+            blink_ratio: opts.blink_ratio,
+        })
+    }
+
+    /// Reads the next frame: `rgb` holds `height` rows of `width` RGB
+    /// pixels; `time_s` is its presentation time, later than the last.
+    pub fn push_rgb(&mut self, rgb: &[u8], time_s: f64) -> Result<()> {
+        let want = self.width * self.height * 3;
+        if rgb.len() != want {
+            return Err(ExtractError::Frames(format!(
+                "frame {} has {} bytes, a {}x{} RGB frame has {want}",
+                self.rows.len(),
+                rgb.len(),
+                self.width,
+                self.height
+            )));
+        }
+        if !time_s.is_finite() || self.rows.last().is_some_and(|r| time_s <= r.time_s) {
+            return Err(ExtractError::Frames(format!(
+                "frame {}: time {time_s} s does not follow the previous frame's",
+                self.rows.len()
+            )));
+        }
+        let img = ImageView {
+            planes: Planes::Rgb24 {
+                data: rgb,
+                stride: self.width * 3,
+            },
+            raw_w: self.width,
+            raw_h: self.height,
+            rotation: Rotation::None,
+        };
+        let face = self.tracker.process(&img)?;
+        self.rows.push(Row::from_face(
+            self.rows.len() as u64,
+            time_s,
+            face.as_ref(),
+        ));
+        Ok(())
+    }
+
+    /// Frames read so far.
+    pub fn frames(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// The rows, blinks flagged as for a video.
+    pub fn finish(self) -> Result<FrameExtraction> {
+        let mut rows = self.rows;
+        if rows.is_empty() {
+            return Err(ExtractError::Frames("no frames given".into()));
+        }
+        let face_frames = rows.iter().filter(|r| r.face()).count();
+        let blinks = flag_blinks(&mut rows, self.blink_ratio);
+        Ok(FrameExtraction {
+            rows,
+            face_frames,
+            blinks,
+        })
+    }
 }
 
 /// Extracts one video and writes its CSV atomically (for callers such as

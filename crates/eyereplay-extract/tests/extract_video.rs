@@ -746,3 +746,67 @@ fn face_mesh_alone_is_the_full_pipelines_mesh() {
     assert_eq!(frames, 60);
     assert!(faces >= 55, "a face in {faces} of 60 frames");
 }
+
+#[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models)),
+    ignore = "needs .cache/data and .cache/models: run scripts/setup.sh"
+)]
+fn frames_in_memory_read_like_the_video() {
+    // The first 4 s of franck.mp4, decoded to RGB here as a user's OpenCV
+    // would, then read by FrameStream: the same face frames and the same
+    // iris positions as the extractor reading the file (only the colour
+    // conversion differs: the file's frames reach the networks from YUV).
+    let v = video("franck.mp4");
+    let opts = ExtractOptions {
+        models_dir: models(),
+        threads: 1,
+        max_duration_s: Some(4.0),
+        ..Default::default()
+    };
+    let from_file = extract_many(std::slice::from_ref(&v), &opts, &NoProgress)
+        .pop()
+        .unwrap()
+        .unwrap();
+    let mut dec = Decoder::open(&v).unwrap();
+    let mut frames: Vec<(f64, usize, usize, Vec<u8>)> = Vec::new();
+    dec.frames(|t, img| {
+        if frames.len() == from_file.rows.len() {
+            return Ok(std::ops::ControlFlow::Break(()));
+        }
+        let (w, h, rgb) = img.to_rgb8(1);
+        frames.push((t, w, h, rgb));
+        Ok(std::ops::ControlFlow::Continue(()))
+    })
+    .unwrap();
+    let (w, h) = (frames[0].1, frames[0].2);
+    let mut s = FrameStream::new(&opts, w, h).unwrap();
+    for (t, _, _, rgb) in &frames {
+        s.push_rgb(rgb, *t).unwrap();
+    }
+    let got = s.finish().unwrap();
+    assert_eq!(got.rows.len(), from_file.rows.len());
+    assert_eq!(got.face_frames, from_file.face_frames);
+    let mut compared = 0;
+    for (a, b) in got.rows.iter().zip(&from_file.rows) {
+        assert_eq!(a.time_s, b.time_s);
+        if let (Some(x), Some(y)) = (a.mean_n(), b.mean_n()) {
+            assert!(
+                (x.0 - y.0).abs() < 0.02 && (x.1 - y.1).abs() < 0.03,
+                "{x:?} {y:?}"
+            );
+            compared += 1;
+        }
+    }
+    assert!(compared > 50, "{compared}");
+    // A frame of the wrong size, or out of time order, is refused in one line.
+    let mut s = FrameStream::new(&opts, w, h).unwrap();
+    let e = s.push_rgb(&frames[0].3[1..], 0.0).unwrap_err().to_string();
+    assert!(
+        e.starts_with("frames: frame 0 has") && !e.contains('\n'),
+        "{e}"
+    );
+    s.push_rgb(&frames[0].3, 1.0).unwrap();
+    let e = s.push_rgb(&frames[0].3, 1.0).unwrap_err().to_string();
+    assert!(e.contains("does not follow"), "{e}");
+}

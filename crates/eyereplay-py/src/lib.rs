@@ -273,40 +273,22 @@ fn extract<'py>(
     landmarks: &str,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
-    let landmarks = match landmarks {
-        "cascade" => ex::LandmarkModel::Cascade,
-        "attention" => ex::LandmarkModel::Attention,
-        other => {
-            return Err(ConfigError::new_err(format!(
-                "landmarks {other:?}: expected \"cascade\" or \"attention\""
-            )))
-        }
-    };
-    if !(1..=ex::MAX_IRIS_VIEWS).contains(&iris_views) {
-        return Err(ConfigError::new_err(format!(
-            "iris_views {iris_views}: expected 1 to {}",
-            ex::MAX_IRIS_VIEWS
-        )));
-    }
+    let opts = extract_options(
+        models,
+        threads,
+        blink_ratio,
+        max_seconds,
+        mesh_every,
+        iris_views,
+        device,
+        landmarks,
+    )?;
     // Where each CSV goes, checked before any work (as the command does).
     let csv_paths = match &out {
         Some(o) => Some(
             ex::output_csv_paths(o, &videos).map_err(|e| ConfigError::new_err(e.to_string()))?,
         ),
         None => None,
-    };
-    let opts = ex::ExtractOptions {
-        models_dir: models.unwrap_or_else(ex::default_models_dir),
-        threads,
-        blink_ratio,
-        max_duration_s: max_seconds,
-        preview_dir: None,
-        preview_every_s: 5.0,
-        mesh_every,
-        iris_views,
-        profile: false,
-        device: device_of(device)?,
-        landmarks,
     };
     let progress = PyProgress(progress);
     Progress::begin(&progress, Stage::Extract, 0);
@@ -361,6 +343,196 @@ fn extract<'py>(
             ),
         )),
     }
+}
+
+/// Options of an extraction, as `extract` takes them.
+#[allow(clippy::too_many_arguments)]
+fn extract_options(
+    models: Option<PathBuf>,
+    threads: usize,
+    blink_ratio: f64,
+    max_seconds: Option<f64>,
+    mesh_every: u32,
+    iris_views: usize,
+    device: &str,
+    landmarks: &str,
+) -> PyResult<ex::ExtractOptions> {
+    let landmarks = match landmarks {
+        "cascade" => ex::LandmarkModel::Cascade,
+        "attention" => ex::LandmarkModel::Attention,
+        other => {
+            return Err(ConfigError::new_err(format!(
+                "landmarks {other:?}: expected \"cascade\" or \"attention\""
+            )))
+        }
+    };
+    if !(1..=ex::MAX_IRIS_VIEWS).contains(&iris_views) {
+        return Err(ConfigError::new_err(format!(
+            "iris_views {iris_views}: expected 1 to {}",
+            ex::MAX_IRIS_VIEWS
+        )));
+    }
+    Ok(ex::ExtractOptions {
+        models_dir: models.unwrap_or_else(ex::default_models_dir),
+        threads,
+        blink_ratio,
+        max_duration_s: max_seconds,
+        preview_dir: None,
+        preview_every_s: 5.0,
+        mesh_every,
+        iris_views,
+        profile: false,
+        device: device_of(device)?,
+        landmarks,
+    })
+}
+
+/// Extraction from frames in memory (`eyereplay.extract(frames, fps=..)`):
+/// the Python side feeds chunks of packed RGB frames with their times, so
+/// a long clip never needs a second copy of itself.
+#[pyclass]
+struct FrameExtractor {
+    stream: Option<ex::FrameStream>,
+    width: usize,
+    height: usize,
+}
+
+fn frames_err(e: ex::ExtractError) -> PyErr {
+    match e {
+        ex::ExtractError::Frames(_) => ConfigError::new_err(e.to_string()),
+        e => py_err(Error::from(e)),
+    }
+}
+
+#[pymethods]
+impl FrameExtractor {
+    #[new]
+    #[pyo3(signature = (width, height, models=None, blink_ratio=ex::DEFAULT_BLINK_RATIO,
+        mesh_every=ex::DEFAULT_MESH_EVERY, iris_views=1, device="cpu", landmarks="cascade"))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        width: usize,
+        height: usize,
+        models: Option<PathBuf>,
+        blink_ratio: f64,
+        mesh_every: u32,
+        iris_views: usize,
+        device: &str,
+        landmarks: &str,
+    ) -> PyResult<Self> {
+        let opts = extract_options(
+            models,
+            1,
+            blink_ratio,
+            None,
+            mesh_every,
+            iris_views,
+            device,
+            landmarks,
+        )?;
+        let stream = py
+            .allow_threads(|| ex::FrameStream::new(&opts, width, height))
+            .map_err(frames_err)?;
+        Ok(FrameExtractor {
+            stream: Some(stream),
+            width,
+            height,
+        })
+    }
+
+    /// Reads `len(times)` frames packed in `data` (RGB, row after row).
+    fn push(&mut self, py: Python<'_>, data: &[u8], times: Vec<f64>) -> PyResult<()> {
+        let stream = self
+            .stream
+            .as_mut()
+            .ok_or_else(|| ConfigError::new_err("frames: this extraction is finished"))?;
+        let frame = self.width * self.height * 3;
+        if data.len() != frame * times.len() {
+            return Err(ConfigError::new_err(format!(
+                "frames: {} bytes for {} frames of {}x{} RGB ({} bytes each)",
+                data.len(),
+                times.len(),
+                self.width,
+                self.height,
+                frame
+            )));
+        }
+        py.allow_threads(|| {
+            for (k, &t) in times.iter().enumerate() {
+                stream.push_rgb(&data[k * frame..(k + 1) * frame], t)?;
+            }
+            Ok(())
+        })
+        .map_err(frames_err)
+    }
+
+    /// The rows as `eyereplay extract` writes them, and the summary.
+    fn finish<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let stream = self
+            .stream
+            .take()
+            .ok_or_else(|| ConfigError::new_err("frames: this extraction is finished"))?;
+        let x = stream.finish().map_err(frames_err)?;
+        let mut csv = Vec::new();
+        ex::write_csv(&mut csv, &x.rows).map_err(|e| EyereplayError::new_err(e.to_string()))?;
+        let valid = x.rows.iter().filter(|r| r.valid()).count();
+        let d = PyDict::new(py);
+        d.set_item("path", py.None())?;
+        d.set_item("csv", String::from_utf8_lossy(&csv))?;
+        d.set_item("frames", x.rows.len())?;
+        d.set_item("width", self.width)?;
+        d.set_item("height", self.height)?;
+        d.set_item("codec", "rgb24 (in memory)")?;
+        d.set_item(
+            "detection_rate",
+            x.face_frames as f64 / x.rows.len().max(1) as f64,
+        )?;
+        d.set_item("valid_frames", valid)?;
+        d.set_item("blinks", x.blinks)?;
+        d.set_item("decode_errors", 0)?;
+        d.set_item("on_cuda", false)?;
+        Ok(d)
+    }
+}
+
+/// The reading detector on a video, an `eyereplay extract` CSV or a
+/// session CSV (`eyereplay detect`): the detection as JSON, as the
+/// command writes it.
+#[pyfunction]
+#[pyo3(signature = (input, model, cache=None))]
+fn detect(
+    py: Python<'_>,
+    input: PathBuf,
+    model: PathBuf,
+    cache: Option<PathBuf>,
+) -> PyResult<String> {
+    let cache = cache_of(cache);
+    let d = py
+        .allow_threads(|| -> Result<_, Error> {
+            let m = eyereplay::detect::DetectorModel::load(&model)?;
+            let (track, info) =
+                eyereplay::detector::load_track(&input, &cache, &eyereplay::NoProgress)?;
+            eyereplay::detector::detect_track(&track, info, &m, &model)
+        })
+        .map_err(py_err)?;
+    serde_json::to_string(&d).map_err(|e| EyereplayError::new_err(e.to_string()))
+}
+
+/// Makes the models (and ONNX Runtime library) shipped inside the
+/// installed package the defaults of this process (`$EYEREPLAY_MODELS`
+/// and `$EYEREPLAY_ORT_LIB` still win): called once at import.
+#[pyfunction]
+#[pyo3(signature = (models_dir, runtime_library=None))]
+fn use_package_files(models_dir: PathBuf, runtime_library: Option<PathBuf>) {
+    ex::use_package_files(models_dir, runtime_library);
+}
+
+/// Where caches go: `$EYEREPLAY_CACHE`, else the user's cache folder
+/// (`$XDG_CACHE_HOME/eyereplay` or `~/.cache/eyereplay`).
+#[pyfunction]
+fn cache_dir() -> PathBuf {
+    eyereplay::cache_dir(None)
 }
 
 fn cache_of(cache: Option<PathBuf>) -> PathBuf {
@@ -591,9 +763,9 @@ fn check_models(py: Python<'_>, dir: Option<PathBuf>) -> PyResult<Vec<String>> {
         .map_err(|e| py_err(Error::from(e)))
 }
 
-/// Where models are looked for: `$EYEREPLAY_MODELS`, else the
-/// `.cache/models` of a checkout above the current folder, else
-/// `.cache/models` in the current folder.
+/// Where models are looked for: `$EYEREPLAY_MODELS`, else the ones inside
+/// the installed package, else the `.cache/models` of a checkout above the
+/// current folder.
 #[pyfunction]
 fn default_models_dir() -> PathBuf {
     ex::default_models_dir()
@@ -632,5 +804,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(default_models_dir, m)?)?;
     m.add_function(wrap_pyfunction!(default_config, m)?)?;
     m.add_function(wrap_pyfunction!(version, m)?)?;
+    m.add_function(wrap_pyfunction!(detect, m)?)?;
+    m.add_function(wrap_pyfunction!(use_package_files, m)?)?;
+    m.add_function(wrap_pyfunction!(cache_dir, m)?)?;
+    m.add_class::<FrameExtractor>()?;
     Ok(())
 }

@@ -111,3 +111,24 @@ def test_one_csv_for_two_videos_is_refused_before_work(tmp_path):
     r = run_cli("extract", v, v, "--out", tmp_path / "both.csv")
     assert str(e.value) in r.stderr
     assert not (tmp_path / "both.csv").exists()
+
+
+def test_bad_frames_are_config_errors():
+    import numpy as np
+
+    f = np.zeros((3, 32, 32, 3), dtype=np.uint8)
+    cases = [
+        (dict(video=f), "exactly one of fps= and timestamps="),
+        (dict(video=f, fps=25, timestamps=[0, 1, 2]), "exactly one of"),
+        (dict(video=f, timestamps=[0, 2, 1]), "increasing"),
+        (dict(video=f, timestamps=[0, 1]), "2 values for 3 frames"),
+        (dict(video=f.astype(np.float32), fps=25), "uint8"),
+        (dict(video=f[..., :2], fps=25), "(T, H, W, 3)"),
+        (dict(video=f, fps=0), "positive"),
+        (dict(video=DATA / "franck.mp4", fps=25), "frames in memory"),
+    ]
+    for kw, want in cases:
+        with pytest.raises(eyereplay.ConfigError) as e:
+            eyereplay.extract(progress=False, **kw)
+        assert want in str(e.value), (kw, str(e.value))
+        assert "\n" not in str(e.value)

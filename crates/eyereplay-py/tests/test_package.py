@@ -43,3 +43,43 @@ def test_public_functions_are_documented():
     for name in eyereplay.__all__:
         obj = getattr(eyereplay, name)
         assert getattr(obj, "__doc__", None), name
+
+
+def test_the_package_ships_its_models_detector_and_notices():
+    m = eyereplay.PACKAGE_MODELS
+    for f in ("face_detection_short_range.onnx", "face_landmark.onnx", "iris_landmark.onnx",
+              "face_landmark_with_attention.onnx", "face_landmark_with_attention_eyes.onnx",
+              "face_landmark.tflite", "iris_landmark.tflite", "face_detection_short_range.tflite",
+              "face_landmark_with_attention.tflite",
+              "libonnxruntime.so.1.22.1", "NOTICE", "LICENSE-mediapipe", "LICENSE-onnxruntime",
+              "ThirdPartyNotices-onnxruntime.txt"):
+        assert (m / f).is_file(), f
+    assert "Apache" in (m / "LICENSE-mediapipe").read_text()
+    assert eyereplay.DEFAULT_DETECTOR.is_file()
+    # The shipped networks run (one inference each), from this package.
+    lines = eyereplay.check_models(m)
+    assert sum("runs" in l for l in lines) >= 3, lines
+    assert sum("(pinned, ok)" in l for l in lines) == 4, lines
+
+
+def _glibc_versions(so):
+    out = subprocess.run(["objdump", "-T", str(so)], capture_output=True, text=True, check=True)
+    import re
+
+    return {tuple(int(x) for x in v.split(".")) for v in re.findall(r"GLIBC_([0-9.]+)", out.stdout)}
+
+
+def test_every_shared_library_in_the_wheel_keeps_the_manylinux_2_35_policy():
+    # maturin audits the extension when it tags the wheel; the ONNX Runtime
+    # library beside the models is checked here the same way: only the
+    # policy's system libraries, and no glibc symbol newer than 2.35.
+    policy = {"libc.so.6", "libm.so.6", "libgcc_s.so.1", "libpthread.so.0", "libdl.so.2",
+              "ld-linux-x86-64.so.2", "librt.so.1", "libstdc++.so.6", "libutil.so.1"}
+    pkg = Path(eyereplay.__file__).parent
+    libs = list(pkg.glob("_native*.so")) + list((pkg / "models").glob("*.so*"))
+    assert len(libs) == 2, libs
+    for so in libs:
+        out = subprocess.run(["objdump", "-p", str(so)], capture_output=True, text=True, check=True)
+        needed = {l.split()[1] for l in out.stdout.splitlines() if l.strip().startswith("NEEDED")}
+        assert needed and needed <= policy, (so.name, needed - policy)
+        assert max(_glibc_versions(so)) <= (2, 35), so.name

@@ -7,6 +7,8 @@ inside this package), with numpy in and out::
     import eyereplay
 
     iris = eyereplay.extract("interview.mp4")           # per-frame table
+    iris = eyereplay.extract(frames, fps=30)            # (T, H, W, 3) uint8 frames in memory
+    verdict = eyereplay.detect("interview.mp4")         # is this person reading?
     eyereplay.generate("dataset.toml", "data/")         # videos, CSVs, labels, report
     ds = eyereplay.load_dataset("data/")
     ds[0].trajectory["x"], ds[0].label, ds[0].video
@@ -44,9 +46,25 @@ from .dataset import Dataset, Session, load_dataset
 
 __version__ = _native.version()
 
+_PACKAGE_DIR = Path(__file__).resolve().parent
+#: The networks shipped inside this package (MediaPipe's, Apache-2.0; see
+#: ``NOTICE`` beside them) and the pinned ONNX Runtime library that runs
+#: them (MIT), so extraction works from any folder with no other step.
+PACKAGE_MODELS = _PACKAGE_DIR / "models"
+#: The default reading detector, trained by the repository's own command
+#: (``scripts/run.sh``) on the bundled default dataset.
+DEFAULT_DETECTOR = _PACKAGE_DIR / "default_detector.json"
+_ORT_LIB = PACKAGE_MODELS / "libonnxruntime.so.1.22.1"
+if PACKAGE_MODELS.is_dir():
+    _native.use_package_files(
+        str(PACKAGE_MODELS), str(_ORT_LIB) if _ORT_LIB.is_file() else None
+    )
+
 __all__ = [
     "extract",
     "extract_many",
+    "detect",
+    "cache_dir",
     "prepare",
     "generate",
     "merge",
@@ -105,8 +123,10 @@ def _opt_path(p: Optional[PathLike]) -> Optional[str]:
 
 
 def extract(
-    video: PathLike,
+    video: Union[PathLike, np.ndarray],
     *,
+    fps: Optional[float] = None,
+    timestamps: Optional[Sequence[float]] = None,
     out: Optional[PathLike] = None,
     pandas: bool = False,
     models: Optional[PathLike] = None,
@@ -140,9 +160,36 @@ def extract(
     network of MediaPipe's ``refine_landmarks=True`` (``--landmarks``: the
     closest to MediaPipe's output, and about 1.5x fewer CPU-seconds than the
     default ``"cascade"``); the other options are the command's flags.
+    ``video`` may also be frames in memory: a numpy array ``(T, H, W, 3)``
+    of ``uint8`` RGB (OpenCV's BGR frames need ``frame[..., ::-1]``), with
+    ``fps`` (frame ``k`` at ``k / fps`` s) or ``timestamps`` (seconds, one
+    per frame, increasing). No video file is written; the rows are those
+    the same frames give read from a video.
+
     Raises :class:`VideoError` for an unreadable video or one with no face,
     :class:`ModelError` when the models are missing (see :func:`check_models`).
     """
+    if isinstance(video, np.ndarray) or hasattr(video, "__array_interface__"):
+        t = _extract_frames(
+            np.asarray(video),
+            fps=fps,
+            timestamps=timestamps,
+            models=models,
+            blink_ratio=blink_ratio,
+            mesh_every=mesh_every,
+            iris_views=iris_views,
+            device=device,
+            landmarks=landmarks,
+            progress=progress,
+        )
+        if out is not None:
+            Path(out).write_text(t.pop("csv_text"))
+        else:
+            t.pop("csv_text")
+        table = t["table"]
+        return to_pandas(table) if pandas else table
+    if fps is not None or timestamps is not None:
+        raise ConfigError("fps and timestamps apply to frames in memory, not to a video file")
     tables = extract_many(
         [video],
         out=out,
@@ -158,6 +205,115 @@ def extract(
         progress=progress,
     )
     return tables[0]
+
+
+#: Frames handed to the extractor at a time: bounds the copy a chunk makes.
+_FRAME_CHUNK = 32
+
+
+def _frame_times(n: int, fps: Optional[float], timestamps: Optional[Sequence[float]]) -> np.ndarray:
+    if (fps is None) == (timestamps is None):
+        raise ConfigError("frames in memory need exactly one of fps= and timestamps=")
+    if timestamps is not None:
+        t = np.asarray(timestamps, dtype=np.float64).reshape(-1)
+        if t.shape[0] != n:
+            raise ConfigError(f"timestamps: {t.shape[0]} values for {n} frames")
+        if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+            raise ConfigError("timestamps: must be finite and increasing")
+        return t
+    if not (isinstance(fps, (int, float)) and np.isfinite(fps) and fps > 0):
+        raise ConfigError(f"fps {fps!r}: expected a positive number")
+    return np.arange(n, dtype=np.float64) / float(fps)
+
+
+def _extract_frames(frames: np.ndarray, *, fps, timestamps, models, blink_ratio, mesh_every,
+                    iris_views, device, landmarks, progress) -> Dict[str, Any]:
+    if frames.ndim != 4 or frames.shape[3] != 3:
+        raise ConfigError(
+            f"frames: expected an array (T, H, W, 3) of RGB, got shape {tuple(frames.shape)}"
+        )
+    if frames.dtype != np.uint8:
+        raise ConfigError(f"frames: expected dtype uint8, got {frames.dtype}")
+    n, h, w, _ = frames.shape
+    if n == 0:
+        raise ConfigError("frames: no frames given")
+    times = _frame_times(n, fps, timestamps)
+    fx = _native.FrameExtractor(
+        w, h, models=_opt_path(models), blink_ratio=blink_ratio, mesh_every=mesh_every,
+        iris_views=iris_views, device=device, landmarks=landmarks,
+    )
+    bar = _resolve_progress(progress)
+    if bar is not None:
+        bar.begin("extract", n)
+    for k in range(0, n, _FRAME_CHUNK):
+        chunk = np.ascontiguousarray(frames[k:k + _FRAME_CHUNK])
+        fx.push(chunk.tobytes(), times[k:k + _FRAME_CHUNK].tolist())
+        if bar is not None:
+            bar.advance(chunk.shape[0])
+    if bar is not None:
+        bar.end("extract")
+    r = fx.finish()
+    return {"table": parse_csv(r["csv"], "<frames>"), "csv_text": r["csv"]}
+
+
+def detect(
+    video_or_frames: Union[PathLike, np.ndarray],
+    model: Optional[PathLike] = None,
+    *,
+    fps: Optional[float] = None,
+    timestamps: Optional[Sequence[float]] = None,
+    cache: Optional[PathLike] = None,
+    progress: Any = True,
+) -> Dict[str, Any]:
+    """Is the person reading? (``eyereplay detect``). ``video_or_frames`` is
+    a video, an ``eyereplay extract`` CSV, a session CSV, or frames in
+    memory as for :func:`extract` (with ``fps`` or ``timestamps``).
+    ``model`` is a detector file from ``eyereplay train``; by default the
+    detector shipped in this package (:data:`DEFAULT_DETECTOR`).
+
+    Returns a dict: ``verdict`` (``"reading"`` or ``"not reading"``),
+    ``reading_probability`` (mean over windows), ``reading_window_fraction``,
+    ``windows`` (a numpy structured array, or a pandas DataFrame when pandas
+    is installed: ``start_s, end_s, reading_probability, reading,
+    forward_run_fraction`` per window), and
+    the ``model`` and ``input`` it was made from.
+    """
+    import tempfile
+
+    model_path = Path(model) if model is not None else DEFAULT_DETECTOR
+    if not model_path.is_file():
+        raise ConfigError(f"{model_path}: detector model not found")
+    if isinstance(video_or_frames, np.ndarray) or hasattr(video_or_frames, "__array_interface__"):
+        with tempfile.TemporaryDirectory(prefix="eyereplay-detect-") as tmp:
+            csv = Path(tmp) / "frames.csv"
+            extract(video_or_frames, fps=fps, timestamps=timestamps, out=csv, progress=progress)
+            d = json.loads(_native.detect(str(csv), str(model_path), cache=_opt_path(cache)))
+            d["input"]["path"] = "<frames>"
+    else:
+        if fps is not None or timestamps is not None:
+            raise ConfigError("fps and timestamps apply to frames in memory, not to a file")
+        d = json.loads(
+            _native.detect(os.fspath(video_or_frames), str(model_path), cache=_opt_path(cache))
+        )
+    rows = d.pop("windows")
+    names = list(rows[0].keys()) if rows else ["start_s", "end_s", "reading_probability"]
+    dtype = [(k, np.bool_ if isinstance(rows[0][k], bool) else np.float64) for k in names] if rows \
+        else [(k, np.float64) for k in names]
+    table = np.array([tuple(r[k] for k in names) for r in rows], dtype=dtype)
+    try:
+        import pandas  # noqa: F401
+
+        d["windows"] = to_pandas(table)
+    except ImportError:
+        d["windows"] = table
+    return d
+
+
+def cache_dir() -> Path:
+    """Where extractions and measurements are cached, shared with the
+    command line: ``$EYEREPLAY_CACHE``, else ``$XDG_CACHE_HOME/eyereplay``,
+    else ``~/.cache/eyereplay``; never the current folder."""
+    return Path(_native.cache_dir())
 
 
 def extract_many(
@@ -333,7 +489,7 @@ def check_models(dir: Optional[PathLike] = None) -> List[str]:
 
 
 def default_models_dir() -> Path:
-    """Where models are looked for: ``$EYEREPLAY_MODELS``, else the
-    ``.cache/models`` of a checkout above the current folder, else
-    ``.cache/models`` in the current folder."""
+    """Where models are looked for: ``$EYEREPLAY_MODELS``, else the ones
+    shipped inside this package, else the ``.cache/models`` of a checkout
+    above the current folder."""
     return Path(_native.default_models_dir())
