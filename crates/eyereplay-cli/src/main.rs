@@ -41,6 +41,7 @@ enum Command {
     Detect(cmd::detect::Args),
     EvaluateDetector(cmd::evaluate_detector::Args),
     EvaluateReplay(cmd::evaluate_replay::Args),
+    EvaluateLocalization(cmd::evaluate_localization::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -58,6 +59,7 @@ fn main() -> std::process::ExitCode {
         Command::Detect(a) => cmd::detect::run(a),
         Command::EvaluateDetector(a) => cmd::evaluate_detector::run(a),
         Command::EvaluateReplay(a) => cmd::evaluate_replay::run(a),
+        Command::EvaluateLocalization(a) => cmd::evaluate_localization::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

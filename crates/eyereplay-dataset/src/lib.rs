@@ -50,8 +50,8 @@ pub use render_settings::{
     RenderSettings,
 };
 pub use session::{
-    read_blink_column, read_session_csv, session_calibrations, write_session_csv,
-    write_session_csv_with_blinks,
+    read_blink_column, read_reading_column, read_session_csv, session_calibrations,
+    write_session_csv, write_session_csv_with_blinks,
 };
 pub use truth::{
     read_head_yaw_csv, read_truth_csv, write_truth_csv, EyeTruthRow, TruthRow, TRUTH_HEADER,

@@ -15,9 +15,20 @@ pub use eyereplay_core::{read_session_csv, write_session_csv, write_session_csv_
 /// when the file has no such column. Accepts 0/1 and true/false in any
 /// case (as pandas and spreadsheets write them); an empty cell is 0.
 pub fn read_blink_column(path: &Path) -> Result<Option<Vec<bool>>, DatasetError> {
+    read_flag_column(path, "blink")
+}
+
+/// The optional per-frame `reading` column of a session CSV (sessions of
+/// behaviour models: 1 where the person reads), read as
+/// [`read_blink_column`] reads `blink`.
+pub fn read_reading_column(path: &Path) -> Result<Option<Vec<bool>>, DatasetError> {
+    read_flag_column(path, "reading")
+}
+
+fn read_flag_column(path: &Path, name: &str) -> Result<Option<Vec<bool>>, DatasetError> {
     let text = read_text(path)?;
     let t = Table::parse(&text, path)?;
-    let Some(col) = t.optional_col("blink") else {
+    let Some(col) = t.optional_col(name) else {
         return Ok(None);
     };
     let mut out = Vec::with_capacity(t.records.len());
@@ -29,7 +40,7 @@ pub fn read_blink_column(path: &Path) -> Result<Option<Vec<bool>>, DatasetError>
             _ => {
                 return Err(DatasetError::invalid(
                     path,
-                    format!("line {line}: blink must be 0 or 1, found {cell:?}"),
+                    format!("line {line}: {name} must be 0 or 1, found {cell:?}"),
                 ))
             }
         });

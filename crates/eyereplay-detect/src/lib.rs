@@ -9,15 +9,19 @@
 //! | logistic regression over them, threshold fixed on validation sessions | [`model`] |
 //! | the zero-training rule (forward-saccade runs) | [`features::rule_score`] |
 //! | AUROC, ROC curve, bootstrap over people | [`metrics`] |
+//! | per-frame probability, reading segments, segment F1 | [`localize`] |
+//! | reliability, expected calibration error, threshold for a false-positive rate | [`calibration`] |
 //!
 //! The detector sees what `eyereplay extract` measures on a video, the same
 //! input in training (on rendered video) and in use (on a real one); the
 //! umbrella crate `eyereplay` wires it to datasets and videos.
 
+pub mod calibration;
 #[cfg(feature = "cnn")]
 pub mod cnn;
 mod error;
 pub mod features;
+pub mod localize;
 pub mod metrics;
 pub mod model;
 mod moments;

@@ -8,13 +8,17 @@
 //!   evaluate-detector`; [`detector_eval`] runs it, [`detector_report`]
 //!   writes what it found);
 //! - [`replay_eval`]: the replay mode's proofs on a rendered dataset
-//!   (`eyereplay evaluate-replay`).
+//!   (`eyereplay evaluate-replay`);
+//! - [`localization_eval`]: when someone reads, segment by segment, on
+//!   sessions with known per-frame labels (`eyereplay evaluate-localization`).
 
 pub mod detector_eval;
 pub mod detector_report;
+pub mod localization_eval;
 pub mod replay_eval;
 
 pub use detector_eval::{DetectorEvaluation, Protocol};
+pub use localization_eval::{evaluate_localization, LocalizationEval};
 pub use replay_eval::{evaluate_replay, ReplayEval};
 
 use eyereplay::Result;

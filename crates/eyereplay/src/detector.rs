@@ -177,6 +177,10 @@ impl TrainInput {
 pub struct TrainDetectorOptions {
     pub window_s: f64,
     pub input: TrainInput,
+    /// Label each window by the session CSV's per-frame `reading` column
+    /// where it has one (interview sessions read some answers and talk
+    /// through others), not by the session's class: see [`window_label`].
+    pub frame_labels: bool,
     pub train: TrainOptions,
     pub cache: PathBuf,
 }
@@ -190,6 +194,27 @@ pub struct LabeledTrack {
     /// The source ids the session was cut from (labels.csv).
     pub sources: Vec<String>,
     pub track: Track,
+    /// The session CSV's per-frame `reading` column, when it has one.
+    pub frame_reading: Option<Vec<bool>>,
+}
+
+/// A window's label from per-frame labels: reading when at least 80 % of
+/// its frames are, not reading when at most 20 % are; `None` (not used for
+/// training) in between, where the window straddles a switch.
+pub fn window_label(frame_reading: &[bool], start: usize, frames: usize) -> Option<bool> {
+    let end = (start + frames).min(frame_reading.len());
+    if end <= start {
+        return None;
+    }
+    let share =
+        frame_reading[start..end].iter().filter(|&&r| r).count() as f64 / (end - start) as f64;
+    if share >= 0.8 {
+        Some(true)
+    } else if share <= 0.2 {
+        Some(false)
+    } else {
+        None
+    }
 }
 
 /// The tracks of every session of `datasets`, read as `input` says.
@@ -220,11 +245,13 @@ pub fn dataset_tracks(
                 };
                 return Err(Error::input(&file, format!("missing{hint}")));
             }
+            let frame_reading = eyereplay_dataset::read_reading_column(&paths.csv)?;
             sessions.push((
                 format!("{}#{}", dir.display(), row.file),
                 row.label() == 1,
                 row.sources.clone(),
                 file,
+                frame_reading,
             ));
         }
     }
@@ -239,12 +266,15 @@ pub fn dataset_tracks(
     Ok(sessions
         .into_iter()
         .zip(tracks)
-        .map(|((id, reading, sources, _), track)| LabeledTrack {
-            id,
-            reading,
-            sources,
-            track,
-        })
+        .map(
+            |((id, reading, sources, _, frame_reading), track)| LabeledTrack {
+                id,
+                reading,
+                sources,
+                track,
+                frame_reading,
+            },
+        )
         .collect())
 }
 
@@ -389,7 +419,11 @@ pub fn train_detector(
         )));
     }
     let tracks = dataset_tracks(datasets, opts.input, &opts.cache, progress)?;
-    let examples = training_examples(&tracks, opts.window_s, &opts.train);
+    let examples = if opts.frame_labels {
+        frame_labeled_examples(&tracks, opts.window_s)
+    } else {
+        training_examples(&tracks, opts.window_s, &opts.train)
+    };
     let names = datasets.iter().map(|d| d.display().to_string()).collect();
     Ok(eyereplay_detect::train(
         &examples,
@@ -418,6 +452,25 @@ pub fn training_examples(
                 train.noise_copies,
                 train.seed,
             )
+        })
+        .collect()
+}
+
+/// Training windows labeled frame by frame ([`window_label`]) where a
+/// session has per-frame labels, by its class elsewhere; windows of
+/// `window_s` overlapping by half, no noisy copies.
+pub fn frame_labeled_examples(tracks: &[LabeledTrack], window_s: f64) -> Vec<Example> {
+    let spec = WindowSpec::half_overlap(window_s);
+    tracks
+        .iter()
+        .flat_map(|t| {
+            windows(&t.track, spec).into_iter().filter_map(|w| {
+                let label = match &t.frame_reading {
+                    Some(f) => window_label(f, w.start, spec.frames)?,
+                    None => t.reading,
+                };
+                Some(Example::of(&w, label, &t.id))
+            })
         })
         .collect()
 }
@@ -537,6 +590,20 @@ fn file_label(path: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_window_takes_its_frames_label_or_none_when_it_straddles_a_switch() {
+        // 10 frames: 3 reading, then 7 not.
+        let f: Vec<bool> = (0..10).map(|k| k < 3).collect();
+        assert_eq!(window_label(&f, 0, 3), Some(true));
+        assert_eq!(window_label(&f, 3, 5), Some(false));
+        // 2 of 5 reading: 40 %, neither.
+        assert_eq!(window_label(&f, 1, 5), None);
+        // 1 of 5 reading: 20 %, not reading; past the end counts what is there.
+        assert_eq!(window_label(&f, 2, 5), Some(false));
+        assert_eq!(window_label(&f, 8, 5), Some(false));
+        assert_eq!(window_label(&f, 10, 5), None);
+    }
 
     fn s(t: f64, x: f64, gaze: bool) -> Sample<NormPos> {
         let mut v = Sample::new(t, NormPos { nx: x, ny: 0.5 });

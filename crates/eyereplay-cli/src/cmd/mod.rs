@@ -4,6 +4,7 @@
 pub mod detect;
 pub mod evaluate;
 pub mod evaluate_detector;
+pub mod evaluate_localization;
 pub mod evaluate_replay;
 pub mod extract;
 pub mod generate;

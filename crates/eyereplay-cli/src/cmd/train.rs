@@ -48,6 +48,12 @@ pub struct Args {
     /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
+    /// Label each window by the sessions' per-frame `reading` column where
+    /// they have one (interview sessions: reading when 80 % of its frames
+    /// read, talking when 20 % or fewer, skipped in between), not by the
+    /// session's class.
+    #[arg(long)]
+    pub frame_labels: bool,
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
@@ -73,6 +79,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ..TrainOptions::default()
         },
         cache: eyereplay::cache_dir(args.cache.as_deref()),
+        frame_labels: args.frame_labels,
     };
     let started = std::time::Instant::now();
     let model = train_detector(&args.datasets, &opts, &Bars::default())?;
