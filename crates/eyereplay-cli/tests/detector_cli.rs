@@ -187,8 +187,12 @@ fn bad_inputs_fail_in_one_line() {
     let short = dir.path().join("short.csv");
     std::fs::write(&short, "frame,x,y\n0,1,2\n1,2,3\n").unwrap();
     let e = one_line_error(&eyereplay(&["detect", s(&short), "--model", s(&m)]));
+    // Two frames with gaze: 0.08 s usable, 7 s needed in a 10 s window.
     assert!(
-        e.contains("short.csv") && e.contains("no 10 s window"),
+        e.contains("short.csv")
+            && e.contains(
+                "not enough gaze: 0.1 s usable of 0.1 s, 7.0 s needed within one 10 s window"
+            ),
         "{e}"
     );
     assert!(!dir.path().join("short_detect.json").exists());

@@ -498,6 +498,10 @@ pub struct Detection {
     pub reading_window_fraction: f64,
     /// `reading` when the mean probability reaches the model's threshold.
     pub verdict: String,
+    /// When: the probability per second and the reading segments
+    /// ([`eyereplay_detect::localize`], hidden Markov model; docs/DETECTOR.md
+    /// measures it with interview-trained models).
+    pub localization: eyereplay_detect::localize::Localization,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -518,12 +522,19 @@ pub fn detect_track(
     let spec = WindowSpec::seconds(model.window_s);
     let ws = windows(track, spec);
     if ws.is_empty() {
+        let usable_s = track
+            .xy
+            .iter()
+            .filter(|p| p[0].is_finite() && p[1].is_finite())
+            .count() as f64
+            / FPS;
+        let needed_s = model.window_s * (1.0 - eyereplay_detect::window::MAX_MISSING_FRACTION);
         return Err(Error::input(
             &info.path,
             format!(
-                "{:.1} s of video with gaze in {:.0} % of frames: no {} s window with gaze in at least {:.0} % of its frames to score",
+                "not enough gaze: {usable_s:.1} s usable of {:.1} s, {needed_s:.1} s needed within one {} s window (no {} s window with gaze in at least {:.0} % of its frames to score)",
                 track.duration_s(),
-                100.0 * info.gaze_fraction,
+                model.window_s,
                 model.window_s,
                 100.0 * (1.0 - eyereplay_detect::window::MAX_MISSING_FRACTION)
             ),
@@ -561,6 +572,12 @@ pub fn detect_track(
         } else {
             "not reading".into()
         },
+        localization: eyereplay_detect::localize::localize(
+            track,
+            model,
+            eyereplay_detect::localize::Method::Hmm,
+            eyereplay_detect::localize::SEGMENT_THRESHOLD,
+        ),
     })
 }
 

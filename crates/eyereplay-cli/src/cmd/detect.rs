@@ -86,6 +86,16 @@ fn print_detection(d: &Detection) {
             if w.reading { "reading" } else { "-" }
         );
     }
+    let segs = &d.localization.segments;
+    if segs.is_empty() {
+        eprintln!("reading segments: none");
+    } else {
+        let list: Vec<String> = segs
+            .iter()
+            .map(|g| format!("{:.1}-{:.1} s ({:.2})", g.start_s, g.end_s, g.confidence))
+            .collect();
+        eprintln!("reading segments (confidence): {}", list.join(", "));
+    }
     println!(
         "{}: {} (mean P(reading) {:.3} against threshold {:.3}; {} of {} windows of {} s called reading)",
         d.input.path,

@@ -275,8 +275,9 @@ def detect(
     ``reading_probability`` (mean over windows), ``reading_window_fraction``,
     ``windows`` (a numpy structured array, or a pandas DataFrame when pandas
     is installed: ``start_s, end_s, reading_probability, reading,
-    forward_run_fraction`` per window), and
-    the ``model`` and ``input`` it was made from.
+    forward_run_fraction`` per window), ``localization`` (when: the
+    probability per second and the reading segments with start, end and
+    confidence), and the ``model`` and ``input`` it was made from.
     """
     import tempfile
 
