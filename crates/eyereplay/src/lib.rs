@@ -56,6 +56,7 @@
 //! # }
 //! ```
 
+mod detection_page;
 pub mod detector;
 mod error;
 mod evaluate;
@@ -63,6 +64,7 @@ mod finalize;
 mod generate;
 mod inputs;
 
+pub use detection_page::detection_page;
 pub use error::{Error, Result};
 pub use evaluate::{evaluate, EvaluateOptions, EvaluateOutcome, VisualChoice};
 pub use finalize::{finalize, missing_sessions};

@@ -64,12 +64,41 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     eyereplay::detect::model::write_atomic(&json_path, text.as_bytes())?;
     let fig = detection_figure(&track, &d)?;
     eyereplay::detect::model::write_atomic(&png_path, &fig.png)?;
+    // The reviewer's page links the video by a path relative to itself.
+    let html_path = out_dir.join(format!("{stem}_detect.html"));
+    let href = (d.input.kind == "video").then(|| relative_href(&args.input, &out_dir));
+    let page = eyereplay::detection_page(&track, &d, href.as_deref());
+    eyereplay::detect::model::write_atomic(&html_path, page.as_bytes())?;
     print_detection(&d);
-    eprintln!("wrote {} and {}", json_path.display(), png_path.display());
+    eprintln!(
+        "wrote {}, {} and {}",
+        json_path.display(),
+        png_path.display(),
+        html_path.display()
+    );
     if args.json {
         print!("{text}");
     }
     Ok(())
+}
+
+/// `video` as a link from a page in `page_dir`: relative when both are
+/// under one folder, else a `file://` URL of its absolute path.
+fn relative_href(video: &Path, page_dir: &Path) -> String {
+    let abs = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+    let (v, d) = (abs(video), abs(page_dir));
+    let (vc, dc): (Vec<_>, Vec<_>) = (v.components().collect(), d.components().collect());
+    let common = vc.iter().zip(&dc).take_while(|(a, b)| a == b).count();
+    if common <= 1 {
+        return format!("file://{}", v.display());
+    }
+    let mut parts: Vec<String> = vec!["..".into(); dc.len() - common];
+    parts.extend(
+        vc[common..]
+            .iter()
+            .map(|c| c.as_os_str().to_string_lossy().into_owned()),
+    );
+    parts.join("/")
 }
 
 fn print_detection(d: &Detection) {
