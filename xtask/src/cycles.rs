@@ -5,7 +5,8 @@
 //! first path components under its `src/` (`src/a.rs`, `src/a/mod.rs` and
 //! `src/a/b.rs` all belong to `a`; `lib.rs` and `main.rs`, the crate root,
 //! belong to none). Module `a` imports `b` when code in `a`'s files names a
-//! `crate::b` path or lists `b` in a `crate::{..}` group. Comments and
+//! `crate::b` path or lists `b` in a `crate::{..}` group, in code or in a
+//! doc comment's link (a reader follows those too). Plain comments and
 //! string literals are left out, and so is every item under `#[cfg(test)]`
 //! (the `mod tests { .. }` blocks, and `#[cfg(test)] mod x;` files). What
 //! the root re-exports (`crate::Error` for `error::Error`) and `super::`
@@ -170,7 +171,13 @@ pub fn blank_comments_and_strings(text: &str) -> String {
                     .iter()
                     .position(|&c| c == b'\n')
                     .map_or(b.len(), |p| i + p);
-                blank(&mut out, i, end);
+                // Doc comments stay: their links (`[`crate::x`]`) send a
+                // reader to `x` as surely as a `use` does.
+                let doc = matches!(b.get(i + 2), Some(b'!'))
+                    || (b.get(i + 2) == Some(&b'/') && b.get(i + 3) != Some(&b'/'));
+                if !doc {
+                    blank(&mut out, i, end);
+                }
                 i = end;
             }
             b'/' if b.get(i + 1) == Some(&b'*') => {
@@ -570,11 +577,11 @@ mod tests {
             &[
                 ("src/main.rs", "mod a;\nmod b;\nfn main() { crate::a::f(); }\n"),
                 ("src/a.rs", "pub fn f() { crate::b::g(); }\n"),
-                // b names a only in a comment, a string, a test block, a
-                // test-only file and a `$crate` macro path.
+                // b names a only in a plain comment, a string, a test block,
+                // a test-only file and a `$crate` macro path.
                 (
                     "src/b.rs",
-                    "//! see crate::a\n\
+                    "// see crate::a\n\
                      pub fn g() { let _ = \"crate::a\"; let _ = r#\"crate::{a}\"#; let _c = '{'; }\n\
                      /* crate::a */\n\
                      macro_rules! m { () => { $crate::a::f() } }\n\
@@ -593,6 +600,17 @@ mod tests {
         let cycles = crate_cycles(tmp.path()).unwrap();
         assert_eq!(cycles.len(), 1);
         assert_eq!(cycles[0].modules, ["a", "b"]);
+    }
+
+    #[test]
+    fn a_doc_link_is_a_reference_a_plain_comment_is_not() {
+        let code = blank_comments_and_strings(
+            "//! Used by [`crate::a`].\n/// See [`crate::b::f`].\n// crate::c\n//// crate::d\nfn f() {}\n",
+        );
+        assert_eq!(
+            crate_paths(&code),
+            [("a".to_string(), 1), ("b".to_string(), 2)]
+        );
     }
 
     #[test]

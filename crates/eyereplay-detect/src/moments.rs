@@ -1,5 +1,5 @@
-//! Moments of a sample shared by the window's orientation
-//! ([`crate::window`]) and the features ([`crate::features`]).
+//! Moments of a sample, shared by the orientation of a window and by the
+//! features (they import it; it imports nothing of theirs).
 
 /// Sample skewness `m3 / m2^1.5` (scipy.stats.skew's default, biased);
 /// 0 for fewer than 3 values or no spread.

@@ -1,6 +1,6 @@
 //! What an evaluation of a dataset holds ([`Evaluation`]) and how it is
 //! measured ([`evaluate_dataset`]): the data that the HTML report
-//! ([`crate::report`]) and `metrics.json` (`metrics_doc`) are both written
+//! (`report`) and `metrics.json` (`metrics_doc`) are both written
 //! from.
 
 use crate::dataset::{load_dataset, Dataset};
