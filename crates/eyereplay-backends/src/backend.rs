@@ -4,7 +4,7 @@
 //! collection, progress) is the driver's ([`crate::render_dataset`]).
 
 use crate::{BackendError, Result};
-use eyereplay_core::{CanvasPos, GazeClass, Progress};
+use eyereplay_core::{CanvasPos, Progress};
 use eyereplay_dataset::{SessionIdentity, SessionPaths};
 use eyereplay_render::SessionJob;
 use serde::Serialize;
@@ -12,10 +12,8 @@ use std::path::{Path, PathBuf};
 
 /// One session to draw, as the driver read it.
 pub struct Session<'a> {
-    /// Its files, seed and place among its class's sessions.
+    /// Its files, seed, label and place among its class's sessions.
     pub job: &'a SessionJob,
-    /// Its label (from `labels.csv`).
-    pub class: GazeClass,
     /// Canvas position per frame.
     pub trajectory: Vec<CanvasPos>,
     /// Per-frame blink flags of the session CSV, when it has them.
@@ -70,8 +68,9 @@ pub trait SessionBackend: Sync {
 /// together when the session succeeds and removed when it fails, so a
 /// session's files are all of one render or absent.
 pub struct SessionOutputs {
-    /// `(staged, final)`, the video last.
-    files: Vec<(PathBuf, PathBuf)>,
+    paths: SessionPaths,
+    /// The backend's [`extra_outputs`](SessionBackend::extra_outputs).
+    extra: Vec<PathBuf>,
 }
 
 /// The staging name of `target`: hidden, with its extension kept (ffmpeg
@@ -83,23 +82,29 @@ fn staged(target: &Path) -> PathBuf {
 
 impl SessionOutputs {
     pub(crate) fn new(paths: &SessionPaths, extra: &[PathBuf]) -> SessionOutputs {
-        let mut finals: Vec<PathBuf> = extra.to_vec();
-        finals.extend([
-            paths.truth.clone(),
-            paths.identity_json.clone(),
-            paths.mp4.clone(),
-        ]);
         SessionOutputs {
-            files: finals.into_iter().map(|f| (staged(&f), f)).collect(),
+            paths: paths.clone(),
+            extra: extra.to_vec(),
         }
     }
 
-    /// Every final path with its staging name, and the temporary files a
-    /// killed run may have left of either.
+    /// The session's files in the order they are committed: the video
+    /// last.
+    fn finals(&self) -> impl Iterator<Item = &PathBuf> {
+        self.extra.iter().chain([
+            &self.paths.truth,
+            &self.paths.identity_json,
+            &self.paths.mp4,
+        ])
+    }
+
+    /// Every final path's staging name, and the temporary files a killed
+    /// run may have left of either.
     pub(crate) fn leftovers(paths: &SessionPaths, extra: &[PathBuf]) -> Vec<PathBuf> {
         let mut v = Vec::new();
-        for (s, f) in Self::new(paths, extra).files {
-            v.extend(eyereplay_core::stale_temp_files(&f));
+        for f in Self::new(paths, extra).finals() {
+            let s = staged(f);
+            v.extend(eyereplay_core::stale_temp_files(f));
             v.extend(eyereplay_core::stale_temp_files(&s));
             if s.exists() {
                 v.push(s);
@@ -108,32 +113,25 @@ impl SessionOutputs {
         v
     }
 
-    fn staged_of(&self, target: &Path) -> PathBuf {
-        self.files
-            .iter()
-            .find(|(_, f)| f == target)
-            .map(|(s, _)| s.clone())
-            .unwrap_or_else(|| staged(target))
-    }
-
     /// Where to write the session's video.
     pub fn mp4(&self) -> PathBuf {
-        self.files
-            .last()
-            .map(|(s, _)| s.clone())
-            .unwrap_or_default()
+        staged(&self.paths.mp4)
     }
 
     /// Where to write the session's per-frame truth CSV.
     pub fn truth(&self) -> PathBuf {
-        let n = self.files.len();
-        self.files[n - 3].0.clone()
+        staged(&self.paths.truth)
     }
 
     /// Where to write `target`, one of the backend's
     /// [`extra_outputs`](SessionBackend::extra_outputs).
     pub fn extra(&self, target: &Path) -> PathBuf {
-        self.staged_of(target)
+        debug_assert!(
+            self.extra.iter().any(|e| e == target),
+            "{} is not an extra output",
+            target.display()
+        );
+        staged(target)
     }
 
     /// Writes the session's identity file.
@@ -141,8 +139,7 @@ impl SessionOutputs {
         &self,
         identity: &SessionIdentity<I, M>,
     ) -> Result<()> {
-        let n = self.files.len();
-        identity.write(&self.files[n - 2].0)?;
+        identity.write(&staged(&self.paths.identity_json))?;
         Ok(())
     }
 
@@ -150,13 +147,13 @@ impl SessionOutputs {
     /// video is renamed last, so a session whose video is in place is
     /// whole.
     pub(crate) fn commit(self) -> Result<()> {
-        if let Some((s, _)) = self.files.iter().find(|(s, _)| !s.is_file()) {
-            let e = BackendError::input(s, "the backend did not write this output");
+        if let Some(f) = self.finals().find(|f| !staged(f).is_file()) {
+            let e = BackendError::input(staged(f), "the backend did not write this output");
             self.discard();
             return Err(e);
         }
-        for (s, f) in &self.files {
-            if let Err(e) = std::fs::rename(s, f) {
+        for f in self.finals() {
+            if let Err(e) = std::fs::rename(staged(f), f) {
                 let e = BackendError::io(f, e);
                 self.discard();
                 return Err(e);
@@ -167,8 +164,8 @@ impl SessionOutputs {
 
     /// Removes whatever was staged.
     pub(crate) fn discard(&self) {
-        for (s, _) in &self.files {
-            let _ = std::fs::remove_file(s);
+        for f in self.finals() {
+            let _ = std::fs::remove_file(staged(f));
         }
     }
 }

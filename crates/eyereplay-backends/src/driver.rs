@@ -45,9 +45,6 @@ pub fn render_dataset(
     progress: &dyn Progress,
 ) -> Result<RenderSummary> {
     let meta = eyereplay_dataset::read_metadata(out)?.dataset;
-    let labels = eyereplay_dataset::read_labels(out)?;
-    let class_of: std::collections::BTreeMap<String, eyereplay_core::GazeClass> =
-        labels.iter().map(|l| (l.file.clone(), l.class)).collect();
     let ffprobe = eyereplay_render::ffprobe_for(backend.ffmpeg());
     let mut summary = RenderSummary::default();
     let mut todo = Vec::new();
@@ -80,12 +77,8 @@ pub fn render_dataset(
     let sessions = todo.len();
     let done = AtomicUsize::new(0);
     let draw = |(job, trajectory, extra): &(SessionJob, Vec<_>, Vec<_>)| -> Result<Rendered> {
-        let class = *class_of
-            .get(&job.paths.file)
-            .ok_or_else(|| BackendError::input(&job.paths.csv, "not listed in labels.csv"))?;
         let session = Session {
             job,
-            class,
             trajectory: trajectory.clone(),
             blinks: eyereplay_dataset::read_blink_column(&job.paths.csv)?,
             dataset_seed: meta.seed,

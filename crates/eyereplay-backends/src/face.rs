@@ -269,7 +269,7 @@ impl SessionBackend for FaceBackend {
         let eye_identity = Identity::sample(seed);
         let framing = framing(&look, self.width, self.height, frac);
         let scene = FaceScene::new(photo.clone(), &self.mesh, eye_identity.clone(), &framing);
-        let task = match s.class {
+        let task = match s.job.class {
             GazeClass::Reading => Task::Reading,
             GazeClass::Conversation => Task::Saccades,
         };

@@ -117,7 +117,7 @@ pub fn open_backend(
             let probe =
                 ResponseProbe::when(extractor.match_extractor, extractor.extractor_iris_views)?;
             let info = eyereplay_render::read_dataset_info(out)?;
-            Box::new(eyes::EyesBackend::new(params, info, jobs(settings), probe))
+            Box::new(eyes::EyesBackend::new(params, info, settings.jobs(), probe))
         }
         #[cfg(feature = "browser")]
         BackendSettings::Browser {
@@ -144,15 +144,6 @@ pub fn open_backend(
             )?)
         }
     })
-}
-
-/// Sessions rendered at once by the eyes backend: `jobs`, or one per core.
-fn jobs(settings: &RenderSettings) -> usize {
-    if settings.jobs > 0 {
-        settings.jobs
-    } else {
-        std::thread::available_parallelism().map_or(1, |n| n.get())
-    }
 }
 
 /// Renders the sessions of the dataset in `out` (this shard's only) with

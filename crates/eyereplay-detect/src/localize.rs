@@ -229,22 +229,7 @@ pub fn segments(
     min_len_s: f64,
     max_gap_s: f64,
 ) -> Vec<Segment> {
-    let mut runs: Vec<(usize, usize)> = Vec::new();
-    let mut start = None;
-    for (k, &p) in frame_p.iter().enumerate() {
-        let on = p.is_finite() && p >= threshold;
-        match (on, start) {
-            (true, None) => start = Some(k),
-            (false, Some(s)) => {
-                runs.push((s, k));
-                start = None;
-            }
-            _ => {}
-        }
-    }
-    if let Some(s) = start {
-        runs.push((s, frame_p.len()));
-    }
+    let runs = runs(frame_p.iter().map(|&p| p.is_finite() && p >= threshold));
     let max_gap = (max_gap_s * fps).round() as usize;
     let mut joined: Vec<(usize, usize)> = Vec::new();
     for r in runs {
@@ -269,6 +254,28 @@ pub fn segments(
             }
         })
         .collect()
+}
+
+/// The runs of `true` in `flags`, as `[start, end)` frame ranges.
+pub fn runs(flags: impl IntoIterator<Item = bool>) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let mut start = None;
+    let mut n = 0;
+    for (k, on) in flags.into_iter().enumerate() {
+        match (on, start) {
+            (true, None) => start = Some(k),
+            (false, Some(s)) => {
+                out.push((s, k));
+                start = None;
+            }
+            _ => {}
+        }
+        n = k + 1;
+    }
+    if let Some(s) = start {
+        out.push((s, n));
+    }
+    out
 }
 
 /// Intersection over union of two time spans.
@@ -320,23 +327,32 @@ pub fn match_segments(found: &[(f64, f64)], truth: &[(f64, f64)], min_iou: f64) 
             onset_errors_s.push((found[i].0 - truth[j].0).abs());
         }
     }
-    let matched = onset_errors_s.len();
-    let ratio = |m: usize, n: usize| if n == 0 { 1.0 } else { m as f64 / n as f64 };
-    let precision = ratio(matched, found.len());
-    let recall = ratio(matched, truth.len());
-    let f1 = if precision + recall > 0.0 {
-        2.0 * precision * recall / (precision + recall)
-    } else {
-        0.0
-    };
-    SegmentMatch {
-        found: found.len(),
-        truth: truth.len(),
-        matched,
-        precision,
-        recall,
-        f1,
-        onset_errors_s,
+    SegmentMatch::from_counts(found.len(), truth.len(), onset_errors_s)
+}
+
+impl SegmentMatch {
+    /// Precision, recall and F1 of `found` segments against `truth`, one
+    /// onset error per matched pair; both 1 when there is nothing to find
+    /// and nothing was found.
+    pub fn from_counts(found: usize, truth: usize, onset_errors_s: Vec<f64>) -> SegmentMatch {
+        let matched = onset_errors_s.len();
+        let ratio = |m: usize, n: usize| if n == 0 { 1.0 } else { m as f64 / n as f64 };
+        let precision = ratio(matched, found);
+        let recall = ratio(matched, truth);
+        let f1 = if precision + recall > 0.0 {
+            2.0 * precision * recall / (precision + recall)
+        } else {
+            0.0
+        };
+        SegmentMatch {
+            found,
+            truth,
+            matched,
+            precision,
+            recall,
+            f1,
+            onset_errors_s,
+        }
     }
 }
 

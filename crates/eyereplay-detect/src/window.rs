@@ -38,6 +38,18 @@ impl Track {
     pub fn duration_s(&self) -> f64 {
         self.xy.len() as f64 / FPS
     }
+
+    /// The 5 % and 95 % quantiles of x over the frames with gaze; `None`
+    /// without any.
+    pub fn x_quantiles_5_95(&self) -> Option<(f64, f64)> {
+        let xs: Vec<f64> = self
+            .xy
+            .iter()
+            .map(|p| p[0])
+            .filter(|v| v.is_finite())
+            .collect();
+        Some((quantile(&xs, 0.05)?, quantile(&xs, 0.95)?))
+    }
 }
 
 /// Window length and step, in frames at [`FPS`].
@@ -253,13 +265,7 @@ pub fn with_white_noise(track: &Track, k: f64, seed: u64) -> Track {
     if k <= 0.0 {
         return track.clone();
     }
-    let xs: Vec<f64> = track
-        .xy
-        .iter()
-        .map(|p| p[0])
-        .filter(|v| v.is_finite())
-        .collect();
-    let range = quantile(&xs, 0.95).unwrap_or(0.0) - quantile(&xs, 0.05).unwrap_or(0.0);
+    let range = track.x_quantiles_5_95().map_or(0.0, |(lo, hi)| hi - lo);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let normal = rand_distr::Normal::new(0.0, (k * range).max(1e-12)).expect("finite sigma");
     Track::new(

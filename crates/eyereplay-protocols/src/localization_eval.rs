@@ -42,22 +42,10 @@ pub struct LocalizationEval {
 
 /// Runs of `true` in `flags`, as `(start_s, end_s)` at [`FPS`].
 pub fn true_runs(flags: &[bool]) -> Vec<(f64, f64)> {
-    let mut out = Vec::new();
-    let mut start = None;
-    for (k, &f) in flags.iter().enumerate() {
-        match (f, start) {
-            (true, None) => start = Some(k),
-            (false, Some(s)) => {
-                out.push((s as f64 / FPS, k as f64 / FPS));
-                start = None;
-            }
-            _ => {}
-        }
-    }
-    if let Some(s) = start {
-        out.push((s as f64 / FPS, flags.len() as f64 / FPS));
-    }
-    out
+    localize::runs(flags.iter().copied())
+        .into_iter()
+        .map(|(a, b)| (a as f64 / FPS, b as f64 / FPS))
+        .collect()
 }
 
 /// Every session of the dataset in `dir` that has a `reading` column, read
@@ -91,17 +79,16 @@ pub fn evaluate_localization(
     }
     let mut methods = Vec::new();
     for method in [Method::WindowMean, Method::Hmm] {
-        let mut pooled = match_segments(&[], &[], MIN_IOU);
+        let (mut found_n, mut truth_n, mut onsets) = (0, 0, Vec::new());
         let (mut fp, mut neg, mut tp, mut pos) = (0usize, 0usize, 0usize, 0usize);
         for ((track, truth), flags) in tracks.iter().zip(&truth_runs).zip(&flags_all) {
             let loc = localize::localize(track, &model, method, threshold);
             let found: Vec<(f64, f64)> =
                 loc.segments.iter().map(|s| (s.start_s, s.end_s)).collect();
             let m = match_segments(&found, truth, MIN_IOU);
-            pooled.found += m.found;
-            pooled.truth += m.truth;
-            pooled.matched += m.matched;
-            pooled.onset_errors_s.extend(m.onset_errors_s);
+            found_n += m.found;
+            truth_n += m.truth;
+            onsets.extend(m.onset_errors_s);
             for (k, &f) in flags.iter().enumerate() {
                 let t = k as f64 / FPS;
                 let called = found.iter().any(|&(a, b)| a <= t && t < b);
@@ -117,14 +104,8 @@ pub fn evaluate_localization(
                 }
             }
         }
+        let pooled = SegmentMatch::from_counts(found_n, truth_n, onsets);
         let ratio = |m: usize, n: usize| if n == 0 { 1.0 } else { m as f64 / n as f64 };
-        pooled.precision = ratio(pooled.matched, pooled.found);
-        pooled.recall = ratio(pooled.matched, pooled.truth);
-        pooled.f1 = if pooled.precision + pooled.recall > 0.0 {
-            2.0 * pooled.precision * pooled.recall / (pooled.precision + pooled.recall)
-        } else {
-            0.0
-        };
         let onset_error_median_s = eyereplay_signal::stats::median(&pooled.onset_errors_s);
         methods.push(MethodResult {
             method,

@@ -23,13 +23,7 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
     let x = |t: f64| (t / dur * W).clamp(0.0, W);
     let mut svg = String::new();
     // Gaze: nx (or the trajectory's x) normalized to its 5-95 % range.
-    let xs: Vec<f64> = track
-        .xy
-        .iter()
-        .map(|p| p[0])
-        .filter(|v| v.is_finite())
-        .collect();
-    let (lo, hi) = robust_range(&xs);
+    let (lo, hi) = track.x_quantiles_5_95().unwrap_or((0.0, 1.0));
     let mut path = String::new();
     let step = (track.len() / 2000).max(1);
     let mut pen_up = true;
@@ -179,16 +173,6 @@ fn file_name(path: &str) -> String {
     Path::new(path)
         .file_name()
         .map_or_else(|| path.to_string(), |n| n.to_string_lossy().into_owned())
-}
-
-/// 5-95 % range of `v` (0, 1 when empty).
-fn robust_range(v: &[f64]) -> (f64, f64) {
-    let lo = eyereplay_signal::stats::quantile(v, 0.05);
-    let hi = eyereplay_signal::stats::quantile(v, 0.95);
-    match (lo, hi) {
-        (Some(a), Some(b)) => (a, b),
-        _ => (0.0, 1.0),
-    }
 }
 
 #[cfg(test)]
