@@ -18,7 +18,13 @@ export EYEREPLAY_CACHE="${EYEREPLAY_CACHE:-$root/.cache}"
 # --read-back-all: the report reads every session back with the extractor
 # and tabulates each one (about a minute more).
 "$root/target/release/eyereplay" generate --config examples/default.toml --out "$out" --read-back-all
-# The default reading detector, trained on what the extractor reads from the
-# default's videos (docs/DETECTOR.md): detect your own video with
+# The default reading detector (docs/DETECTOR.md): trained on what the
+# extractor reads from generated readers and talkers drawn as whole faces
+# (examples/detector/train_behaviour_face.toml: 32 people, 30 s each; about
+# 7 minutes the first time, skipped once rendered), 10 s windows, its
+# probabilities calibrated and its threshold set for 5 % false positives.
+# Detect your own video, or find when someone reads in an interview, with
 #   target/release/eyereplay detect VIDEO --model out/default/detector.json
-"$root/target/release/eyereplay" train "$out" --out "$out/detector.json"
+train="${out%/}-detector-train"
+"$root/target/release/eyereplay" generate --config examples/detector/train_behaviour_face.toml --out "$train" --no-evaluate
+"$root/target/release/eyereplay" train "$train" --out "$out/detector.json"

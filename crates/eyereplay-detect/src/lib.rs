@@ -10,6 +10,7 @@
 //! | the zero-training rule (forward-saccade runs) | [`features::rule_score`] |
 //! | AUROC, ROC curve, bootstrap over people | [`metrics`] |
 //! | per-frame probability, reading segments, segment F1 | [`localize`] |
+//! | clips shorter than a window, with a bootstrap interval | [`clip`] |
 //! | reliability, expected calibration error, threshold for a false-positive rate | [`calibration`] |
 //!
 //! The detector sees what `eyereplay extract` measures on a video, the same
@@ -17,6 +18,7 @@
 //! umbrella crate `eyereplay` wires it to datasets and videos.
 
 pub mod calibration;
+pub mod clip;
 #[cfg(feature = "cnn")]
 pub mod cnn;
 mod error;

@@ -13,7 +13,7 @@
 //! them against known ones (F1 at an IoU threshold, onset errors).
 
 use crate::model::DetectorModel;
-use crate::window::{windows, Track, WindowSpec, FPS};
+use crate::window::{windows, Track, WindowSpec, FPS, MAX_MISSING_FRACTION};
 use serde::{Deserialize, Serialize};
 
 /// Mean duration of a reading or a talking spell in an interview, for the
@@ -55,6 +55,21 @@ pub struct Localization {
     pub step_s: f64,
     pub probability: Vec<Option<f64>>,
     pub segments: Vec<Segment>,
+    /// Stretches of at least a second that no window could score: nothing
+    /// is said of them, and this says why.
+    #[serde(default)]
+    pub unscored: Vec<Unscored>,
+}
+
+/// A stretch without a reading probability: too little gaze for a window.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Unscored {
+    pub start_s: f64,
+    pub end_s: f64,
+    /// Seconds with gaze in it.
+    pub usable_s: f64,
+    /// Gaze one window needs.
+    pub needed_s: f64,
 }
 
 /// Scores `track` with windows of the model's length every
@@ -77,11 +92,27 @@ pub fn localize(
             (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
         })
         .collect();
+    let needed_s = model.window_s * (1.0 - MAX_MISSING_FRACTION);
+    let unscored = runs(frame_p.iter().map(|p| !p.is_finite()))
+        .into_iter()
+        .filter(|&(a, b)| (b - a) as f64 >= FPS)
+        .map(|(a, b)| Unscored {
+            start_s: a as f64 / FPS,
+            end_s: b as f64 / FPS,
+            usable_s: track.xy[a..b]
+                .iter()
+                .filter(|p| p[0].is_finite() && p[1].is_finite())
+                .count() as f64
+                / FPS,
+            needed_s,
+        })
+        .collect();
     Localization {
         method,
         step_s: per_step as f64 / FPS,
         probability,
         segments,
+        unscored,
     }
 }
 

@@ -3,8 +3,11 @@
 //! fixed on validation sessions the fit did not see. Saved as one JSON
 //! file that says what it was trained on.
 
+use crate::calibration::{
+    expected_calibration_error, reliability, sigmoid, threshold_for_fpr, Platt,
+};
 use crate::features::{features, FEATURE_COUNT, FEATURE_NAMES};
-use crate::metrics::{auroc, balanced_threshold};
+use crate::metrics::{auroc, rate_at};
 use crate::window::Window;
 use crate::DetectError;
 use linfa::prelude::*;
@@ -87,6 +90,17 @@ pub struct TrainOptions {
     /// Noisy copies of each session ([`session_examples`]).
     pub noise_copies: usize,
     pub seed: u64,
+    /// The decision threshold is the lowest at which at most this share of
+    /// the validation sessions' not-reading windows is called reading.
+    #[serde(default = "default_max_fpr")]
+    pub max_fpr: f64,
+}
+
+/// The false-positive rate the threshold is chosen for, unless told.
+pub const DEFAULT_MAX_FPR: f64 = 0.05;
+
+fn default_max_fpr() -> f64 {
+    DEFAULT_MAX_FPR
 }
 
 impl Default for TrainOptions {
@@ -96,6 +110,7 @@ impl Default for TrainOptions {
             validation_fraction: 0.25,
             noise_copies: AUGMENT_COPIES,
             seed: 1,
+            max_fpr: DEFAULT_MAX_FPR,
         }
     }
 }
@@ -114,6 +129,17 @@ pub struct TrainingInfo {
     pub validation_windows_other: usize,
     /// AUROC on the held-out validation sessions (synthetic).
     pub validation_auroc: Option<f64>,
+    /// At the threshold, on the validation windows: the share of
+    /// not-reading windows called reading, and of reading windows found.
+    #[serde(default)]
+    pub validation_fpr: Option<f64>,
+    #[serde(default)]
+    pub validation_tpr: Option<f64>,
+    /// Expected calibration error of the (calibrated) probabilities on the
+    /// validation windows, 10 bins; in-sample for the calibration, so
+    /// `eyereplay evaluate-localization` measures it again on other people.
+    #[serde(default)]
+    pub validation_ece: Option<f64>,
 }
 
 /// A trained detector.
@@ -129,9 +155,14 @@ pub struct DetectorModel {
     pub std: Vec<f64>,
     pub weights: Vec<f64>,
     pub intercept: f64,
-    /// A window with probability at or above this is called reading; the
-    /// balanced-accuracy point on the validation sessions.
+    /// A window with probability at or above this is called reading:
+    /// chosen on the validation sessions for a false-positive rate of at
+    /// most `training.options.max_fpr`.
     pub threshold: f64,
+    /// Platt scaling of the regression's log-odds, fitted on the
+    /// validation sessions (absent in models trained before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<Platt>,
     pub training: TrainingInfo,
 }
 
@@ -142,11 +173,19 @@ impl DetectorModel {
     }
 
     pub fn probability_of(&self, f: &[f64; FEATURE_COUNT]) -> f64 {
-        let z: f64 = (0..FEATURE_COUNT)
+        let z = self.log_odds_of(f);
+        match &self.calibration {
+            Some(c) => c.apply(z),
+            None => sigmoid(z),
+        }
+    }
+
+    /// The regression's log-odds of reading, before calibration.
+    pub fn log_odds_of(&self, f: &[f64; FEATURE_COUNT]) -> f64 {
+        (0..FEATURE_COUNT)
             .map(|k| self.weights[k] * (f[k] - self.mean[k]) / self.std[k])
             .sum::<f64>()
-            + self.intercept;
-        1.0 / (1.0 + (-z).exp())
+            + self.intercept
     }
 
     pub fn save(&self, path: &Path) -> Result<(), DetectError> {
@@ -302,6 +341,7 @@ pub fn train(
         weights: fitted.params().iter().map(|w| sign * w).collect(),
         intercept: sign * fitted.intercept(),
         threshold: 0.5,
+        calibration: None,
         training: TrainingInfo {
             datasets,
             input: input.into(),
@@ -311,22 +351,54 @@ pub fn train(
             validation_windows_reading: count(&valid_idx, true),
             validation_windows_other: count(&valid_idx, false),
             validation_auroc: None,
+            validation_fpr: None,
+            validation_tpr: None,
+            validation_ece: None,
         },
     };
-    let (scores, labels): (Vec<f64>, Vec<bool>) = valid_idx
+    let (log_odds, labels): (Vec<f64>, Vec<bool>) = valid_idx
         .iter()
         .map(|&i| {
             (
-                model.probability_of(&examples[i].features),
+                model.log_odds_of(&examples[i].features),
                 examples[i].reading,
             )
         })
         .unzip();
     if labels.iter().any(|&l| l) && labels.iter().any(|&l| !l) {
-        model.threshold = balanced_threshold(&scores, &labels);
+        model.calibration = Platt::fit(&log_odds, &labels);
+        let scores: Vec<f64> = valid_idx
+            .iter()
+            .map(|&i| model.probability_of(&examples[i].features))
+            .collect();
+        let of_class = |c: bool| -> Vec<f64> {
+            scores
+                .iter()
+                .zip(&labels)
+                .filter(|(_, &l)| l == c)
+                .map(|(&p, _)| p)
+                .collect()
+        };
+        let negatives = of_class(false);
+        model.threshold = threshold_for_fpr(&negatives, opts.max_fpr);
+        let fpr = rate_at(&negatives, model.threshold);
+        let tpr = rate_at(&of_class(true), model.threshold);
         model.training.validation_auroc = auroc(&scores, &labels);
+        model.training.validation_fpr = Some(fpr);
+        model.training.validation_tpr = Some(tpr);
+        model.training.validation_ece = Some(expected_calibration_error(&reliability(
+            &scores, &labels, 10,
+        )));
     }
     Ok(model)
+}
+
+/// A model trained on a toy set whose first feature tells the classes
+/// apart, for other modules' tests.
+#[cfg(test)]
+pub(crate) fn toy_model(window_s: f64) -> DetectorModel {
+    let ex = tests::examples();
+    train(&ex, window_s, TrainOptions::default(), vec![], "toy").unwrap()
 }
 
 #[cfg(test)]
@@ -334,7 +406,7 @@ mod tests {
     use super::*;
 
     /// Examples whose first feature separates the classes with some overlap.
-    fn examples() -> Vec<Example> {
+    pub(crate) fn examples() -> Vec<Example> {
         let mut out = Vec::new();
         for g in 0..8 {
             for k in 0..20 {
@@ -360,6 +432,11 @@ mod tests {
         assert!(m.weights[0] > 1.0, "{:?}", m.weights);
         assert!(m.weights[0].abs() > 5.0 * m.weights[1].abs());
         assert!(m.training.validation_auroc.unwrap() > 0.9);
+        // The threshold keeps the validation false-positive rate within
+        // the stated one, and the probabilities are calibrated there.
+        assert!(m.training.validation_fpr.unwrap() <= DEFAULT_MAX_FPR);
+        assert!(m.calibration.is_some());
+        assert!(m.training.validation_ece.unwrap() < 0.2);
         let again = train(&ex, 10.0, TrainOptions::default(), vec![], "trajectory").unwrap();
         assert_eq!(
             serde_json::to_string(&m).unwrap(),

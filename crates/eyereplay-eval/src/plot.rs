@@ -733,6 +733,24 @@ fn draw_roc<DB: DrawingBackend>(
     title: &str,
     curves: &[RocCurve],
 ) -> DrawResult {
+    draw_unit_curves(
+        root,
+        title,
+        curves,
+        ("false-positive rate", "true-positive rate"),
+        false,
+    )
+}
+
+/// Curves in the unit square with the diagonal dashed: ROC curves (chance)
+/// and reliability diagrams (perfect calibration).
+fn draw_unit_curves<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    curves: &[RocCurve],
+    (x_desc, y_desc): (&str, &str),
+    markers: bool,
+) -> DrawResult {
     const COLORS: [RGBColor; 6] = [
         RGBColor(31, 119, 180),
         RGBColor(255, 127, 14),
@@ -750,8 +768,8 @@ fn draw_roc<DB: DrawingBackend>(
         .map_err(s)?;
     chart
         .configure_mesh()
-        .x_desc("false-positive rate")
-        .y_desc("true-positive rate")
+        .x_desc(x_desc)
+        .y_desc(y_desc)
         .label_style((FONT, 12))
         .axis_desc_style((FONT, 13))
         .light_line_style(WHITE)
@@ -767,6 +785,16 @@ fn draw_roc<DB: DrawingBackend>(
         .map_err(s)?;
     for (i, c) in curves.iter().enumerate() {
         let color = COLORS[i % COLORS.len()];
+        if markers {
+            chart
+                .draw_series(PointSeries::of_element(
+                    c.points.clone(),
+                    3,
+                    color.filled(),
+                    &|p, size, style| Circle::new(p, size, style),
+                ))
+                .map_err(s)?;
+        }
         chart
             .draw_series(LineSeries::new(c.points.clone(), color.stroke_width(2)))
             .map_err(s)?
@@ -804,6 +832,35 @@ pub fn roc_figure(name: &str, panels: &[(String, Vec<RocCurve>)]) -> Result<Figu
             let areas = r.split_evenly((1, panels.len().max(1)));
             for (a, (t, c)) in areas.iter().zip(panels) {
                 draw_roc(a, t, c)?;
+            }
+            Ok(())
+        },
+    )
+}
+
+/// Reliability diagrams, one panel per entry of `panels` (title, curves
+/// of (mean predicted probability, observed share) per bin): a calibrated
+/// model's points lie on the dashed diagonal.
+pub fn reliability_figure(
+    name: &str,
+    panels: &[(String, Vec<RocCurve>)],
+) -> Result<Figure, EvalError> {
+    let n = panels.len().max(1) as u32;
+    let axes = ("predicted probability of reading", "observed share reading");
+    render(
+        name,
+        (440 * n, 440),
+        |r| {
+            let areas = r.split_evenly((1, panels.len().max(1)));
+            for (a, (t, c)) in areas.iter().zip(panels) {
+                draw_unit_curves(a, t, c, axes, true)?;
+            }
+            Ok(())
+        },
+        |r| {
+            let areas = r.split_evenly((1, panels.len().max(1)));
+            for (a, (t, c)) in areas.iter().zip(panels) {
+                draw_unit_curves(a, t, c, axes, true)?;
             }
             Ok(())
         },

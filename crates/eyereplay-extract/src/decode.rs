@@ -69,6 +69,28 @@ impl Decoder {
             });
         }
         let ictx = ff::format::input(&path).map_err(open_err)?;
+        Self::from_input(path, ictx)
+    }
+
+    /// Opens a stream that is not a file: `pipe:0` (standard input, in any
+    /// container FFmpeg reads from a pipe: NUT, Matroska, MPEG-TS),
+    /// `pipe:N` (an inherited descriptor), or a network URL (`rtsp://`,
+    /// `http://`...). Frames come out as they arrive.
+    pub fn open_url(url: &str) -> Result<Decoder> {
+        init();
+        let path = Path::new(url);
+        let ictx = ff::format::input(&path).map_err(|e| ExtractError::Open {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        Self::from_input(path, ictx)
+    }
+
+    fn from_input(path: &Path, ictx: ff::format::context::Input) -> Result<Decoder> {
+        let open_err = |e: ff::Error| ExtractError::Open {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        };
         let st = ictx.streams().best(ff::media::Type::Video).ok_or_else(|| {
             ExtractError::NoVideoStream {
                 path: path.to_path_buf(),

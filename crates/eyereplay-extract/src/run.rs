@@ -651,13 +651,30 @@ impl FrameStream {
             raw_h: self.height,
             rotation: Rotation::None,
         };
-        let face = self.tracker.process(&img)?;
+        self.push_image(&img, time_s)
+    }
+
+    /// Reads the next frame as a decoder gives it ([`crate::decode::Decoder::frames`]).
+    pub fn push_image(&mut self, img: &ImageView, time_s: f64) -> Result<()> {
+        if !time_s.is_finite() || self.rows.last().is_some_and(|r| time_s <= r.time_s) {
+            return Err(ExtractError::Frames(format!(
+                "frame {}: time {time_s} s does not follow the previous frame's",
+                self.rows.len()
+            )));
+        }
+        let face = self.tracker.process(img)?;
         self.rows.push(Row::from_face(
             self.rows.len() as u64,
             time_s,
             face.as_ref(),
         ));
         Ok(())
+    }
+
+    /// The rows so far (blinks not yet flagged: [`FrameStream::finish`]
+    /// flags them against the whole stream's median aperture).
+    pub fn rows(&self) -> &[Row] {
+        &self.rows
     }
 
     /// Frames read so far.

@@ -26,6 +26,7 @@
 use eyereplay::detector::{dataset_tracks, extract_csv_track, TrainInput};
 use eyereplay::{extract_cached, generate, plan_config, Error, GenerateOptions, Result};
 use eyereplay_core::{GazeClass, Progress};
+use eyereplay_detect::calibration::{expected_calibration_error, reliability, ReliabilityBin};
 use eyereplay_detect::metrics::{
     balanced_threshold, pairwise_auroc, rate_at, roc_curve, PairAuroc,
 };
@@ -329,6 +330,13 @@ pub struct ConditionResult {
     /// at each fold model's own threshold.
     pub true_positive_rate: f64,
     pub false_positive_rate: f64,
+    /// Whether the feature model's probabilities mean what they say on
+    /// these real windows (every fold's together; probabilities are
+    /// calibrated on each fold's synthetic validation sessions): 10 bins.
+    pub reliability: Vec<ReliabilityBin>,
+    pub expected_calibration_error: f64,
+    /// The false-positive rate each fold's threshold was chosen for.
+    pub target_false_positive_rate: f64,
     /// Mean model probability per recording (and fold).
     pub per_recording: Vec<RecordingScore>,
     #[serde(skip)]
@@ -901,6 +909,11 @@ fn condition_result(
             roc_model.push((format!("fold {} {a:.2}", fold.name), roc_curve(&s, &l)));
         }
     }
+    let reliability = reliability(
+        &all.iter().map(|r| r.model).collect::<Vec<_>>(),
+        &all.iter().map(|r| r.reading).collect::<Vec<_>>(),
+        10,
+    );
     let first = p.fold.first().map(|f| f.name.clone()).unwrap_or_default();
     let v: Vec<&&RealWindow> = all.iter().filter(|r| r.fold == first).collect();
     let roc_rule = roc_curve(
@@ -921,6 +934,9 @@ fn condition_result(
         ceiling_nontrivial: ci(ceil_nt),
         true_positive_rate: rate(true),
         false_positive_rate: rate(false),
+        reliability: reliability.clone(),
+        expected_calibration_error: expected_calibration_error(&reliability),
+        target_false_positive_rate: eyereplay_detect::model::DEFAULT_MAX_FPR,
         per_recording,
         roc_model,
         roc_rule,

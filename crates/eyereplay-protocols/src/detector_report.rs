@@ -6,7 +6,7 @@ use crate::detector_eval::{ConditionResult, DetectorEvaluation};
 use eyereplay::Result;
 use eyereplay_detect::model::write_atomic;
 use eyereplay_detect::AurocCi;
-use eyereplay_eval::plot::{roc_figure, Figure, RocCurve};
+use eyereplay_eval::plot::{reliability_figure, roc_figure, Figure, RocCurve};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -81,7 +81,40 @@ pub fn write(out: &Path, ev: &DetectorEvaluation) -> Result<()> {
         write_atomic(&figs_dir.join(format!("{name}.svg")), f.svg.as_bytes())?;
         figs.push((w, mode.clone(), f));
     }
-    let html = html(ev, &figs);
+    // Reliability: one figure, a panel per condition of the first window
+    // length, a curve per training video.
+    let first_w = ev.conditions.first().map_or(10.0, |c| c.window_s);
+    let mut conds: Vec<String> = ev
+        .conditions
+        .iter()
+        .filter(|c| c.window_s == first_w)
+        .map(|c| c.condition.clone())
+        .collect();
+    conds.dedup();
+    let panels: Vec<(String, Vec<RocCurve>)> = conds
+        .iter()
+        .map(|cond| {
+            let curves = ev
+                .conditions
+                .iter()
+                .filter(|c| c.window_s == first_w && &c.condition == cond)
+                .map(|c| RocCurve {
+                    label: format!("{} video, ECE {:.3}", c.mode, c.expected_calibration_error),
+                    points: c
+                        .reliability
+                        .iter()
+                        .filter(|b| b.count > 0)
+                        .map(|b| (b.mean_probability, b.positive_fraction))
+                        .collect(),
+                })
+                .collect();
+            (format!("{} ({first_w} s)", condition_label(cond)), curves)
+        })
+        .collect();
+    let rel = reliability_figure("reliability", &panels)?;
+    write_atomic(&figs_dir.join("reliability.png"), &rel.png)?;
+    write_atomic(&figs_dir.join("reliability.svg"), rel.svg.as_bytes())?;
+    let html = html(ev, &figs, &rel);
     write_atomic(&out.join("index.html"), html.as_bytes())?;
     Ok(())
 }
@@ -102,7 +135,7 @@ fn row(h: &mut String, cells: &[String]) {
     h.push_str("</tr>\n");
 }
 
-fn html(ev: &DetectorEvaluation, figs: &[(&f64, String, Figure)]) -> String {
+fn html(ev: &DetectorEvaluation, figs: &[(&f64, String, Figure)], reliability: &Figure) -> String {
     let mut h = String::from(
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>eyereplay: the reading detector on real recordings</title>\n<style>\n\
 body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;max-width:1440px;margin:2em auto;padding:0 1em;color:#222}\n\
@@ -191,7 +224,44 @@ readers are averaged. 95 % intervals from a bootstrap over people (readers and n
             ],
         );
     }
-    h.push_str("</table>\n<h2>ROC curves</h2>\n");
+    h.push_str("</table>\n<h2>Calibration: does a probability mean what it says?</h2>\n<p>Each fold's model calibrates its probabilities (Platt scaling) and fixes its threshold for a stated false-positive rate on its synthetic validation sessions; here both are checked on the real windows it never saw. Expected calibration error: the window-weighted mean gap between the predicted probability and the observed share reading, over 10 bins.</p>\n");
+    table_head(
+        &mut h,
+        &[
+            "window",
+            "training video",
+            "test data",
+            "windows",
+            "expected calibration error",
+            "FPR at the threshold (stated)",
+            "TPR at the threshold",
+        ],
+    );
+    for c in &ev.conditions {
+        let n: usize = c.reliability.iter().map(|b| b.count).sum();
+        row(
+            &mut h,
+            &[
+                format!("{} s", c.window_s),
+                esc(&c.mode),
+                condition_label(&c.condition),
+                n.to_string(),
+                format!("{:.3}", c.expected_calibration_error),
+                format!(
+                    "{:.3} ({:.3})",
+                    c.false_positive_rate, c.target_false_positive_rate
+                ),
+                format!("{:.3}", c.true_positive_rate),
+            ],
+        );
+    }
+    let _ = writeln!(
+        h,
+        "</table>\n<figure><img alt=\"Reliability diagrams\" width=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>Reliability: predicted probability of reading against the observed share reading, per bin of windows; on the dashed diagonal a probability means what it says (<a href=\"figures/reliability.svg\">SVG</a>)</figcaption></figure>",
+        reliability.size.0,
+        png_b64(reliability)
+    );
+    h.push_str("<h2>ROC curves</h2>\n");
     for (w, mode, f) in figs {
         let _ = writeln!(
             h,

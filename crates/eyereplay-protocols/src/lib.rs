@@ -10,16 +10,20 @@
 //! - [`replay_eval`]: the replay mode's proofs on a rendered dataset
 //!   (`eyereplay evaluate-replay`);
 //! - [`localization_eval`]: when someone reads, segment by segment, on
-//!   sessions with known per-frame labels (`eyereplay evaluate-localization`).
+//!   sessions with known per-frame labels (`eyereplay evaluate-localization`);
+//! - [`spliced_eval`]: the same on real recordings spliced into mixed
+//!   streams, and on real webcam talkers (`evaluate-localization --spliced`).
 
 pub mod detector_eval;
 pub mod detector_report;
 pub mod localization_eval;
 pub mod replay_eval;
+pub mod spliced_eval;
 
 pub use detector_eval::{DetectorEvaluation, Protocol};
 pub use localization_eval::{evaluate_localization, LocalizationEval};
 pub use replay_eval::{evaluate_replay, ReplayEval};
+pub use spliced_eval::{evaluate_spliced, SpliceOptions, SplicedEval};
 
 use eyereplay::Result;
 use eyereplay_core::Progress;

@@ -5,9 +5,15 @@
 //! reading segments, and they are matched to the true ones: segment F1 at
 //! IoU 0.5, onset error, and the share of not-reading time called reading.
 
+use eyereplay::detector::window_label;
+use eyereplay::detector::{dataset_tracks, TrainInput};
 use eyereplay::{Error, Result};
+use eyereplay_core::Progress;
+use eyereplay_detect::calibration::{expected_calibration_error, reliability, ReliabilityBin};
+use eyereplay_detect::clip::score_clip;
 use eyereplay_detect::localize::{self, match_segments, Method, SegmentMatch};
-use eyereplay_detect::{DetectorModel, FPS};
+use eyereplay_detect::metrics::rate_at;
+use eyereplay_detect::{windows, DetectorModel, Track, WindowSpec, FPS};
 use serde::Serialize;
 use std::path::Path;
 
@@ -27,10 +33,162 @@ pub struct MethodResult {
     pub reading_recall: f64,
 }
 
+/// Whether the model's window probabilities mean what they say on these
+/// sessions: non-overlapping windows of the model's length, each labelled
+/// by its frames (reading when 80 % read, not when 20 % or fewer, left out
+/// in between).
+#[derive(Clone, Debug, Serialize)]
+pub struct WindowCalibration {
+    pub windows_reading: usize,
+    pub windows_other: usize,
+    /// 10 equal bins of predicted probability.
+    pub reliability: Vec<ReliabilityBin>,
+    pub expected_calibration_error: f64,
+    /// The model's decision threshold, and what it does here.
+    pub threshold: f64,
+    pub false_positive_rate: f64,
+    pub true_positive_rate: f64,
+    /// The false-positive rate the threshold was chosen for (on the
+    /// training data's validation sessions).
+    pub target_false_positive_rate: f64,
+}
+
+/// [`WindowCalibration`] of `model` on `tracks` with per-frame `flags`.
+pub fn window_calibration(
+    tracks: &[Track],
+    flags: &[Vec<bool>],
+    model: &DetectorModel,
+) -> WindowCalibration {
+    let spec = WindowSpec::seconds(model.window_s);
+    let (mut p, mut l) = (Vec::new(), Vec::new());
+    for (t, f) in tracks.iter().zip(flags) {
+        for w in windows(t, spec) {
+            if let Some(label) = window_label(f, w.start, spec.frames) {
+                p.push(model.probability(&w));
+                l.push(label);
+            }
+        }
+    }
+    let reliability = reliability(&p, &l, 10);
+    let of = |c: bool| -> Vec<f64> {
+        p.iter()
+            .zip(&l)
+            .filter(|(_, &x)| x == c)
+            .map(|(&v, _)| v)
+            .collect()
+    };
+    let (neg, pos) = (of(false), of(true));
+    WindowCalibration {
+        windows_reading: pos.len(),
+        windows_other: neg.len(),
+        expected_calibration_error: expected_calibration_error(&reliability),
+        reliability,
+        threshold: model.threshold,
+        false_positive_rate: rate_at(&neg, model.threshold),
+        true_positive_rate: rate_at(&pos, model.threshold),
+        target_false_positive_rate: model.training.options.max_fpr,
+    }
+}
+
+/// Clips of one length cut from the sessions, each inside one class.
+#[derive(Clone, Debug, Serialize)]
+pub struct ClipResult {
+    pub clip_s: f64,
+    pub clips_reading: usize,
+    pub clips_other: usize,
+    /// Clips refused for too little gaze.
+    pub refused: usize,
+    pub auroc: Option<f64>,
+    /// Share of the scored clips whose interval holds the threshold.
+    pub uncertain_fraction: f64,
+    /// Share right among the scored clips with a verdict.
+    pub decided_accuracy: Option<f64>,
+    /// Mean width of the interval.
+    pub mean_interval_width: f64,
+}
+
+/// Clips of each length and class [`evaluate_localization`] scores.
+pub const CLIPS_PER_CLASS: usize = 60;
+
+/// Lengths of the short clips [`clip_results`] scores.
+pub const CLIP_LENGTHS_S: [f64; 3] = [3.0, 5.0, 8.0];
+
+/// Short clips scored as `eyereplay detect` scores a clip shorter than
+/// one window ([`eyereplay_detect::clip`]): up to `per_class` clips of
+/// each length and class, at places drawn with `seed`, each wholly
+/// inside reading or wholly outside it.
+pub fn clip_results(
+    tracks: &[Track],
+    flags: &[Vec<bool>],
+    model: &DetectorModel,
+    per_class: usize,
+    seed: u64,
+) -> Vec<ClipResult> {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    CLIP_LENGTHS_S
+        .iter()
+        .map(|&clip_s| {
+            let n = (clip_s * FPS).round() as usize;
+            // Every start whose clip lies inside one class, per class.
+            let mut starts: [Vec<(usize, usize)>; 2] = [Vec::new(), Vec::new()];
+            for (ti, f) in flags.iter().enumerate() {
+                for (a, b) in localize::runs(f.iter().copied()) {
+                    starts[1].extend((a..b.saturating_sub(n - 1)).step_by(n).map(|s| (ti, s)));
+                }
+                for (a, b) in localize::runs(f.iter().map(|&r| !r)) {
+                    starts[0].extend((a..b.saturating_sub(n - 1)).step_by(n).map(|s| (ti, s)));
+                }
+            }
+            let (mut p, mut l, mut widths) = (Vec::new(), Vec::new(), Vec::new());
+            let (mut refused, mut uncertain, mut right, mut decided) = (0, 0, 0, 0);
+            let mut counts = [0usize; 2];
+            for (class, list) in starts.iter_mut().enumerate() {
+                // A seeded partial shuffle picks the clips.
+                let take = per_class.min(list.len());
+                for i in 0..take {
+                    let j = rng.gen_range(i..list.len());
+                    list.swap(i, j);
+                }
+                for &(ti, s) in &list[..take] {
+                    let clip = Track::new(tracks[ti].xy[s..s + n].to_vec());
+                    counts[class] += 1;
+                    let Ok(c) = score_clip(&clip, model) else {
+                        refused += 1;
+                        continue;
+                    };
+                    p.push(c.reading_probability);
+                    l.push(class == 1);
+                    widths.push(c.high - c.low);
+                    if c.low < model.threshold && c.high >= model.threshold {
+                        uncertain += 1;
+                    } else {
+                        decided += 1;
+                        right += usize::from((c.low >= model.threshold) == (class == 1));
+                    }
+                }
+            }
+            let scored = p.len().max(1) as f64;
+            ClipResult {
+                clip_s,
+                clips_reading: counts[1],
+                clips_other: counts[0],
+                refused,
+                auroc: eyereplay_detect::auroc(&p, &l),
+                uncertain_fraction: uncertain as f64 / scored,
+                decided_accuracy: (decided > 0).then(|| right as f64 / decided as f64),
+                mean_interval_width: widths.iter().sum::<f64>() / scored,
+            }
+        })
+        .collect()
+}
+
 /// What [`evaluate_localization`] measured.
 #[derive(Clone, Debug, Serialize)]
 pub struct LocalizationEval {
     pub dataset: String,
+    /// `trajectory` or `extracted` (read back from the rendered videos).
+    pub input: String,
     pub model: String,
     /// Where segments are cut.
     pub threshold: f64,
@@ -38,6 +196,8 @@ pub struct LocalizationEval {
     pub reading_segments: usize,
     pub seconds: f64,
     pub methods: Vec<MethodResult>,
+    pub calibration: WindowCalibration,
+    pub clips: Vec<ClipResult>,
 }
 
 /// Runs of `true` in `flags`, as `(start_s, end_s)` at [`FPS`].
@@ -49,26 +209,28 @@ pub fn true_runs(flags: &[bool]) -> Vec<(f64, f64)> {
 }
 
 /// Every session of the dataset in `dir` that has a `reading` column, read
-/// as its trajectory, localized by each method with the detector in
+/// as `input` says (its trajectory, or read back from its video), localized by each method with the detector in
 /// `model_path`.
 pub fn evaluate_localization(
     dir: &Path,
     model_path: &Path,
     threshold: f64,
+    input: TrainInput,
+    cache: &Path,
+    progress: &dyn Progress,
 ) -> Result<LocalizationEval> {
     let model = DetectorModel::load(model_path)?;
-    let labels = eyereplay_dataset::read_labels(dir)?;
-    let mut truth_runs = Vec::new();
     let mut tracks = Vec::new();
     let mut flags_all = Vec::new();
-    for l in &labels {
-        let paths = eyereplay_dataset::SessionPaths::new(dir, &l.file)
-            .map_err(|e| Error::input(dir.join("labels.csv"), e.to_string()))?;
-        let Some(flags) = eyereplay_dataset::read_reading_column(&paths.csv)? else {
+    for t in dataset_tracks(&[dir.to_path_buf()], input, cache, progress)? {
+        let Some(mut flags) = t.frame_reading else {
             continue;
         };
-        tracks.push(eyereplay::detector::session_csv_track(&paths.csv)?);
-        truth_runs.push(true_runs(&flags));
+        // A video may end a frame short of its trajectory.
+        flags.truncate(t.track.len());
+        let mut track = t.track;
+        track.xy.truncate(flags.len());
+        tracks.push(track);
         flags_all.push(flags);
     }
     if tracks.is_empty() {
@@ -77,53 +239,67 @@ pub fn evaluate_localization(
             "no session has a per-frame reading column (generate interview sessions: model = \"interview\")",
         ));
     }
-    let mut methods = Vec::new();
-    for method in [Method::WindowMean, Method::Hmm] {
-        let (mut found_n, mut truth_n, mut onsets) = (0, 0, Vec::new());
-        let (mut fp, mut neg, mut tp, mut pos) = (0usize, 0usize, 0usize, 0usize);
-        for ((track, truth), flags) in tracks.iter().zip(&truth_runs).zip(&flags_all) {
-            let loc = localize::localize(track, &model, method, threshold);
-            let found: Vec<(f64, f64)> =
-                loc.segments.iter().map(|s| (s.start_s, s.end_s)).collect();
-            let m = match_segments(&found, truth, MIN_IOU);
-            found_n += m.found;
-            truth_n += m.truth;
-            onsets.extend(m.onset_errors_s);
-            for (k, &f) in flags.iter().enumerate() {
-                let t = k as f64 / FPS;
-                let called = found.iter().any(|&(a, b)| a <= t && t < b);
-                match f {
-                    true => {
-                        pos += 1;
-                        tp += called as usize;
-                    }
-                    false => {
-                        neg += 1;
-                        fp += called as usize;
-                    }
-                }
-            }
-        }
-        let pooled = SegmentMatch::from_counts(found_n, truth_n, onsets);
-        let ratio = |m: usize, n: usize| if n == 0 { 1.0 } else { m as f64 / n as f64 };
-        let onset_error_median_s = eyereplay_signal::stats::median(&pooled.onset_errors_s);
-        methods.push(MethodResult {
-            method,
-            segments: pooled,
-            onset_error_median_s,
-            false_reading_fraction: ratio(fp, neg),
-            reading_recall: ratio(tp, pos),
-        });
-    }
+    let methods = [Method::WindowMean, Method::Hmm]
+        .into_iter()
+        .map(|m| score_method(&tracks, &flags_all, &model, m, threshold))
+        .collect();
+    let calibration = window_calibration(&tracks, &flags_all, &model);
+    let clips = clip_results(&tracks, &flags_all, &model, CLIPS_PER_CLASS, 1);
     Ok(LocalizationEval {
         dataset: dir.display().to_string(),
+        input: input.name().into(),
         model: model_path.display().to_string(),
         threshold,
         sessions: tracks.len(),
-        reading_segments: truth_runs.iter().map(Vec::len).sum(),
+        reading_segments: flags_all.iter().map(|f| true_runs(f).len()).sum(),
         seconds: tracks.iter().map(|t| t.duration_s()).sum(),
         methods,
+        calibration,
+        clips,
     })
+}
+
+/// Localizes every track by `method` and scores the segments against the
+/// runs of its per-frame labels `flags`: pooled segment F1 (each track
+/// matched on its own), onset errors, and frame shares.
+pub fn score_method(
+    tracks: &[Track],
+    flags: &[Vec<bool>],
+    model: &DetectorModel,
+    method: Method,
+    threshold: f64,
+) -> MethodResult {
+    let (mut found_n, mut truth_n, mut onsets) = (0, 0, Vec::new());
+    let (mut fp, mut neg, mut tp, mut pos) = (0usize, 0usize, 0usize, 0usize);
+    for (track, flags) in tracks.iter().zip(flags) {
+        let truth = true_runs(flags);
+        let loc = localize::localize(track, model, method, threshold);
+        let found: Vec<(f64, f64)> = loc.segments.iter().map(|s| (s.start_s, s.end_s)).collect();
+        let m = match_segments(&found, &truth, MIN_IOU);
+        found_n += m.found;
+        truth_n += m.truth;
+        onsets.extend(m.onset_errors_s);
+        for (k, &f) in flags.iter().enumerate() {
+            let t = k as f64 / FPS;
+            let called = found.iter().any(|&(a, b)| a <= t && t < b);
+            if f {
+                pos += 1;
+                tp += called as usize;
+            } else {
+                neg += 1;
+                fp += called as usize;
+            }
+        }
+    }
+    let pooled = SegmentMatch::from_counts(found_n, truth_n, onsets);
+    let ratio = |m: usize, n: usize| if n == 0 { 1.0 } else { m as f64 / n as f64 };
+    MethodResult {
+        method,
+        onset_error_median_s: eyereplay_signal::stats::median(&pooled.onset_errors_s),
+        segments: pooled,
+        false_reading_fraction: ratio(fp, neg),
+        reading_recall: ratio(tp, pos),
+    }
 }
 
 #[cfg(test)]

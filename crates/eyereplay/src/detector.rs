@@ -7,6 +7,7 @@ use crate::inputs::{check_models, extract_cached, extraction_cache_path};
 use crate::{Error, Result};
 use eyereplay_core::{NormPos, Sample};
 use eyereplay_core::{Progress, Stage};
+use eyereplay_detect::clip::{score_clip, ClipScore};
 use eyereplay_detect::{windows, DetectorModel, Example, Track, TrainOptions, WindowSpec, FPS};
 use eyereplay_extract::StageFrames;
 use serde::{Deserialize, Serialize};
@@ -496,12 +497,17 @@ pub struct Detection {
     pub reading_probability: f64,
     /// Share of windows called reading.
     pub reading_window_fraction: f64,
-    /// `reading` when the mean probability reaches the model's threshold.
+    /// `reading` when the mean probability reaches the model's threshold;
+    /// for a short clip, `uncertain` when its interval holds the threshold.
     pub verdict: String,
     /// When: the probability per second and the reading segments
     /// ([`eyereplay_detect::localize`], hidden Markov model; docs/DETECTOR.md
     /// measures it with interview-trained models).
     pub localization: eyereplay_detect::localize::Localization,
+    /// A recording without one whole window of gaze (a clip of 3-10 s, a
+    /// patchy one): the score of its best stretch with a bootstrap
+    /// interval ([`eyereplay_detect::clip`]); `null` otherwise.
+    pub clip: Option<ClipScore>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -521,24 +527,50 @@ pub fn detect_track(
 ) -> Result<Detection> {
     let spec = WindowSpec::seconds(model.window_s);
     let ws = windows(track, spec);
+    let model_info = DetectionModelInfo {
+        path: model_path.display().to_string(),
+        kind: model.kind.clone(),
+        window_s: model.window_s,
+        threshold: model.threshold,
+    };
+    let localization = eyereplay_detect::localize::localize(
+        track,
+        model,
+        eyereplay_detect::localize::Method::Hmm,
+        eyereplay_detect::localize::SEGMENT_THRESHOLD,
+    );
     if ws.is_empty() {
-        let usable_s = track
-            .xy
-            .iter()
-            .filter(|p| p[0].is_finite() && p[1].is_finite())
-            .count() as f64
-            / FPS;
-        let needed_s = model.window_s * (1.0 - eyereplay_detect::window::MAX_MISSING_FRACTION);
-        return Err(Error::input(
-            &info.path,
-            format!(
-                "not enough gaze: {usable_s:.1} s usable of {:.1} s, {needed_s:.1} s needed within one {} s window (no {} s window with gaze in at least {:.0} % of its frames to score)",
-                track.duration_s(),
-                model.window_s,
-                model.window_s,
-                100.0 * (1.0 - eyereplay_detect::window::MAX_MISSING_FRACTION)
-            ),
-        ));
+        // Shorter or patchier than one window: score what there is, with
+        // its interval, or say how much gaze is missing.
+        let clip = score_clip(track, model).map_err(|e| {
+            Error::input(
+                &info.path,
+                format!(
+                    "not enough gaze: {:.1} s usable of {:.1} s, {:.1} s needed (in a stretch with gaze in at least {:.0} % of its frames)",
+                    e.usable_s,
+                    track.duration_s(),
+                    e.needed_s,
+                    100.0 * (1.0 - eyereplay_detect::window::MAX_MISSING_FRACTION)
+                ),
+            )
+        })?;
+        let verdict = if clip.low >= model.threshold {
+            "reading"
+        } else if clip.high < model.threshold {
+            "not reading"
+        } else {
+            "uncertain"
+        };
+        return Ok(Detection {
+            input: info,
+            model: model_info,
+            windows: Vec::new(),
+            reading_probability: clip.reading_probability,
+            reading_window_fraction: 0.0,
+            verdict: verdict.into(),
+            localization,
+            clip: Some(clip),
+        });
     }
     let scores: Vec<WindowScore> = ws
         .iter()
@@ -558,12 +590,7 @@ pub fn detect_track(
     let frac = scores.iter().filter(|s| s.reading).count() as f64 / n;
     Ok(Detection {
         input: info,
-        model: DetectionModelInfo {
-            path: model_path.display().to_string(),
-            kind: model.kind.clone(),
-            window_s: model.window_s,
-            threshold: model.threshold,
-        },
+        model: model_info,
         windows: scores,
         reading_probability: mean,
         reading_window_fraction: frac,
@@ -572,12 +599,8 @@ pub fn detect_track(
         } else {
             "not reading".into()
         },
-        localization: eyereplay_detect::localize::localize(
-            track,
-            model,
-            eyereplay_detect::localize::Method::Hmm,
-            eyereplay_detect::localize::SEGMENT_THRESHOLD,
-        ),
+        localization,
+        clip: None,
     })
 }
 

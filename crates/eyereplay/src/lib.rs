@@ -63,6 +63,7 @@ mod evaluate;
 mod finalize;
 mod generate;
 mod inputs;
+pub mod live;
 
 pub use detection_page::detection_page;
 pub use error::{Error, Result};

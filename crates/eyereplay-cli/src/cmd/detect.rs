@@ -8,17 +8,35 @@ use std::path::{Path, PathBuf};
 /// INPUT is a video (the iris is extracted first, cached), an 'eyereplay
 /// extract' CSV, or a session CSV (frame,x,y at 25 fps). It is cut into
 /// non-overlapping windows of the model's length; each gets a reading
-/// probability, and the recording a verdict from their mean. Writes
+/// probability, and the recording a verdict from their mean; reading
+/// segments with their times come from overlapping windows (docs/DETECTOR.md).
+/// A clip shorter than one window (from 3 s of gaze) is scored from its
+/// best stretch with a 90 % bootstrap interval, and called `uncertain`
+/// when the interval holds the threshold. Writes
 /// OUT/<name>_detect.json and a plot of the probability over time under
 /// the gaze track (OUT/<name>_detect.png).
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
 eyereplay detect interview.mp4 --model out/default/detector.json\n  \
-eyereplay detect iris.csv --model m.json --out results/ --json\n\n\
+eyereplay detect iris.csv --model m.json --out results/ --json\n  \
+eyereplay detect --live /dev/video0 --model m.json                  # a camera\n  \
+eyereplay detect --live rtsp://camera.local/stream --model m.json\n  \
+ffmpeg -re -i call.mp4 -f nut -c:v rawvideo -pix_fmt yuv420p - | eyereplay detect --live - --model m.json\n\n\
 The bundled default's model: scripts/run.sh trains it into out/default/detector.json.")]
 pub struct Args {
     /// A video, an 'eyereplay extract' CSV, or a frame,x,y session CSV.
-    pub input: PathBuf,
+    #[arg(required_unless_present = "live", conflicts_with = "live")]
+    pub input: Option<PathBuf>,
+    /// Watch a live stream instead: a camera (/dev/video0), a network
+    /// stream (rtsp://, http://) or '-' for a video stream on standard
+    /// input (NUT, Matroska, MPEG-TS). Prints each window's probability as
+    /// it closes (one window a second), then the whole stream's segments;
+    /// with --out, writes the JSON and the reviewer's page as for a file.
+    #[arg(long, value_name = "SOURCE")]
+    pub live: Option<String>,
+    /// The ffmpeg program that opens a camera for --live.
+    #[arg(long, value_name = "PATH", default_value = "ffmpeg")]
+    pub ffmpeg: PathBuf,
     /// A model written by 'eyereplay train'.
     #[arg(long, value_name = "MODEL")]
     pub model: PathBuf,
@@ -41,34 +59,28 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     // The model first: a bad one stops before any extraction.
     let model = DetectorModel::load(&args.model)?;
+    if let Some(source) = &args.live {
+        return live(&args, source, &model);
+    }
+    let input = args.input.clone().expect("clap requires it");
     let cache = eyereplay::cache_dir(args.cache.as_deref());
-    let (track, info) = load_track(&args.input, &cache, &Bars::default())?;
+    let (track, info) = load_track(&input, &cache, &Bars::default())?;
     if args.bench {
         return bench(&track, info, &model, &args.model);
     }
     let d = detect_track(&track, info, &model, &args.model)?;
     let out_dir = args.out.clone().unwrap_or_else(|| {
-        args.input
+        input
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
             .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
     });
-    let stem = args
-        .input
+    let stem = input
         .file_stem()
         .map_or_else(|| "input".into(), |s| s.to_string_lossy().into_owned());
-    let json_path = out_dir.join(format!("{stem}_detect.json"));
-    let png_path = out_dir.join(format!("{stem}_detect.png"));
-    let mut text = serde_json::to_string_pretty(&d)?;
-    text.push('\n');
-    eyereplay::detect::model::write_atomic(&json_path, text.as_bytes())?;
-    let fig = detection_figure(&track, &d)?;
-    eyereplay::detect::model::write_atomic(&png_path, &fig.png)?;
-    // The reviewer's page links the video by a path relative to itself.
-    let html_path = out_dir.join(format!("{stem}_detect.html"));
-    let href = (d.input.kind == "video").then(|| relative_href(&args.input, &out_dir));
-    let page = eyereplay::detection_page(&track, &d, href.as_deref());
-    eyereplay::detect::model::write_atomic(&html_path, page.as_bytes())?;
+    let href = (d.input.kind == "video").then(|| relative_href(&input, &out_dir));
+    let (text, [json_path, png_path, html_path]) =
+        write_detection(&track, &d, &out_dir, &stem, href.as_deref())?;
     print_detection(&d);
     eprintln!(
         "wrote {}, {} and {}",
@@ -78,6 +90,91 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     if args.json {
         print!("{text}");
+    }
+    Ok(())
+}
+
+/// Writes `<stem>_detect.{json,png,html}` into `out_dir`; returns the JSON
+/// text and the three paths.
+fn write_detection(
+    track: &eyereplay::detect::Track,
+    d: &Detection,
+    out_dir: &Path,
+    stem: &str,
+    video_href: Option<&str>,
+) -> anyhow::Result<(String, [PathBuf; 3])> {
+    let json_path = out_dir.join(format!("{stem}_detect.json"));
+    let png_path = out_dir.join(format!("{stem}_detect.png"));
+    let html_path = out_dir.join(format!("{stem}_detect.html"));
+    let mut text = serde_json::to_string_pretty(d)?;
+    text.push('\n');
+    eyereplay::detect::model::write_atomic(&json_path, text.as_bytes())?;
+    let fig = detection_figure(track, d)?;
+    eyereplay::detect::model::write_atomic(&png_path, &fig.png)?;
+    // The reviewer's page links the video by a path relative to itself.
+    let page = eyereplay::detection_page(track, d, video_href);
+    eyereplay::detect::model::write_atomic(&html_path, page.as_bytes())?;
+    Ok((text, [json_path, png_path, html_path]))
+}
+
+/// `detect --live SOURCE`: windows as they close, then the stream's result.
+fn live(args: &Args, source: &str, model: &DetectorModel) -> anyhow::Result<()> {
+    use std::io::Write;
+    let src = eyereplay::live::LiveSource::parse(source);
+    eprintln!(
+        "watching {}: one {} s window a second, threshold {:.3} (Ctrl-C or the end of the stream stops)",
+        src.label(),
+        model.window_s,
+        model.threshold
+    );
+    println!(
+        "{:>8} {:>8}  {:>10}  {:>7}  {:>6}  {:>6}",
+        "start_s", "end_s", "P(reading)", "call", "gaze_s", "lag_s"
+    );
+    let mut on_window = |w: &eyereplay::live::LiveWindow| {
+        let mut out = std::io::stdout().lock();
+        let p = w
+            .reading_probability
+            .map_or("no gaze".to_string(), |p| format!("{p:.3}"));
+        let _ = writeln!(
+            out,
+            "{:>8.1} {:>8.1}  {:>10}  {:>7}  {:>6.1}  {:>6.2}",
+            w.start_s,
+            w.end_s,
+            p,
+            if w.reading { "reading" } else { "-" },
+            w.gaze_s,
+            w.lag_s.max(0.0)
+        );
+        // Each line as it is decided, even into a pipe.
+        let _ = out.flush();
+    };
+    let outcome = eyereplay::live::watch(&src, model, &args.model, &args.ffmpeg, &mut on_window)?;
+    eprintln!(
+        "{} frames, face in {:.1} %",
+        outcome.frames,
+        100.0 * outcome.face_frames as f64 / outcome.frames.max(1) as f64
+    );
+    let Some(d) = outcome.detection else {
+        anyhow::bail!(
+            "{}: not enough gaze in the whole stream to score it",
+            src.label()
+        );
+    };
+    print_detection(&d);
+    if let Some(out_dir) = &args.out {
+        let (text, paths) = write_detection(&outcome.track, &d, out_dir, "live", None)?;
+        eprintln!(
+            "wrote {}",
+            paths
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        if args.json {
+            print!("{text}");
+        }
     }
     Ok(())
 }
@@ -124,6 +221,37 @@ fn print_detection(d: &Detection) {
             .map(|g| format!("{:.1}-{:.1} s ({:.2})", g.start_s, g.end_s, g.confidence))
             .collect();
         eprintln!("reading segments (confidence): {}", list.join(", "));
+    }
+    // A short clip is scored whole below; its stretches need no list.
+    for u in d.localization.unscored.iter().filter(|_| d.clip.is_none()) {
+        if u.usable_s >= u.needed_s {
+            eprintln!(
+                "{:.1}-{:.1} s: no score: gaze gaps leave no whole {} s window with gaze in {:.1} s of it",
+                u.start_s, u.end_s, d.model.window_s, u.needed_s
+            );
+        } else {
+            eprintln!(
+                "{:.1}-{:.1} s: not enough gaze: {:.1} s usable, {:.1} s needed within one {} s window",
+                u.start_s, u.end_s, u.usable_s, u.needed_s, d.model.window_s
+            );
+        }
+    }
+    if let Some(c) = &d.clip {
+        println!(
+            "{}: {} (a clip shorter than one {} s window: {:.1} s of gaze in {:.1}-{:.1} s scored, P(reading) {:.3}, {:.0} % interval {:.3}-{:.3}, threshold {:.3})",
+            d.input.path,
+            d.verdict,
+            d.model.window_s,
+            c.usable_s,
+            c.start_s,
+            c.end_s,
+            c.reading_probability,
+            100.0 * c.level,
+            c.low,
+            c.high,
+            d.model.threshold
+        );
+        return;
     }
     println!(
         "{}: {} (mean P(reading) {:.3} against threshold {:.3}; {} of {} windows of {} s called reading)",

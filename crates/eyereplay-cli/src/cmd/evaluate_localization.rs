@@ -1,4 +1,6 @@
-use eyereplay_protocols::evaluate_localization;
+use super::Bars;
+use eyereplay_protocols::localization_eval::{MethodResult, WindowCalibration};
+use eyereplay_protocols::{evaluate_localization, evaluate_spliced, SpliceOptions};
 use std::path::PathBuf;
 
 /// When does someone read? Scores reading segments against known ones.
@@ -9,16 +11,48 @@ use std::path::PathBuf;
 /// (the mean of overlapping windows; the same smoothed by a two-state
 /// hidden Markov model), and prints per method: segment F1 at IoU 0.5,
 /// the median onset error, and the share of not-reading time called
-/// reading. The sessions' trajectories are scored (no video needed).
+/// reading. The sessions' trajectories are scored (no video needed), or
+/// with --input extracted what the extractor reads from their videos.
+///
+/// With --spliced PROTOCOL instead of DATASET: the real eye-tracker
+/// recordings of a detector protocol (docs/DETECTOR.md) cut into pieces
+/// and joined into mixed streams, reading and not reading in turn by
+/// different people, scored the same way (clean, with webcam-like white
+/// noise, and rendered then read back when --rendered-from names that
+/// protocol's output); and its real webcam talkers localized whole, where
+/// every second called reading is a false one.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
 eyereplay prepare --config examples/localize_train.toml --out out/localize_train\n  \
 eyereplay train out/localize_train --input trajectory --frame-labels --window-s 6 --out out/interview.json\n  \
 eyereplay prepare --config examples/localize.toml --out out/localize        # other people\n  \
-eyereplay evaluate-localization out/localize --model out/interview.json")]
+eyereplay evaluate-localization out/localize --model out/interview.json\n  \
+eyereplay evaluate-localization --spliced examples/detector/protocol_behaviour.toml --model out/interview.json")]
 pub struct Args {
     /// A dataset folder with interview sessions (`eyereplay prepare` or `generate`).
-    pub dataset: PathBuf,
+    #[arg(required_unless_present = "spliced", conflicts_with = "spliced")]
+    pub dataset: Option<PathBuf>,
+    /// Real recordings spliced into mixed streams: the recordings of this
+    /// detector protocol (`scripts/detector-data.sh` fetches them).
+    #[arg(long, value_name = "PROTOCOL")]
+    pub spliced: Option<PathBuf>,
+    /// With --spliced: the protocol's output folder (`evaluate-detector
+    /// --out`), whose renderings of the recordings give the `rendered` streams.
+    #[arg(long, value_name = "DIR", requires = "spliced")]
+    pub rendered_from: Option<PathBuf>,
+    /// With --spliced: how many streams of 5 minutes.
+    #[arg(long, default_value_t = 20, requires = "spliced")]
+    pub streams: usize,
+    /// With --spliced: the seed of the streams' pieces.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// What to score: the sessions' trajectories, or what the extractor
+    /// reads back from their rendered videos (the user's path).
+    #[arg(long, value_enum, default_value_t = super::train::InputArg::Trajectory)]
+    pub input: super::train::InputArg,
+    /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
+    #[arg(long, value_name = "DIR")]
+    pub cache: Option<PathBuf>,
     /// The detector (`eyereplay train`).
     #[arg(long, value_name = "FILE")]
     pub model: PathBuf,
@@ -31,22 +65,136 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let ev = evaluate_localization(&args.dataset, &args.model, args.threshold)?;
+    if let Some(protocol) = &args.spliced {
+        return run_spliced(&args, protocol);
+    }
+    let dataset = args.dataset.as_deref().expect("clap requires it");
+    let cache = eyereplay::cache_dir(args.cache.as_deref());
+    let ev = evaluate_localization(
+        dataset,
+        &args.model,
+        args.threshold,
+        args.input.into(),
+        &cache,
+        &Bars::default(),
+    )?;
     println!(
-        "{} sessions, {:.0} min, {} reading segments; model {}, segments cut at {:.3}",
+        "{} sessions ({}), {:.0} min, {} reading segments; model {}, segments cut at {:.3}",
         ev.sessions,
+        ev.input,
         ev.seconds / 60.0,
         ev.reading_segments,
         ev.model,
         ev.threshold
     );
-    println!(
-        "{:<12} {:>6} {:>9} {:>7} {:>6} {:>10} {:>14} {:>14}",
-        "method", "found", "matched", "F1", "P", "R", "onset med s", "false reading"
-    );
-    for m in &ev.methods {
+    print_methods("", &ev.methods);
+    print_calibration("", &ev.calibration);
+    println!("short clips, each inside one class, scored as `detect` scores a clip shorter than a window:");
+    for c in &ev.clips {
         println!(
-            "{:<12} {:>6} {:>9} {:>7.3} {:>6.3} {:>10.3} {:>14} {:>13.1}%",
+            "  {:>4.0} s: {} + {} clips (reading + other), {} refused; AUROC {}; {:.0} % uncertain (interval holds the threshold), the rest {} right; mean interval width {:.2}",
+            c.clip_s,
+            c.clips_reading,
+            c.clips_other,
+            c.refused,
+            c.auroc.map_or("n/a".into(), |a| format!("{a:.3}")),
+            100.0 * c.uncertain_fraction,
+            c.decided_accuracy
+                .map_or("n/a".into(), |a| format!("{:.1} %", 100.0 * a)),
+            c.mean_interval_width
+        );
+    }
+    if let Some(path) = &args.json {
+        let mut text = serde_json::to_string_pretty(&ev)?;
+        text.push('\n');
+        eyereplay_core::atomic_write(path, text.as_bytes())?;
+    }
+    Ok(())
+}
+
+fn run_spliced(args: &Args, protocol: &std::path::Path) -> anyhow::Result<()> {
+    let cache = eyereplay::cache_dir(args.cache.as_deref());
+    let opts = SpliceOptions {
+        streams: args.streams,
+        seed: args.seed,
+        ..Default::default()
+    };
+    let ev = evaluate_spliced(
+        protocol,
+        &args.model,
+        args.threshold,
+        &opts,
+        args.rendered_from.as_deref(),
+        &cache,
+        &Bars::default(),
+    )?;
+    println!(
+        "{} streams of {:.0} s from real recordings ({} reading segments): readers {}; others {}",
+        opts.streams,
+        opts.stream_s,
+        ev.reading_segments,
+        ev.readers.join(", "),
+        ev.others.join(", ")
+    );
+    println!("model {}, segments cut at {:.3}", ev.model, ev.threshold);
+    for c in &ev.conditions {
+        print_methods(&c.condition, &c.methods);
+    }
+    for c in &ev.conditions {
+        print_calibration(&c.condition, &c.calibration);
+    }
+    if !ev.webcam.is_empty() {
+        println!("real webcam talkers (every reading second is false):");
+        for w in &ev.webcam {
+            println!(
+                "  {:<10} {:>6.1} s, {:>6.1} s scored, {:>5.1} % called reading",
+                w.recording,
+                w.seconds,
+                w.scored_s,
+                100.0 * w.false_reading_fraction
+            );
+        }
+        if let Some(f) = ev.webcam_false_reading_fraction {
+            println!("  all        false reading time {:.1} %", 100.0 * f);
+        }
+    }
+    if let Some(path) = &args.json {
+        let mut text = serde_json::to_string_pretty(&ev)?;
+        text.push('\n');
+        eyereplay_core::atomic_write(path, text.as_bytes())?;
+    }
+    Ok(())
+}
+
+/// One line on the windows' calibration.
+fn print_calibration(condition: &str, c: &WindowCalibration) {
+    let label = if condition.is_empty() {
+        String::new()
+    } else {
+        format!("{condition}: ")
+    };
+    println!(
+        "{label}{} + {} windows (reading + other): expected calibration error {:.3}; at the threshold {:.3}, {:.1} % of other windows called reading (chosen for {:.1} %), {:.1} % of reading windows found",
+        c.windows_reading,
+        c.windows_other,
+        c.expected_calibration_error,
+        c.threshold,
+        100.0 * c.false_positive_rate,
+        100.0 * c.target_false_positive_rate,
+        100.0 * c.true_positive_rate
+    );
+}
+
+/// The table of one condition's methods.
+fn print_methods(condition: &str, methods: &[MethodResult]) {
+    println!(
+        "{:<10} {:<12} {:>6} {:>9} {:>7} {:>6} {:>6} {:>12} {:>14}",
+        "condition", "method", "found", "matched", "F1", "P", "R", "onset med s", "false reading"
+    );
+    for m in methods {
+        println!(
+            "{:<10} {:<12} {:>6} {:>9} {:>7.3} {:>6.3} {:>6.3} {:>12} {:>13.1}%",
+            condition,
             format!("{:?}", m.method),
             m.segments.found,
             m.segments.matched,
@@ -58,10 +206,4 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             100.0 * m.false_reading_fraction
         );
     }
-    if let Some(path) = &args.json {
-        let mut text = serde_json::to_string_pretty(&ev)?;
-        text.push('\n');
-        eyereplay_core::atomic_write(path, text.as_bytes())?;
-    }
-    Ok(())
 }

@@ -9,14 +9,17 @@ use std::path::PathBuf;
 /// 'eyereplay extract' measures on each session's rendered video (cached,
 /// so a second run does not extract again), cut into windows that overlap
 /// by half, each normalized on its own. The model is a logistic regression
-/// over 14 documented features (docs/DETECTOR.md); its threshold is fixed
-/// on a quarter of the sessions it was not fitted on. Same datasets and
-/// seed give the same model file, byte for byte.
+/// over 14 documented features (docs/DETECTOR.md). A quarter of the
+/// sessions, held out from the fit, calibrates its probabilities (Platt
+/// scaling) and fixes its threshold for a stated false-positive rate
+/// (--max-fpr). Same datasets and seed give the same model file, byte for
+/// byte.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
 eyereplay train out/default --out reading.model.json\n  \
 eyereplay train data/a data/b --out m.json --window-s 30\n  \
-eyereplay train data/ --out m.json --input trajectory   # no videos: the session CSVs\n\n\
+eyereplay train data/ --out m.json --input trajectory   # no videos: the session CSVs\n  \
+eyereplay train out/interview_train --frame-labels --out interview.json   # when: interviews\n\n\
 Then: eyereplay detect interview.mp4 --model reading.model.json")]
 pub struct Args {
     /// Dataset folders written by 'eyereplay generate' (labels.csv and the
@@ -54,6 +57,10 @@ pub struct Args {
     /// session's class.
     #[arg(long)]
     pub frame_labels: bool,
+    /// Choose the decision threshold so that at most this share of the
+    /// validation sessions' not-reading windows is called reading
+    #[arg(long, value_name = "RATE", default_value_t = eyereplay::detect::model::DEFAULT_MAX_FPR)]
+    pub max_fpr: f64,
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
@@ -62,20 +69,33 @@ pub enum InputArg {
     Trajectory,
 }
 
+impl From<InputArg> for TrainInput {
+    fn from(a: InputArg) -> Self {
+        match a {
+            InputArg::Extracted => TrainInput::Extracted,
+            InputArg::Trajectory => TrainInput::Trajectory,
+        }
+    }
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if !(args.max_fpr > 0.0 && args.max_fpr < 1.0) {
+        anyhow::bail!(
+            "--max-fpr must be a share between 0 and 1, got {}",
+            args.max_fpr
+        );
+    }
     if !(args.alpha >= 0.0 && args.alpha.is_finite()) {
         anyhow::bail!("--alpha must be a number >= 0, got {}", args.alpha);
     }
     let opts = TrainDetectorOptions {
         window_s: args.window_s,
-        input: match args.input {
-            InputArg::Extracted => TrainInput::Extracted,
-            InputArg::Trajectory => TrainInput::Trajectory,
-        },
+        input: args.input.into(),
         train: TrainOptions {
             alpha: args.alpha,
             seed: args.seed,
             noise_copies: args.noise_copies,
+            max_fpr: args.max_fpr,
             ..TrainOptions::default()
         },
         cache: eyereplay::cache_dir(args.cache.as_deref()),

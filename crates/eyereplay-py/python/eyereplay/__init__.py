@@ -271,13 +271,17 @@ def detect(
     ``model`` is a detector file from ``eyereplay train``; by default the
     detector shipped in this package (:data:`DEFAULT_DETECTOR`).
 
-    Returns a dict: ``verdict`` (``"reading"`` or ``"not reading"``),
+    Returns a dict: ``verdict`` (``"reading"`` or ``"not reading"``; for a
+    clip shorter than one window, ``"uncertain"`` when its interval holds
+    the threshold),
     ``reading_probability`` (mean over windows), ``reading_window_fraction``,
     ``windows`` (a numpy structured array, or a pandas DataFrame when pandas
     is installed: ``start_s, end_s, reading_probability, reading,
     forward_run_fraction`` per window), ``localization`` (when: the
-    probability per second and the reading segments with start, end and
-    confidence), and the ``model`` and ``input`` it was made from.
+    probability per second, the reading segments with start, end and
+    confidence, and the stretches without enough gaze), ``clip`` (a clip
+    shorter than one window: its probability with a 90 % interval, else
+    ``None``), and the ``model`` and ``input`` it was made from.
     """
     import tempfile
 

@@ -1,0 +1,328 @@
+//! Watching a call as it happens (`eyereplay detect --live SOURCE`): frames
+//! from a camera, a network stream or standard input go through the same
+//! extractor and detector as a recorded file, and each window's reading
+//! probability is reported as soon as the window closes.
+//!
+//! The stream is decoded by the same decoder as a file, read by one
+//! face tracker frame after frame, and turned into the same 25 fps track
+//! ([`rows_track`] is what the extractor's CSV gives, value for value), so
+//! a recording played through standard input ends with the segments the
+//! offline run finds. Lost frames leave gaps in the track (no frame is
+//! invented); a lost face leaves frames without gaze; a window with too
+//! little gaze is reported as such and the watch goes on.
+
+use crate::detector::{detect_track, resample_samples, Detection, TrackInfo};
+use crate::inputs::check_models;
+use crate::{Error, Result};
+use eyereplay_core::{NormPos, Sample};
+use eyereplay_detect::{DetectorModel, Track, FPS};
+use eyereplay_extract::{flag_blinks, Decoder, ExtractOptions, FrameStream, Row};
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Where live frames come from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum LiveSource {
+    /// `-`: a video stream on standard input (NUT, Matroska, MPEG-TS:
+    /// `ffmpeg -i call.mp4 -f nut -c:v rawvideo -pix_fmt rgb24 -`).
+    Stdin,
+    /// A camera device (`/dev/video0`), opened through the ffmpeg program.
+    Camera(PathBuf),
+    /// Anything FFmpeg opens by name: `rtsp://`, `http://`, a file.
+    Url(String),
+}
+
+impl LiveSource {
+    pub fn parse(s: &str) -> LiveSource {
+        if s == "-" {
+            LiveSource::Stdin
+        } else if s.starts_with("/dev/video") {
+            LiveSource::Camera(PathBuf::from(s))
+        } else {
+            LiveSource::Url(s.to_string())
+        }
+    }
+
+    pub fn label(&self) -> String {
+        match self {
+            LiveSource::Stdin => "stdin".into(),
+            LiveSource::Camera(p) => p.display().to_string(),
+            LiveSource::Url(u) => u.clone(),
+        }
+    }
+}
+
+/// One window, reported when it closes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LiveWindow {
+    /// Seconds from the stream's first frame.
+    pub start_s: f64,
+    pub end_s: f64,
+    /// `None` when the window had too little gaze to score.
+    pub reading_probability: Option<f64>,
+    pub reading: bool,
+    /// Seconds of the window with gaze.
+    pub gaze_s: f64,
+    /// How long after the window's end, on a clock that started with the
+    /// first frame, the probability was ready: the delay a viewer of a
+    /// real-time stream sees. Near 0 (or below) when the input comes
+    /// faster than real time.
+    pub lag_s: f64,
+}
+
+/// What a watch ends with.
+pub struct LiveOutcome {
+    /// The whole stream's detection, as `detect` gives it for a file (the
+    /// segments from the complete track).
+    pub detection: Option<Detection>,
+    pub track: Track,
+    pub frames: usize,
+    pub face_frames: usize,
+}
+
+/// The 25 fps gaze track of extractor rows, exactly as the extractor's CSV
+/// of those rows reads back ([`crate::detector::extract_csv_track`]):
+/// times to the microsecond and positions to 5 decimals as the CSV writes
+/// them, blinks and frames without a face as no gaze.
+pub fn rows_track(rows: &[Row]) -> Track {
+    // The CSV's text is `{:.N}`; parsing it back is this rounding.
+    let round = |v: f64, digits: usize| format!("{v:.digits$}").parse().unwrap_or(v);
+    let samples: Vec<Sample<NormPos>> = rows
+        .iter()
+        .map(|r| {
+            let (nx, ny) = r
+                .mean_n()
+                .filter(|_| r.face())
+                .map_or((f64::NAN, f64::NAN), |(x, y)| (round(x, 5), round(y, 5)));
+            Sample {
+                t_s: round(r.time_s, 6),
+                pos: NormPos { nx, ny },
+                valid: r.valid() && nx.is_finite() && ny.is_finite(),
+                aperture: r.aperture().filter(|a| a.is_finite()).map(|a| round(a, 5)),
+                blink: r.blink,
+            }
+        })
+        .collect();
+    let refs: Vec<&Sample<NormPos>> = samples.iter().collect();
+    resample_samples(&refs)
+}
+
+/// Opens `source`: standard input and URLs by the decoder itself; a camera
+/// through an ffmpeg child process whose output the decoder reads.
+fn open(source: &LiveSource, ffmpeg: &Path) -> Result<(Decoder, Option<std::process::Child>)> {
+    match source {
+        LiveSource::Stdin => Ok((Decoder::open_url("pipe:0")?, None)),
+        LiveSource::Url(u) => Ok((Decoder::open_url(u)?, None)),
+        LiveSource::Camera(dev) => {
+            use std::os::fd::AsRawFd;
+            let child = std::process::Command::new(ffmpeg)
+                .args(["-hide_banner", "-loglevel", "error", "-f", "v4l2", "-i"])
+                .arg(dev)
+                .args([
+                    "-f", "nut", "-c:v", "rawvideo", "-pix_fmt", "yuv420p", "pipe:1",
+                ])
+                .stdin(std::process::Stdio::null())
+                .stdout(std::process::Stdio::piped())
+                .spawn()
+                .map_err(|e| {
+                    Error::input(ffmpeg, format!("cannot run ffmpeg to open the camera: {e}"))
+                })?;
+            let fd = child.stdout.as_ref().expect("piped above").as_raw_fd();
+            let dec = Decoder::open_url(&format!("pipe:{fd}")).map_err(|e| {
+                Error::input(dev, format!("camera gave no video through ffmpeg: {e}"))
+            })?;
+            Ok((dec, Some(child)))
+        }
+    }
+}
+
+/// Which windows have been reported, and the clocks to say when.
+struct WindowClock {
+    /// First frame (at 25 fps) of the next window to report.
+    next: usize,
+    window_frames: usize,
+    stride_frames: usize,
+    /// The first frame's stream time, and when it arrived.
+    t0: Option<(f64, Instant)>,
+    blink_ratio: f64,
+}
+
+impl WindowClock {
+    /// Reports every window whose end the stream has passed at stream time
+    /// `now_s` (every remaining one when `None`: the stream ended).
+    fn close(
+        &mut self,
+        rows: &[Row],
+        now_s: Option<f64>,
+        model: &DetectorModel,
+        on_window: &mut dyn FnMut(&LiveWindow),
+    ) {
+        let Some((t0, wall0)) = self.t0 else {
+            return;
+        };
+        let reached = now_s.map(|t| ((t - t0) * FPS + 1e-6).floor() as usize);
+        let due = |next: usize| reached.is_none_or(|g| g >= next + self.window_frames);
+        if !due(self.next) {
+            return;
+        }
+        // Blinks against the median aperture so far (the whole stream's
+        // at the end, as for a file).
+        let mut rows = rows.to_vec();
+        flag_blinks(&mut rows, self.blink_ratio);
+        let track = rows_track(&rows);
+        while self.next + self.window_frames <= track.len() && due(self.next) {
+            let xy = &track.xy[self.next..self.next + self.window_frames];
+            let gaze = xy.iter().filter(|p| p[0].is_finite()).count();
+            let p = eyereplay_detect::window::prepare_window(xy, self.next)
+                .map(|win| model.probability(&win));
+            let end_s = (self.next + self.window_frames) as f64 / FPS;
+            on_window(&LiveWindow {
+                start_s: self.next as f64 / FPS,
+                end_s,
+                reading_probability: p,
+                reading: p.is_some_and(|p| p >= model.threshold),
+                gaze_s: gaze as f64 / FPS,
+                lag_s: wall0.elapsed().as_secs_f64() - end_s,
+            });
+            self.next += self.stride_frames;
+        }
+    }
+}
+
+/// Watches `source` until it ends, calling `on_window` for every window
+/// of the model's length, one second apart, as it closes; then scores the
+/// whole stream as [`detect_track`] scores a file (`model_path` names the
+/// model in that result).
+pub fn watch(
+    source: &LiveSource,
+    model: &DetectorModel,
+    model_path: &Path,
+    ffmpeg: &Path,
+    on_window: &mut dyn FnMut(&LiveWindow),
+) -> Result<LiveOutcome> {
+    check_models()?;
+    let (mut decoder, child) = open(source, ffmpeg)?;
+    let opts = ExtractOptions::default();
+    let (w, h) = (decoder.info.width, decoder.info.height);
+    let mut stream = FrameStream::new(&opts, w, h)?;
+    let mut clock = WindowClock {
+        next: 0,
+        window_frames: (model.window_s * FPS).round() as usize,
+        stride_frames: (eyereplay_detect::localize::STRIDE_S * FPS).round() as usize,
+        t0: None,
+        blink_ratio: opts.blink_ratio,
+    };
+    let mut failure: Option<Error> = None;
+    let decoded = decoder.frames(|t, img| {
+        match stream.push_image(img, t) {
+            Ok(()) => {}
+            // A frame whose time does not follow the last (a restarted
+            // stream) is dropped; the watch goes on.
+            Err(eyereplay_extract::ExtractError::Frames(_)) => {
+                return Ok(ControlFlow::Continue(()))
+            }
+            Err(e) => {
+                failure = Some(e.into());
+                return Ok(ControlFlow::Break(()));
+            }
+        }
+        clock.t0.get_or_insert_with(|| (t, Instant::now()));
+        clock.close(stream.rows(), Some(t), model, on_window);
+        Ok(ControlFlow::Continue(()))
+    });
+    if let Some(mut c) = child {
+        let _ = c.kill();
+        let _ = c.wait();
+    }
+    decoded?;
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    let frames = stream.frames();
+    if frames == 0 {
+        return Err(Error::input(
+            source.label(),
+            "the stream ended before its first frame",
+        ));
+    }
+    clock.close(stream.rows(), None, model, on_window);
+    let done = stream.finish()?;
+    let track = rows_track(&done.rows);
+    let gaze = track.xy.iter().filter(|p| p[0].is_finite()).count();
+    let info = TrackInfo {
+        path: source.label(),
+        kind: "live".into(),
+        frames: track.len(),
+        gaze_fraction: gaze as f64 / track.len().max(1) as f64,
+    };
+    // Too little gaze for any score is a result here, not an error: the
+    // windows already said so as they closed.
+    let detection = detect_track(&track, info, model, model_path).ok();
+    Ok(LiveOutcome {
+        detection,
+        track,
+        frames,
+        face_frames: done.face_frames,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_track_of_rows_is_the_track_of_their_csv() {
+        // Rows at a jittery ~30 fps with a lost face and a blink: the track
+        // made from them in memory equals the one read from their CSV.
+        let mut rows: Vec<Row> = (0..120)
+            .map(|k| {
+                let mut r = if (40..46).contains(&k) {
+                    Row::synthetic(None)
+                } else {
+                    let a = if (80..83).contains(&k) { 0.05 } else { 0.3 };
+                    Row::synthetic(Some((
+                        a,
+                        (
+                            0.4 + 0.123_456_789 * (k as f64 * 0.3).sin(),
+                            0.5 + 0.01 * k as f64,
+                        ),
+                    )))
+                };
+                r.frame = k;
+                r.time_s = 1.5 + k as f64 / 30.0 + 0.003 * ((k * 7) % 3) as f64;
+                r
+            })
+            .collect();
+        flag_blinks(&mut rows, 0.6);
+        assert!(rows.iter().any(|r| r.blink));
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("x.csv");
+        eyereplay_extract::save_csv(&csv, &rows).unwrap();
+        let from_csv = crate::detector::extract_csv_track(&csv).unwrap();
+        let here = rows_track(&rows);
+        assert_eq!(here.len(), from_csv.len());
+        assert!(here.xy.iter().any(|p| p[0].is_nan()));
+        for (a, b) in here.xy.iter().zip(&from_csv.xy) {
+            for k in 0..2 {
+                assert!(
+                    a[k].to_bits() == b[k].to_bits() || (a[k].is_nan() && b[k].is_nan()),
+                    "{a:?} vs {b:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn sources_are_told_apart_by_name() {
+        assert_eq!(LiveSource::parse("-"), LiveSource::Stdin);
+        assert_eq!(
+            LiveSource::parse("/dev/video0"),
+            LiveSource::Camera("/dev/video0".into())
+        );
+        assert_eq!(
+            LiveSource::parse("rtsp://cam.local/stream"),
+            LiveSource::Url("rtsp://cam.local/stream".into())
+        );
+    }
+}
