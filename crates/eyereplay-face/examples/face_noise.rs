@@ -56,6 +56,7 @@ fn main() -> Result<()> {
                     natural_blinks: false,
                     blink_rate_per_min: 0.0,
                     task: Task::Saccades,
+                    reading_frames: None,
                     coordination: CoordinationParams::default(),
                     dynamics: HeadDynamics::default(),
                     sway_rms: [0.0; 6],

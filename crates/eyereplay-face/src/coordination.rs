@@ -156,13 +156,14 @@ impl Default for HeadDynamics {
 }
 
 /// Per-sample head and eye-in-head angles (yaw, pitch; deg) for a gaze
-/// track sampled every `dt_s`. The head
+/// track sampled every `dt_s`, each sample's head target by its task in
+/// `tasks` (the last one past its end: one task for a whole track). The head
 /// starts at rest on the first sample's target; `gaze = head + eye` holds
 /// at every sample (angles add for the small rotations of a webcam session).
 pub fn head_track(
     params: &CoordinationParams,
     dynamics: &HeadDynamics,
-    task: Task,
+    tasks: &[Task],
     gaze_deg: &[(f64, f64)],
     dt_s: f64,
 ) -> HeadEyeTrack {
@@ -172,7 +173,15 @@ pub fn head_track(
     }
     let targets: Vec<(f64, f64)> = gaze_deg
         .iter()
-        .map(|&(h, v)| params.head_target(task, h, v))
+        .enumerate()
+        .map(|(i, &(h, v))| {
+            let task = tasks
+                .get(i)
+                .or(tasks.last())
+                .copied()
+                .unwrap_or(Task::Saccades);
+            params.head_target(task, h, v)
+        })
         .collect();
     let delay = (dynamics.onset_s / dt_s).round() as usize;
     // Critically damped: x'' = w^2 (target - x) - 2 w x', integrated
@@ -332,6 +341,30 @@ mod tests {
     }
 
     #[test]
+    fn a_session_that_starts_reading_moves_its_head_as_a_reader() {
+        // Gaze held at 50 deg for 4 s; the second half is reading. The
+        // head settles at k (50 - E0) = 24 deg while looking, then at the
+        // reading share 0.047 x 50 = 2.35 deg.
+        let p = CoordinationParams {
+            e0_deg: 20.0,
+            k: 0.8,
+        };
+        let gaze = vec![(50.0, 0.0); 4000];
+        let tasks: Vec<Task> = (0..4000)
+            .map(|i| {
+                if i < 2000 {
+                    Task::Saccades
+                } else {
+                    Task::Reading
+                }
+            })
+            .collect();
+        let tr = head_track(&p, &HeadDynamics::default(), &tasks, &gaze, 0.001);
+        assert!((tr.head_deg[1999].0 - 24.0).abs() < 1e-3);
+        assert!((tr.head_deg[3999].0 - READING_HEAD_SHARE_H * 50.0).abs() < 1e-3);
+    }
+
+    #[test]
     fn step_response_lags_then_counter_rotates() {
         let p = CoordinationParams {
             e0_deg: 20.0,
@@ -343,7 +376,7 @@ mod tests {
         let gaze: Vec<(f64, f64)> = (0..2100)
             .map(|i| if i < 100 { (0.0, 0.0) } else { (50.0, 0.0) })
             .collect();
-        let tr = head_track(&p, &dyn_, Task::Saccades, &gaze, dt);
+        let tr = head_track(&p, &dyn_, &[Task::Saccades], &gaze, dt);
         let (head, eye) = (tr.head_deg, tr.eye_deg);
         // Before the onset delay the head has not moved; the eye took the jump.
         assert_eq!(head[129].0, 0.0);

@@ -64,6 +64,10 @@ pub struct FaceSessionParams {
     pub natural_blinks: bool,
     pub blink_rate_per_min: f64,
     pub task: Task,
+    /// Frames in which the person reads (an interview's per-frame labels):
+    /// the head moves as in [`Task::Reading`] there and as in `task`
+    /// elsewhere. `None`: `task` throughout.
+    pub reading_frames: Option<Vec<bool>>,
     pub coordination: CoordinationParams,
     pub dynamics: HeadDynamics,
     /// RMS of the drift and sway: yaw, pitch, roll (deg), x, y, z (cm).
@@ -210,15 +214,22 @@ fn head_path_of(
         })
         .collect();
     let c = p.coordination;
+    let tasks: Vec<Task> = (0..n)
+        .map(|i| match &p.reading_frames {
+            Some(r) if r.get(i).copied().unwrap_or(false) => Task::Reading,
+            _ => p.task,
+        })
+        .collect();
     let gaze: Vec<(f64, f64)> = eye_rest
         .iter()
-        .map(|&(eh, ev)| {
-            let h = gaze_for_eye(eh, |g| g - c.head_target(p.task, g, 0.0).0);
-            let v = gaze_for_eye(ev, |g| g - c.head_target(p.task, 0.0, g).1);
+        .zip(&tasks)
+        .map(|(&(eh, ev), &task)| {
+            let h = gaze_for_eye(eh, |g| g - c.head_target(task, g, 0.0).0);
+            let v = gaze_for_eye(ev, |g| g - c.head_target(task, 0.0, g).1);
             (h, v)
         })
         .collect();
-    let track = head_track(&c, &p.dynamics, p.task, &gaze, 1.0 / p.fps);
+    let track = head_track(&c, &p.dynamics, &tasks, &gaze, 1.0 / p.fps);
     let sway = Sway::new(p.seed ^ 0x5ea7, p.sway_rms);
     (0..n)
         .into_par_iter()

@@ -62,6 +62,7 @@ fn params_of(
         natural_blinks: false,
         blink_rate_per_min: 0.0,
         task,
+        reading_frames: None,
         coordination,
         dynamics: HeadDynamics::default(),
         sway_rms: DEFAULT_SWAY_RMS,

@@ -251,7 +251,15 @@ pub fn evaluate_localization(
         model: model_path.display().to_string(),
         threshold,
         sessions: tracks.len(),
-        reading_segments: flags_all.iter().map(|f| true_runs(f).len()).sum(),
+        reading_segments: flags_all
+            .iter()
+            .map(|f| {
+                true_runs(f)
+                    .iter()
+                    .filter(|(a, b)| b - a >= localize::MIN_SEGMENT_S)
+                    .count()
+            })
+            .sum(),
         seconds: tracks.iter().map(|t| t.duration_s()).sum(),
         methods,
         calibration,
@@ -260,7 +268,8 @@ pub fn evaluate_localization(
 }
 
 /// Localizes every track by `method` and scores the segments against the
-/// runs of its per-frame labels `flags`: pooled segment F1 (each track
+/// runs of its per-frame labels `flags` (those of at least
+/// [`localize::MIN_SEGMENT_S`]): pooled segment F1 (each track
 /// matched on its own), onset errors, and frame shares.
 pub fn score_method(
     tracks: &[Track],
@@ -272,7 +281,13 @@ pub fn score_method(
     let (mut found_n, mut truth_n, mut onsets) = (0, 0, Vec::new());
     let (mut fp, mut neg, mut tp, mut pos) = (0usize, 0usize, 0usize, 0usize);
     for (track, flags) in tracks.iter().zip(flags) {
-        let truth = true_runs(flags);
+        // A stretch shorter than the shortest segment ever cut (an answer
+        // the session's end cut to a few seconds) cannot be found by
+        // design; it is not counted against the method.
+        let truth: Vec<(f64, f64)> = true_runs(flags)
+            .into_iter()
+            .filter(|(a, b)| b - a >= localize::MIN_SEGMENT_S)
+            .collect();
         let loc = localize::localize(track, model, method, threshold);
         let found: Vec<(f64, f64)> = loc.segments.iter().map(|s| (s.start_s, s.end_s)).collect();
         let m = match_segments(&found, &truth, MIN_IOU);

@@ -371,7 +371,15 @@ pub fn evaluate_spliced(
             .sum::<f64>()
             / scored
     });
-    let reading_segments = clean_streams.iter().map(|(_, f)| true_runs(f).len()).sum();
+    let reading_segments = clean_streams
+        .iter()
+        .map(|(_, f)| {
+            true_runs(f)
+                .iter()
+                .filter(|(a, b)| b - a >= eyereplay_detect::localize::MIN_SEGMENT_S)
+                .count()
+        })
+        .sum();
     let seconds = clean_streams.iter().map(|(t, _)| t.duration_s()).sum();
     Ok(SplicedEval {
         protocol: protocol_path.display().to_string(),
