@@ -88,6 +88,24 @@ def test_same_files_byte_for_byte(datasets):
     assert differ == []
 
 
+def test_a_clip_shorter_than_a_window_gets_a_probability_with_an_interval(datasets, tmp_path):
+    # The sessions are 4 s, the default detector's windows 10 s: scored
+    # from what there is, with an interval, as the command line does.
+    session = datasets["py"] / "reading" / "reading_0000.csv"
+    d = eyereplay.detect(session)
+    c = d["clip"]
+    assert len(d["windows"]) == 0
+    assert c["low"] <= c["reading_probability"] <= c["high"]
+    assert c["usable_s"] >= 3.0
+    thr = d["model"]["threshold"]
+    want = "reading" if c["low"] >= thr else "not reading" if c["high"] < thr else "uncertain"
+    assert d["verdict"] == want
+    r = run_cli("detect", session, "--model", eyereplay.DEFAULT_DETECTOR, "--out", tmp_path)
+    assert r.returncode == 0, r.stderr
+    cli = json.loads((tmp_path / "reading_0000_detect.json").read_text())
+    assert cli["clip"] == c and cli["verdict"] == d["verdict"]
+
+
 def test_summary_counts_what_was_rendered(datasets):
     s = datasets["summary"]
     assert s["rendered"] == 4 and s["skipped"] == 0
