@@ -83,7 +83,19 @@ pub fn localize(
     threshold: f64,
 ) -> Localization {
     let frame_p = frame_probability(track, model, method);
-    let segments = segments(&frame_p, FPS, threshold, MIN_SEGMENT_S, MAX_GAP_S);
+    localization_of(track, &frame_p, model, method, threshold)
+}
+
+/// [`localize`] from per-frame probabilities already computed by
+/// [`frame_probability`] (for callers that need both).
+pub fn localization_of(
+    track: &Track,
+    frame_p: &[f64],
+    model: &DetectorModel,
+    method: Method,
+    threshold: f64,
+) -> Localization {
+    let segments = segments(frame_p, FPS, threshold, MIN_SEGMENT_S, MAX_GAP_S);
     let per_step = FPS.round() as usize;
     let probability = frame_p
         .chunks(per_step)

@@ -62,8 +62,8 @@ pub use models::{
     LandmarkModel, Models,
 };
 pub use output::{
-    flag_blinks, output_csv_paths, save_csv, write_csv, EyeRow, Row, CSV_HEADER,
-    DEFAULT_BLINK_RATIO,
+    blink_threshold, flag_blinks, flag_blinks_below, output_csv_paths, save_csv, write_csv, EyeRow,
+    Row, CSV_HEADER, DEFAULT_BLINK_RATIO,
 };
 pub use profile::{process_cpu_s, thread_cpu_s, Stage, StageClock, StageTimes};
 pub use readback::{

@@ -119,16 +119,26 @@ pub const DEFAULT_BLINK_RATIO: f64 = 0.6;
 /// there and ny swings far outside [0, 1]. Returns the number of blinks
 /// (runs of flagged frames).
 pub fn flag_blinks(rows: &mut [Row], ratio: f64) -> usize {
+    match blink_threshold(rows, ratio) {
+        Some(threshold) => flag_blinks_below(rows, threshold),
+        None => 0,
+    }
+}
+
+/// The aperture below which [`flag_blinks`] calls a frame closed: `ratio`
+/// x the median aperture of `rows`' face frames; `None` without any.
+pub fn blink_threshold(rows: &[Row], ratio: f64) -> Option<f64> {
     let aps: Vec<f64> = rows
         .iter()
         .filter_map(|r| r.aperture())
         .filter(|a| a.is_finite())
         .collect();
-    if aps.is_empty() {
-        return 0;
-    }
-    let median = eyereplay_signal::stats::upper_median(&aps).expect("not empty");
-    let threshold = ratio * median;
+    eyereplay_signal::stats::upper_median(&aps).map(|m| ratio * m)
+}
+
+/// [`flag_blinks`] against a given `threshold` (a stream flags its newest
+/// frames against the median of all it has seen).
+pub fn flag_blinks_below(rows: &mut [Row], threshold: f64) -> usize {
     let closed: Vec<bool> = rows
         .iter()
         .map(|r| r.aperture().is_some_and(|a| a.is_nan() || a < threshold))

@@ -209,13 +209,15 @@ pub fn true_runs(flags: &[bool]) -> Vec<(f64, f64)> {
 }
 
 /// Every session of the dataset in `dir` that has a `reading` column, read
-/// as `input` says (its trajectory, or read back from its video), localized by each method with the detector in
+/// as `input` says (its trajectory, or read back from its video; short
+/// clips cut at places drawn with `seed`), localized by each method with the detector in
 /// `model_path`.
 pub fn evaluate_localization(
     dir: &Path,
     model_path: &Path,
     threshold: f64,
     input: TrainInput,
+    seed: u64,
     cache: &Path,
     progress: &dyn Progress,
 ) -> Result<LocalizationEval> {
@@ -244,7 +246,7 @@ pub fn evaluate_localization(
         .map(|m| score_method(&tracks, &flags_all, &model, m, threshold))
         .collect();
     let calibration = window_calibration(&tracks, &flags_all, &model);
-    let clips = clip_results(&tracks, &flags_all, &model, CLIPS_PER_CLASS, 1);
+    let clips = clip_results(&tracks, &flags_all, &model, CLIPS_PER_CLASS, seed);
     Ok(LocalizationEval {
         dataset: dir.display().to_string(),
         input: input.name().into(),

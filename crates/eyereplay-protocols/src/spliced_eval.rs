@@ -343,7 +343,7 @@ pub fn evaluate_spliced(
         let csv = extract_cached(&[video], cache, progress)?.remove(0);
         let track = extract_csv_track(&csv)?;
         let frame_p = localize::frame_probability(&track, &model, Method::Hmm);
-        let loc = localize::localize(&track, &model, Method::Hmm, threshold);
+        let loc = localize::localization_of(&track, &frame_p, &model, Method::Hmm, threshold);
         let segments: Vec<(f64, f64)> = loc.segments.iter().map(|s| (s.start_s, s.end_s)).collect();
         let scored: Vec<usize> = (0..frame_p.len())
             .filter(|&k| frame_p[k].is_finite())

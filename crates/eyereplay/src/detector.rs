@@ -105,14 +105,29 @@ pub fn resample_samples(samples: &[&Sample<NormPos>]) -> Track {
     };
     let (t0, t1) = (first.t_s, last.t_s);
     let n = ((t1 - t0) * FPS + 1e-6).floor() as usize + 1;
-    let mut xy = Vec::with_capacity(n);
+    resample_grid(samples, t0, 0..n)
+}
+
+/// Frames `frames` of the 25 fps grid that starts at `t0`, as
+/// [`resample_samples`] makes them from `samples` (which must reach past
+/// the range's ends for its first and last frames to have gaze): the same
+/// values for a frame whatever part of the recording `samples` holds.
+pub fn resample_grid(
+    samples: &[&Sample<NormPos>],
+    t0: f64,
+    frames: std::ops::Range<usize>,
+) -> Track {
+    let mut xy = Vec::with_capacity(frames.len());
     let mut j = 0;
-    for k in 0..n {
+    for k in frames {
         let t = t0 + k as f64 / FPS;
         while j + 1 < samples.len() && samples[j + 1].t_s <= t + 1e-9 {
             j += 1;
         }
-        let a = samples[j];
+        let Some(&a) = samples.get(j).filter(|a| a.t_s <= t + 1e-9) else {
+            xy.push([f64::NAN, f64::NAN]);
+            continue;
+        };
         let p = if (a.t_s - t).abs() < 1e-9 {
             a.is_gaze().then_some([a.pos.nx, a.pos.ny])
         } else if j + 1 < samples.len() {

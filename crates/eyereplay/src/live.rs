@@ -11,12 +11,14 @@
 //! invented); a lost face leaves frames without gaze; a window with too
 //! little gaze is reported as such and the watch goes on.
 
-use crate::detector::{detect_track, resample_samples, Detection, TrackInfo};
+use crate::detector::{detect_track, resample_grid, resample_samples, Detection, TrackInfo};
 use crate::inputs::check_models;
 use crate::{Error, Result};
 use eyereplay_core::{NormPos, Sample};
 use eyereplay_detect::{DetectorModel, Track, FPS};
-use eyereplay_extract::{flag_blinks, Decoder, ExtractOptions, FrameStream, Row};
+use eyereplay_extract::{
+    blink_threshold, flag_blinks_below, Decoder, ExtractOptions, FrameStream, Row,
+};
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -86,10 +88,17 @@ pub struct LiveOutcome {
 /// times to the microsecond and positions to 5 decimals as the CSV writes
 /// them, blinks and frames without a face as no gaze.
 pub fn rows_track(rows: &[Row]) -> Track {
+    let samples = rows_samples(rows);
+    let refs: Vec<&Sample<NormPos>> = samples.iter().collect();
+    resample_samples(&refs)
+}
+
+/// The samples the extractor's CSV of `rows` reads back as: times to the
+/// microsecond and positions to 5 decimals as the CSV writes them.
+fn rows_samples(rows: &[Row]) -> Vec<Sample<NormPos>> {
     // The CSV's text is `{:.N}`; parsing it back is this rounding.
     let round = |v: f64, digits: usize| format!("{v:.digits$}").parse().unwrap_or(v);
-    let samples: Vec<Sample<NormPos>> = rows
-        .iter()
+    rows.iter()
         .map(|r| {
             let (nx, ny) = r
                 .mean_n()
@@ -103,9 +112,7 @@ pub fn rows_track(rows: &[Row]) -> Track {
                 blink: r.blink,
             }
         })
-        .collect();
-    let refs: Vec<&Sample<NormPos>> = samples.iter().collect();
-    resample_samples(&refs)
+        .collect()
 }
 
 /// Opens `source`: standard input and URLs by the decoder itself; a camera
@@ -163,18 +170,30 @@ impl WindowClock {
         };
         let reached = now_s.map(|t| ((t - t0) * FPS + 1e-6).floor() as usize);
         let due = |next: usize| reached.is_none_or(|g| g >= next + self.window_frames);
-        if !due(self.next) {
+        let last_t = rows.last().map_or(t0, |r| r.time_s);
+        let covered =
+            |next: usize| t0 + (next + self.window_frames - 1) as f64 / FPS <= last_t + 1e-9;
+        if !due(self.next) || !covered(self.next) {
             return;
         }
         // Blinks against the median aperture so far (the whole stream's
-        // at the end, as for a file).
-        let mut rows = rows.to_vec();
-        flag_blinks(&mut rows, self.blink_ratio);
-        let track = rows_track(&rows);
-        while self.next + self.window_frames <= track.len() && due(self.next) {
-            let xy = &track.xy[self.next..self.next + self.window_frames];
-            let gaze = xy.iter().filter(|p| p[0].is_finite()).count();
-            let p = eyereplay_detect::window::prepare_window(xy, self.next)
+        // at the end, as for a file); only the window's own rows are read
+        // again, so a long call costs no more per window than a short one.
+        let threshold = blink_threshold(rows, self.blink_ratio).unwrap_or(f64::NEG_INFINITY);
+        while due(self.next) && covered(self.next) {
+            let start_t = t0 + self.next as f64 / FPS;
+            // One row before the window (its interpolation) and one more
+            // (its blink neighbour).
+            let from = rows
+                .partition_point(|r| r.time_s < start_t)
+                .saturating_sub(2);
+            let mut tail = rows[from..].to_vec();
+            flag_blinks_below(&mut tail, threshold);
+            let samples = rows_samples(&tail);
+            let refs: Vec<&Sample<NormPos>> = samples.iter().collect();
+            let window = resample_grid(&refs, t0, self.next..self.next + self.window_frames);
+            let gaze = window.xy.iter().filter(|p| p[0].is_finite()).count();
+            let p = eyereplay_detect::window::prepare_window(&window.xy, self.next)
                 .map(|win| model.probability(&win));
             let end_s = (self.next + self.window_frames) as f64 / FPS;
             on_window(&LiveWindow {
@@ -294,7 +313,7 @@ mod tests {
                 r
             })
             .collect();
-        flag_blinks(&mut rows, 0.6);
+        eyereplay_extract::flag_blinks(&mut rows, 0.6);
         assert!(rows.iter().any(|r| r.blink));
         let dir = tempfile::tempdir().unwrap();
         let csv = dir.path().join("x.csv");
@@ -308,6 +327,27 @@ mod tests {
                 assert!(
                     a[k].to_bits() == b[k].to_bits() || (a[k].is_nan() && b[k].is_nan()),
                     "{a:?} vs {b:?}"
+                );
+            }
+        }
+        // A window made from the rows around it alone, as the live clock
+        // makes it, is the same frames of the whole track.
+        let t0 = rows[0].time_s;
+        let threshold = blink_threshold(&rows, 0.6).unwrap();
+        for next in [0usize, 20, 47] {
+            let start_t = t0 + next as f64 / FPS;
+            let from = rows
+                .partition_point(|r| r.time_s < start_t)
+                .saturating_sub(2);
+            let mut tail = rows[from..].to_vec();
+            flag_blinks_below(&mut tail, threshold);
+            let samples = rows_samples(&tail);
+            let refs: Vec<&Sample<NormPos>> = samples.iter().collect();
+            let w = resample_grid(&refs, t0, next..next + 50);
+            for (a, b) in w.xy.iter().zip(&here.xy[next..next + 50]) {
+                assert!(
+                    a[0].to_bits() == b[0].to_bits() || (a[0].is_nan() && b[0].is_nan()),
+                    "frame after {next}: {a:?} vs {b:?}"
                 );
             }
         }

@@ -43,7 +43,8 @@ pub struct Args {
     /// With --spliced: how many streams of 5 minutes.
     #[arg(long, default_value_t = 20, requires = "spliced")]
     pub streams: usize,
-    /// With --spliced: the seed of the streams' pieces.
+    /// Where the short clips are cut and, with --spliced, the streams'
+    /// pieces.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// What to score: the sessions' trajectories, or what the extractor
@@ -75,6 +76,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &args.model,
         args.threshold,
         args.input.into(),
+        args.seed,
         &cache,
         &Bars::default(),
     )?;
@@ -105,9 +107,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &args.json {
-        let mut text = serde_json::to_string_pretty(&ev)?;
-        text.push('\n');
-        eyereplay_core::atomic_write(path, text.as_bytes())?;
+        write_json(path, &ev)?;
     }
     Ok(())
 }
@@ -159,10 +159,16 @@ fn run_spliced(args: &Args, protocol: &std::path::Path) -> anyhow::Result<()> {
         }
     }
     if let Some(path) = &args.json {
-        let mut text = serde_json::to_string_pretty(&ev)?;
-        text.push('\n');
-        eyereplay_core::atomic_write(path, text.as_bytes())?;
+        write_json(path, &ev)?;
     }
+    Ok(())
+}
+
+/// Every number, as pretty JSON, written atomically.
+fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
+    let mut text = serde_json::to_string_pretty(value)?;
+    text.push('\n');
+    eyereplay_core::atomic_write(path, text.as_bytes())?;
     Ok(())
 }
 
