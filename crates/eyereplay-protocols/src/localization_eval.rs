@@ -201,6 +201,16 @@ pub struct LocalizationEval {
 }
 
 /// Runs of `true` in `flags`, as `(start_s, end_s)` at [`FPS`].
+/// The read stretches a method is scored against: runs of `flags` of at
+/// least [`localize::MIN_SEGMENT_S`] (a shorter one, an answer the
+/// session's end cut to a few seconds, cannot be found by design).
+pub fn true_segments(flags: &[bool]) -> Vec<(f64, f64)> {
+    true_runs(flags)
+        .into_iter()
+        .filter(|(a, b)| b - a >= localize::MIN_SEGMENT_S)
+        .collect()
+}
+
 pub fn true_runs(flags: &[bool]) -> Vec<(f64, f64)> {
     localize::runs(flags.iter().copied())
         .into_iter()
@@ -253,15 +263,7 @@ pub fn evaluate_localization(
         model: model_path.display().to_string(),
         threshold,
         sessions: tracks.len(),
-        reading_segments: flags_all
-            .iter()
-            .map(|f| {
-                true_runs(f)
-                    .iter()
-                    .filter(|(a, b)| b - a >= localize::MIN_SEGMENT_S)
-                    .count()
-            })
-            .sum(),
+        reading_segments: flags_all.iter().map(|f| true_segments(f).len()).sum(),
         seconds: tracks.iter().map(|t| t.duration_s()).sum(),
         methods,
         calibration,
@@ -270,8 +272,7 @@ pub fn evaluate_localization(
 }
 
 /// Localizes every track by `method` and scores the segments against the
-/// runs of its per-frame labels `flags` (those of at least
-/// [`localize::MIN_SEGMENT_S`]): pooled segment F1 (each track
+/// [`true_segments`] of its per-frame labels `flags`: pooled segment F1 (each track
 /// matched on its own), onset errors, and frame shares.
 pub fn score_method(
     tracks: &[Track],
@@ -283,13 +284,7 @@ pub fn score_method(
     let (mut found_n, mut truth_n, mut onsets) = (0, 0, Vec::new());
     let (mut fp, mut neg, mut tp, mut pos) = (0usize, 0usize, 0usize, 0usize);
     for (track, flags) in tracks.iter().zip(flags) {
-        // A stretch shorter than the shortest segment ever cut (an answer
-        // the session's end cut to a few seconds) cannot be found by
-        // design; it is not counted against the method.
-        let truth: Vec<(f64, f64)> = true_runs(flags)
-            .into_iter()
-            .filter(|(a, b)| b - a >= localize::MIN_SEGMENT_S)
-            .collect();
+        let truth = true_segments(flags);
         let loc = localize::localize(track, model, method, threshold);
         let found: Vec<(f64, f64)> = loc.segments.iter().map(|s| (s.start_s, s.end_s)).collect();
         let m = match_segments(&found, &truth, MIN_IOU);
@@ -330,5 +325,10 @@ mod tests {
         let flags = f(&("0".repeat(25) + &"1".repeat(25) + &"0".repeat(25) + &"1".repeat(25)));
         assert_eq!(true_runs(&flags), [(1.0, 2.0), (3.0, 4.0)]);
         assert!(true_runs(&f("000")).is_empty());
+        // Only stretches of at least 5 s are scored against: the 1-s runs
+        // go, a 6-s one stays.
+        assert!(true_segments(&flags).is_empty());
+        let long = f(&("0".repeat(10) + &"1".repeat(150)));
+        assert_eq!(true_segments(&long), [(0.4, 6.4)]);
     }
 }

@@ -20,7 +20,7 @@
 
 use crate::detector_eval::{Protocol, RecordingSpec};
 use crate::localization_eval::{
-    score_method, true_runs, window_calibration, MethodResult, WindowCalibration,
+    score_method, true_segments, window_calibration, MethodResult, WindowCalibration,
 };
 use eyereplay::detector::{dataset_tracks, extract_csv_track, resample_samples, TrainInput};
 use eyereplay::{extract_cached, Error, Result};
@@ -373,12 +373,7 @@ pub fn evaluate_spliced(
     });
     let reading_segments = clean_streams
         .iter()
-        .map(|(_, f)| {
-            true_runs(f)
-                .iter()
-                .filter(|(a, b)| b - a >= eyereplay_detect::localize::MIN_SEGMENT_S)
-                .count()
-        })
+        .map(|(_, f)| true_segments(f).len())
         .sum();
     let seconds = clean_streams.iter().map(|(t, _)| t.duration_s()).sum();
     Ok(SplicedEval {
@@ -458,7 +453,7 @@ mod tests {
         // a from frame 7 (0.75 of 10): 7, 8, 9, then 0; b from frame 2: 102, 103, 100.
         assert_eq!(xs, [7.0, 8.0, 9.0, 0.0, 102.0, 103.0, 100.0]);
         assert_eq!(f, [true, true, true, true, false, false, false]);
-        assert_eq!(true_runs(&f), [(0.0, 4.0 / FPS)]);
+        assert_eq!(crate::localization_eval::true_runs(&f), [(0.0, 4.0 / FPS)]);
     }
 
     #[test]
