@@ -198,6 +198,71 @@ pub struct LocalizationEval {
     pub methods: Vec<MethodResult>,
     pub calibration: WindowCalibration,
     pub clips: Vec<ClipResult>,
+    /// The `Hmm` method per reading surface, for sessions the interview
+    /// model made (metadata.json names where each person reads from);
+    /// empty when it names none.
+    pub by_surface: Vec<SurfaceResult>,
+}
+
+/// One reading surface's sessions (a teleprompter, a laptop, ...), scored
+/// by the `Hmm` method: how readable each kind of reading is once drawn.
+#[derive(Clone, Debug, Serialize)]
+pub struct SurfaceResult {
+    pub surface: String,
+    pub sessions: usize,
+    /// Median visual angle of one line of text across these sessions'
+    /// people: what a return sweep spans (forward saccades are about a
+    /// tenth of it).
+    pub line_span_deg: f64,
+    pub result: MethodResult,
+}
+
+/// Where a behaviour-model source reads from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceSurface {
+    pub surface: String,
+    /// Visual angle of one whole line, deg.
+    pub line_span_deg: f64,
+}
+
+/// Where each behaviour-model source of a dataset reads from: source id ->
+/// surface, from `metadata.json` (`sources[].behaviour.params.plane`).
+/// Sources without a text plane (a talker, a real recording) are absent;
+/// a dataset without metadata gives an empty map.
+pub fn source_surfaces(dir: &Path) -> Result<std::collections::BTreeMap<String, SourceSurface>> {
+    let path = dir.join("metadata.json");
+    let mut out = std::collections::BTreeMap::new();
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        return Ok(out);
+    };
+    let meta: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| Error::input(&path, e.to_string()))?;
+    for src in meta["sources"].as_array().into_iter().flatten() {
+        let plane = &src["behaviour"]["params"]["plane"];
+        let number = |k: &str| plane[k].as_f64();
+        let centre: Option<Vec<f64>> = plane["centre_mm"]
+            .as_array()
+            .and_then(|c| c.iter().map(|v| v.as_f64()).collect());
+        if let (Some(id), Some(surface), Some(chars), Some(width), Some(centre)) = (
+            src["id"].as_str(),
+            plane["surface"].as_str(),
+            number("line_chars"),
+            number("char_width_mm"),
+            centre,
+        ) {
+            let distance_mm = centre.iter().map(|v| v * v).sum::<f64>().sqrt();
+            // A line centred on the gaze: 2 atan(half its width / distance).
+            let line_span_deg = 2.0 * (chars * width / 2.0 / distance_mm).atan().to_degrees();
+            out.insert(
+                id.to_string(),
+                SourceSurface {
+                    surface: surface.to_string(),
+                    line_span_deg,
+                },
+            );
+        }
+    }
+    Ok(out)
 }
 
 /// Runs of `true` in `flags`, as `(start_s, end_s)` at [`FPS`].
@@ -232,12 +297,15 @@ pub fn evaluate_localization(
     progress: &dyn Progress,
 ) -> Result<LocalizationEval> {
     let model = DetectorModel::load(model_path)?;
+    let surfaces = source_surfaces(dir)?;
     let mut tracks = Vec::new();
     let mut flags_all = Vec::new();
+    let mut session_surface = Vec::new();
     for t in dataset_tracks(&[dir.to_path_buf()], input, cache, progress)? {
         let Some(mut flags) = t.frame_reading else {
             continue;
         };
+        session_surface.push(t.sources.iter().find_map(|s| surfaces.get(s).cloned()));
         // A video may end a frame short of its trajectory.
         flags.truncate(t.track.len());
         let mut track = t.track;
@@ -257,6 +325,7 @@ pub fn evaluate_localization(
         .collect();
     let calibration = window_calibration(&tracks, &flags_all, &model);
     let clips = clip_results(&tracks, &flags_all, &model, CLIPS_PER_CLASS, seed);
+    let by_surface = by_surface(&tracks, &flags_all, &session_surface, &model, threshold);
     Ok(LocalizationEval {
         dataset: dir.display().to_string(),
         input: input.name().into(),
@@ -268,7 +337,41 @@ pub fn evaluate_localization(
         methods,
         calibration,
         clips,
+        by_surface,
     })
+}
+
+/// [`score_method`] with `Hmm` on each surface's sessions, in name order.
+pub fn by_surface(
+    tracks: &[Track],
+    flags: &[Vec<bool>],
+    surfaces: &[Option<SourceSurface>],
+    model: &DetectorModel,
+    threshold: f64,
+) -> Vec<SurfaceResult> {
+    let mut names: Vec<&String> = surfaces.iter().flatten().map(|s| &s.surface).collect();
+    names.sort();
+    names.dedup();
+    names
+        .into_iter()
+        .map(|name| {
+            let pick: Vec<usize> = (0..tracks.len())
+                .filter(|&i| surfaces[i].as_ref().is_some_and(|s| &s.surface == name))
+                .collect();
+            let spans: Vec<f64> = pick
+                .iter()
+                .filter_map(|&i| surfaces[i].as_ref().map(|s| s.line_span_deg))
+                .collect();
+            let t: Vec<Track> = pick.iter().map(|&i| tracks[i].clone()).collect();
+            let f: Vec<Vec<bool>> = pick.iter().map(|&i| flags[i].clone()).collect();
+            SurfaceResult {
+                surface: name.clone(),
+                sessions: pick.len(),
+                line_span_deg: eyereplay_signal::stats::median(&spans).unwrap_or(f64::NAN),
+                result: score_method(&t, &f, model, Method::Hmm, threshold),
+            }
+        })
+        .collect()
 }
 
 /// Localizes every track by `method` and scores the segments against the
@@ -330,5 +433,95 @@ mod tests {
         assert!(true_segments(&flags).is_empty());
         let long = f(&("0".repeat(10) + &"1".repeat(150)));
         assert_eq!(true_segments(&long), [(0.4, 6.4)]);
+    }
+
+    #[test]
+    fn surfaces_and_line_angles_from_metadata() {
+        let dir = tempfile::tempdir().unwrap();
+        // An 80-character line of 2.5 mm characters at 60 cm spans
+        // 2 atan(100 / 600) = 18.92 deg (the behaviour study's worked
+        // value); the talker has no plane and is left out.
+        let meta = r#"{"sources": [
+            {"id": "interview_model#conversation/0/0", "behaviour": {"params": {"plane": {
+                "surface": "laptop", "line_chars": 80, "char_width_mm": 2.5,
+                "centre_mm": [0.0, 0.0, 600.0]}}}},
+            {"id": "conversation_model#conversation/0/1", "behaviour": {"params": {"model": "conversation"}}}
+        ]}"#;
+        std::fs::write(dir.path().join("metadata.json"), meta).unwrap();
+        let map = source_surfaces(dir.path()).unwrap();
+        assert_eq!(map.len(), 1);
+        let s = &map["interview_model#conversation/0/0"];
+        assert_eq!(s.surface, "laptop");
+        assert!(
+            (s.line_span_deg - 18.92).abs() < 0.01,
+            "{}",
+            s.line_span_deg
+        );
+        // No metadata: no breakdown, no error; broken metadata: an error naming it.
+        let empty = tempfile::tempdir().unwrap();
+        assert!(source_surfaces(empty.path()).unwrap().is_empty());
+        std::fs::write(empty.path().join("metadata.json"), "{").unwrap();
+        let e = source_surfaces(empty.path()).unwrap_err().to_string();
+        assert!(e.contains("metadata.json"), "{e}");
+    }
+
+    #[test]
+    fn surface_groups_split_the_sessions_and_their_segments() {
+        use eyereplay_detect::model::{train, Example, TrainOptions};
+        // Reading: a sawtooth of 10 steps a line; talking: a slow wander.
+        let reading = |n: usize| -> Vec<[f64; 2]> {
+            (0..n)
+                .map(|i| [((i % 50) / 5) as f64, (i / 50) as f64 * 0.1])
+                .collect()
+        };
+        let talking = |n: usize| -> Vec<[f64; 2]> {
+            (0..n)
+                .map(|i| [(i as f64 / 40.0).sin() * 4.0, (i as f64 / 70.0).cos()])
+                .collect()
+        };
+        let mut examples = Vec::new();
+        for k in 0..8 {
+            for (xy, r) in [(reading(250), true), (talking(250), false)] {
+                let xy: Vec<[f64; 2]> = xy.iter().map(|p| [p[0] + k as f64 * 0.01, p[1]]).collect();
+                let w = eyereplay_detect::window::prepare_window(&xy, 0).unwrap();
+                examples.push(Example::of(&w, r, &format!("p{k}{r}")));
+            }
+        }
+        let model = train(
+            &examples,
+            10.0,
+            TrainOptions::default(),
+            vec![],
+            "trajectory",
+        )
+        .unwrap();
+        // Two sessions: 40 s talk + 40 s reading, and 80 s of talk.
+        let mut a = talking(1000);
+        a.extend(reading(1000));
+        let fa: Vec<bool> = (0..2000).map(|i| i >= 1000).collect();
+        let tracks = [Track::new(a), Track::new(talking(2000))];
+        let flags = [fa, vec![false; 2000]];
+        let s = |n: &str| {
+            Some(SourceSurface {
+                surface: n.into(),
+                line_span_deg: 10.0,
+            })
+        };
+        let groups = by_surface(
+            &tracks,
+            &flags,
+            &[s("laptop"), s("teleprompter")],
+            &model,
+            0.5,
+        );
+        assert_eq!(groups.len(), 2);
+        assert_eq!(groups[0].surface, "laptop");
+        assert_eq!(groups[0].result.segments.truth, 1);
+        assert_eq!(groups[1].result.segments.truth, 0);
+        let all = score_method(&tracks, &flags, &model, Method::Hmm, 0.5);
+        let found: usize = groups.iter().map(|g| g.result.segments.found).sum();
+        assert_eq!(found, all.segments.found);
+        assert_eq!(groups[0].result.segments.matched, 1);
+        assert_eq!(all.segments.matched, 1);
     }
 }

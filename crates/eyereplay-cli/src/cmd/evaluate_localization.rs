@@ -91,6 +91,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     print_methods("", &ev.methods);
     print_calibration("", &ev.calibration);
+    if !ev.by_surface.is_empty() {
+        println!(
+            "by where the text is read from (Hmm; a line's visual angle, median over people):"
+        );
+        for s in &ev.by_surface {
+            let m = &s.result;
+            println!(
+                "  {:<13} {:>2} sessions, line {:>4.1} deg: {:>2} of {:>2} read stretches found, F1 {:.3}, onset {}, false reading {:.1} %",
+                s.surface,
+                s.sessions,
+                s.line_span_deg,
+                m.segments.matched,
+                m.segments.truth,
+                m.segments.f1,
+                m.onset_error_median_s
+                    .map_or("n/a".to_string(), |v| format!("{v:.1} s")),
+                100.0 * m.false_reading_fraction
+            );
+        }
+    }
     println!("short clips, each inside one class, scored as `detect` scores a clip shorter than a window:");
     for c in &ev.clips {
         println!(
