@@ -4,6 +4,7 @@
 use crate::backend::{Rendered, Session, SessionBackend, SessionOutputs};
 use crate::probe::ResponseProbe;
 use crate::Result;
+use eyereplay_core::profile::lap;
 use eyereplay_core::Progress;
 use eyereplay_dataset::SessionIdentity;
 use eyereplay_render::{render_session, DatasetInfo, Identity, RenderParams};
@@ -56,15 +57,21 @@ impl SessionBackend for EyesBackend {
         params.mapping = self.info.mapping(&self.params.mapping);
         params.fps = self.info.fps;
         if let Some(probe) = &self.probe {
-            params.mapping.extractor_response = probe.measure(&params, &s.trajectory)?;
+            params.mapping.extractor_response = lap("probe clip (match_extractor)", || {
+                probe.measure(&params, &s.trajectory)
+            })?;
         }
-        let stats = render_session(
-            &s.trajectory,
-            s.blinks.as_deref(),
-            &params,
-            &out.mp4(),
-            &out.truth(),
-        )?;
+        // The encoder is an ffmpeg child: its CPU time is counted in this
+        // lap, when the session's end waits for it.
+        let stats = lap("draw and encode", || {
+            render_session(
+                &s.trajectory,
+                s.blinks.as_deref(),
+                &params,
+                &out.mp4(),
+                &out.truth(),
+            )
+        })?;
         out.write_identity(&SessionIdentity {
             file: s.job.paths.file.clone(),
             seed: s.job.seed,

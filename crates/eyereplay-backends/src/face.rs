@@ -5,6 +5,7 @@
 
 use crate::backend::{Rendered, Session, SessionBackend, SessionOutputs};
 use crate::{BackendError as Error, Result};
+use eyereplay_core::profile::lap;
 use eyereplay_core::{CanvasPos, GazeClass, NormPos, Progress};
 use eyereplay_dataset::{
     DatasetMetadata, FaceBackendSettings, HeadMotion, PoseRow, SessionIdentity, SessionPaths,
@@ -313,12 +314,17 @@ impl SessionBackend for FaceBackend {
         let targets: Vec<NormPos> = traj.iter().map(|&c| mapping.target_norm(c)).collect();
         let iris_views = settings.extractor.extractor_iris_views;
         let matched = if settings.extractor.match_extractor {
-            let planned = eyereplay_face::head_path(&scene, traj, &p);
+            let planned = lap("plan the head path", || {
+                eyereplay_face::head_path(&scene, traj, &p)
+            });
             let head =
                 ProbeHeadRange::of_path(planned.iter().map(|(h, _)| (h.yaw_deg, h.pitch_deg)));
             probe_head_centre_deg = Some(head.centre_deg());
             let mut fitter = self.fitter.lock().unwrap_or_else(|p| p.into_inner());
-            eyereplay_face::match_extractor(&scene, &look, &mut fitter, &targets, &head)?
+            lap(
+                "probe clip (match_extractor: draw, encode, extract, fit)",
+                || eyereplay_face::match_extractor(&scene, &look, &mut fitter, &targets, &head),
+            )?
         } else {
             ExtractorMatch::default()
         };
@@ -341,15 +347,17 @@ impl SessionBackend for FaceBackend {
             )?;
             (stats, Some(record))
         } else {
-            let stats = eyereplay_face::render_face_session(
-                &scene,
-                traj,
-                s.blinks.as_deref(),
-                &p,
-                &mp4,
-                &truth,
-                &head_csv,
-            )?;
+            let stats = lap("draw and encode", || {
+                eyereplay_face::render_face_session(
+                    &scene,
+                    traj,
+                    s.blinks.as_deref(),
+                    &p,
+                    &mp4,
+                    &truth,
+                    &head_csv,
+                )
+            })?;
             (stats, None)
         };
         // What the session was drawn through in the end.
@@ -426,14 +434,18 @@ fn render_matched_to_readback(
         }
     };
     let [mp4, truth, head] = &temp;
-    let first = eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)?;
-    let rows = match eyereplay_extract::extract_with_detector(
-        mp4,
-        &eyereplay_extract::default_models_dir(),
-        traj.len(),
-        p.fps,
-        iris_views,
-    ) {
+    let first = lap("first pass: draw and encode", || {
+        eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)
+    })?;
+    let rows = match lap("first pass: read back (extract)", || {
+        eyereplay_extract::extract_with_detector(
+            mp4,
+            &eyereplay_extract::default_models_dir(),
+            traj.len(),
+            p.fps,
+            iris_views,
+        )
+    }) {
         Ok(rows) => rows,
         Err(e) => {
             remove_temp();
@@ -447,7 +459,9 @@ fn render_matched_to_readback(
         frames_fitted: reads.len(),
         refined: false,
     };
-    let Some(refit) = eyereplay_face::refine_match(targets, &reads) else {
+    let Some(refit) = lap("fit the response to the read-back", || {
+        eyereplay_face::refine_match(targets, &reads)
+    }) else {
         // The first pass stands: it becomes the session.
         for (from, to) in temp.iter().zip(files) {
             if let Err(e) = std::fs::rename(from, to) {
@@ -463,7 +477,9 @@ fn render_matched_to_readback(
     p.pose_slopes = refit.pose_slopes;
     p.head_path = Some(first.head_path());
     let [mp4, truth, head] = files;
-    let second = eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)?;
+    let second = lap("second pass: draw and encode", || {
+        eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)
+    })?;
     Ok((second, record))
 }
 

@@ -71,6 +71,83 @@ fn ok(o: &Output) {
     not(all(has_sample_data, has_ffmpeg)),
     ignore = "needs .cache/data and ffmpeg: run scripts/setup.sh"
 )]
+fn dry_run_measures_and_projects_and_profile_times_stages_writing_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("never");
+    let json = dir.path().join("dry.json");
+    let o = generate(
+        &out,
+        &["--dry-run", "--profile-json", json.to_str().unwrap()],
+    );
+    ok(&o);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("projected:") && text.contains("nothing written"),
+        "{text}"
+    );
+    assert!(!out.exists(), "a dry run wrote {}", out.display());
+    let p: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    // tiny.toml renders one session at a time (jobs = 1) of 50 frames; its
+    // job is 8 of them.
+    assert_eq!(p["sessions_measured"].as_array().unwrap().len(), 1);
+    assert_eq!(
+        (p["frames"].as_u64(), p["job_frames"].as_u64()),
+        (Some(50), Some(400))
+    );
+    assert!(p["render_total"]["wall_s"].as_f64().unwrap() > 0.0);
+    // The encoder's CPU is its own column.
+    assert!(
+        p["render_total"]["child_cpu_s"].as_f64().unwrap() > 0.0,
+        "{p}"
+    );
+    // --profile: one session alone, its stages in a table whose shares
+    // come to the whole.
+    let o = generate(
+        &out,
+        &[
+            "--profile",
+            "--session",
+            "conversation/conversation_0001.csv",
+        ],
+    );
+    ok(&o);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("conversation/conversation_0001.csv (50 frames"),
+        "{text}"
+    );
+    // Top-level rows (two spaces in; nested ones have four) end in their
+    // share.
+    let top: Vec<&str> = text
+        .lines()
+        .filter(|l| l.starts_with("  ") && !l.starts_with("    ") && l.ends_with('%'))
+        .collect();
+    assert!(top.iter().any(|l| l.contains("draw and encode")), "{text}");
+    assert!(
+        top.iter().any(|l| l.contains("read the video back")),
+        "{text}"
+    );
+    let sum: f64 = top
+        .iter()
+        .map(|l| {
+            let v = l.trim_end_matches('%').rsplit(' ').next().unwrap();
+            v.parse::<f64>().unwrap()
+        })
+        .sum();
+    assert!((sum - 100.0).abs() < 0.3, "{sum}: {text}");
+    assert!(!out.exists());
+    // A session the job does not have: one line naming it.
+    let o = generate(&out, &["--profile", "--session", "reading/nope.csv"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no session 'reading/nope.csv'"));
+}
+
+#[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_ffmpeg)),
+    ignore = "needs .cache/data and ffmpeg: run scripts/setup.sh"
+)]
 fn generate_is_deterministic_resumable_and_shardable() {
     let dir = tempfile::tempdir().unwrap();
     let a = dir.path().join("a");

@@ -16,6 +16,7 @@ mod fsio;
 mod hash;
 mod image;
 mod position;
+pub mod profile;
 mod progress;
 mod session_csv;
 mod shard;

@@ -117,28 +117,7 @@ impl StageClock {
     }
 }
 
-/// CPU time (user + system) of the calling thread, in seconds.
-pub fn thread_cpu_s() -> f64 {
-    clock_s(libc::CLOCK_THREAD_CPUTIME_ID)
-}
-
-/// CPU time (user + system) of the whole process, all threads, in seconds.
-pub fn process_cpu_s() -> f64 {
-    clock_s(libc::CLOCK_PROCESS_CPUTIME_ID)
-}
-
-fn clock_s(clock: libc::clockid_t) -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid, writable timespec; both clock ids exist on
-    // every Linux since 2.6.12, and on failure `ts` stays zero.
-    unsafe {
-        libc::clock_gettime(clock, &mut ts);
-    }
-    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
-}
+pub use eyereplay_core::profile::{process_cpu_s, thread_cpu_s};
 
 #[cfg(test)]
 mod tests {

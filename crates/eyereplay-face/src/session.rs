@@ -27,6 +27,7 @@ use crate::pose::HeadPose;
 use crate::raster::{Rasterizer, RgbImage, TexturedMesh};
 use crate::scene::{FaceScene, FaceState};
 use crate::webcam::{Webcam, WebcamLook};
+use eyereplay_core::profile::lap;
 use eyereplay_core::{CanvasPos, NormPos};
 use eyereplay_dataset::{EyeTruthRow, TruthRow};
 use eyereplay_render::{
@@ -447,9 +448,13 @@ pub fn render_face_session(
     }
     let enc = session_encoder(scene, p);
     let mut encoder = Encoder::start(out_mp4, scene.width(), scene.height(), p.fps, &enc)?;
-    let solved = solve_frames(scene, &traj, blinks, p);
+    let solved = lap("solve head and eyes", || {
+        solve_frames(scene, &traj, blinks, p)
+    });
     let t1 = Instant::now();
-    draw_frames(scene, &solved, &p.look, &mut encoder)?;
+    lap("draw frames", || {
+        draw_frames(scene, &solved, &p.look, &mut encoder)
+    })?;
     let render_s = t1.elapsed().as_secs_f64();
     let rows: Vec<TruthRow> = solved.iter().map(|s| s.row).collect();
     eyereplay_dataset::write_truth_csv(out_truth_csv, &rows)?;
@@ -457,7 +462,9 @@ pub fn render_face_session(
         let _ = std::fs::remove_file(out_truth_csv);
         return Err(e);
     }
-    if let Err(e) = encoder.finish() {
+    // The encoder runs beside the drawing; its CPU time is counted when
+    // it is waited for, here.
+    if let Err(e) = lap("x264 encode (ffmpeg process)", || encoder.finish()) {
         let _ = std::fs::remove_file(out_truth_csv);
         let _ = std::fs::remove_file(out_head_csv);
         return Err(e.into());

@@ -450,6 +450,20 @@ fn render_truth(
     Ok((shown(dir, truth), cmp))
 }
 
+/// Reads the rendered video of one session back as the report does (the
+/// extractor, with the crops per eye the session was matched to), the
+/// whole video; returns how many frames had open eyes. What the report
+/// costs per session (`eyereplay generate --profile`).
+pub fn read_back_session(dir: &Path, video: &Path, frames: usize, fps: f64) -> Result<usize> {
+    let models = eyereplay_extract::default_models_dir();
+    eyereplay_extract::check_models(&models)?;
+    let geometry = SessionPaths::beside_video(video).identity_json;
+    match read_back(dir, video, &models, frames, fps, &geometry)? {
+        Ok(r) => Ok(r.n.iter().filter(|p| p[0].is_finite()).count()),
+        Err(NotComputed(reason)) => Err(Error::input(video, reason)),
+    }
+}
+
 /// The iris read back from the video: the extractor's own pipeline (face
 /// detector -> mesh -> iris); for a close-up whose face the detector does
 /// not see, the iris model on eye crops placed at the render's known eye

@@ -64,6 +64,7 @@ mod finalize;
 mod generate;
 mod inputs;
 pub mod live;
+pub mod profile;
 
 pub use detection_page::detection_page;
 pub use error::{Error, Result};

@@ -19,7 +19,8 @@ use std::time::Instant;
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
 eyereplay generate --out out/default                        # the bundled default sample\n  \
-eyereplay generate --config dataset.toml --out data/ --dry-run\n  \
+eyereplay generate --config dataset.toml --dry-run           # projected time and disk, from one session\n  \
+eyereplay generate --profile                                # where one default session's CPU goes\n  \
 eyereplay generate --config dataset.toml --out /shared/data --shard 2/8   # on a cluster node\n  \
 eyereplay merge /shared/data                                # after all shards\n\n\
 The config is a 'prepare' config (see examples/dataset.toml and docs/CONFIG.md) with an optional [render] table:\n  \
@@ -36,17 +37,32 @@ pub struct Args {
     #[arg(long, value_name = "TOML")]
     pub config: Option<PathBuf>,
     /// Output dataset folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
+    #[arg(long, value_name = "DIR", required_unless_present_any = ["dry_run", "profile"])]
+    pub out: Option<PathBuf>,
     /// Render only shard K of N (0-based), e.g. 3/8.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
     /// Shard count for engines that give only an index (JOB_COMPLETION_INDEX).
     #[arg(long, value_name = "N", env = "EYEREPLAY_SHARDS")]
     pub shards: Option<usize>,
-    /// Print the plan and the projected wall time, write nothing.
+    /// Print the plan, and the wall time and disk it projects from one
+    /// session rendered now in a scratch folder (as --profile); write
+    /// nothing under --out.
     #[arg(long)]
     pub dry_run: bool,
+    /// Render one session alone in a scratch folder, read it back as the
+    /// report does, and print where its cost goes, stage by stage, in
+    /// CPU-ms per frame (this process and the ffmpeg encoder apart), with
+    /// the projection for the whole job. Writes nothing under --out.
+    #[arg(long, conflicts_with = "dry_run")]
+    pub profile: bool,
+    /// With --profile: the session to measure (labels.csv's file, e.g.
+    /// conversation/conversation_0002.csv; default: the first).
+    #[arg(long, value_name = "FILE", requires = "profile")]
+    pub session: Option<String>,
+    /// With --profile or --dry-run: also write the measurement as JSON.
+    #[arg(long, value_name = "FILE")]
+    pub profile_json: Option<PathBuf>,
     /// Skip the evaluation report.
     #[arg(long)]
     pub no_evaluate: bool,
@@ -74,11 +90,36 @@ pub fn run(args: Args) -> Result<()> {
     };
     let shard = Shard::resolve(args.shard.as_deref(), args.shards)?;
     let job = eyereplay::plan(&config_path, shard)?;
-    if args.dry_run {
-        return dry_run(&job);
+    if args.dry_run || args.profile {
+        let cache = eyereplay::cache_dir(args.cache.as_deref());
+        let bars = super::Bars::default();
+        eprintln!(
+            "measuring {} of {} in a scratch folder ...",
+            if args.profile {
+                "one session alone"
+            } else {
+                "the sessions the job renders at once"
+            },
+            config_path.display()
+        );
+        let what = if args.profile {
+            eyereplay::profile::Measure::Alone(args.session.as_deref())
+        } else {
+            eyereplay::profile::Measure::AsTheJobRuns
+        };
+        let p = eyereplay::profile::profile_session(&job, what, &cache, &bars)?;
+        if let Some(path) = &args.profile_json {
+            eyereplay_core::write_json(path, &p)?;
+        }
+        if args.profile {
+            print_profile(&p);
+            return Ok(());
+        }
+        return dry_run(&job, &p, args.read_back_all);
     }
+    let out = args.out.clone().expect("clap requires --out");
     let opts = GenerateOptions {
-        out: args.out.clone(),
+        out: out.clone(),
         shard,
         cache: Some(eyereplay::cache_dir(args.cache.as_deref())),
         evaluate: (!args.no_evaluate).then(|| eyereplay::EvaluateOptions {
@@ -105,19 +146,93 @@ pub fn run(args: Args) -> Result<()> {
             "shard {}/{} done in {minutes:.1} min; run 'eyereplay merge {}' when every shard is",
             s.index,
             s.count,
-            args.out.display()
+            out.display()
         ),
         (None, Some(report)) => println!(
             "dataset ready in {} ({minutes:.1} min): open {}",
-            args.out.display(),
+            out.display(),
             report.display()
         ),
-        (None, None) => println!("dataset ready in {} ({minutes:.1} min)", args.out.display()),
+        (None, None) => println!("dataset ready in {} ({minutes:.1} min)", out.display()),
     }
     Ok(())
 }
 
-fn dry_run(job: &Job) -> Result<()> {
+/// The profile's table: each stage's CPU per frame of the session, this
+/// process's and the encoder's apart, and its share of the session.
+fn print_profile(p: &eyereplay::profile::SessionProfile) {
+    let per_frame = |s: f64| 1000.0 * s / p.frames.max(1) as f64;
+    let (cpu, child, wall) = p.render_totals();
+    let rb = &p.report_read_back;
+    let total = p.session_cpu_s(true);
+    println!(
+        "session {} ({} frames, {:.0} s of video), rendered alone; CPU-ms per frame of it:",
+        p.sessions_measured.join(", "),
+        p.frames,
+        p.frames as f64 / p.fps
+    );
+    println!(
+        "  {:<62} {:>9} {:>9} {:>9} {:>6}",
+        "stage", "process", "ffmpeg", "wall", "share"
+    );
+    let row = |name: String, l: &eyereplay_core::profile::Lap| {
+        println!(
+            "  {:<62} {:>9.2} {:>9.2} {:>9.2} {:>5.1}%",
+            name,
+            per_frame(l.cpu_s),
+            per_frame(l.child_cpu_s),
+            per_frame(l.wall_s),
+            100.0 * (l.cpu_s + l.child_cpu_s) / total.max(1e-12)
+        );
+    };
+    for l in &p.render {
+        let name = l.stage.rsplit(" / ").next().unwrap_or(&l.stage);
+        row(format!("{}{}", "  ".repeat(l.depth), name), l);
+    }
+    let top: f64 = p
+        .render
+        .iter()
+        .filter(|l| l.depth == 0)
+        .map(|l| l.cpu_s + l.child_cpu_s)
+        .sum();
+    let other = eyereplay_core::profile::Lap {
+        stage: String::new(),
+        depth: 0,
+        cpu_s: (cpu + child - top).max(0.0),
+        child_cpu_s: 0.0,
+        wall_s: 0.0,
+    };
+    row("other (driver: files, checks)".into(), &other);
+    row("report (--read-back-all): read the video back".into(), rb);
+    let head = p.report_head_read_back.as_ref();
+    if let Some(h) = head {
+        row(
+            "report (--read-back-all): read the head pose back".into(),
+            h,
+        );
+    }
+    println!(
+        "  {:<62} {:>9.2} {:>9.2} {:>9.2}",
+        "session total",
+        per_frame(cpu + rb.cpu_s + head.map_or(0.0, |h| h.cpu_s)),
+        per_frame(child + rb.child_cpu_s + head.map_or(0.0, |h| h.child_cpu_s)),
+        per_frame(wall + rb.wall_s + head.map_or(0.0, |h| h.wall_s))
+    );
+    println!(
+        "  = {:.2}x real time per core ({:.1} CPU-ms per frame at {} fps: 1000/{} ms is real time)",
+        1000.0 / p.fps / per_frame(total),
+        per_frame(total),
+        p.fps,
+        p.fps
+    );
+    println!(
+        "  extract+prepare of the whole job: {:.2} s wall, {:.2} CPU-ms per frame of the job",
+        p.prepare.wall_s,
+        1000.0 * (p.prepare.cpu_s + p.prepare.child_cpu_s) / p.job_frames.max(1) as f64
+    );
+}
+
+fn dry_run(job: &Job, p: &eyereplay::profile::SessionProfile, read_back_all: bool) -> Result<()> {
     let cfg = &job.config;
     println!("plan:");
     for (class, cc) in &cfg.classes {
@@ -133,26 +248,42 @@ fn dry_run(job: &Job) -> Result<()> {
     }
     let frames = job.frames();
     println!(
-        "  video: {} frames = {:.2} h at {} fps, {}x{}, about {:.2} GB",
+        "  video: {} frames = {:.2} h at {} fps, {}x{}",
         frames,
         frames as f64 / cfg.fps / 3600.0,
         cfg.fps,
         job.params.width,
-        job.params.height,
-        job.video_bytes as f64 / 1e9
+        job.params.height
     );
-    // Projected wall time from throughput measured now, on this machine.
-    let report = eyereplay_render::run_bench(&job.params, 100)?;
-    let fps = report.end_to_end_fps;
+    let proj = p.projection(read_back_all);
+    let wall_s = proj.total_s();
+    let video_s = frames as f64 / cfg.fps;
     println!(
-        "  measured now: {:.0} frames/s end to end ({:.1}x real time), render + x264 {}",
-        fps,
-        fps / cfg.fps,
-        job.settings.preset
+        "  measured now on {} ({} frames, {} cores, {} sessions at once): {:.1} CPU-ms per frame{}",
+        p.sessions_measured.join(" and "),
+        p.frames,
+        p.cores,
+        p.parallel_sessions,
+        1000.0 * p.session_cpu_s(read_back_all) / p.frames.max(1) as f64,
+        if read_back_all {
+            " with its read-back"
+        } else {
+            ""
+        }
     );
     println!(
-        "  projected render time: {:.1} min on this machine",
-        frames as f64 / fps / 60.0
+        "  projected: {:.1} min wall on this machine ({:.2}x real time; extract+prepare {:.0} s, render {:.0} s, evaluate {:.0} s), videos {:.2} GB",
+        wall_s / 60.0,
+        video_s / wall_s.max(1e-9),
+        proj.prepare_s,
+        proj.render_s,
+        proj.evaluate_s,
+        p.projected_video_bytes() as f64 / 1e9
+    );
+    println!(
+        "  one hour of this video costs {:.2} CPU-hours to render{}",
+        p.session_cpu_s(read_back_all) / (p.frames as f64 / p.fps),
+        if read_back_all { " and read back" } else { "" }
     );
     println!("nothing written (dry run)");
     Ok(())
