@@ -15,9 +15,10 @@ out="${1:-out/default}"
 echo "run: cargo build --release"
 cargo build --release --quiet -p eyereplay-cli
 export EYEREPLAY_CACHE="${EYEREPLAY_CACHE:-$root/.cache}"
-# --read-back-all: the report reads every session back with the extractor
-# and tabulates each one (about a minute more).
-"$root/target/release/eyereplay" generate --config examples/default.toml --out "$out" --read-back-all
+# The report reads one session of each class back whole with the extractor
+# and tabulates it (--read-back N for more, --read-back-all for every one:
+# about two and a half minutes more here; docs/PERFORMANCE.md).
+"$root/target/release/eyereplay" generate --config examples/default.toml --out "$out"
 # The default reading detector (docs/DETECTOR.md): trained on what the
 # extractor reads from generated readers and talkers drawn as whole faces
 # (examples/detector/train_behaviour_face.toml: 32 people, 30 s each; about

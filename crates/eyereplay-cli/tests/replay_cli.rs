@@ -149,6 +149,23 @@ fn replay_dataset_follows_the_trajectory_keeps_the_carrier_and_is_deterministic(
     }
     assert!(html.contains("Movement against the extractor's error"));
 
+    // A sample: the first session of each class, read as the whole table
+    // read it (the visual section's session read once for both).
+    let all_rows = rows.clone();
+    ok(&eyereplay(&["evaluate", s(&a), "--read-back", "1"]));
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(a.join("report/metrics.json")).unwrap()).unwrap();
+    let sample = m["visual"]["sessions"].as_array().unwrap();
+    assert_eq!(sample.len(), 2, "{sample:?}");
+    for row in sample {
+        let same = all_rows
+            .iter()
+            .find(|r| r["session"] == row["session"])
+            .unwrap();
+        assert_eq!(row, same);
+    }
+    assert_ne!(sample[0]["class"], sample[1]["class"]);
+
     // A truth CSV that lost rows is refused in one line naming it, and the
     // report already there stays as it was.
     let last = rows.last().unwrap()["session"]

@@ -48,6 +48,10 @@ pub struct EvaluateOptions {
     /// Also read every rendered session back whole and tabulate each one
     /// (costs one extraction of every video).
     pub read_back_all: bool,
+    /// Without `read_back_all`: read back whole, and tabulate, the first
+    /// this many sessions of each class (0: none). A sample that shows
+    /// each class's fidelity at a fraction of the cost.
+    pub read_back_per_class: usize,
 }
 
 impl Default for EvaluateOptions {
@@ -58,6 +62,7 @@ impl Default for EvaluateOptions {
             visual_seconds: 120.0,
             models: None,
             read_back_all: false,
+            read_back_per_class: 0,
         }
     }
 }
@@ -75,14 +80,20 @@ pub struct EvaluateOutcome {
 pub fn evaluate(dir: &Path, opts: &EvaluateOptions) -> Result<EvaluateOutcome> {
     check_options(opts)?;
     let mut ev = evaluate_dataset(dir, &opts.config)?;
+    let memo = ReadBackMemo::default();
     ev.visual = match &opts.visual {
         VisualChoice::Skip => VisualSection::NotComputed {
             reason: "not computed: skipped with --no-visual".into(),
         },
-        choice => visual_section(dir, choice, opts, &mut ev)?,
+        choice => visual_section(dir, choice, opts, &mut ev, &memo)?,
     };
-    if opts.read_back_all {
-        ev.sessions_read_back = sessions_read_back(dir, opts, &ev)?;
+    let per_class = if opts.read_back_all {
+        usize::MAX
+    } else {
+        opts.read_back_per_class
+    };
+    if per_class > 0 {
+        ev.sessions_read_back = sessions_read_back(dir, opts, &ev, per_class, &memo)?;
     }
     let (paths, metrics_json) = write_report(dir, &ev)?;
     Ok(EvaluateOutcome {
@@ -241,6 +252,7 @@ fn visual_section(
     choice: &VisualChoice,
     opts: &EvaluateOptions,
     ev: &mut Evaluation,
+    memo: &ReadBackMemo,
 ) -> Result<VisualSection> {
     let explicit = !matches!(choice, VisualChoice::Auto);
     let not_computed = |reason: String| -> Result<VisualSection> {
@@ -275,11 +287,11 @@ fn visual_section(
         ev.render_truth = Some(render_truth(dir, p, &source_all, &closed, n)?);
     }
     let geometry = SessionPaths::beside_video(&target.video).identity_json;
-    let (rendered_n, locator) = match read_back(dir, &target.video, &models, n, ev.fps, &geometry)?
-    {
-        Ok(r) => (r.n, r.how),
-        Err(NotComputed(reason)) => return not_computed(reason),
-    };
+    let (rendered_n, locator) =
+        match memo.read_back(dir, &target.video, &models, n, ev.fps, &geometry)? {
+            Ok(r) => (r.n, r.how),
+            Err(NotComputed(reason)) => return not_computed(reason),
+        };
     let n = n.min(rendered_n.len());
     if n < 2 {
         return Err(Error::input(
@@ -308,6 +320,8 @@ fn sessions_read_back(
     dir: &Path,
     opts: &EvaluateOptions,
     ev: &Evaluation,
+    per_class: usize,
+    memo: &ReadBackMemo,
 ) -> Result<Vec<eyereplay_eval::SessionReadBack>> {
     let models = opts
         .models
@@ -318,19 +332,30 @@ fn sessions_read_back(
     // (row in `out`, video, frames) of each full-face session.
     let mut heads: Vec<(usize, PathBuf, usize)> = vec![];
     for class in &ev.classes {
+        let mut taken = 0;
         for (file, _) in &class.events {
+            if taken == per_class {
+                break;
+            }
             let target = match visual_target(dir, &VisualChoice::Session(file.clone()), ev) {
                 Ok(Ok(t)) => t,
                 // A session without its video (a shard not rendered yet).
                 _ => continue,
             };
+            taken += 1;
             let input: Vec<CanvasPos> = read_session_csv(&target.trajectory)?;
             check_frame_count(&target.video, input.len())?;
             let source = source_norm(dir, &target, &input)?;
             let closed = closed_frames(&target, input.len())?;
             let geometry = SessionPaths::beside_video(&target.video).identity_json;
-            let back = match read_back(dir, &target.video, &models, input.len(), ev.fps, &geometry)?
-            {
+            let back = match memo.read_back(
+                dir,
+                &target.video,
+                &models,
+                input.len(),
+                ev.fps,
+                &geometry,
+            )? {
                 Ok(r) => r,
                 Err(NotComputed(reason)) => return Err(Error::input(&target.video, reason)),
             };
@@ -556,7 +581,43 @@ because the face detector found the face in {seen} of the compared frames",
 /// ..."): the report says so instead of failing the evaluation.
 struct NotComputed(String);
 
+/// The read-backs of one evaluation, by video and frame count: the visual
+/// section's session is also the first of the every-session table, and an
+/// extraction costs more than the rest of the report.
+#[derive(Default)]
+struct ReadBackMemo(std::cell::RefCell<Vec<(PathBuf, usize, ReadBack)>>);
+
+impl ReadBackMemo {
+    /// [`read_back`], or what it gave for the same video and frames before.
+    fn read_back(
+        &self,
+        dir: &Path,
+        video: &Path,
+        models: &Path,
+        n: usize,
+        fps: f64,
+        geometry: &Path,
+    ) -> Result<std::result::Result<ReadBack, NotComputed>> {
+        if let Some((.., r)) = self
+            .0
+            .borrow()
+            .iter()
+            .find(|(v, k, _)| v == video && *k == n)
+        {
+            return Ok(Ok(r.clone()));
+        }
+        let r = read_back(dir, video, models, n, fps, geometry)?;
+        if let Ok(r) = &r {
+            self.0
+                .borrow_mut()
+                .push((video.to_path_buf(), n, r.clone()));
+        }
+        Ok(r)
+    }
+}
+
 /// What [`read_back`] read from a video.
+#[derive(Clone)]
 struct ReadBack {
     /// Per-frame `(nx, ny)`, NaN where no open eyes were found.
     n: Vec<[f64; 2]>,

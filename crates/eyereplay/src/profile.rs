@@ -81,8 +81,9 @@ impl SessionProfile {
     }
 
     /// Projected wall seconds of the whole job on this machine, stage by
-    /// stage as `generate` runs them (see [`Projection`]).
-    pub fn projection(&self, read_back_all: bool) -> Projection {
+    /// stage as `generate` runs them, the report reading `read_back`
+    /// sessions back whole (see [`Projection`]).
+    pub fn projection(&self, read_back: usize) -> Projection {
         // Sessions of the job, in units of the profiled one.
         let n = self.job_frames as f64 / self.frames.max(1) as f64;
         let cores = self.cores.max(1) as f64;
@@ -99,21 +100,19 @@ impl SessionProfile {
         };
         let rb = &self.report_read_back;
         // The report reads one session's video (its first 120 s) for the
-        // visual section whatever the options; with read_back_all every
-        // session's video one after another (each read by all cores), then
-        // every head, the sessions in parallel.
+        // visual section whatever the options; then `read_back` sessions'
+        // videos one after another (each read by all cores), then their
+        // heads, the sessions in parallel.
         let per_session = self.frames as f64 / self.sessions_measured.len().max(1) as f64;
         let visual_frames = (VISUAL_SECONDS * self.fps).min(per_session);
         let visual_s = rb.wall_s * visual_frames / self.frames.max(1) as f64;
-        let read_back_s = if read_back_all {
-            let heads = self
-                .report_head_read_back
-                .as_ref()
-                .map_or(0.0, |h| (cost(h) * n / cores).max(h.wall_s * n / cores));
-            rb.wall_s * n + heads
-        } else {
-            0.0
-        };
+        // `read_back` sessions in units of the measured ones.
+        let m = read_back as f64 * per_session / self.frames.max(1) as f64;
+        let heads = self
+            .report_head_read_back
+            .as_ref()
+            .map_or(0.0, |h| cost(h).max(h.wall_s) * m / cores);
+        let read_back_s = rb.wall_s * m + heads;
         Projection {
             prepare_s: self.prepare.wall_s,
             render_s,
@@ -384,13 +383,16 @@ mod tests {
         // Render: 3 CPU-s x 10 sessions over 2 cores = 15 s (their own wall
         // time, 2 s x 10 / 2 at once = 10 s, is not the bound). The visual
         // section reads one whole session back (0.8 s).
-        let q = p.projection(false);
+        let q = p.projection(0);
         assert_eq!((q.prepare_s, q.render_s, q.evaluate_s), (0.5, 15.0, 0.8));
         // Reading every session back: 10 x 0.8 s one after another, the
         // heads 10 x 0.5 CPU-s over 2 cores.
-        let q = p.projection(true);
+        let q = p.projection(10);
         assert!((q.evaluate_s - (0.8 + 8.0 + 2.5)).abs() < 1e-12, "{q:?}");
         assert!((q.total_s() - 26.8).abs() < 1e-12);
+        // Two of them read back: 2 x 0.8 s, heads 2 x 0.5 CPU-s over 2 cores.
+        let q = p.projection(2);
+        assert!((q.evaluate_s - (0.8 + 1.6 + 0.5)).abs() < 1e-12, "{q:?}");
         // Two sessions of 50 frames rendered together as the job runs
         // them, in 2 s: the job is 10 such pairs.
         let p = SessionProfile {
@@ -398,7 +400,7 @@ mod tests {
             rendered_together: true,
             ..p
         };
-        let q = p.projection(false);
+        let q = p.projection(0);
         assert_eq!(q.render_s, 20.0);
         // The visual section reads one session (50 of the 100 frames).
         assert!((q.evaluate_s - 0.4).abs() < 1e-12);

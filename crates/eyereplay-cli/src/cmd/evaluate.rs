@@ -63,6 +63,10 @@ pub struct Args {
     /// them to the report (one extraction of every video).
     #[arg(long)]
     pub read_back_all: bool,
+    /// Without --read-back-all: read back the first N sessions of each
+    /// class whole, for that table (0: no table).
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub read_back: usize,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -96,6 +100,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         visual_seconds: args.visual_seconds,
         models: args.models.clone(),
         read_back_all: args.read_back_all,
+        read_back_per_class: args.read_back,
     };
     let outcome = eyereplay::evaluate(&args.dataset_dir, &opts)?;
     print_outcome(&outcome, args.json);

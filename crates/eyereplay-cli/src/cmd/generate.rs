@@ -70,6 +70,16 @@ pub struct Args {
     /// each one (one extraction of every video).
     #[arg(long, conflicts_with = "no_evaluate")]
     pub read_back_all: bool,
+    /// Without --read-back-all: the report reads back the first N sessions
+    /// of each class whole and tabulates them (0: none; the visual section
+    /// reads one session whatever this says).
+    #[arg(
+        long,
+        default_value_t = 1,
+        value_name = "N",
+        conflicts_with = "no_evaluate"
+    )]
+    pub read_back: usize,
     /// Folder for cached extractions (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
@@ -115,7 +125,16 @@ pub fn run(args: Args) -> Result<()> {
             print_profile(&p);
             return Ok(());
         }
-        return dry_run(&job, &p, args.read_back_all);
+        let read_back = if args.read_back_all {
+            job.sessions
+        } else {
+            job.config
+                .classes
+                .values()
+                .map(|c| c.sessions.min(args.read_back))
+                .sum()
+        };
+        return dry_run(&job, &p, read_back);
     }
     let out = args.out.clone().expect("clap requires --out");
     let opts = GenerateOptions {
@@ -124,6 +143,7 @@ pub fn run(args: Args) -> Result<()> {
         cache: Some(eyereplay::cache_dir(args.cache.as_deref())),
         evaluate: (!args.no_evaluate).then(|| eyereplay::EvaluateOptions {
             read_back_all: args.read_back_all,
+            read_back_per_class: args.read_back,
             ..Default::default()
         }),
     };
@@ -232,7 +252,8 @@ fn print_profile(p: &eyereplay::profile::SessionProfile) {
     );
 }
 
-fn dry_run(job: &Job, p: &eyereplay::profile::SessionProfile, read_back_all: bool) -> Result<()> {
+/// `read_back`: how many sessions the report reads back whole.
+fn dry_run(job: &Job, p: &eyereplay::profile::SessionProfile, read_back: usize) -> Result<()> {
     let cfg = &job.config;
     println!("plan:");
     for (class, cc) in &cfg.classes {
@@ -255,21 +276,18 @@ fn dry_run(job: &Job, p: &eyereplay::profile::SessionProfile, read_back_all: boo
         job.params.width,
         job.params.height
     );
-    let proj = p.projection(read_back_all);
+    let proj = p.projection(read_back);
     let wall_s = proj.total_s();
     let video_s = frames as f64 / cfg.fps;
     println!(
-        "  measured now on {} ({} frames, {} cores, {} sessions at once): {:.1} CPU-ms per frame{}",
+        "  measured now on {} ({} frames, {} cores, {} sessions at once): {:.1} CPU-ms per frame to render, {:.1} to read back; the report reads back {read_back} of {} sessions",
         p.sessions_measured.join(" and "),
         p.frames,
         p.cores,
         p.parallel_sessions,
-        1000.0 * p.session_cpu_s(read_back_all) / p.frames.max(1) as f64,
-        if read_back_all {
-            " with its read-back"
-        } else {
-            ""
-        }
+        1000.0 * p.session_cpu_s(false) / p.frames.max(1) as f64,
+        1000.0 * (p.session_cpu_s(true) - p.session_cpu_s(false)) / p.frames.max(1) as f64,
+        job.sessions
     );
     println!(
         "  projected: {:.1} min wall on this machine ({:.2}x real time; extract+prepare {:.0} s, render {:.0} s, evaluate {:.0} s), videos {:.2} GB",
@@ -281,9 +299,10 @@ fn dry_run(job: &Job, p: &eyereplay::profile::SessionProfile, read_back_all: boo
         p.projected_video_bytes() as f64 / 1e9
     );
     println!(
-        "  one hour of this video costs {:.2} CPU-hours to render{}",
-        p.session_cpu_s(read_back_all) / (p.frames as f64 / p.fps),
-        if read_back_all { " and read back" } else { "" }
+        "  one hour of this video costs {:.2} CPU-hours to render ({:.2} with every session read back), {:.2} GB",
+        p.session_cpu_s(false) / (p.frames as f64 / p.fps),
+        p.session_cpu_s(true) / (p.frames as f64 / p.fps),
+        p.video_bytes as f64 / (p.frames as f64 / p.fps) * 3600.0 / 1e9
     );
     println!("nothing written (dry run)");
     Ok(())
