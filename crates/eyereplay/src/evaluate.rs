@@ -49,8 +49,9 @@ pub struct EvaluateOptions {
     /// (costs one extraction of every video).
     pub read_back_all: bool,
     /// Without `read_back_all`: read back whole, and tabulate, the first
-    /// this many sessions of each class (0: none). A sample that shows
-    /// each class's fidelity at a fraction of the cost.
+    /// this many sessions of each class (0: none; default 1). A sample
+    /// that shows each class's fidelity at a fraction of the cost (the
+    /// first is the visual section's session, read once for both).
     pub read_back_per_class: usize,
 }
 
@@ -62,7 +63,7 @@ impl Default for EvaluateOptions {
             visual_seconds: 120.0,
             models: None,
             read_back_all: false,
-            read_back_per_class: 0,
+            read_back_per_class: 1,
         }
     }
 }
