@@ -68,14 +68,19 @@ impl SessionBackend for BrowserBackend {
     }
 
     fn render(&self, s: &Session, out: &SessionOutputs, _: &dyn Progress) -> Result<Rendered> {
-        let stats = eyereplay_browser::render_session_browser(
-            &self.settings,
-            &self.encoder,
-            &s.trajectory,
-            s.fps,
-            &out.mp4(),
-            &out.truth(),
-        )?;
+        // The page runs in Chromium (launched per session) and the encoder
+        // in ffmpeg: child processes, whose CPU time the lap's child column
+        // holds once they have ended and been waited for.
+        let stats = eyereplay_core::profile::lap("capture the page and encode", || {
+            eyereplay_browser::render_session_browser(
+                &self.settings,
+                &self.encoder,
+                &s.trajectory,
+                s.fps,
+                &out.mp4(),
+                &out.truth(),
+            )
+        })?;
         out.write_identity(&SessionIdentity {
             file: s.job.paths.file.clone(),
             seed: s.job.seed,

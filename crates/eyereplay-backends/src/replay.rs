@@ -210,17 +210,19 @@ impl SessionBackend for ReplayBackend {
         let targets = targets(&self.mapping, traj);
         let start = eyereplay_replay::start_frame(&carrier.times_s, traj.len(), s.fps, seed);
         let (w, h) = carrier.size();
-        let stats = eyereplay_replay::render_replay_session(
-            carrier,
-            &targets,
-            traj,
-            s.fps,
-            start,
-            &self.encoder,
-            &out.mp4(),
-            &out.truth(),
-            &out.extra(&files.carrier_csv()),
-        )?;
+        let stats = eyereplay_core::profile::lap("redraw the carrier's irises and encode", || {
+            eyereplay_replay::render_replay_session(
+                carrier,
+                &targets,
+                traj,
+                s.fps,
+                start,
+                &self.encoder,
+                &out.mp4(),
+                &out.truth(),
+                &out.extra(&files.carrier_csv()),
+            )
+        })?;
         let fps = (carrier.usage.frames.max(2) - 1) as f64 / carrier.duration_s().max(1e-9);
         out.write_identity(&SessionIdentity {
             file: files.file.clone(),
