@@ -199,6 +199,8 @@ pub struct FaceBackend {
     fitter: Mutex<PhotoFitter>,
     /// head_motion = source: each class's source head poses, read once.
     pool_heads: Mutex<BTreeMap<GazeClass, Vec<Option<PoseRow>>>>,
+    /// Sessions drawn at once (`render.jobs`).
+    parallel: usize,
 }
 
 impl FaceBackend {
@@ -211,6 +213,7 @@ impl FaceBackend {
         settings: &FaceBackendSettings,
         params: &RenderParams,
         natural_blinks: bool,
+        parallel: usize,
     ) -> Result<Self> {
         let face = FaceSettings::from_backend(settings)?;
         let encoder = face.encoder(&params.encoder);
@@ -232,6 +235,7 @@ impl FaceBackend {
             identities,
             fitter: Mutex::new(fitter),
             pool_heads: Mutex::new(BTreeMap::new()),
+            parallel,
         })
     }
 }
@@ -247,6 +251,10 @@ impl SessionBackend for FaceBackend {
 
     fn extra_outputs(&self, paths: &SessionPaths) -> Vec<PathBuf> {
         vec![paths.head_csv()]
+    }
+
+    fn parallel_sessions(&self) -> usize {
+        self.parallel
     }
 
     fn render(

@@ -136,6 +136,7 @@ pub fn open_backend(
             f,
             &params,
             settings.natural_blinks,
+            settings.jobs(),
         )?),
         BackendSettings::Replay { carriers } => {
             let videos = replay::carrier_videos(carriers, |p| p.to_path_buf());

@@ -155,6 +155,7 @@ impl RenderBackend {
                 "gain",
                 "viewing_distance_mm",
                 "natural_blinks",
+                "jobs",
                 "match_extractor",
                 "extractor_iris_views",
                 "match_readback",
