@@ -165,6 +165,11 @@ fn replay_dataset_follows_the_trajectory_keeps_the_carrier_and_is_deterministic(
         assert_eq!(row, same);
     }
     assert_ne!(sample[0]["class"], sample[1]["class"]);
+    let html = std::fs::read_to_string(a.join("report/index.html")).unwrap();
+    assert!(
+        html.contains("2 of the 4 sessions"),
+        "the sample is not named as one"
+    );
 
     // A truth CSV that lost rows is refused in one line naming it, and the
     // report already there stays as it was.

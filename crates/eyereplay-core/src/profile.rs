@@ -65,25 +65,29 @@ pub fn lap<T>(stage: &'static str, f: impl FnOnce() -> T) -> T {
             Some(rec) => rec.open.push(stage),
         }
     }
-    let (cpu0, child0, t0) = (process_cpu_s(), children_cpu_s(), Instant::now());
-    let out = f();
-    let (cpu1, child1, wall_s) = (
-        process_cpu_s(),
-        children_cpu_s(),
-        t0.elapsed().as_secs_f64(),
-    );
+    let (out, mut timed) = measure("", f);
     if let Some(rec) = recording().as_mut() {
-        let name = rec.open.join(" / ");
+        timed.stage = rec.open.join(" / ");
         rec.open.pop();
-        rec.laps.push(Lap {
-            stage: name,
-            depth: rec.open.len(),
-            cpu_s: cpu1 - cpu0,
-            child_cpu_s: child1 - child0,
-            wall_s,
-        });
+        timed.depth = rec.open.len();
+        rec.laps.push(timed);
     }
     out
+}
+
+/// Runs `f` and times it as one top-level lap named `stage`, whether or not
+/// laps are being recorded (the caller keeps the lap).
+pub fn measure<T>(stage: &str, f: impl FnOnce() -> T) -> (T, Lap) {
+    let (cpu0, child0, t0) = (process_cpu_s(), children_cpu_s(), Instant::now());
+    let out = f();
+    let lap = Lap {
+        stage: stage.to_string(),
+        depth: 0,
+        cpu_s: process_cpu_s() - cpu0,
+        child_cpu_s: children_cpu_s() - child0,
+        wall_s: t0.elapsed().as_secs_f64(),
+    };
+    (out, lap)
 }
 
 /// CPU time (user + system) of the calling thread, in seconds.

@@ -435,7 +435,8 @@ fn visual_html(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
             }
         }
     }
-    sessions_read_back_html(h, &ev.sessions_read_back);
+    let sessions: usize = ev.classes.iter().map(|c| c.events.len()).sum();
+    sessions_read_back_html(h, &ev.sessions_read_back, sessions);
     if let Some((file, t)) = &ev.render_truth {
         let _ = writeln!(
             h,
@@ -447,15 +448,29 @@ fn visual_html(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
     }
 }
 
-/// The per-session table, with each class's range first.
-fn sessions_read_back_html(h: &mut String, rows: &[SessionReadBack]) {
+/// The per-session table, with each class's range first; `sessions`: how
+/// many the dataset has (the table may hold a sample of them).
+fn sessions_read_back_html(h: &mut String, rows: &[SessionReadBack], sessions: usize) {
     if rows.is_empty() {
         return;
     }
+    let (title, which) = if rows.len() >= sessions {
+        (
+            "Every session read back",
+            format!("{} sessions", rows.len()),
+        )
+    } else {
+        (
+            "Sessions read back: a sample",
+            format!(
+                "{} of the {sessions} sessions, the first of each class; <code>--read-back N</code> reads N a class, <code>--read-back-all</code> every one",
+                rows.len()
+            ),
+        )
+    };
     let _ = writeln!(
         h,
-        "<h3>Every session read back</h3>\n<p>Each rendered session's whole video read by the extractor and compared frame by frame with its source, open-eye frames only ({} sessions). Targets as above: r &ge; {TARGET_R_MIN}, amplitude ratio {}-{}.</p>",
-        rows.len(),
+        "<h3>{title}</h3>\n<p>Each session's whole video read by the extractor and compared frame by frame with its source, open-eye frames only ({which}). Targets as above: r &ge; {TARGET_R_MIN}, amplitude ratio {}-{}.</p>",
         TARGET_AMPLITUDE_RATIO.0,
         TARGET_AMPLITUDE_RATIO.1
     );
@@ -662,7 +677,9 @@ mod tests {
         sessions_read_back_html(
             &mut h,
             &[row("reading/a.csv", Some(yaw)), row("reading/b.csv", None)],
+            2,
         );
+        assert!(h.contains("<h3>Every session read back</h3>"), "{h}");
         assert!(
             h.contains("<th>head yaw r</th><th>head yaw slope</th><th>drawn yaw sd (deg)</th>"),
             "{h}"
@@ -675,8 +692,11 @@ mod tests {
         // The class row's range covers the one session that has a head.
         assert!(h.contains("<td>0.987-0.987</td></tr>"), "{h}");
         let mut h = String::new();
-        sessions_read_back_html(&mut h, &[row("reading/a.csv", None)]);
+        sessions_read_back_html(&mut h, &[row("reading/a.csv", None)], 12);
         assert!(!h.contains("head yaw"), "{h}");
+        // One of twelve: the heading says it is a sample, and how to get more.
+        assert!(h.contains("Sessions read back: a sample"), "{h}");
+        assert!(h.contains("1 of the 12 sessions"), "{h}");
     }
 
     /// The budget table lists the sessions that have one, with their r and
@@ -699,7 +719,7 @@ mod tests {
         let mut with = row("conversation/c.csv", None);
         with.budget = Some(b);
         let mut h = String::new();
-        sessions_read_back_html(&mut h, &[with, row("reading/a.csv", None)]);
+        sessions_read_back_html(&mut h, &[with, row("reading/a.csv", None)], 2);
         assert!(h.contains("Movement against the extractor's error"), "{h}");
         assert!(
             h.contains("<tr><td><code>conversation/c.csv</code></td><td>1.000</td><td>0.65</td><td>0.24</td><td>0.939</td><td>1.000</td><td>0.28</td><td>0.43</td><td>n/a</td></tr>"),
@@ -710,7 +730,7 @@ mod tests {
             "{h}"
         );
         let mut h = String::new();
-        sessions_read_back_html(&mut h, &[row("reading/a.csv", None)]);
+        sessions_read_back_html(&mut h, &[row("reading/a.csv", None)], 1);
         assert!(!h.contains("Movement against"), "{h}");
     }
 }

@@ -319,13 +319,18 @@ pub fn evaluate_localization(
             "no session has a per-frame reading column (generate interview sessions: model = \"interview\")",
         ));
     }
-    let methods = [Method::WindowMean, Method::Hmm]
-        .into_iter()
-        .map(|m| score_method(&tracks, &flags_all, &model, m, threshold))
-        .collect();
+    let scores_of = |m: Method| -> Vec<SessionScore> {
+        tracks
+            .iter()
+            .zip(&flags_all)
+            .map(|(t, f)| score_session(t, f, &model, m, threshold))
+            .collect()
+    };
+    let (mean, hmm) = (scores_of(Method::WindowMean), scores_of(Method::Hmm));
+    let methods = vec![pool(Method::WindowMean, &mean), pool(Method::Hmm, &hmm)];
     let calibration = window_calibration(&tracks, &flags_all, &model);
     let clips = clip_results(&tracks, &flags_all, &model, CLIPS_PER_CLASS, seed);
-    let by_surface = by_surface(&tracks, &flags_all, &session_surface, &model, threshold);
+    let by_surface = by_surface(&hmm, &session_surface);
     Ok(LocalizationEval {
         dataset: dir.display().to_string(),
         input: input.name().into(),
@@ -341,42 +346,112 @@ pub fn evaluate_localization(
     })
 }
 
-/// [`score_method`] with `Hmm` on each surface's sessions, in name order.
-pub fn by_surface(
-    tracks: &[Track],
-    flags: &[Vec<bool>],
-    surfaces: &[Option<SourceSurface>],
-    model: &DetectorModel,
-    threshold: f64,
-) -> Vec<SurfaceResult> {
+/// Each surface's sessions pooled from their `Hmm` scores (`hmm[i]` of
+/// session `i`), in name order.
+pub fn by_surface(hmm: &[SessionScore], surfaces: &[Option<SourceSurface>]) -> Vec<SurfaceResult> {
     let mut names: Vec<&String> = surfaces.iter().flatten().map(|s| &s.surface).collect();
     names.sort();
     names.dedup();
     names
         .into_iter()
         .map(|name| {
-            let pick: Vec<usize> = (0..tracks.len())
-                .filter(|&i| surfaces[i].as_ref().is_some_and(|s| &s.surface == name))
-                .collect();
-            let spans: Vec<f64> = pick
+            let pick: Vec<&SourceSurface> = surfaces
                 .iter()
-                .filter_map(|&i| surfaces[i].as_ref().map(|s| s.line_span_deg))
+                .flatten()
+                .filter(|s| &s.surface == name)
                 .collect();
-            let t: Vec<Track> = pick.iter().map(|&i| tracks[i].clone()).collect();
-            let f: Vec<Vec<bool>> = pick.iter().map(|&i| flags[i].clone()).collect();
+            let spans: Vec<f64> = pick.iter().map(|s| s.line_span_deg).collect();
+            let scores = hmm
+                .iter()
+                .zip(surfaces)
+                .filter(|(_, s)| s.as_ref().is_some_and(|s| &s.surface == name))
+                .map(|(score, _)| score);
             SurfaceResult {
                 surface: name.clone(),
                 sessions: pick.len(),
                 line_span_deg: eyereplay_signal::stats::median(&spans).unwrap_or(f64::NAN),
-                result: score_method(&t, &f, model, Method::Hmm, threshold),
+                result: pool(Method::Hmm, scores),
             }
         })
         .collect()
 }
 
-/// Localizes every track by `method` and scores the segments against the
-/// [`true_segments`] of its per-frame labels `flags`: pooled segment F1 (each track
-/// matched on its own), onset errors, and frame shares.
+/// One session localized by one method, scored against the
+/// [`true_segments`] of its per-frame labels.
+#[derive(Clone, Debug, Default)]
+pub struct SessionScore {
+    pub segments_found: usize,
+    pub segments_true: usize,
+    pub onset_errors_s: Vec<f64>,
+    /// Frames not reading, and those of them called reading.
+    pub other_frames: usize,
+    pub false_frames: usize,
+    /// Frames reading, and those of them called reading.
+    pub reading_frames: usize,
+    pub found_frames: usize,
+}
+
+/// [`SessionScore`] of `track` localized by `method`.
+pub fn score_session(
+    track: &Track,
+    flags: &[bool],
+    model: &DetectorModel,
+    method: Method,
+    threshold: f64,
+) -> SessionScore {
+    let truth = true_segments(flags);
+    let loc = localize::localize(track, model, method, threshold);
+    let found: Vec<(f64, f64)> = loc.segments.iter().map(|s| (s.start_s, s.end_s)).collect();
+    let m = match_segments(&found, &truth, MIN_IOU);
+    let mut s = SessionScore {
+        segments_found: m.found,
+        segments_true: m.truth,
+        onset_errors_s: m.onset_errors_s,
+        ..Default::default()
+    };
+    for (k, &f) in flags.iter().enumerate() {
+        let t = k as f64 / FPS;
+        let called = found.iter().any(|&(a, b)| a <= t && t < b) as usize;
+        if f {
+            s.reading_frames += 1;
+            s.found_frames += called;
+        } else {
+            s.other_frames += 1;
+            s.false_frames += called;
+        }
+    }
+    s
+}
+
+/// Sessions' scores pooled: segment F1 over all their segments (each
+/// session matched on its own), onset errors, and frame shares.
+pub fn pool<'a>(
+    method: Method,
+    scores: impl IntoIterator<Item = &'a SessionScore>,
+) -> MethodResult {
+    let mut sum = SessionScore::default();
+    for s in scores {
+        sum.segments_found += s.segments_found;
+        sum.segments_true += s.segments_true;
+        sum.onset_errors_s.extend(&s.onset_errors_s);
+        sum.false_frames += s.false_frames;
+        sum.other_frames += s.other_frames;
+        sum.found_frames += s.found_frames;
+        sum.reading_frames += s.reading_frames;
+    }
+    let pooled =
+        SegmentMatch::from_counts(sum.segments_found, sum.segments_true, sum.onset_errors_s);
+    let ratio = |m: usize, n: usize| if n == 0 { 1.0 } else { m as f64 / n as f64 };
+    MethodResult {
+        method,
+        onset_error_median_s: eyereplay_signal::stats::median(&pooled.onset_errors_s),
+        segments: pooled,
+        false_reading_fraction: ratio(sum.false_frames, sum.other_frames),
+        reading_recall: ratio(sum.found_frames, sum.reading_frames),
+    }
+}
+
+/// Localizes every track by `method` and pools their scores ([`pool`]).
 pub fn score_method(
     tracks: &[Track],
     flags: &[Vec<bool>],
@@ -384,37 +459,12 @@ pub fn score_method(
     method: Method,
     threshold: f64,
 ) -> MethodResult {
-    let (mut found_n, mut truth_n, mut onsets) = (0, 0, Vec::new());
-    let (mut fp, mut neg, mut tp, mut pos) = (0usize, 0usize, 0usize, 0usize);
-    for (track, flags) in tracks.iter().zip(flags) {
-        let truth = true_segments(flags);
-        let loc = localize::localize(track, model, method, threshold);
-        let found: Vec<(f64, f64)> = loc.segments.iter().map(|s| (s.start_s, s.end_s)).collect();
-        let m = match_segments(&found, &truth, MIN_IOU);
-        found_n += m.found;
-        truth_n += m.truth;
-        onsets.extend(m.onset_errors_s);
-        for (k, &f) in flags.iter().enumerate() {
-            let t = k as f64 / FPS;
-            let called = found.iter().any(|&(a, b)| a <= t && t < b);
-            if f {
-                pos += 1;
-                tp += called as usize;
-            } else {
-                neg += 1;
-                fp += called as usize;
-            }
-        }
-    }
-    let pooled = SegmentMatch::from_counts(found_n, truth_n, onsets);
-    let ratio = |m: usize, n: usize| if n == 0 { 1.0 } else { m as f64 / n as f64 };
-    MethodResult {
-        method,
-        onset_error_median_s: eyereplay_signal::stats::median(&pooled.onset_errors_s),
-        segments: pooled,
-        false_reading_fraction: ratio(fp, neg),
-        reading_recall: ratio(tp, pos),
-    }
+    let scores: Vec<SessionScore> = tracks
+        .iter()
+        .zip(flags)
+        .map(|(t, f)| score_session(t, f, model, method, threshold))
+        .collect();
+    pool(method, &scores)
 }
 
 #[cfg(test)]
@@ -507,13 +557,12 @@ mod tests {
                 line_span_deg: 10.0,
             })
         };
-        let groups = by_surface(
-            &tracks,
-            &flags,
-            &[s("laptop"), s("teleprompter")],
-            &model,
-            0.5,
-        );
+        let hmm: Vec<SessionScore> = tracks
+            .iter()
+            .zip(&flags)
+            .map(|(t, f)| score_session(t, f, &model, Method::Hmm, 0.5))
+            .collect();
+        let groups = by_surface(&hmm, &[s("laptop"), s("teleprompter")]);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].surface, "laptop");
         assert_eq!(groups[0].result.segments.truth, 1);

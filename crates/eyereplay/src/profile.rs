@@ -13,7 +13,7 @@
 
 use crate::generate::Job;
 use crate::{prepare_dataset, Error, Result};
-use eyereplay_core::profile::{start_recording, stop_recording, Lap};
+use eyereplay_core::profile::{measure, start_recording, stop_recording, Lap};
 use eyereplay_core::{Progress, Shard};
 use serde::Serialize;
 use std::path::Path;
@@ -23,15 +23,11 @@ use std::path::Path;
 pub struct SessionProfile {
     /// The sessions rendered (labels.csv's `file`).
     pub sessions_measured: Vec<String>,
-    /// Whether they were rendered together, as the job renders them
-    /// ([`Measure::AsTheJobRuns`]); then `render` is empty.
-    pub rendered_together: bool,
     /// Frames of the sessions measured.
     pub frames: usize,
     pub fps: f64,
     /// Frames of the whole job (every session).
     pub job_frames: usize,
-    pub sessions: usize,
     /// Sessions the renderer draws at once (`render.jobs`, at most the
     /// job's sessions).
     pub parallel_sessions: usize,
@@ -43,7 +39,8 @@ pub struct SessionProfile {
     /// (listing, verifying and committing files).
     pub render_total: Lap,
     /// A session rendered alone: its stages, nested ones after the stage
-    /// they are in, the names without the "render / " they are in.
+    /// they are in (several rendered together: none, the clocks being the
+    /// whole process's).
     pub render: Vec<Lap>,
     /// The report's read-back of the videos, one after another.
     pub report_read_back: Lap,
@@ -55,18 +52,16 @@ pub struct SessionProfile {
 }
 
 impl SessionProfile {
-    /// The render of the sessions measured: (process CPU, child CPU,
-    /// wall), s.
-    pub fn render_totals(&self) -> (f64, f64, f64) {
-        let t = &self.render_total;
-        (t.cpu_s, t.child_cpu_s, t.wall_s)
+    /// Whether several sessions were rendered together, as the job renders
+    /// them ([`Measure::AsTheJobRuns`]).
+    pub fn rendered_together(&self) -> bool {
+        self.sessions_measured.len() > 1
     }
 
     /// CPU seconds the sessions measured cost: their render and, with
     /// `read_back_all`, the report's read-back of their videos and heads.
     pub fn session_cpu_s(&self, read_back_all: bool) -> f64 {
-        let (cpu, child, _) = self.render_totals();
-        let mut total = cpu + child;
+        let mut total = cost(&self.render_total);
         if read_back_all {
             total += cost(&self.report_read_back);
             total += self.report_head_read_back.as_ref().map_or(0.0, cost);
@@ -88,15 +83,15 @@ impl SessionProfile {
         let n = self.job_frames as f64 / self.frames.max(1) as f64;
         let cores = self.cores.max(1) as f64;
         let parallel = self.parallel_sessions.max(1) as f64;
-        let (cpu, child, wall) = self.render_totals();
+        let wall = self.render_total.wall_s;
         // Measured together, as the job runs them, the wall time scales;
         // a session measured alone is bound by the cores when the job
         // renders `parallel` at once, or by its own wall time when that
         // leaves cores idle.
-        let render_s = if self.rendered_together {
+        let render_s = if self.rendered_together() {
             wall * n
         } else {
-            ((cpu + child) * n / cores).max(wall * n / parallel)
+            (cost(&self.render_total) * n / cores).max(wall * n / parallel)
         };
         let rb = &self.report_read_back;
         // The report reads one session's video (its first 120 s) for the
@@ -104,7 +99,8 @@ impl SessionProfile {
         // videos one after another (each read by all cores), then their
         // heads, the sessions in parallel.
         let per_session = self.frames as f64 / self.sessions_measured.len().max(1) as f64;
-        let visual_frames = (VISUAL_SECONDS * self.fps).min(per_session);
+        let visual_s_of_video = crate::EvaluateOptions::default().visual_seconds;
+        let visual_frames = (visual_s_of_video * self.fps).min(per_session);
         // A session no longer than the visual section is read once for both
         // the section and the table (the first session the table reads).
         let visual_s = if read_back > 0 && visual_frames >= per_session {
@@ -126,10 +122,6 @@ impl SessionProfile {
         }
     }
 }
-
-/// Seconds of video the report's visual section reads back (the paper's
-/// 120 s; [`crate::EvaluateOptions::visual_seconds`]).
-const VISUAL_SECONDS: f64 = 120.0;
 
 fn cost(l: &Lap) -> f64 {
     l.cpu_s + l.child_cpu_s
@@ -260,11 +252,9 @@ pub fn profile_session(
     }
     Ok(SessionProfile {
         sessions_measured: chosen,
-        rendered_together: !alone,
         frames: summary.frames,
         fps: meta.fps,
         job_frames: job.frames(),
-        sessions: job.sessions,
         parallel_sessions: at_once,
         cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
         prepare: prepare.1,
@@ -281,24 +271,13 @@ const RENDER: &str = "render";
 const READ_BACK: &str = "report read-back";
 const HEAD_READ_BACK: &str = "report head read-back";
 
-/// `f` timed as one lap named `stage`, whether or not laps are recorded.
+/// `f` timed as one lap (see [`measure`]), its error passed on.
 fn measured<T, E>(
     stage: &str,
     f: impl FnOnce() -> std::result::Result<T, E>,
 ) -> std::result::Result<(T, Lap), E> {
-    use eyereplay_core::profile::{children_cpu_s, process_cpu_s};
-    let (cpu0, child0, t0) = (process_cpu_s(), children_cpu_s(), std::time::Instant::now());
-    let out = f()?;
-    Ok((
-        out,
-        Lap {
-            stage: stage.to_string(),
-            depth: 0,
-            cpu_s: process_cpu_s() - cpu0,
-            child_cpu_s: children_cpu_s() - child0,
-            wall_s: t0.elapsed().as_secs_f64(),
-        },
-    ))
+    let (out, lap) = measure(stage, f);
+    out.map(|v| (v, lap))
 }
 
 fn zero(stage: &str) -> Lap {
@@ -369,11 +348,9 @@ mod tests {
         // 2 sessions at once.
         let p = SessionProfile {
             sessions_measured: vec!["reading/reading_0000.csv".into()],
-            rendered_together: false,
             frames: 100,
             fps: 25.0,
             job_frames: 1000,
-            sessions: 10,
             parallel_sessions: 2,
             cores: 2,
             prepare: timed(PREPARE, 0.4, 0.0, 0.5),
@@ -404,7 +381,6 @@ mod tests {
         // them, in 2 s: the job is 10 such pairs.
         let p = SessionProfile {
             sessions_measured: vec!["a".into(), "b".into()],
-            rendered_together: true,
             ..p
         };
         let q = p.projection(0);

@@ -182,7 +182,8 @@ pub fn run(args: Args) -> Result<()> {
 /// process's and the encoder's apart, and its share of the session.
 fn print_profile(p: &eyereplay::profile::SessionProfile) {
     let per_frame = |s: f64| 1000.0 * s / p.frames.max(1) as f64;
-    let (cpu, child, wall) = p.render_totals();
+    let t = &p.render_total;
+    let (cpu, child, wall) = (t.cpu_s, t.child_cpu_s, t.wall_s);
     let rb = &p.report_read_back;
     let total = p.session_cpu_s(true);
     println!(
