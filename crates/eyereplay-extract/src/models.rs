@@ -23,6 +23,11 @@ use std::sync::OnceLock;
 pub const DETECTOR: &str = "face_detection_short_range.onnx";
 pub const MESH: &str = "face_landmark.onnx";
 pub const IRIS: &str = "iris_landmark.onnx";
+/// Crops the iris model reads per run on the CPU ([`Models::iris_batch`]):
+/// one frame's two eyes. Five views per eye read as five runs of two took
+/// 14 % less of the iris network's CPU time than one run of ten, and one
+/// crop a run more (ONNX Runtime 1.22 on 2-core x86; docs/EXTRACTION.md).
+pub const IRIS_CPU_BATCH: usize = 2;
 /// MediaPipe's attention face mesh (`refine_landmarks=True` in its Python
 /// face mesh), split by `scripts/tflite_to_onnx.py --split-eyes`: the face
 /// model (mesh, face flag, the feature map the eyes are read from) ...
@@ -617,21 +622,38 @@ impl Models {
 
     /// Iris model on `eyes` crops at once (an `eyes`x3x64x64 batch in [0, 1],
     /// `input` exactly that long): one output per crop, in order.
+    ///
+    /// On the CPU the batch runs [`IRIS_CPU_BATCH`] crops at a time: ONNX
+    /// Runtime's cost per crop grows past that, and each crop's output is
+    /// the same to the bit whatever batch it ran in.
     pub fn iris_batch(&mut self, input: &[f32], eyes: usize) -> Result<Vec<IrisOutput>> {
-        let t = TensorRef::from_array_view(([eyes, 3, 64, 64], input))?;
+        let plane = 3 * 64 * 64;
+        expect_len(IRIS, "input", input.len(), eyes * plane)?;
         let iris = lazy_session(&mut self.iris, &self.dir, IRIS, &mut self.on_cuda)?;
-        let out = iris.run(ort::inputs!["input" => t])?;
-        let (_, contour) = out["output_eyes_contours_and_brows"].try_extract_tensor::<f32>()?;
-        let (_, iris) = out["output_iris"].try_extract_tensor::<f32>()?;
-        check_iris_lens(contour.len(), iris.len(), eyes)?;
-        Ok(contour
-            .chunks_exact(EYE_CONTOUR_POINTS * 3)
-            .zip(iris.chunks_exact(IRIS_POINTS * 3))
-            .map(|(c, i)| IrisOutput {
-                contour: c.to_vec(),
-                iris: i.to_vec(),
-            })
-            .collect())
+        let step = if self.on_cuda {
+            eyes.max(1)
+        } else {
+            IRIS_CPU_BATCH
+        };
+        let mut outputs = Vec::with_capacity(eyes);
+        for chunk in input.chunks(step * plane) {
+            let n = chunk.len() / plane;
+            let t = TensorRef::from_array_view(([n, 3, 64, 64], chunk))?;
+            let out = iris.run(ort::inputs!["input" => t])?;
+            let (_, contour) = out["output_eyes_contours_and_brows"].try_extract_tensor::<f32>()?;
+            let (_, points) = out["output_iris"].try_extract_tensor::<f32>()?;
+            check_iris_lens(contour.len(), points.len(), n)?;
+            outputs.extend(
+                contour
+                    .chunks_exact(EYE_CONTOUR_POINTS * 3)
+                    .zip(points.chunks_exact(IRIS_POINTS * 3))
+                    .map(|(c, i)| IrisOutput {
+                        contour: c.to_vec(),
+                        iris: i.to_vec(),
+                    }),
+            );
+        }
+        Ok(outputs)
     }
 }
 

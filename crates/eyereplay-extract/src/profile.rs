@@ -45,7 +45,7 @@ impl Stage {
             Stage::Crop => "colour conversion + crops",
             Stage::Detector => "face detector network",
             Stage::Mesh => "face mesh network",
-            Stage::Iris => "iris network (all eye crops, 1 batch)",
+            Stage::Iris => "iris network (all eye crops, 2 a run)",
             Stage::Post => "post-processing + tracking",
         }
     }

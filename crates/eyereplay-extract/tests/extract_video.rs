@@ -403,6 +403,40 @@ fn models_check_reports_pinned_sources_and_runs_each_model() {
     );
 }
 
+/// `iris_batch` runs the CPU batch in runs of `IRIS_CPU_BATCH` crops (for
+/// speed); each crop's points must be what the crop gives alone, to the
+/// bit, so five views read the same as before the split. A wrong input
+/// length is a typed error, not a panic.
+#[test]
+#[cfg_attr(not(has_models), ignore = "needs .cache/models: run scripts/setup.sh")]
+fn iris_points_do_not_depend_on_the_batch() {
+    let mut m = Models::load_on(&models(), Device::Cpu).unwrap();
+    let plane = 3 * 64 * 64;
+    let crops = 2 * 5; // two eyes, five views
+                       // Smooth gradients and a dark disc per crop, shifted crop by crop.
+    let input: Vec<f32> = (0..crops * plane)
+        .map(|i| {
+            let (c, px) = (i / plane, i % plane);
+            let (y, x) = ((px % 4096) / 64, px % 64);
+            let (dx, dy) = (x as f32 - 30.0 - c as f32, y as f32 - 32.0 + c as f32 * 0.5);
+            let disc = if dx * dx + dy * dy < 90.0 { 0.1 } else { 0.75 };
+            disc + 0.002 * x as f32 - 0.001 * (px / 4096) as f32
+        })
+        .collect();
+    let together = m.iris_batch(&input, crops).unwrap();
+    assert_eq!(together.len(), crops);
+    for (c, out) in together.iter().enumerate() {
+        let alone = m.iris_batch(&input[c * plane..(c + 1) * plane], 1).unwrap();
+        assert_eq!(alone[0], *out, "crop {c}");
+    }
+    assert!(IRIS_CPU_BATCH < crops);
+    let e = m
+        .iris_batch(&input[..plane + 7], 1)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("input"), "{e}");
+}
+
 /// The containers and codecs people record in (issue: mp4, mov, webm, mkv,
 /// avi; H.264, HEVC, VP8/9, AV1, MJPEG), including formats that are not
 /// 4:2:0 (MJPEG's yuvj422p, 4:4:4 H.264) and take the RGB conversion path:
