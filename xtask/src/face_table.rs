@@ -237,6 +237,7 @@ pub fn dataset_table(rows: &[Row], target: (f64, f64), horizontal: bool, vertica
         ));
     }
     s.push_str(&summary(rows, target, false));
+    s.push_str(&overall(rows, target));
     for (on, k, name) in [(vertical, 1, "y"), (horizontal, 0, "x")] {
         if !on {
             continue;
@@ -279,6 +280,53 @@ pub fn dataset_table(rows: &[Row], target: (f64, f64), horizontal: bool, vertica
         }
     }
     s
+}
+
+/// One line over every session of every class: per axis, how many
+/// amplitude ratios fall outside `target`, the median |ratio - 1| and the
+/// median r (the figures docs/PERFORMANCE.md compares variants of the
+/// default by). Null values are left out.
+pub fn overall(rows: &[Row], target: (f64, f64)) -> String {
+    let median = |mut v: Vec<f64>| -> String {
+        v.retain(|x| x.is_finite());
+        if v.is_empty() {
+            return "n/a".into();
+        }
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let m = if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            (v[n / 2 - 1] + v[n / 2]) / 2.0
+        };
+        format!("{m:.3}")
+    };
+    let axis = |name: &str, get: &dyn Fn(&Row) -> Axis| {
+        let ratios: Vec<f64> = rows
+            .iter()
+            .filter_map(|r| get(r).ratio)
+            .filter(|v| v.is_finite())
+            .collect();
+        let outside = ratios
+            .iter()
+            .filter(|&&v| !(target.0..=target.1).contains(&v))
+            .count();
+        format!(
+            "{name}: ratio outside {}-{} {} of {}, median |ratio - 1| {}, median r {}",
+            target.0,
+            target.1,
+            outside,
+            ratios.len(),
+            median(ratios.iter().map(|v| (v - 1.0).abs()).collect()),
+            median(rows.iter().filter_map(|r| get(r).r).collect()),
+        )
+    };
+    format!(
+        "all {} sessions: {}; {}\n",
+        rows.len(),
+        axis("x", &|r| r.x),
+        axis("y", &|r| r.y)
+    )
 }
 
 /// One line per class: ranges of found share, r and amplitude ratio per
@@ -459,5 +507,15 @@ mod tests {
         assert!(s.contains("ratios outside 0.9-1.1: x 1, y 1 of 2"), "{s}");
         let t = dataset_table(&rows, (0.9, 1.1), true, true);
         assert!(t.contains("(1 session(s) without a budget"), "{t}");
+        // x ratios 1.0 and 0.8: one outside, |ratio - 1| 0 and 0.2, median
+        // 0.1; r 0.99 and 0.97, median 0.98. y: the one ratio 1.2, r 0.8.
+        assert!(
+            t.contains(
+                "all 2 sessions: x: ratio outside 0.9-1.1 1 of 2, median |ratio - 1| 0.100, \
+                 median r 0.980; y: ratio outside 0.9-1.1 1 of 1, median |ratio - 1| 0.200, \
+                 median r 0.800"
+            ),
+            "{t}"
+        );
     }
 }
