@@ -9,7 +9,7 @@
 
 use anyhow::{bail, Context, Result};
 use eyereplay_dataset::{read_head_yaw_csv, SessionIdentity, SessionPaths};
-use eyereplay_signal::stats::mean;
+use eyereplay_signal::stats::{mean, median};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -287,19 +287,9 @@ pub fn dataset_table(rows: &[Row], target: (f64, f64), horizontal: bool, vertica
 /// median r (the figures docs/PERFORMANCE.md compares variants of the
 /// default by). Null values are left out.
 pub fn overall(rows: &[Row], target: (f64, f64)) -> String {
-    let median = |mut v: Vec<f64>| -> String {
-        v.retain(|x| x.is_finite());
-        if v.is_empty() {
-            return "n/a".into();
-        }
-        v.sort_by(f64::total_cmp);
-        let n = v.len();
-        let m = if n % 2 == 1 {
-            v[n / 2]
-        } else {
-            (v[n / 2 - 1] + v[n / 2]) / 2.0
-        };
-        format!("{m:.3}")
+    let median3 = |v: Vec<f64>| {
+        let v: Vec<f64> = v.into_iter().filter(|x| x.is_finite()).collect();
+        median(&v).map_or("n/a".to_string(), |m| format!("{m:.3}"))
     };
     let axis = |name: &str, get: &dyn Fn(&Row) -> Axis| {
         let ratios: Vec<f64> = rows
@@ -307,18 +297,14 @@ pub fn overall(rows: &[Row], target: (f64, f64)) -> String {
             .filter_map(|r| get(r).ratio)
             .filter(|v| v.is_finite())
             .collect();
-        let outside = ratios
-            .iter()
-            .filter(|&&v| !(target.0..=target.1).contains(&v))
-            .count();
         format!(
             "{name}: ratio outside {}-{} {} of {}, median |ratio - 1| {}, median r {}",
             target.0,
             target.1,
-            outside,
+            count_outside(&ratios, target),
             ratios.len(),
-            median(ratios.iter().map(|v| (v - 1.0).abs()).collect()),
-            median(rows.iter().filter_map(|r| get(r).r).collect()),
+            median3(ratios.iter().map(|v| (v - 1.0).abs()).collect()),
+            median3(rows.iter().filter_map(|r| get(r).r).collect()),
         )
     };
     format!(
@@ -327,6 +313,14 @@ pub fn overall(rows: &[Row], target: (f64, f64)) -> String {
         axis("x", &|r| r.x),
         axis("y", &|r| r.y)
     )
+}
+
+/// How many of `values` fall outside `target` (inclusive bounds).
+fn count_outside(values: &[f64], target: (f64, f64)) -> usize {
+    values
+        .iter()
+        .filter(|&&v| !(target.0..=target.1).contains(&v))
+        .count()
 }
 
 /// One line per class: ranges of found share, r and amplitude ratio per
@@ -367,12 +361,7 @@ pub fn summary(rows: &[Row], target: (f64, f64), pooled: bool) -> String {
         ));
         if pooled {
             let m = |v: Vec<f64>| mean(&v).unwrap_or(f64::NAN);
-            let outside = |get: &dyn Fn(&Row) -> Option<f64>| {
-                vals(get)
-                    .iter()
-                    .filter(|&&v| !(target.0..=target.1).contains(&v))
-                    .count()
-            };
+            let outside = |get: &dyn Fn(&Row) -> Option<f64>| count_outside(&vals(get), target);
             s.push_str(&format!(
                 "  mean x r {:.4}, mean y r {:.3}, mean |x gain - 1| {:.3}, mean |y gain - 1| {:.3}, \
                  ratios outside {}-{}: x {}, y {} of {}\n",

@@ -283,7 +283,10 @@ fn a_session_too_short_to_fit_keeps_its_first_pass() {
 
 /// Sessions drawn two at a time (`render.jobs = 2`) are the files drawn one
 /// at a time, byte for byte: each depends on its own seed only, and the
-/// probe's shared landmark tracker starts afresh for every clip.
+/// probe's shared landmark tracker starts afresh for every clip. With
+/// `match_readback`, as the bundled default draws them: probe, first pass
+/// under its hidden names, read-back, and the second pass or the kept
+/// first.
 #[test]
 #[cfg_attr(
     not(all(has_models, has_carriers, has_ffmpeg)),
@@ -292,8 +295,8 @@ fn a_session_too_short_to_fit_keeps_its_first_pass() {
 fn sessions_drawn_at_once_are_the_sessions_drawn_in_turn() {
     let dir = tempfile::tempdir().unwrap();
     let (one, two) = (dir.path().join("one"), dir.path().join("two"));
-    generate_sessions(dir.path(), &one, 25, false, 3, 1);
-    generate_sessions(dir.path(), &two, 25, false, 3, 2);
+    generate_sessions(dir.path(), &one, 75, true, 3, 1);
+    generate_sessions(dir.path(), &two, 75, true, 3, 2);
     for k in 0..3 {
         let stem = format!("conversation/conversation_{k:04}");
         for suffix in [".mp4", "_truth.csv", "_head.csv", "_identity.json"] {
@@ -301,5 +304,16 @@ fn sessions_drawn_at_once_are_the_sessions_drawn_in_turn() {
                 [&one, &two].map(|d| std::fs::read(d.join(format!("{stem}{suffix}"))).unwrap());
             assert!(a == b, "{stem}{suffix} differs between jobs = 1 and 2");
         }
+        // The read-back match ran (its record is in the identity).
+        let id = json(&one.join(format!("{stem}_identity.json")));
+        assert!(
+            id["identity"]["readback_match"].is_object(),
+            "{}",
+            id["identity"]
+        );
+    }
+    for d in [&one, &two] {
+        let left = first_pass_files(&d.join("conversation"));
+        assert!(left.is_empty(), "{left:?}");
     }
 }
