@@ -174,11 +174,15 @@ struct ReadbackMatchRecord {
     /// drawn through.
     probe_response: Option<ResponseMap>,
     probe_pose_slopes: Option<[[f64; 2]; 2]>,
+    /// The first pass drew every this many frames
+    /// (`render.match_readback_every`).
+    first_pass_every: usize,
     /// Open-eye frames of the first pass that the extractor read and the
     /// fit used.
     frames_fitted: usize,
     /// The fit was used; `false`: too few frames or an implausible fit,
-    /// and the first pass is the session.
+    /// and the session is drawn through the probe's match (the first pass
+    /// itself where it drew every frame).
     refined: bool,
 }
 
@@ -352,6 +356,7 @@ impl SessionBackend for FaceBackend {
                 [&mp4, &truth, &head_csv],
                 &targets,
                 iris_views,
+                settings.match_readback_every,
             )?;
             (stats, Some(record))
         } else {
@@ -421,7 +426,15 @@ impl SessionBackend for FaceBackend {
 /// gain 0.63 became 1.53 instead of 1.18). `p` ends as the session was
 /// drawn. The first
 /// pass is written under hidden names beside the session's files and
-/// removed; where the fit is unusable, it becomes the session.
+/// removed; where the fit is unusable, it becomes the session (drawn again
+/// whole if it drew only every `every`-th frame).
+///
+/// The first pass draws every `every`-th frame (`render.match_readback_every`),
+/// each the frame the session would have there, encoded at the frame rate
+/// over `every` and read back as such: the fit is per frame, and what
+/// limits it is how many fixations it sees (each lasts several frames),
+/// not how many frames of each.
+#[allow(clippy::too_many_arguments)]
 fn render_matched_to_readback(
     scene: &FaceScene,
     traj: &[CanvasPos],
@@ -430,6 +443,7 @@ fn render_matched_to_readback(
     files: [&Path; 3],
     targets: &[NormPos],
     iris_views: usize,
+    every: usize,
 ) -> Result<(FaceSessionStats, ReadbackMatchRecord)> {
     let first_pass = |path: &Path| {
         let name = path.file_name().unwrap_or_default().to_string_lossy();
@@ -443,14 +457,14 @@ fn render_matched_to_readback(
     };
     let [mp4, truth, head] = &temp;
     let first = lap("first pass: draw and encode", || {
-        eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)
+        eyereplay_face::render_face_session_every(scene, traj, blinks, p, every, [mp4, truth, head])
     })?;
     let rows = match lap("first pass: read back (extract)", || {
         eyereplay_extract::extract_with_detector(
             mp4,
             &eyereplay_extract::default_models_dir(),
-            traj.len(),
-            p.fps,
+            first.drawn.len(),
+            p.fps / every as f64,
             iris_views,
         )
     }) {
@@ -464,12 +478,22 @@ fn render_matched_to_readback(
     let mut record = ReadbackMatchRecord {
         probe_response: p.mapping.extractor_response,
         probe_pose_slopes: p.pose_slopes,
+        first_pass_every: every,
         frames_fitted: reads.len(),
         refined: false,
     };
     let Some(refit) = lap("fit the response to the read-back", || {
         eyereplay_face::refine_match(targets, &reads)
     }) else {
+        if every > 1 {
+            // The probe's match stands; the session is drawn whole with it.
+            remove_temp();
+            let [mp4, truth, head] = files;
+            let whole = lap("draw and encode", || {
+                eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)
+            })?;
+            return Ok((whole, record));
+        }
         // The first pass stands: it becomes the session.
         for (from, to) in temp.iter().zip(files) {
             if let Err(e) = std::fs::rename(from, to) {
@@ -483,7 +507,7 @@ fn render_matched_to_readback(
     record.refined = true;
     p.mapping.extractor_response = refit.response;
     p.pose_slopes = refit.pose_slopes;
-    p.head_path = Some(first.head_path());
+    p.head_path = Some(first.head_path);
     let [mp4, truth, head] = files;
     let second = lap("second pass: draw and encode", || {
         eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)

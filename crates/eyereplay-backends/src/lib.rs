@@ -77,6 +77,14 @@ pub fn check_settings(
             eyereplay_extract::MAX_IRIS_VIEWS
         )));
     }
+    if let BackendSettings::Face(f) = &settings.backend {
+        if !(1..=10).contains(&f.match_readback_every) {
+            return Err(BackendError::Setting(format!(
+                "[render]: match_readback_every {} must be between 1 and 10",
+                f.match_readback_every
+            )));
+        }
+    }
     let mut checked = settings.clone();
     match &mut checked.backend {
         BackendSettings::Eyes { .. } => {}

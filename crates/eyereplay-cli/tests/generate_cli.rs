@@ -444,6 +444,21 @@ fn bad_inputs_stop_before_work() {
         "{e}"
     );
     assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    for every in [0, 11] {
+        let e = generate(
+            &face(&format!(
+                "match_readback = true\nmatch_readback_every = {every}"
+            )),
+            &[],
+        );
+        assert!(
+            e.contains(&format!(
+                "match_readback_every {every} must be between 1 and 10"
+            )),
+            "{e}"
+        );
+        assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    }
     let e = generate(
         &face("match_readback = true").replace("backend = \"face\"", "backend = \"eyes\""),
         &[],

@@ -79,6 +79,8 @@ pub struct FaceBackendSettings {
     pub extractor: ExtractorMatchSettings,
     /// After the probe, draw once, read back, refit and draw again.
     pub match_readback: bool,
+    /// The read-back match's first pass draws every this many frames.
+    pub match_readback_every: usize,
     /// Frontal photos whose faces become the identities; empty = bundled.
     pub identities: Vec<std::path::PathBuf>,
     /// The face's height over the frame height, drawn from this range.
@@ -159,6 +161,7 @@ impl RenderBackend {
                 "match_extractor",
                 "extractor_iris_views",
                 "match_readback",
+                "match_readback_every",
                 "identities",
                 "face_height_frac",
                 "head_sway",
@@ -205,6 +208,7 @@ impl RenderTable {
             RenderBackend::Face => BackendSettings::Face(FaceBackendSettings {
                 extractor,
                 match_readback: self.match_readback,
+                match_readback_every: self.match_readback_every,
                 identities: self.identities,
                 face_height_frac: self.face_height_frac,
                 head_sway: self.head_sway,
@@ -255,6 +259,13 @@ struct RenderTable {
     /// path. Needs `match_extractor`. About twice the drawing and one more
     /// read-back per session; off by default.
     pub match_readback: bool,
+    /// With `match_readback`: the first pass draws, encodes and reads back
+    /// every this many frames of the session (at its frame rate over this),
+    /// 1-10. The fit needs the session's fixations, each several frames
+    /// long, not every frame of each: 2 (the default) halves the first
+    /// pass's cost with the same fidelity; 3 lets the extractor's tracker
+    /// lag a turning head (docs/PERFORMANCE.md measures both).
+    pub match_readback_every: usize,
     /// Face and close-up modes: how many crops the extractor reads each
     /// eye from, 1-9 (`eyereplay extract --iris-views`), in the
     /// `match_extractor` probe and in the evaluation's read-back of the
@@ -352,6 +363,7 @@ impl Default for RenderTable {
             natural_blinks: true,
             match_extractor: true,
             match_readback: false,
+            match_readback_every: 2,
             extractor_iris_views: 1,
             preset: "veryfast".into(),
             crf: 18,

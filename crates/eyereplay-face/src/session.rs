@@ -128,17 +128,14 @@ pub struct FaceSessionStats {
     pub source_head_frames: usize,
     pub render_s: f64,
     pub total_s: f64,
-    /// Per frame, what was drawn.
+    /// Per frame drawn, what was drawn.
     #[serde(skip)]
     pub drawn: Vec<DrawnFrame>,
-}
-
-impl FaceSessionStats {
-    /// The head path the session drew, for [`FaceSessionParams::head_path`]
-    /// (drawing the session again with the same head).
-    pub fn head_path(&self) -> Vec<(HeadPose, bool)> {
-        self.drawn.iter().map(|d| (d.head, d.from_source)).collect()
-    }
+    /// The head of every frame of the session, drawn or not
+    /// ([`render_face_session_every`]), for [`FaceSessionParams::head_path`]:
+    /// drawing the session again with the same head.
+    #[serde(skip)]
+    pub head_path: Vec<(HeadPose, bool)>,
 }
 
 /// One frame's state and truth.
@@ -356,13 +353,16 @@ fn solve_frames(
         .collect()
 }
 
-/// Draws, films and converts every frame (in parallel by whole frames,
-/// [`pipeline_frames`]) and hands them to `sink` in order. Each frame
-/// depends only on its own state (and the previous frame's head for the
-/// motion blur), so the output does not depend on the number of workers.
+/// Draws, films and converts every `step`-th frame (in parallel by whole
+/// frames, [`pipeline_frames`]) and hands them to `sink` in order. Each
+/// frame depends only on its own state (and the previous frame's head for
+/// the motion blur, the previous of the session, drawn or not), so the
+/// output does not depend on the number of workers, and a frame drawn at
+/// a step of 2 is the same frame as at a step of 1.
 fn draw_frames(
     scene: &FaceScene,
     solved: &[Solved],
+    step: usize,
     look: &WebcamLook,
     sink: &mut (dyn FrameSink + Send),
 ) -> Result<()> {
@@ -376,10 +376,11 @@ fn draw_frames(
         )
     };
     pipeline_frames(
-        solved.len(),
+        solved.len().div_ceil(step),
         &|| vec![0u8; w * h * 3 / 2],
         &new_state,
-        &|(raster, mesh, frame, webcam), i, yuv| {
+        &|(raster, mesh, frame, webcam), j, yuv| {
+            let i = j * step;
             let st = &solved[i].state;
             scene.draw(st, raster, mesh, frame);
             let nose = scene.nose_px(&st.head);
@@ -401,7 +402,8 @@ fn draw_frames(
 fn write_head_csv(path: &Path, solved: &[Solved]) -> Result<()> {
     eyereplay_core::atomic_write_with(path, |w| {
         writeln!(w, "{HEAD_TRUTH_HEADER}")?;
-        for (i, s) in solved.iter().enumerate() {
+        for s in solved {
+            let i = s.row.frame;
             let h = &s.head;
             writeln!(
                 w,
@@ -436,6 +438,37 @@ pub fn render_face_session(
     out_truth_csv: &Path,
     out_head_csv: &Path,
 ) -> Result<FaceSessionStats> {
+    render_face_session_every(
+        scene,
+        traj,
+        blinks,
+        p,
+        1,
+        [out_mp4, out_truth_csv, out_head_csv],
+    )
+}
+
+/// [`render_face_session`] drawing only every `step`-th frame (0, step,
+/// 2 step, ...), at `p.fps / step`: the frames it draws are the full
+/// session's frames, bit for bit before the encoder (the session is solved
+/// at its own rate: head, blinks, motion blur), and the truth CSVs and
+/// [`FaceSessionStats::drawn`] hold those frames only (the truth CSV's
+/// `frame` column keeps the session's numbering). The read-back match's
+/// first pass draws this way: its fit needs the session's fixations, not
+/// every frame of each (docs/PERFORMANCE.md).
+pub fn render_face_session_every(
+    scene: &FaceScene,
+    traj: &[CanvasPos],
+    blinks: Option<&[bool]>,
+    p: &FaceSessionParams,
+    step: usize,
+    [out_mp4, out_truth_csv, out_head_csv]: [&Path; 3],
+) -> Result<FaceSessionStats> {
+    if step == 0 {
+        return Err(
+            eyereplay_render::RenderError::Params("frame step must be at least 1".into()).into(),
+        );
+    }
     let t0 = Instant::now();
     let (traj, clamped) = check_trajectory(traj, blinks, p.mapping.canvas)?;
     if let Some(path) = p.head_path.as_ref().filter(|h| h.len() != traj.len()) {
@@ -447,15 +480,24 @@ pub fn render_face_session(
         .into());
     }
     let enc = session_encoder(scene, p);
-    let mut encoder = Encoder::start(out_mp4, scene.width(), scene.height(), p.fps, &enc)?;
+    let mut encoder = Encoder::start(
+        out_mp4,
+        scene.width(),
+        scene.height(),
+        p.fps / step as f64,
+        &enc,
+    )?;
     let solved = lap("solve head and eyes", || {
         solve_frames(scene, &traj, blinks, p)
     });
     let t1 = Instant::now();
     lap("draw frames", || {
-        draw_frames(scene, &solved, &p.look, &mut encoder)
+        draw_frames(scene, &solved, step, &p.look, &mut encoder)
     })?;
     let render_s = t1.elapsed().as_secs_f64();
+    let head_path = solved.iter().map(|s| (s.head, s.from_source)).collect();
+    // From here on, the frames drawn.
+    let solved: Vec<Solved> = solved.into_iter().step_by(step).collect();
     let rows: Vec<TruthRow> = solved.iter().map(|s| s.row).collect();
     eyereplay_dataset::write_truth_csv(out_truth_csv, &rows)?;
     if let Err(e) = write_head_csv(out_head_csv, &solved) {
@@ -493,6 +535,7 @@ pub fn render_face_session(
                 blink: s.row.blink,
             })
             .collect(),
+        head_path,
     })
 }
 
@@ -517,7 +560,7 @@ pub fn run_face_bench(
         shape,
         &session_encoder(scene, p),
         0.0,
-        |keep| draw_frames(scene, &solved, &p.look, keep),
+        |keep| draw_frames(scene, &solved, 1, &p.look, keep),
         |dir| {
             render_face_session(
                 scene,

@@ -323,10 +323,10 @@ fn a_given_head_path_is_drawn_as_given() {
         planned_head, head,
         "the planned head moves with the drawn eye"
     );
-    second.head_path = Some(stats.head_path());
+    second.head_path = Some(stats.head_path.clone());
     // A path of another length is refused before anything is written.
     let mut short = second.clone();
-    short.head_path = Some(stats.head_path()[..39].to_vec());
+    short.head_path = Some(stats.head_path[..39].to_vec());
     let paths = ["mp4", "truth.csv", "head.csv"].map(|e| dir.path().join(format!("short.{e}")));
     let e = render_face_session(&scene, &traj, None, &short, &paths[0], &paths[1], &paths[2])
         .unwrap_err()
@@ -345,4 +345,90 @@ fn a_given_head_path_is_drawn_as_given() {
         let want = 0.5 + 1.5 * (b.drawn.nx - 0.5);
         assert!((a.drawn.nx - want).abs() < 1e-9, "{} vs {want}", a.drawn.nx);
     }
+}
+
+/// The raw yuv420p frames of a video, decoded by ffmpeg.
+fn decoded_frames(video: &std::path::Path, width: usize, height: usize) -> Vec<Vec<u8>> {
+    let out = std::process::Command::new("ffmpeg")
+        .args(["-nostdin", "-loglevel", "error", "-i"])
+        .arg(video)
+        .args(["-f", "rawvideo", "-pix_fmt", "yuv420p", "-"])
+        .output()
+        .expect("ffmpeg runs");
+    assert!(out.status.success(), "ffmpeg decodes {}", video.display());
+    out.stdout
+        .chunks(width * height * 3 / 2)
+        .map(<[u8]>::to_vec)
+        .collect()
+}
+
+/// Drawing every other frame (the read-back match's first pass) draws the
+/// session's own frames: encoded losslessly, frame j of the half-rate
+/// video is frame 2j of the whole one to the byte (the head moves and the
+/// lids blink, so the motion blur and the blink track are the session's,
+/// not the half-rate's), the truth rows are the whole's even rows with
+/// their frame numbers, the head path is the whole session's, and a step
+/// of 0 is refused.
+#[test]
+fn every_other_frame_is_the_sessions_own() {
+    let Some((_, _, scene, mut look)) = scene_of("astronaut.png", 5) else {
+        return;
+    };
+    look.bitrate_kbps = 0.0;
+    let canvas = Canvas::default();
+    let traj = reading_trajectory(30, canvas.width_px as f64, canvas.height_px as f64);
+    let mut p = params_of(
+        GazeMapping::new(canvas),
+        look,
+        Task::Reading,
+        CoordinationParams::default(),
+        5,
+    );
+    p.encoder.codec = eyereplay_render::Codec::Lossless;
+    // Blinks at many times the natural rate: some fall in the 30 frames.
+    p.natural_blinks = true;
+    p.blink_rate_per_min = 200.0;
+    let dir = tempfile::tempdir().unwrap();
+    let render = |step: usize, tag: &str| {
+        let paths = ["mp4", "truth.csv", "head.csv"].map(|e| dir.path().join(format!("{tag}.{e}")));
+        let stats = render_face_session_every(
+            &scene,
+            &traj,
+            None,
+            &p,
+            step,
+            [&paths[0], &paths[1], &paths[2]],
+        )?;
+        let lines = |k: usize| -> Vec<String> {
+            let text = std::fs::read_to_string(&paths[k]).unwrap();
+            text.lines().map(str::to_string).collect()
+        };
+        let frames = decoded_frames(&paths[0], 640, 480);
+        Ok::<_, FaceError>((stats, lines(1), lines(2), frames))
+    };
+    let (whole, truth, head, frames) = render(1, "whole").unwrap();
+    let (half, half_truth, half_head, half_frames) = render(2, "half").unwrap();
+    assert_eq!((frames.len(), half_frames.len()), (30, 15));
+    assert!(whole.blink_frames > 0, "a blink in the session");
+    assert!(whole.max_head_yaw_deg > 0.05, "the head moves");
+    for (j, f) in half_frames.iter().enumerate() {
+        assert!(*f == frames[2 * j], "frame {j} of the half-rate video");
+    }
+    // Header, then every other row, numbered as in the whole session.
+    let even = |lines: &[String]| -> Vec<String> {
+        let mut v = vec![lines[0].clone()];
+        v.extend(lines[1..].iter().step_by(2).cloned());
+        v
+    };
+    assert_eq!(half_truth, even(&truth));
+    assert_eq!(half_head, even(&head));
+    assert!(half_truth[2].starts_with("2,"), "{}", half_truth[2]);
+    assert_eq!(half.head_path, whole.head_path);
+    assert_eq!(half.head_path.len(), 30);
+    assert_eq!(half.drawn.len(), 15);
+    for (j, d) in half.drawn.iter().enumerate() {
+        assert_eq!(*d, whole.drawn[2 * j]);
+    }
+    let e = render(0, "none").unwrap_err().to_string();
+    assert!(e.contains("frame step must be at least 1"), "{e}");
 }

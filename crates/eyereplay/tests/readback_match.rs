@@ -21,7 +21,13 @@ fn root() -> PathBuf {
 /// Generates the session (`frames` long) into `out` with `match_readback`
 /// as given.
 fn generate(dir: &Path, out: &Path, frames: usize, match_readback: bool) {
-    generate_sessions(dir, out, frames, match_readback, 1, 1);
+    generate_sessions(dir, out, frames, match_readback, 1, 1, 1);
+}
+
+/// Generates the session with `match_readback`, its first pass drawing
+/// every `every`-th frame (`match_readback_every`).
+fn generate_every(dir: &Path, out: &Path, frames: usize, every: usize) {
+    generate_sessions(dir, out, frames, true, every, 1, 1);
 }
 
 /// Generates `sessions` sessions of `frames` into `out`, `jobs` at once.
@@ -30,6 +36,7 @@ fn generate_sessions(
     out: &Path,
     frames: usize,
     match_readback: bool,
+    every: usize,
     sessions: usize,
     jobs: usize,
 ) {
@@ -44,6 +51,7 @@ width = 640
 height = 480
 jobs = {jobs}
 match_readback = {match_readback}
+match_readback_every = {every}
 [classes.conversation]
 sessions = {sessions}
 sources = [{{ format = "video", path = "{}" }}]
@@ -243,11 +251,33 @@ fn the_session_is_drawn_through_the_fit_to_its_own_read_back() {
         r_id["mapping"]["extractor_response"],
         p_id["mapping"]["extractor_response"]
     );
+
+    // A first pass of every other frame: the same probe, refined from half
+    // as many frames read, the same head, nothing left behind.
+    let half = dir.path().join("half");
+    generate_every(dir.path(), &half, 250, 2);
+    let h_id = json(&file(&half, "_identity.json"));
+    let h_record = &h_id["identity"]["readback_match"];
+    assert_eq!(h_record["refined"], true, "{h_record}");
+    assert_eq!(h_record["first_pass_every"], 2, "{h_record}");
+    assert_eq!(record["first_pass_every"], 1, "{record}");
+    let fitted = h_record["frames_fitted"].as_u64().unwrap();
+    assert!(
+        (eyereplay_face::REFINE_MIN_READS as u64..=125).contains(&fitted),
+        "{h_record}"
+    );
+    assert_eq!(h_record["probe_response"], record["probe_response"]);
+    assert_eq!(head_cols(&half), head_cols(&plain));
+    assert_eq!(rows(&file(&half, "_truth.csv")).1.len(), 250);
+    let left = first_pass_files(&half.join("conversation"));
+    assert!(left.is_empty(), "{left:?}");
 }
 
 /// A session too short for a fit (under `REFINE_MIN_READS` open-eye frames
 /// read): the first pass becomes the session, byte for byte the plain
-/// session of the same seed, recorded as not refined, nothing left behind.
+/// session of the same seed, recorded as not refined, nothing left behind;
+/// a first pass of every other frame is too short too, and the session is
+/// then drawn whole through the probe's match: the plain session again.
 #[test]
 #[cfg_attr(
     not(all(has_models, has_carriers, has_ffmpeg)),
@@ -256,29 +286,40 @@ fn the_session_is_drawn_through_the_fit_to_its_own_read_back() {
 fn a_session_too_short_to_fit_keeps_its_first_pass() {
     let frames = eyereplay_face::REFINE_MIN_READS - 10;
     let dir = tempfile::tempdir().unwrap();
-    let (plain, refined) = (dir.path().join("plain"), dir.path().join("refined"));
+    let (plain, refined, half) = (
+        dir.path().join("plain"),
+        dir.path().join("refined"),
+        dir.path().join("half"),
+    );
     generate(dir.path(), &plain, frames, false);
     generate(dir.path(), &refined, frames, true);
+    generate_every(dir.path(), &half, frames, 2);
     let stem = "conversation/conversation_0000";
-    for suffix in [".mp4", "_truth.csv", "_head.csv"] {
-        let [a, b] =
-            [&plain, &refined].map(|d| std::fs::read(d.join(format!("{stem}{suffix}"))).unwrap());
-        assert!(a == b, "{suffix} differs from the plain session's");
+    for (d, every) in [(&refined, 1), (&half, 2)] {
+        for suffix in [".mp4", "_truth.csv", "_head.csv"] {
+            let [a, b] =
+                [&plain, d].map(|d| std::fs::read(d.join(format!("{stem}{suffix}"))).unwrap());
+            assert!(
+                a == b,
+                "{suffix} at every {every} differs from the plain session's"
+            );
+        }
+        let left = first_pass_files(&d.join("conversation"));
+        assert!(left.is_empty(), "{left:?}");
+        let id = json(&d.join(format!("{stem}_identity.json")));
+        let record = &id["identity"]["readback_match"];
+        assert_eq!(record["refined"], false, "{record}");
+        assert_eq!(record["first_pass_every"], every, "{record}");
+        assert!(
+            record["frames_fitted"].as_u64().unwrap() <= (frames / every) as u64,
+            "{record}"
+        );
+        // Drawn through the probe's match, which it records.
+        assert_eq!(
+            record["probe_response"],
+            id["mapping"]["extractor_response"]
+        );
     }
-    let left = first_pass_files(&refined.join("conversation"));
-    assert!(left.is_empty(), "{left:?}");
-    let id = json(&refined.join(format!("{stem}_identity.json")));
-    let record = &id["identity"]["readback_match"];
-    assert_eq!(record["refined"], false, "{record}");
-    assert!(
-        record["frames_fitted"].as_u64().unwrap() <= frames as u64,
-        "{record}"
-    );
-    // Drawn through the probe's match, which it records.
-    assert_eq!(
-        record["probe_response"],
-        id["mapping"]["extractor_response"]
-    );
 }
 
 /// Sessions drawn two at a time (`render.jobs = 2`) are the files drawn one
@@ -295,8 +336,8 @@ fn a_session_too_short_to_fit_keeps_its_first_pass() {
 fn sessions_drawn_at_once_are_the_sessions_drawn_in_turn() {
     let dir = tempfile::tempdir().unwrap();
     let (one, two) = (dir.path().join("one"), dir.path().join("two"));
-    generate_sessions(dir.path(), &one, 75, true, 3, 1);
-    generate_sessions(dir.path(), &two, 75, true, 3, 2);
+    generate_sessions(dir.path(), &one, 75, true, 1, 3, 1);
+    generate_sessions(dir.path(), &two, 75, true, 1, 3, 2);
     for k in 0..3 {
         let stem = format!("conversation/conversation_{k:04}");
         for suffix in [".mp4", "_truth.csv", "_head.csv", "_identity.json"] {
