@@ -283,9 +283,9 @@ pub fn dataset_table(rows: &[Row], target: (f64, f64), horizontal: bool, vertica
 }
 
 /// One line over every session of every class: per axis, how many
-/// amplitude ratios fall outside `target`, the median |ratio - 1| and the
-/// median r (the figures docs/PERFORMANCE.md compares variants of the
-/// default by). Null values are left out.
+/// amplitude ratios fall outside `target`, the median |ratio - 1|, the
+/// median r and the mean |gain - 1| (the figures docs/PERFORMANCE.md
+/// compares variants of the default by). Null values are left out.
 pub fn overall(rows: &[Row], target: (f64, f64)) -> String {
     let median3 = |v: Vec<f64>| {
         let v: Vec<f64> = v.into_iter().filter(|x| x.is_finite()).collect();
@@ -297,14 +297,21 @@ pub fn overall(rows: &[Row], target: (f64, f64)) -> String {
             .filter_map(|r| get(r).ratio)
             .filter(|v| v.is_finite())
             .collect();
+        let gain_errors: Vec<f64> = rows
+            .iter()
+            .filter_map(|r| get(r).gain)
+            .filter(|v| v.is_finite())
+            .map(|g| (g - 1.0).abs())
+            .collect();
         format!(
-            "{name}: ratio outside {}-{} {} of {}, median |ratio - 1| {}, median r {}",
+            "{name}: ratio outside {}-{} {} of {}, median |ratio - 1| {}, median r {}, mean |gain - 1| {}",
             target.0,
             target.1,
             count_outside(&ratios, target),
             ratios.len(),
             median3(ratios.iter().map(|v| (v - 1.0).abs()).collect()),
             median3(rows.iter().filter_map(|r| get(r).r).collect()),
+            mean(&gain_errors).map_or("n/a".to_string(), |m| format!("{m:.3}")),
         )
     };
     format!(
@@ -434,6 +441,7 @@ pub fn run(root: &Path, a: &Args) -> Result<()> {
         println!();
         println!("pooled over {} datasets:", a.datasets.len());
         print!("{}", summary(&pooled, target, true));
+        print!("{}", overall(&pooled, target));
     }
     Ok(())
 }
@@ -497,12 +505,13 @@ mod tests {
         let t = dataset_table(&rows, (0.9, 1.1), true, true);
         assert!(t.contains("(1 session(s) without a budget"), "{t}");
         // x ratios 1.0 and 0.8: one outside, |ratio - 1| 0 and 0.2, median
-        // 0.1; r 0.99 and 0.97, median 0.98. y: the one ratio 1.2, r 0.8.
+        // 0.1; r 0.99 and 0.97, median 0.98; gains 0.98 and 1.04, mean
+        // |gain - 1| 0.03. y: the one ratio 1.2, r 0.8, gain 0.96.
         assert!(
             t.contains(
                 "all 2 sessions: x: ratio outside 0.9-1.1 1 of 2, median |ratio - 1| 0.100, \
-                 median r 0.980; y: ratio outside 0.9-1.1 1 of 1, median |ratio - 1| 0.200, \
-                 median r 0.800"
+                 median r 0.980, mean |gain - 1| 0.030; y: ratio outside 0.9-1.1 1 of 1, \
+                 median |ratio - 1| 0.200, median r 0.800, mean |gain - 1| 0.040"
             ),
             "{t}"
         );

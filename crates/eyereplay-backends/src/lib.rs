@@ -78,9 +78,10 @@ pub fn check_settings(
         )));
     }
     if let BackendSettings::Face(f) = &settings.backend {
-        if !(1..=10).contains(&f.match_readback_every) {
+        let max = eyereplay_dataset::MAX_MATCH_READBACK_EVERY;
+        if !(1..=max).contains(&f.match_readback_every) {
             return Err(BackendError::Setting(format!(
-                "[render]: match_readback_every {} must be between 1 and 10",
+                "[render]: match_readback_every {} must be between 1 and {max}",
                 f.match_readback_every
             )));
         }

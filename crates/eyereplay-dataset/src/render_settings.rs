@@ -73,6 +73,11 @@ pub enum BackendSettings {
     },
 }
 
+/// The most frames `render.match_readback_every` may step over: past a few
+/// the extractor's tracker lags a turning head (3 already did,
+/// docs/PERFORMANCE.md); 10 bounds a typo, not a tested setting.
+pub const MAX_MATCH_READBACK_EVERY: usize = 10;
+
 /// The full-face backend's keys.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FaceBackendSettings {

@@ -347,24 +347,21 @@ fn a_given_head_path_is_drawn_as_given() {
     }
 }
 
-/// The raw yuv420p frames of a video, decoded by ffmpeg.
-fn decoded_frames(video: &std::path::Path, width: usize, height: usize) -> Vec<Vec<u8>> {
-    let out = std::process::Command::new("ffmpeg")
-        .args(["-nostdin", "-loglevel", "error", "-i"])
-        .arg(video)
-        .args(["-f", "rawvideo", "-pix_fmt", "yuv420p", "-"])
-        .output()
-        .expect("ffmpeg runs");
-    assert!(out.status.success(), "ffmpeg decodes {}", video.display());
-    out.stdout
-        .chunks(width * height * 3 / 2)
-        .map(<[u8]>::to_vec)
-        .collect()
+/// Every frame of a video as RGB, decoded by the extractor's decoder.
+fn decoded_frames(video: &std::path::Path) -> Vec<Vec<u8>> {
+    let mut dec = eyereplay_extract::Decoder::open(video).unwrap();
+    let mut frames = vec![];
+    dec.frames(|_, img| {
+        frames.push(img.to_rgb8(1).2);
+        Ok(std::ops::ControlFlow::Continue(()))
+    })
+    .unwrap();
+    frames
 }
 
 /// Drawing every other frame (the read-back match's first pass) draws the
 /// session's own frames: encoded losslessly, frame j of the half-rate
-/// video is frame 2j of the whole one to the byte (the head moves and the
+/// video decodes to frame 2j of the whole one to the byte (the head moves and the
 /// lids blink, so the motion blur and the blink track are the session's,
 /// not the half-rate's), the truth rows are the whole's even rows with
 /// their frame numbers, the head path is the whole session's, and a step
@@ -403,7 +400,7 @@ fn every_other_frame_is_the_sessions_own() {
             let text = std::fs::read_to_string(&paths[k]).unwrap();
             text.lines().map(str::to_string).collect()
         };
-        let frames = decoded_frames(&paths[0], 640, 480);
+        let frames = decoded_frames(&paths[0]);
         Ok::<_, FaceError>((stats, lines(1), lines(2), frames))
     };
     let (whole, truth, head, frames) = render(1, "whole").unwrap();
