@@ -153,6 +153,13 @@ fn generate_is_deterministic_resumable_and_shardable() {
     let a = dir.path().join("a");
     let o = generate(&a, &[]);
     ok(&o);
+    // The closing line states the speed against the video drawn: 8
+    // sessions x 50 frames at 25 fps = 16 s = 0.3 min.
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        said.contains("min for 0.3 min of video: ") && said.contains("x real time): open "),
+        "{said}"
+    );
     let ha = hashes(&a);
     for f in [
         "labels.csv",
@@ -172,7 +179,10 @@ fn generate_is_deterministic_resumable_and_shardable() {
     // Rerun in place: everything is skipped and nothing changes.
     let o = generate(&a, &[]);
     ok(&o);
-    assert!(String::from_utf8_lossy(&o.stdout).contains("rendered 0 sessions"));
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(said.contains("rendered 0 sessions"), "{said}");
+    // Nothing drawn: no speed to state.
+    assert!(!said.contains("real time"), "{said}");
     assert_eq!(hashes(&a), ha);
 
     // A [render] setting changed since (here the close-up probe reading

@@ -161,21 +161,37 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     let minutes = started.elapsed().as_secs_f64() / 60.0;
+    let took = took(minutes, r.frames, job.config.fps);
     match (shard, &summary.report) {
         (Some(s), _) => println!(
-            "shard {}/{} done in {minutes:.1} min; run 'eyereplay merge {}' when every shard is",
+            "shard {}/{} done in {took}; run 'eyereplay merge {}' when every shard is",
             s.index,
             s.count,
             out.display()
         ),
         (None, Some(report)) => println!(
-            "dataset ready in {} ({minutes:.1} min): open {}",
+            "dataset ready in {} ({took}): open {}",
             out.display(),
             report.display()
         ),
-        (None, None) => println!("dataset ready in {} ({minutes:.1} min)", out.display()),
+        (None, None) => println!("dataset ready in {} ({took})", out.display()),
     }
     Ok(())
+}
+
+/// How long the run took, and against the video it rendered: the speed
+/// as video seconds per wall second (issue figures and the README's are
+/// this ratio), left out when nothing was rendered (every session
+/// already complete).
+fn took(minutes: f64, frames_rendered: usize, fps: f64) -> String {
+    let video_min = frames_rendered as f64 / fps / 60.0;
+    if frames_rendered == 0 || minutes <= 0.0 {
+        return format!("{minutes:.1} min");
+    }
+    format!(
+        "{minutes:.1} min for {video_min:.1} min of video: {:.2}x real time",
+        video_min / minutes
+    )
 }
 
 /// The profile's table: each stage's CPU per frame of the session, this
@@ -307,4 +323,26 @@ fn dry_run(job: &Job, p: &eyereplay::profile::SessionProfile, read_back: usize) 
     );
     println!("nothing written (dry run)");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::took;
+
+    #[test]
+    fn took_states_the_speed_against_the_video_rendered() {
+        // 12 sessions x 750 frames at 25 fps = 6 min of video; in 3.5 min
+        // that is 6 / 3.5 = 1.714x real time.
+        assert_eq!(
+            took(3.5, 9000, 25.0),
+            "3.5 min for 6.0 min of video: 1.71x real time"
+        );
+        // 30 s of video at 30 fps in 2 min: 0.25x.
+        assert_eq!(
+            took(2.0, 900, 30.0),
+            "2.0 min for 0.5 min of video: 0.25x real time"
+        );
+        // A resumed run with nothing left to draw states the time only.
+        assert_eq!(took(0.2, 0, 25.0), "0.2 min");
+    }
 }
