@@ -82,6 +82,11 @@ pub struct Row {
     /// The head yaw read back against the drawn one (Pearson r).
     pub yaw_r: Option<f64>,
     pub budget: Option<[Budget; 2]>,
+    /// With the read-back match, where it refined the session: the fit's
+    /// vertical gain (the response map's ny/ny term) over the probe's,
+    /// from the identity file. How far the probe alone was from the map
+    /// the session was drawn through.
+    pub refit_over_probe_y: Option<f64>,
 }
 
 fn num(v: &Value, path: &[&str]) -> Option<f64> {
@@ -133,6 +138,7 @@ pub fn session_rows(metrics: &Value) -> Result<Vec<Row>> {
                 yaw: None,
                 yaw_r: num(s, &["head_yaw", "r"]),
                 budget,
+                refit_over_probe_y: None,
             })
         })
         .collect()
@@ -172,6 +178,7 @@ fn dataset_rows(dir: &Path) -> Result<(Vec<Row>, (f64, f64))> {
             if let Some(p) = id.identity.get("photo").and_then(Value::as_str) {
                 row.photo = p.to_string();
             }
+            row.refit_over_probe_y = refit_over_probe_y(&id.identity, &id.mapping);
         }
         let head = paths.head_csv();
         if head.is_file() {
@@ -186,6 +193,37 @@ fn dataset_rows(dir: &Path) -> Result<(Vec<Row>, (f64, f64))> {
         }
     }
     Ok((rows, ratio_target(&metrics)))
+}
+
+/// The read-back match's vertical gain over the probe's (`identity`'s
+/// `readback_match` record against `mapping`'s response, the map drawn
+/// through); `None` unless the match refined the session.
+fn refit_over_probe_y(identity: &Value, mapping: &Value) -> Option<f64> {
+    let record = identity.get("readback_match")?;
+    if record.get("refined").and_then(Value::as_bool) != Some(true) {
+        return None;
+    }
+    let yy = |map: &Value| map.pointer("/a/1/1").and_then(Value::as_f64);
+    let probe = yy(record.get("probe_response")?)?;
+    let refit = yy(mapping.get("extractor_response")?)?;
+    (probe != 0.0).then(|| refit / probe)
+}
+
+/// One line over the sessions the read-back match refined: the range of
+/// the fit's vertical gain over the probe's, and in how many it came
+/// within 5 % (where the probe alone would have done); empty when none.
+pub fn refit_line(rows: &[Row]) -> String {
+    let v: Vec<f64> = rows.iter().filter_map(|r| r.refit_over_probe_y).collect();
+    if v.is_empty() {
+        return String::new();
+    }
+    let lo = v.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let near = v.iter().filter(|g| (0.95..=1.05).contains(*g)).count();
+    format!(
+        "read-back match: vertical gain refit over the probe's {lo:.2}-{hi:.2}, within 0.95-1.05 in {near} of {} refined sessions\n",
+        v.len()
+    )
 }
 
 fn f(v: Option<f64>) -> f64 {
@@ -238,6 +276,7 @@ pub fn dataset_table(rows: &[Row], target: (f64, f64), horizontal: bool, vertica
     }
     s.push_str(&summary(rows, target, false));
     s.push_str(&overall(rows, target));
+    s.push_str(&refit_line(rows));
     for (on, k, name) in [(vertical, 1, "y"), (horizontal, 0, "x")] {
         if !on {
             continue;
@@ -442,6 +481,7 @@ pub fn run(root: &Path, a: &Args) -> Result<()> {
         println!("pooled over {} datasets:", a.datasets.len());
         print!("{}", summary(&pooled, target, true));
         print!("{}", overall(&pooled, target));
+        print!("{}", refit_line(&pooled));
     }
     Ok(())
 }
@@ -514,6 +554,32 @@ mod tests {
                  median |ratio - 1| 0.200, median r 0.800, mean |gain - 1| 0.040"
             ),
             "{t}"
+        );
+    }
+
+    #[test]
+    fn the_refit_is_compared_with_the_probe_where_it_refined() {
+        // Probe ny/ny 0.40, refit 0.42: 1.05, within 5 %.
+        let id = serde_json::json!({"readback_match": {
+            "refined": true,
+            "probe_response": {"a": [[0.6, 0.0], [0.0, 0.40]], "b": [0.0, 0.0]}}});
+        let map = serde_json::json!({"extractor_response": {"a": [[0.6, 0.0], [0.0, 0.42]], "b": [0.0, 0.0]}});
+        let g = refit_over_probe_y(&id, &map).unwrap();
+        assert!((g - 1.05).abs() < 1e-12, "{g}");
+        // Not refined, or no read-back match: nothing to compare.
+        let mut kept = id.clone();
+        kept["readback_match"]["refined"] = false.into();
+        assert_eq!(refit_over_probe_y(&kept, &map), None);
+        assert_eq!(refit_over_probe_y(&serde_json::json!({}), &map), None);
+        let mut rows = session_rows(&metrics()).unwrap();
+        assert_eq!(refit_line(&rows), "");
+        // 0.60 and 1.02 (0.51 over 0.50): one of two within 0.95-1.05.
+        rows[0].refit_over_probe_y = Some(0.6);
+        rows[1].refit_over_probe_y = Some(0.51 / 0.5);
+        assert_eq!(
+            refit_line(&rows),
+            "read-back match: vertical gain refit over the probe's 0.60-1.02, \
+             within 0.95-1.05 in 1 of 2 refined sessions\n"
         );
     }
 }
