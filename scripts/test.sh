@@ -18,21 +18,34 @@ phase() {
 export CI="${CI:-1}"
 phase "setup done; cargo fmt --check"
 cargo fmt --all -- --check
-phase "module cycles (cargo xtask cycles)"
-cargo xtask cycles
-phase "cargo clippy"
-cargo clippy --workspace --all-targets --quiet -- -D warnings
+# Module import cycles are checked by a test of the xtask's
+# (`the_workspace_has_no_module_cycles`, in `cargo test` below): run on its
+# own, `cargo xtask cycles` built the xtask's dependencies once more with
+# their own features, about 2 minutes from a fresh clone.
+#
+# Clippy's lints (-D warnings) run inside the test build, not in a
+# `cargo clippy` of their own: clippy-driver, as cargo's wrapper for the
+# workspace's crates, compiles them in full and lints them as `cargo clippy`
+# would, so the dependencies are compiled once instead of once checked for
+# clippy and once built for the tests (a fresh clone on 2 cores: the build
+# with the lints took as long as the plain one, where `cargo clippy` had
+# cost about 5 minutes more; docs/STRUCTURE.md, "Tests"). Exported, so that
+# the wheel's build below reuses these crates rather than compiling them
+# again without the wrapper.
+clippy_driver="$(rustc --print sysroot)/bin/clippy-driver"
+[[ -x "$clippy_driver" ]] || { echo "test: clippy-driver not found at $clippy_driver (rustup component add clippy)" >&2; exit 1; }
+export RUSTC_WORKSPACE_WRAPPER="$clippy_driver"
+export CLIPPY_ARGS="-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__"
+phase "cargo test: build every target, clippy's lints included (-D warnings)"
+cargo test --workspace --all-targets --no-run --quiet
 phase "the library without its optional features; every library crate packages alone"
-# Linted rather than checked: clippy reuses what the workspace's clippy run
-# just compiled, where `cargo check` compiled every member again (114 s
-# against 16 from a fresh clone, docs/STRUCTURE.md).
 cargo clippy -p eyereplay --no-default-features --quiet -- -D warnings
 for manifest in crates/*/Cargo.toml; do
   crate="$(basename "$(dirname "$manifest")")"
   [[ "$crate" == eyereplay-cli || "$crate" == eyereplay-py ]] && continue
   cargo package --list --allow-dirty -p "$crate" > /dev/null
 done
-phase "cargo test"
+phase "cargo test: run"
 mkdir -p target
 set +e
 # --no-fail-fast: every test binary runs, so one failure does not hide
