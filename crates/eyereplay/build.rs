@@ -21,7 +21,12 @@ fn main() {
         .and_then(|o| String::from_utf8(o.stdout).ok())
         .map(|s| s.trim().to_string());
     if let Some(rev) = rev {
+        // Without optional locks `git status` does not write its refreshed
+        // stat data back to .git/index: written, the index is newer than
+        // this script's output, and every later cargo command ran the script
+        // again and recompiled this crate and all that depend on it.
         let dirty = std::process::Command::new("git")
+            .env("GIT_OPTIONAL_LOCKS", "0")
             .args(["status", "--porcelain", "--untracked-files=no"])
             .output()
             .ok()
