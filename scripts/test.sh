@@ -38,16 +38,6 @@ export RUSTC_WORKSPACE_WRAPPER="$clippy_driver"
 export CLIPPY_ARGS="-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__"
 phase "cargo test: build every target, clippy's lints included (-D warnings)"
 cargo test --workspace --all-targets --no-run --quiet
-phase "the library without its optional features; every library crate packages alone"
-# `cargo check` under the exported wrapper is what `cargo clippy` runs; a
-# `cargo clippy` here would rebuild the build scripts' helper crate with its
-# own settings, and `cargo test` then compiled half the workspace again.
-cargo check -p eyereplay --no-default-features --quiet
-for manifest in crates/*/Cargo.toml; do
-  crate="$(basename "$(dirname "$manifest")")"
-  [[ "$crate" == eyereplay-cli || "$crate" == eyereplay-py ]] && continue
-  cargo package --list --allow-dirty -p "$crate" > /dev/null
-done
 phase "cargo test: run"
 mkdir -p target
 set +e
@@ -65,6 +55,18 @@ phase "cluster (single-node Slurm on loopback)"
 set +e
 bash scripts/test-cluster.sh 2>&1 | tee target/test-cluster.log
 [[ ${PIPESTATUS[0]} -eq 0 ]] || status=1
+set -e
+phase "the library without its optional features; every library crate packages alone"
+# Last, because it reruns some build scripts with its own feature set, and
+# the commands after it then compiled six crates again (about a minute).
+# `cargo check` under the exported wrapper is what `cargo clippy` runs.
+set +e
+cargo check -p eyereplay --no-default-features --quiet || status=1
+for manifest in crates/*/Cargo.toml; do
+  crate="$(basename "$(dirname "$manifest")")"
+  [[ "$crate" == eyereplay-cli || "$crate" == eyereplay-py ]] && continue
+  cargo package --list --allow-dirty -p "$crate" > /dev/null || { echo "test: $crate does not package alone" >&2; status=1; }
+done
 set -e
 phase "done"
 # One closing line over both runners.
