@@ -34,7 +34,7 @@ cargo fmt --all -- --check
 # again without the wrapper.
 clippy_driver="$(rustc --print sysroot)/bin/clippy-driver"
 [[ -x "$clippy_driver" ]] || clippy_driver="$(command -v clippy-driver || true)"
-[[ -n "$clippy_driver" && -x "$clippy_driver" ]] || { echo "test: clippy-driver not found at $clippy_driver (rustup component add clippy)" >&2; exit 1; }
+[[ -n "$clippy_driver" && -x "$clippy_driver" ]] || { echo "test: clippy-driver not found in the toolchain ($(rustc --print sysroot)/bin) or on PATH: rustup component add clippy" >&2; exit 1; }
 export RUSTC_WORKSPACE_WRAPPER="$clippy_driver"
 export CLIPPY_ARGS="-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__"
 phase "cargo test: build every target, clippy's lints included (-D warnings)"
