@@ -30,8 +30,8 @@ cargo fmt --all -- --check
 # clippy and once built for the tests (a fresh clone on 2 cores: the build
 # with the lints took as long as the plain one, where `cargo clippy` had
 # cost about 5 minutes more; docs/STRUCTURE.md, "Tests"). Exported, so that
-# the wheel's build below reuses these crates rather than compiling them
-# again without the wrapper.
+# the wheel's build below reuses the crates that do not link FFmpeg rather
+# than compiling them again without the wrapper.
 clippy_driver="$(rustc --print sysroot)/bin/clippy-driver"
 [[ -x "$clippy_driver" ]] || clippy_driver="$(command -v clippy-driver || true)"
 [[ -n "$clippy_driver" && -x "$clippy_driver" ]] || { echo "test: clippy-driver not found in the toolchain ($(rustc --print sysroot)/bin) or on PATH: rustup component add clippy" >&2; exit 1; }
@@ -61,9 +61,10 @@ bash scripts/test-cluster.sh 2>&1 | tee target/test-cluster.log
 [[ ${PIPESTATUS[0]} -eq 0 ]] || status=1
 set -e
 phase "the library without its optional features; every library crate packages alone"
-# Last, because it reruns some build scripts with its own feature set, and
-# the commands after it then compiled six crates again (about a minute).
-# `cargo check` under the exported wrapper is what `cargo clippy` runs.
+# Last: the library alone resolves its dependencies' features apart from
+# the workspace and compiles them again in check mode, which nothing above
+# needs. `cargo check` under the exported wrapper is what `cargo clippy`
+# runs.
 set +e
 cargo check -p eyereplay --no-default-features --quiet || status=1
 for manifest in crates/*/Cargo.toml; do
