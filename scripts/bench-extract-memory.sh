@@ -3,7 +3,7 @@
 # (200 s) looped 18 times and upscaled to 1920x1080 (made once, cached in
 # .cache/bench/), then extracted under /usr/bin/time -v. The limit is 400 MB.
 #   scripts/bench-extract-memory.sh [EXTRACT_FLAG...]   (after scripts/setup.sh and a release build)
-# Flags go to `eyereplay extract`, e.g. `--landmarks attention`.
+# Flags go to `eyereplay extract`, e.g. `--landmarks cascade` (the default is the attention mesh).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 video="$root/.cache/bench/hour1080.mp4"

@@ -11,7 +11,7 @@ use std::process::Command;
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:\n  \
 cargo xtask bench-mediapipe .cache/data/franck.mp4\n  \
-cargo xtask bench-mediapipe .cache/data/franck.mp4 --landmarks attention --rounds 5\n  \
+cargo xtask bench-mediapipe .cache/data/franck.mp4 --landmarks cascade --rounds 5\n  \
 cargo xtask bench-mediapipe talk.mp4 --eyereplay /tmp/old/target/release/eyereplay")]
 pub struct Args {
     /// The video both sides read whole.

@@ -32,7 +32,7 @@ scripts/run.sh (the main job), scripts/test.sh (every test).",
     after_help = "Examples:\n  \
 cargo xtask                                   # this list\n  \
 cargo xtask models                            # fetch and convert the face/iris models\n  \
-cargo xtask bench-mediapipe .cache/data/franck.mp4 --landmarks attention\n  \
+cargo xtask bench-mediapipe .cache/data/franck.mp4 --rounds 5\n  \
 cargo xtask face-table out/default --evaluate --vertical\n  \
 cargo xtask cycles                            # module import cycles, per crate\n  \
 cargo xtask fetch-data                        # a script task: scripts/fetch-data.sh",

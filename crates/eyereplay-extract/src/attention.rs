@@ -149,34 +149,62 @@ impl EyeCropSpec {
         let cells = ow * oh;
         assert_eq!(map.len(), channels * h * w);
         assert_eq!(out.len(), channels * cells);
-        for i in 0..oh {
-            for j in 0..ow {
+        // Where each cell reads, worked out once for all channels; then one
+        // channel at a time, so that the reads stay in one plane and the
+        // writes run in order (channel-inner loops strode across the whole
+        // map for every cell). The same arithmetic per value as the
+        // reference kernel.
+        struct Tap {
+            /// Index of (x0, y0) in a plane; `None`: the cell is outside.
+            at: Option<usize>,
+            fx: f32,
+            fy: f32,
+            /// Whether the column x0 + 1 and the row y0 + 1 exist.
+            right: bool,
+            below: bool,
+        }
+        let taps: Vec<Tap> = (0..oh)
+            .flat_map(|i| (0..ow).map(move |j| (i, j)))
+            .map(|(i, j)| {
                 let (u, v) = (j as f32 + 0.5, i as f32 + 0.5);
                 let x = m[0][0] * u + m[0][1] * v + m[0][3] - 0.5;
                 let y = m[1][0] * u + m[1][1] * v + m[1][3] - 0.5;
-                let cell = i * ow + j;
                 if !(x >= 0.0 && y >= 0.0 && x <= (w - 1) as f32 && y <= (h - 1) as f32) {
-                    for c in 0..channels {
-                        out[c * cells + cell] = 0.0;
-                    }
-                    continue;
+                    return Tap {
+                        at: None,
+                        fx: 0.0,
+                        fy: 0.0,
+                        right: false,
+                        below: false,
+                    };
                 }
                 let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-                let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-                let (x1, y1) = (x0 + 1, y0 + 1);
-                for c in 0..channels {
-                    let plane = &map[c * h * w..(c + 1) * h * w];
-                    let at = |yy: usize, xx: usize| {
-                        if yy < h && xx < w {
-                            plane[yy * w + xx]
-                        } else {
-                            0.0
-                        }
-                    };
-                    let upper = (1.0 - fx) * at(y0, x0) + fx * at(y0, x1);
-                    let lower = (1.0 - fx) * at(y1, x0) + fx * at(y1, x1);
-                    out[c * cells + cell] = fy * lower + (1.0 - fy) * upper;
+                Tap {
+                    at: Some(y0 * w + x0),
+                    fx: x - x0 as f32,
+                    fy: y - y0 as f32,
+                    right: x0 + 1 < w,
+                    below: y0 + 1 < h,
                 }
+            })
+            .collect();
+        for (plane, dst) in map.chunks_exact(h * w).zip(out.chunks_exact_mut(cells)) {
+            for (tap, o) in taps.iter().zip(dst.iter_mut()) {
+                let Some(a) = tap.at else {
+                    *o = 0.0;
+                    continue;
+                };
+                let (fx, fy) = (tap.fx, tap.fy);
+                let p00 = plane[a];
+                let p01 = if tap.right { plane[a + 1] } else { 0.0 };
+                let (p10, p11) = if tap.below {
+                    (plane[a + w], if tap.right { plane[a + w + 1] } else { 0.0 })
+                } else {
+                    (0.0, 0.0)
+                };
+                let upper = (1.0 - fx) * p00 + fx * p01;
+                let lower = (1.0 - fx) * p10 + fx * p11;
+                *o = fy * lower + (1.0 - fy) * upper;
             }
         }
     }

@@ -47,6 +47,14 @@ pub enum ExtractError {
         line: u64,
         message: String,
     },
+    /// An option of the cascade's iris model asked of the attention mesh,
+    /// which reads both eyes from its face crop once a frame.
+    #[error("{option} applies to the cascade landmarks only (the attention mesh reads the eyes once from its face crop): use {cascade}, or leave {option} out")]
+    CascadeOnly {
+        option: &'static str,
+        /// How the caller asks for the cascade (`--landmarks cascade`).
+        cascade: &'static str,
+    },
     /// Reading a rendered video back failed.
     #[error("{path}: {message}")]
     ReadBack { path: PathBuf, message: String },

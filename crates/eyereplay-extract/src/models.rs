@@ -261,6 +261,37 @@ pub enum LandmarkModel {
     Attention,
 }
 
+impl LandmarkModel {
+    /// The networks for reading a real video (`eyereplay extract`, the
+    /// Python `extract()`): the one asked for, else the attention mesh
+    /// unless an option only the cascade has was set. The attention mesh is
+    /// MediaPipe's own network and half its CPU time, so a reading of real
+    /// video agrees with the peer tool; [`LandmarkModel::default`] stays the
+    /// cascade because reading rendered video back (the probes, the
+    /// read-back match, the report) needs its finer vertical reading of
+    /// small drawn movements (docs/EXTRACTION.md).
+    ///
+    /// `cascade_options` names each cascade-only option as the caller spells
+    /// it, with whether it was set; one set with the attention mesh asked for
+    /// is an error, never silently dropped, whose hint is `cascade`, the
+    /// caller's way of asking for the cascade.
+    pub fn for_real_video(
+        requested: Option<LandmarkModel>,
+        cascade_options: &[(&'static str, bool)],
+        cascade: &'static str,
+    ) -> Result<LandmarkModel, crate::ExtractError> {
+        let set = cascade_options.iter().find(|(_, on)| *on).map(|(n, _)| *n);
+        match (requested, set) {
+            (Some(LandmarkModel::Attention), Some(option)) => {
+                Err(crate::ExtractError::CascadeOnly { option, cascade })
+            }
+            (Some(model), _) => Ok(model),
+            (None, Some(_)) => Ok(LandmarkModel::Cascade),
+            (None, None) => Ok(LandmarkModel::Attention),
+        }
+    }
+}
+
 /// One set of sessions; each worker thread owns one.
 pub struct Models {
     detector: Session,
@@ -666,4 +697,49 @@ fn check_iris_lens(contour: usize, iris: usize, eyes: usize) -> Result<()> {
         eyes * EYE_CONTOUR_POINTS * 3,
     )?;
     expect_len(IRIS, "output_iris", iris, eyes * IRIS_POINTS * 3)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::LandmarkModel::{self, Attention, Cascade};
+
+    fn choose(
+        requested: Option<LandmarkModel>,
+        views: bool,
+        mesh: bool,
+    ) -> Result<LandmarkModel, String> {
+        LandmarkModel::for_real_video(
+            requested,
+            &[("--iris-views", views), ("--mesh-every", mesh)],
+            "--landmarks cascade",
+        )
+        .map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn real_video_reads_with_the_attention_mesh_unless_told_otherwise() {
+        assert_eq!(choose(None, false, false), Ok(Attention));
+        assert_eq!(choose(Some(Cascade), false, false), Ok(Cascade));
+        assert_eq!(choose(Some(Attention), false, false), Ok(Attention));
+        // A cascade-only option says which networks are meant.
+        assert_eq!(choose(None, true, false), Ok(Cascade));
+        assert_eq!(choose(None, false, true), Ok(Cascade));
+        assert_eq!(choose(Some(Cascade), true, true), Ok(Cascade));
+        // The library's own default, which reads rendered video back, is
+        // the cascade.
+        assert_eq!(LandmarkModel::default(), Cascade);
+    }
+
+    #[test]
+    fn a_cascade_option_asked_of_the_attention_mesh_is_refused_by_name() {
+        let e = choose(Some(Attention), false, true).unwrap_err();
+        assert!(e.starts_with("--mesh-every applies to the cascade"), "{e}");
+        assert!(
+            e.ends_with("use --landmarks cascade, or leave --mesh-every out"),
+            "{e}"
+        );
+        assert!(!e.contains('\n'), "{e}");
+        let e = choose(Some(Attention), true, true).unwrap_err();
+        assert!(e.starts_with("--iris-views applies"), "{e}");
+    }
 }

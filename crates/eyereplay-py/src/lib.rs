@@ -256,7 +256,7 @@ fn device_of(name: &str) -> PyResult<ex::Device> {
 /// are also saved where the command would put them (atomically).
 #[pyfunction]
 #[pyo3(signature = (videos, out=None, models=None, threads=0, blink_ratio=ex::DEFAULT_BLINK_RATIO,
-    max_seconds=None, mesh_every=ex::DEFAULT_MESH_EVERY, iris_views=1, device="cpu", landmarks="cascade",
+    max_seconds=None, mesh_every=None, iris_views=1, device="cpu", landmarks=None,
     progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn extract<'py>(
@@ -267,10 +267,10 @@ fn extract<'py>(
     threads: usize,
     blink_ratio: f64,
     max_seconds: Option<f64>,
-    mesh_every: u32,
+    mesh_every: Option<u32>,
     iris_views: usize,
     device: &str,
-    landmarks: &str,
+    landmarks: Option<&str>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
     let opts = extract_options(
@@ -352,20 +352,33 @@ fn extract_options(
     threads: usize,
     blink_ratio: f64,
     max_seconds: Option<f64>,
-    mesh_every: u32,
+    mesh_every: Option<u32>,
     iris_views: usize,
     device: &str,
-    landmarks: &str,
+    landmarks: Option<&str>,
 ) -> PyResult<ex::ExtractOptions> {
-    let landmarks = match landmarks {
-        "cascade" => ex::LandmarkModel::Cascade,
-        "attention" => ex::LandmarkModel::Attention,
-        other => {
+    let requested = match landmarks {
+        None => None,
+        Some("cascade") => Some(ex::LandmarkModel::Cascade),
+        Some("attention") => Some(ex::LandmarkModel::Attention),
+        Some(other) => {
             return Err(ConfigError::new_err(format!(
                 "landmarks {other:?}: expected \"cascade\" or \"attention\""
             )))
         }
     };
+    if mesh_every == Some(0) {
+        return Err(ConfigError::new_err("mesh_every 0: expected 1 or more"));
+    }
+    let landmarks = ex::LandmarkModel::for_real_video(
+        requested,
+        &[
+            ("iris_views", iris_views > 1),
+            ("mesh_every", mesh_every.is_some()),
+        ],
+        "landmarks=\"cascade\"",
+    )
+    .map_err(|e| ConfigError::new_err(e.to_string()))?;
     if !(1..=ex::MAX_IRIS_VIEWS).contains(&iris_views) {
         return Err(ConfigError::new_err(format!(
             "iris_views {iris_views}: expected 1 to {}",
@@ -379,7 +392,7 @@ fn extract_options(
         max_duration_s: max_seconds,
         preview_dir: None,
         preview_every_s: 5.0,
-        mesh_every,
+        mesh_every: mesh_every.unwrap_or(ex::DEFAULT_MESH_EVERY),
         iris_views,
         profile: false,
         device: device_of(device)?,
@@ -408,7 +421,7 @@ fn frames_err(e: ex::ExtractError) -> PyErr {
 impl FrameExtractor {
     #[new]
     #[pyo3(signature = (width, height, models=None, blink_ratio=ex::DEFAULT_BLINK_RATIO,
-        mesh_every=ex::DEFAULT_MESH_EVERY, iris_views=1, device="cpu", landmarks="cascade"))]
+        mesh_every=None, iris_views=1, device="cpu", landmarks=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -416,10 +429,10 @@ impl FrameExtractor {
         height: usize,
         models: Option<PathBuf>,
         blink_ratio: f64,
-        mesh_every: u32,
+        mesh_every: Option<u32>,
         iris_views: usize,
         device: &str,
-        landmarks: &str,
+        landmarks: Option<&str>,
     ) -> PyResult<Self> {
         let opts = extract_options(
             models,

@@ -102,7 +102,7 @@ def test_iris_views_match_the_cli_and_are_checked(tmp_path):
     eyereplay.extract(VIDEO, out=tmp_path / "py.csv", max_seconds=2, iris_views=3,
                       progress=False)
     assert (tmp_path / "py.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
-    one = eyereplay.extract(VIDEO, max_seconds=2, progress=False)
+    one = eyereplay.extract(VIDEO, max_seconds=2, landmarks="cascade", progress=False)
     three = eyereplay.extract(VIDEO, max_seconds=2, iris_views=3, progress=False)
     both = (one["valid"] == 1) & (three["valid"] == 1)
     assert both.sum() > 30
@@ -114,20 +114,27 @@ def test_iris_views_match_the_cli_and_are_checked(tmp_path):
             eyereplay.extract(VIDEO, max_seconds=1, iris_views=bad, progress=False)
 
 
-def test_attention_landmarks_match_the_cli_and_are_checked(tmp_path):
-    # MediaPipe's attention face mesh (`--landmarks attention`), byte for
-    # byte as the command writes it; another network than the default
-    # cascade, so other numbers; an unknown name is a ConfigError.
+def test_default_landmarks_are_the_attention_mesh_and_are_checked(tmp_path):
+    # MediaPipe's attention face mesh is the default (`--landmarks
+    # attention`), byte for byte as the command writes it; the cascade is
+    # another network, so other numbers; an unknown name, or an option of
+    # the cascade asked of the attention mesh, is a ConfigError.
     r = run_cli("extract", VIDEO, "--out", tmp_path / "cli.csv", "--max-seconds", "2",
                 "--landmarks", "attention", "--quiet")
     assert r.returncode == 0, r.stderr
-    eyereplay.extract(VIDEO, out=tmp_path / "py.csv", max_seconds=2, landmarks="attention",
-                      progress=False)
+    eyereplay.extract(VIDEO, out=tmp_path / "py.csv", max_seconds=2, progress=False)
     assert (tmp_path / "py.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
-    cascade = eyereplay.extract(VIDEO, max_seconds=2, progress=False)
-    attention = eyereplay.extract(VIDEO, max_seconds=2, landmarks="attention", progress=False)
+    cascade = eyereplay.extract(VIDEO, max_seconds=2, landmarks="cascade", progress=False)
+    attention = eyereplay.extract(VIDEO, max_seconds=2, progress=False)
     both = (cascade["valid"] == 1) & (attention["valid"] == 1)
     assert both.sum() > 30
     assert 0 < np.median(np.abs(cascade["nx"][both] - attention["nx"][both])) < 0.05
+    # mesh_every is the cascade's: given alone it selects the cascade.
+    every = eyereplay.extract(VIDEO, max_seconds=2, mesh_every=2, progress=False)
+    assert np.array_equal(every["nx"], cascade["nx"], equal_nan=True)
     with pytest.raises(eyereplay.ConfigError, match="landmarks"):
         eyereplay.extract(VIDEO, max_seconds=1, landmarks="iris", progress=False)
+    with pytest.raises(eyereplay.ConfigError,
+                       match=r'^iris_views applies to the cascade .*use landmarks="cascade"'):
+        eyereplay.extract(VIDEO, max_seconds=1, landmarks="attention", iris_views=5,
+                          progress=False)

@@ -9,23 +9,26 @@ use std::path::PathBuf;
 #[derive(Parser, Debug)]
 #[command(
     about = "Extract normalized iris positions from videos (one CSV row per frame)",
-    long_about = "Runs MediaPipe's face detection, face mesh (every --mesh-every frames) and iris \
-networks, or with --landmarks attention MediaPipe's attention face mesh (the network of its \
-refine_landmarks=True: closer to MediaPipe's output, half its CPU time), all fetched by \
-scripts/setup.sh (scripts/models.sh), and writes one CSV row per decoded frame: \
-frame, time_s (the frame's own presentation time), valid, nx, ny, blink, then per-eye \
-values, iris centres and eye corners in pixels.\n\n\
+    long_about = "Runs MediaPipe's face detection and attention face mesh (the network of \
+MediaPipe Python's refine_landmarks=True: its own numbers, in half its CPU time), or with \
+--landmarks cascade the face mesh (every --mesh-every frames) and then the iris network on \
+a 64-px crop of each eye, all fetched by scripts/setup.sh (scripts/models.sh), and writes one \
+CSV row per decoded frame: frame, time_s (the frame's own presentation time), valid, nx, ny, \
+blink, then per-eye values, iris centres and eye corners in pixels.\n\n\
 nx runs from the image-left eye corner (0) to the image-right one (1) for BOTH eyes; \
 ny from the upper lid (0) to the lower lid (1); 'left'/'right' name the eye on the \
 image's left/right. Blinks (lid aperture below --blink-ratio x the video's median) \
-are flagged and get valid=0.",
+are flagged and get valid=0.\n\n\
+The cascade reads small eye movements more finely (eyereplay reads its rendered \
+video back with it, each eye from 5 crops: --iris-views 5); the attention mesh \
+follows MediaPipe to r 0.99 (docs/EXTRACTION.md).",
     after_help = "Examples:\n  \
 eyereplay extract interview.mp4 --out interview.csv\n  \
 eyereplay extract a.mp4 b.webm c.mov --out iris/            # several videos in parallel\n  \
 eyereplay extract clip.mp4 --out iris/ --preview previews/  # annotated PNGs every 5 s\n  \
 eyereplay extract franck.mp4 --out /tmp/f.csv --compare crates/eyereplay-extract/tests/data/franck_mediapipe.csv\n  \
 eyereplay extract franck.mp4 --out /tmp/f.csv --profile           # CPU time per frame by stage\n  \
-eyereplay extract talk.mp4 --out talk.csv --landmarks attention   # MediaPipe's own network, fastest"
+eyereplay extract talk.mp4 --out talk.csv --landmarks cascade --iris-views 5   # finest on small movements, ~7x the CPU"
 )]
 pub struct Args {
     /// Video files (mp4, mov, webm, mkv, avi, ...).
@@ -53,10 +56,11 @@ pub struct Args {
     /// Only the first this many seconds of each video.
     #[arg(long)]
     pub max_seconds: Option<f64>,
-    /// Run the face mesh on one frame in N (1 = MediaPipe's full pipeline on every
-    /// frame; larger is faster but agrees less with MediaPipe).
-    #[arg(long, default_value_t = ex::DEFAULT_MESH_EVERY)]
-    pub mesh_every: u32,
+    /// Cascade: run the face mesh on one frame in N (1 = MediaPipe's iris pipeline
+    /// on every frame; larger is faster but agrees less with MediaPipe). Selects the
+    /// cascade when --landmarks is not given [default: 2].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub mesh_every: Option<u32>,
     /// Read each eye from N crops (1-9) and average: the tracked crop and copies
     /// shifted by 2 px of the iris model's 64-px input, in one batched inference. The
     /// model's error depends on where the eye sits in its crop, so averaged views
@@ -64,17 +68,21 @@ pub struct Args {
     /// matched and read back with 5 views, follow their source with r 0.977-0.996
     /// horizontally and 0.75-0.98 vertically, against 0.948-0.994 and 0.64-0.95 with 1.
     /// Costs about N times the iris model's CPU time. 1 = MediaPipe's single crop.
+    /// Cascade only: a value above 1 selects the cascade when --landmarks is not given.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=ex::MAX_IRIS_VIEWS as i64))]
     pub iris_views: u32,
-    /// Which networks read the face and eyes. cascade: the face mesh (every
+    /// Which networks read the face and eyes. attention (the default): MediaPipe's
+    /// attention face mesh, which its Python face mesh runs with
+    /// refine_landmarks=True, reading mesh, eye contours and irises from the one face
+    /// crop on every frame: the peer tool's own network and numbers (r 0.99 on
+    /// franck.mp4), 2x its frames per CPU-second. cascade: the face mesh (every
     /// --mesh-every frames), then the iris model on a 64-px crop of each eye, as
-    /// MediaPipe's iris pipeline does. attention: MediaPipe's attention face mesh,
-    /// which its Python face mesh runs with refine_landmarks=True, reading mesh, eye
-    /// contours and irises from the one face crop on every frame: the peer tool's
-    /// own network, and fewer CPU-seconds per frame (docs/EXTRACTION.md, "Where extraction's CPU
-    /// time goes"). --iris-views and --mesh-every do not apply to it.
-    #[arg(long, value_enum, default_value_t = LandmarksArg::Cascade)]
-    pub landmarks: LandmarksArg,
+    /// MediaPipe's iris pipeline does: finer on small eye movements (what eyereplay
+    /// reads its rendered video back with), about twice the CPU time
+    /// (docs/EXTRACTION.md). --iris-views and --mesh-every are the cascade's and
+    /// select it when this is not given.
+    #[arg(long, value_enum)]
+    pub landmarks: Option<LandmarksArg>,
     /// Compare with a MediaPipe reference CSV (scripts/dev/mediapipe_ref.sh) and print
     /// detection rate, Pearson r per axis and |difference| (one video only).
     #[arg(long)]
@@ -183,6 +191,14 @@ pub fn run(a: Args) -> Result<()> {
     if a.compare.is_some() && a.videos.len() != 1 {
         bail!("--compare takes exactly one video");
     }
+    let landmarks = ex::LandmarkModel::for_real_video(
+        a.landmarks.map(LandmarksArg::model),
+        &[
+            ("--iris-views", a.iris_views > 1),
+            ("--mesh-every", a.mesh_every.is_some()),
+        ],
+        "--landmarks cascade",
+    )?;
     let opts = ex::ExtractOptions {
         models_dir: a.models.clone().unwrap_or_else(ex::default_models_dir),
         threads: a.threads,
@@ -190,11 +206,11 @@ pub fn run(a: Args) -> Result<()> {
         max_duration_s: a.max_seconds,
         preview_dir: a.preview.clone(),
         preview_every_s: a.preview_every,
-        mesh_every: a.mesh_every,
+        mesh_every: a.mesh_every.unwrap_or(ex::DEFAULT_MESH_EVERY),
         iris_views: a.iris_views as usize,
         profile: a.profile,
         device: a.device.device(),
-        landmarks: a.landmarks.model(),
+        landmarks,
     };
     let reference = match &a.compare {
         Some(p) => Some(ex::Series::read_reference(p)?),

@@ -133,10 +133,10 @@ def extract(
     threads: int = 0,
     blink_ratio: float = 0.6,
     max_seconds: Optional[float] = None,
-    mesh_every: int = 2,
+    mesh_every: Optional[int] = None,
     iris_views: int = 1,
     device: str = "cpu",
-    landmarks: str = "cascade",
+    landmarks: Optional[str] = None,
     progress: Any = True,
 ):
     """Stage 1: the iris position in the eye aperture, one row per decoded
@@ -155,11 +155,16 @@ def extract(
     onnxruntime-gpu build's ``libonnxruntime.so``) or ``"auto"`` (CUDA when
     that library has it); ``iris_views`` reads each eye from that many
     shifted crops and averages them (``--iris-views``: more precise, about
-    as many times the iris model's CPU time); ``landmarks="attention"``
-    reads face, eyes and irises with MediaPipe's attention face mesh, the
-    network of MediaPipe's ``refine_landmarks=True`` (``--landmarks``: the
-    closest to MediaPipe's output, and about 1.5x fewer CPU-seconds than the
-    default ``"cascade"``); the other options are the command's flags.
+    as many times the iris model's CPU time). ``landmarks`` picks the
+    networks, as ``--landmarks`` does: ``"attention"``, the default, is
+    MediaPipe's attention face mesh, the network of MediaPipe's
+    ``refine_landmarks=True`` (its own numbers, in half its CPU time);
+    ``"cascade"`` is the face mesh then the iris model on each eye's 64-px
+    crop (finer on small eye movements, about twice the CPU time).
+    ``iris_views`` above 1 and ``mesh_every`` (default 2) are the cascade's
+    and select it when ``landmarks`` is not given; asked of the attention
+    mesh they are a :class:`ConfigError`. The other options are the
+    command's flags.
     ``video`` may also be frames in memory: a numpy array ``(T, H, W, 3)``
     of ``uint8`` RGB (OpenCV's BGR frames need ``frame[..., ::-1]``), with
     ``fps`` (frame ``k`` at ``k / fps`` s) or ``timestamps`` (seconds, one
@@ -330,10 +335,10 @@ def extract_many(
     threads: int = 0,
     blink_ratio: float = 0.6,
     max_seconds: Optional[float] = None,
-    mesh_every: int = 2,
+    mesh_every: Optional[int] = None,
     iris_views: int = 1,
     device: str = "cpu",
-    landmarks: str = "cascade",
+    landmarks: Optional[str] = None,
     progress: Any = True,
 ) -> list:
     """:func:`extract` on several videos at once (in parallel), one table

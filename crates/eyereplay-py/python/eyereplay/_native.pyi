@@ -18,10 +18,10 @@ def extract(
     threads: int = 0,
     blink_ratio: float = 0.6,
     max_seconds: Optional[float] = None,
-    mesh_every: int = 2,
+    mesh_every: Optional[int] = None,
     iris_views: int = 1,
     device: str = "cpu",
-    landmarks: str = "cascade",
+    landmarks: Optional[str] = None,
     progress: Any = None,
 ) -> List[Dict[str, Any]]: ...
 def prepare(
