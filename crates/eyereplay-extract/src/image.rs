@@ -251,22 +251,7 @@ impl<'a> ImageView<'a> {
         out: &mut [f32],
     ) {
         assert_eq!(out.len(), 3 * size * size);
-        let (dw, dh) = self.size();
-        let (dw, dh) = (dw as f32, dh as f32);
-        let plane = size * size;
-        let inv = 1.0 / size as f32;
-        // Crop pixel centres -> upright image: p = p00 + col * du + row * dv.
-        let p00 = roi.to_image(0.5 * inv, 0.5 * inv);
-        let p10 = roi.to_image(1.5 * inv, 0.5 * inv);
-        let p01 = roi.to_image(0.5 * inv, 1.5 * inv);
-        let du = Pt::new(p10.x - p00.x, p10.y - p00.y);
-        let dv = Pt::new(p01.x - p00.x, p01.y - p00.y);
-        let (o, ax, ay) = self.display_to_raw();
-        // A frame whose luma fits the core's cache gains nothing from
-        // prefetching (360x288: the same CPU time or 1-2 % more), a 720p or 1080p one
-        // does (the crops 1.8x faster at 1080p).
-        let prefetch = self.raw_w * self.raw_h > PREFETCH_MIN_PX;
-        let black = offset; // rgb 0 after scaling
+        let g = CropGeometry::new(self, roi, size, mirror, scale, offset);
         if let Planes::Yuv420 {
             y: yp,
             u,
@@ -286,30 +271,19 @@ impl<'a> ImageView<'a> {
                     w: self.raw_w,
                     h: self.raw_h,
                 };
-                let geometry = CropGeometry {
-                    p00,
-                    du,
-                    dv,
-                    o,
-                    ax,
-                    ay,
-                    size,
-                    mirror,
-                    scale,
-                    offset,
-                    prefetch,
-                };
-                // (Compiled for AVX2 this loop took the same time: the
-                // per-lane loads, not the arithmetic, are its cost.)
-                self.crop_yuv420(&yuv, matrix, &geometry, out);
+                self.crop_yuv420(&yuv, matrix, &g, out);
                 return;
             }
         }
+        let (dw, dh) = self.size();
+        let (dw, dh) = (dw as f32, dh as f32);
+        let plane = size * size;
+        let black = offset; // rgb 0 after scaling
         for row in 0..size {
             for col in 0..size {
                 let c = if mirror { size - 1 - col } else { col };
-                let x = p00.x + c as f32 * du.x + row as f32 * dv.x;
-                let y = p00.y + c as f32 * du.y + row as f32 * dv.y;
+                let x = g.p00.x + c as f32 * g.du.x + row as f32 * g.dv.x;
+                let y = g.p00.y + c as f32 * g.du.y + row as f32 * g.dv.y;
                 let i = row * size + col;
                 if border == Border::Black && (x < 0.0 || y < 0.0 || x >= dw || y >= dh) {
                     out[i] = black;
@@ -317,15 +291,9 @@ impl<'a> ImageView<'a> {
                     out[2 * plane + i] = black;
                     continue;
                 }
-                let rx = o[0] + x * ax[0] + y * ay[0];
-                let ry = o[1] + x * ax[1] + y * ay[1];
-                if prefetch {
-                    // The same column PREFETCH_ROWS crop rows further down.
-                    let (ahead_x, ahead_y) = (x + PREFETCH_ROWS * dv.x, y + PREFETCH_ROWS * dv.y);
-                    self.prefetch_raw(
-                        o[0] + ahead_x * ax[0] + ahead_y * ay[0],
-                        o[1] + ahead_x * ax[1] + ahead_y * ay[1],
-                    );
+                let (rx, ry) = g.raw(x, y);
+                if g.prefetch {
+                    g.prefetch_below(self, x, y);
                 }
                 let rgb = self.sample_raw(rx, ry);
                 out[i] = rgb[0] * scale + offset;
@@ -358,7 +326,6 @@ impl<'a> ImageView<'a> {
     /// loads); here the lanes are put together in registers, and the two
     /// luma bytes side by side are one 16-bit load.
     #[cfg(target_arch = "x86_64")]
-    #[allow(clippy::too_many_lines)]
     unsafe fn crop_yuv420_sse2(
         &self,
         yuv: &Yuv420Ref,
@@ -367,19 +334,8 @@ impl<'a> ImageView<'a> {
         out: &mut [f32],
     ) {
         use std::arch::x86_64::*;
-        let CropGeometry {
-            p00,
-            du,
-            dv,
-            o,
-            ax,
-            ay,
-            size,
-            mirror,
-            scale,
-            offset,
-            prefetch,
-        } = *g;
+        let (p00, du, dv, o, ax, ay) = (g.p00, g.du, g.dv, g.o, g.ax, g.ay);
+        let (size, mirror) = (g.size, g.mirror);
         let plane = size * size;
         let splat = |v: f32| _mm_set1_ps(v);
         let (p00x, p00y, dux, duy) = (splat(p00.x), splat(p00.y), splat(du.x), splat(du.y));
@@ -396,7 +352,7 @@ impl<'a> ImageView<'a> {
             splat(matrix.vg),
             splat(matrix.ub),
         );
-        let (vscale, voffset) = (splat(scale), splat(offset));
+        let (vscale, voffset) = (splat(g.scale), splat(g.offset));
         let byte = _mm_set1_epi32(0xff);
         let lane = _mm_setr_epi32(0, 1, 2, 3);
         for row in 0..size {
@@ -421,18 +377,13 @@ impl<'a> ImageView<'a> {
                 let y = _mm_add_ps(_mm_add_ps(p00y, _mm_mul_ps(cf, duy)), rdy);
                 let rx = _mm_add_ps(_mm_add_ps(o0, _mm_mul_ps(x, ax0)), _mm_mul_ps(y, ay0));
                 let ry = _mm_add_ps(_mm_add_ps(o1, _mm_mul_ps(x, ax1)), _mm_mul_ps(y, ay1));
-                if prefetch {
-                    let mut xs = [0f32; 4];
-                    let mut ysv = [0f32; 4];
+                if g.prefetch {
+                    // The step's first and last pixel, some rows down.
+                    let (mut xs, mut ysv) = ([0f32; 4], [0f32; 4]);
                     _mm_storeu_ps(xs.as_mut_ptr(), x);
                     _mm_storeu_ps(ysv.as_mut_ptr(), y);
                     for k in [0, 3] {
-                        let (ahead_x, ahead_y) =
-                            (xs[k] + PREFETCH_ROWS * dv.x, ysv[k] + PREFETCH_ROWS * dv.y);
-                        self.prefetch_raw(
-                            o[0] + ahead_x * ax[0] + ahead_y * ay[0],
-                            o[1] + ahead_x * ax[1] + ahead_y * ay[1],
-                        );
+                        g.prefetch_below(self, xs[k], ysv[k]);
                     }
                 }
                 let lx = _mm_sub_ps(rx, half);
@@ -525,19 +476,8 @@ impl<'a> ImageView<'a> {
         g: &CropGeometry,
         out: &mut [f32],
     ) {
-        let CropGeometry {
-            p00,
-            du,
-            dv,
-            o,
-            ax,
-            ay,
-            size,
-            mirror,
-            scale,
-            offset,
-            prefetch,
-        } = *g;
+        let (p00, du, dv, o, ax, ay) = (g.p00, g.du, g.dv, g.o, g.ax, g.ay);
+        let (size, mirror, scale, offset) = (g.size, g.mirror, g.scale, g.offset);
         let [o0, o1] = o;
         let plane = size * size;
         // LANES crop pixels at a time, each step over all lanes in
@@ -561,16 +501,10 @@ impl<'a> ImageView<'a> {
                     let y = p00.y + c as f32 * du.y + row as f32 * dv.y;
                     rx[k] = o0 + x * ax[0] + y * ay[0];
                     ry[k] = o1 + x * ax[1] + y * ay[1];
-                    if prefetch && (k == 0 || k == LANES - 1) {
-                        // The same column PREFETCH_ROWS crop rows further
-                        // down, for the step's first and last pixel: the
-                        // eight lie on one or two cache lines per image row.
-                        let (ahead_x, ahead_y) =
-                            (x + PREFETCH_ROWS * dv.x, y + PREFETCH_ROWS * dv.y);
-                        self.prefetch_raw(
-                            o0 + ahead_x * ax[0] + ahead_y * ay[0],
-                            o1 + ahead_x * ax[1] + ahead_y * ay[1],
-                        );
+                    if g.prefetch && (k == 0 || k == LANES - 1) {
+                        // For the step's first and last pixel: the eight
+                        // lie on one or two cache lines per image row.
+                        g.prefetch_below(self, x, y);
                     }
                 }
                 let mut rgb = [[0f32; LANES]; 3];
@@ -728,6 +662,56 @@ struct CropGeometry {
     offset: f32,
     /// Ask for the image lines of later crop rows ahead (large frames).
     prefetch: bool,
+}
+
+impl CropGeometry {
+    /// `roi` of `img` cut into `size` x `size` pixels.
+    fn new(
+        img: &ImageView,
+        roi: &Roi,
+        size: usize,
+        mirror: bool,
+        scale: f32,
+        offset: f32,
+    ) -> CropGeometry {
+        let inv = 1.0 / size as f32;
+        // Crop pixel centres -> upright image: p = p00 + col * du + row * dv.
+        let p00 = roi.to_image(0.5 * inv, 0.5 * inv);
+        let p10 = roi.to_image(1.5 * inv, 0.5 * inv);
+        let p01 = roi.to_image(0.5 * inv, 1.5 * inv);
+        let (o, ax, ay) = img.display_to_raw();
+        CropGeometry {
+            p00,
+            du: Pt::new(p10.x - p00.x, p10.y - p00.y),
+            dv: Pt::new(p01.x - p00.x, p01.y - p00.y),
+            o,
+            ax,
+            ay,
+            size,
+            mirror,
+            scale,
+            offset,
+            // A frame whose luma fits the core's cache gains nothing from
+            // prefetching (360x288: the same CPU time or 1-2 % more), a
+            // 720p or 1080p one does (the crops 1.8x faster at 1080p).
+            prefetch: img.raw_w * img.raw_h > PREFETCH_MIN_PX,
+        }
+    }
+
+    /// Upright (`x`, `y`) in stored coordinates.
+    #[inline(always)]
+    fn raw(&self, x: f32, y: f32) -> (f32, f32) {
+        let (o, ax, ay) = (self.o, self.ax, self.ay);
+        (o[0] + x * ax[0] + y * ay[0], o[1] + x * ax[1] + y * ay[1])
+    }
+
+    /// Asks for the image lines that the crop pixel `PREFETCH_ROWS` rows
+    /// below upright (`x`, `y`) will read.
+    #[inline(always)]
+    fn prefetch_below(&self, img: &ImageView, x: f32, y: f32) {
+        let (rx, ry) = self.raw(x + PREFETCH_ROWS * self.dv.x, y + PREFETCH_ROWS * self.dv.y);
+        img.prefetch_raw(rx, ry);
+    }
 }
 
 /// The planes of an 8-bit 4:2:0 frame, for the crops' inner loop.
@@ -1029,26 +1013,11 @@ mod tests {
                                 offset,
                                 &mut fast,
                             );
-                            // The portable path through the same geometry.
-                            let inv = 1.0 / size as f32;
-                            let p00 = roi.to_image(0.5 * inv, 0.5 * inv);
-                            let p10 = roi.to_image(1.5 * inv, 0.5 * inv);
-                            let p01 = roi.to_image(0.5 * inv, 1.5 * inv);
-                            let du = Pt::new(p10.x - p00.x, p10.y - p00.y);
-                            let dv = Pt::new(p01.x - p00.x, p01.y - p00.y);
-                            let (o, ax, ay) = img.display_to_raw();
+                            // The portable path through the same geometry,
+                            // prefetching or not.
                             let g = CropGeometry {
-                                p00,
-                                du,
-                                dv,
-                                o,
-                                ax,
-                                ay,
-                                size,
-                                mirror,
-                                scale,
-                                offset,
                                 prefetch: k % 2 == 1,
+                                ..CropGeometry::new(&img, &roi, size, mirror, scale, offset)
                             };
                             let yuv = Yuv420Ref {
                                 y: &yp,
@@ -1080,12 +1049,9 @@ mod tests {
                             for row in 0..size {
                                 for col in 0..size {
                                     let c = if mirror { size - 1 - col } else { col };
-                                    let x = p00.x + c as f32 * du.x + row as f32 * dv.x;
-                                    let y = p00.y + c as f32 * du.y + row as f32 * dv.y;
-                                    let (rx, ry) = (
-                                        o[0] + x * ax[0] + y * ay[0],
-                                        o[1] + x * ax[1] + y * ay[1],
-                                    );
+                                    let x = g.p00.x + c as f32 * g.du.x + row as f32 * g.dv.x;
+                                    let y = g.p00.y + c as f32 * g.du.y + row as f32 * g.dv.y;
+                                    let (rx, ry) = g.raw(x, y);
                                     if rx >= 0.5 && ry >= 0.5 && rx < w as f32 - 0.5 {
                                         checked_inside += 1;
                                     }
