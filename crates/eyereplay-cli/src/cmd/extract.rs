@@ -10,7 +10,7 @@ use std::path::PathBuf;
 #[command(
     about = "Extract normalized iris positions from videos (one CSV row per frame)",
     long_about = "Runs MediaPipe's face detection and attention face mesh (the network of \
-MediaPipe Python's refine_landmarks=True: its own numbers, in half its CPU time), or with \
+MediaPipe Python's refine_landmarks=True: its own numbers, in about half its CPU time), or with \
 --landmarks cascade the face mesh (every --mesh-every frames) and then the iris network on \
 a 64-px crop of each eye, all fetched by scripts/setup.sh (scripts/models.sh), and writes one \
 CSV row per decoded frame: frame, time_s (the frame's own presentation time), valid, nx, ny, \
@@ -75,7 +75,7 @@ pub struct Args {
     /// attention face mesh, which its Python face mesh runs with
     /// refine_landmarks=True, reading mesh, eye contours and irises from the one face
     /// crop on every frame: the peer tool's own network and numbers (r 0.99 on
-    /// franck.mp4), 2x its frames per CPU-second. cascade: the face mesh (every
+    /// franck.mp4), about 2x its frames per CPU-second. cascade: the face mesh (every
     /// --mesh-every frames), then the iris model on a 64-px crop of each eye, as
     /// MediaPipe's iris pipeline does: finer on small eye movements (what eyereplay
     /// reads its rendered video back with), about twice the CPU time

@@ -158,7 +158,7 @@ def extract(
     as many times the iris model's CPU time). ``landmarks`` picks the
     networks, as ``--landmarks`` does: ``"attention"``, the default, is
     MediaPipe's attention face mesh, the network of MediaPipe's
-    ``refine_landmarks=True`` (its own numbers, in half its CPU time);
+    ``refine_landmarks=True`` (its own numbers, in about half its CPU time);
     ``"cascade"`` is the face mesh then the iris model on each eye's 64-px
     crop (finer on small eye movements, about twice the CPU time).
     ``iris_views`` above 1 and ``mesh_every`` (default 2) are the cascade's
