@@ -152,13 +152,24 @@ impl ex::Progress for Bars {
 
 /// `--profile`: CPU time per frame of each stage; the rows sum to the
 /// process's CPU time.
-fn print_profile(stages: &ex::StageTimes, csv_s: f64, frames: usize, workers: usize, cuda: bool) {
+fn print_profile(
+    stages: &ex::StageTimes,
+    csv_s: f64,
+    frames: usize,
+    workers: usize,
+    cuda: bool,
+    landmarks: ex::LandmarkModel,
+) {
     let frames = frames.max(1) as f64;
     let total_s = ex::process_cpu_s();
     let measured = stages.total_s() + csv_s;
     let setup_s = (total_s - measured).max(0.0);
     println!(
-        "CPU time by stage ({frames:.0} frames, {workers} workers, networks on {}; thread CPU clocks):",
+        "CPU time by stage ({frames:.0} frames, {workers} workers, {} landmarks, networks on {}; thread CPU clocks):",
+        match landmarks {
+            ex::LandmarkModel::Attention => "attention-mesh",
+            ex::LandmarkModel::Cascade => "cascade",
+        },
         if cuda { "CUDA" } else { "CPU" }
     );
     println!("  {:<42} {:>9} {:>7}", "stage", "ms/frame", "share");
@@ -171,7 +182,15 @@ fn print_profile(stages: &ex::StageTimes, csv_s: f64, frames: usize, workers: us
         );
     };
     for st in ex::Stage::ALL {
-        row(st.label(), stages.get(st));
+        match (landmarks, st) {
+            // The attention mesh's face and eye models both run in the
+            // mesh stage; it has no iris network.
+            (ex::LandmarkModel::Attention, ex::Stage::Iris) => {}
+            (ex::LandmarkModel::Attention, ex::Stage::Mesh) => {
+                row("attention mesh networks (face + eyes)", stages.get(st))
+            }
+            _ => row(st.label(), stages.get(st)),
+        }
     }
     row("CSV writing", csv_s);
     row("set-up (probe, model loading, threads)", setup_s);
@@ -301,6 +320,7 @@ pub fn run(a: Args) -> Result<()> {
             total_frames,
             opts.worker_count(),
             on_cuda,
+            opts.landmarks,
         );
         if let Some(mib) = peak_rss_mib() {
             println!("peak RSS: {mib:.0} MiB");
