@@ -20,7 +20,8 @@ pub enum Stage {
     Crop,
     /// The face detector network.
     Detector,
-    /// The face mesh network.
+    /// The face mesh network; with the attention mesh, its face and eye
+    /// models.
     Mesh,
     /// The iris network (both eyes in one batch).
     Iris,
@@ -39,15 +40,21 @@ impl Stage {
         Stage::Post,
     ];
 
-    pub fn label(self) -> &'static str {
-        match self {
-            Stage::Decode => "decode (demux + video decoder)",
-            Stage::Crop => "colour conversion + crops",
-            Stage::Detector => "face detector network",
-            Stage::Mesh => "face mesh network",
-            Stage::Iris => "iris network (all eye crops, 2 a run)",
-            Stage::Post => "post-processing + tracking",
-        }
+    /// The stage's name when `landmarks` read the face and eyes; `None` for
+    /// a stage those networks never run (the iris network of the attention
+    /// mesh, whose eye models run in [`Stage::Mesh`]).
+    pub fn label_for(self, landmarks: crate::LandmarkModel) -> Option<&'static str> {
+        use crate::LandmarkModel::{Attention, Cascade};
+        Some(match (self, landmarks) {
+            (Stage::Decode, _) => "decode (demux + video decoder)",
+            (Stage::Crop, _) => "colour conversion + crops",
+            (Stage::Detector, _) => "face detector network",
+            (Stage::Mesh, Cascade) => "face mesh network",
+            (Stage::Mesh, Attention) => "attention mesh networks (face + eyes)",
+            (Stage::Iris, Cascade) => "iris network (all eye crops, 2 a run)",
+            (Stage::Iris, Attention) => return None,
+            (Stage::Post, _) => "post-processing + tracking",
+        })
     }
 }
 
@@ -122,6 +129,20 @@ pub use eyereplay_core::profile::{process_cpu_s, thread_cpu_s};
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn each_landmark_model_names_the_stages_it_runs() {
+        use crate::LandmarkModel::{Attention, Cascade};
+        let names = |m| Stage::ALL.iter().filter_map(|s| s.label_for(m)).count();
+        assert_eq!(names(Cascade), 6);
+        assert_eq!(names(Attention), 5);
+        assert_eq!(Stage::Iris.label_for(Attention), None);
+        assert_eq!(Stage::Mesh.label_for(Cascade), Some("face mesh network"));
+        assert!(Stage::Mesh
+            .label_for(Attention)
+            .unwrap()
+            .contains("attention"));
+    }
 
     /// Burns CPU on this thread until its CPU clock has advanced `s`.
     fn spin(s: f64) -> u64 {

@@ -182,14 +182,8 @@ fn print_profile(
         );
     };
     for st in ex::Stage::ALL {
-        match (landmarks, st) {
-            // The attention mesh's face and eye models both run in the
-            // mesh stage; it has no iris network.
-            (ex::LandmarkModel::Attention, ex::Stage::Iris) => {}
-            (ex::LandmarkModel::Attention, ex::Stage::Mesh) => {
-                row("attention mesh networks (face + eyes)", stages.get(st))
-            }
-            _ => row(st.label(), stages.get(st)),
+        if let Some(label) = st.label_for(landmarks) {
+            row(label, stages.get(st));
         }
     }
     row("CSV writing", csv_s);
