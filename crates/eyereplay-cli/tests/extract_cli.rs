@@ -4,28 +4,27 @@
 mod common;
 use common::*;
 
-fn franck() -> String {
-    root()
-        .join(".cache/data/franck.mp4")
-        .to_string_lossy()
-        .into_owned()
-}
-
-/// Two seconds of `franck.mp4` extracted with `flags`; the CSV's bytes.
-fn extract(dir: &std::path::Path, name: &str, flags: &[&str]) -> Vec<u8> {
-    let out = dir.join(name);
-    let video = franck();
+/// `eyereplay extract` on the first two seconds of `franck.mp4`, the CSV
+/// to `out`, with `flags`.
+fn extract_run(out: &std::path::Path, flags: &[&str]) -> std::process::Output {
+    let video = root().join(".cache/data/franck.mp4");
     let mut args = vec![
         "extract",
-        &video,
+        s(&video),
         "--out",
-        s(&out),
+        s(out),
         "--max-seconds",
         "2",
         "--quiet",
     ];
     args.extend_from_slice(flags);
-    ok(&eyereplay(&args));
+    eyereplay(&args)
+}
+
+/// The CSV's bytes of [`extract_run`] into `dir/name`.
+fn extract(dir: &std::path::Path, name: &str, flags: &[&str]) -> Vec<u8> {
+    let out = dir.join(name);
+    ok(&extract_run(&out, flags));
     std::fs::read(&out).unwrap()
 }
 
@@ -62,17 +61,10 @@ fn extract_reads_with_the_attention_mesh_unless_the_cascade_is_asked_for() {
 fn a_cascade_option_asked_of_the_attention_mesh_is_one_line_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.csv");
-    let video = franck();
-    let e = one_line_error(&eyereplay(&[
-        "extract",
-        &video,
-        "--out",
-        s(&out),
-        "--landmarks",
-        "attention",
-        "--iris-views",
-        "5",
-    ]));
+    let e = one_line_error(&extract_run(
+        &out,
+        &["--landmarks", "attention", "--iris-views", "5"],
+    ));
     assert!(
         e.contains("--iris-views applies to the cascade landmarks only")
             && e.contains("use --landmarks cascade"),
