@@ -64,7 +64,7 @@ fn metrics(file: &Path, smoothing: &str) -> anyhow::Result<MetricSamples> {
     ))
     .map_err(anyhow::Error::msg)?;
     cfg.base_dir = PathBuf::from(".");
-    let inputs = load_sources(&cfg, |p| -> Result<PathBuf, PrepareError> {
+    let inputs = load_sources(&cfg, |p, _| -> Result<PathBuf, PrepareError> {
         Ok(p.to_path_buf())
     })?;
     let p = prepare(&cfg, &inputs)?;

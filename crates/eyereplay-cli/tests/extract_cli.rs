@@ -72,3 +72,74 @@ fn a_cascade_option_asked_of_the_attention_mesh_is_one_line_and_writes_nothing()
     );
     assert!(!out.exists());
 }
+
+#[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models)),
+    ignore = "needs .cache/data and the models: run scripts/setup.sh"
+)]
+fn a_video_source_is_read_with_the_landmarks_it_names() {
+    let dir = tempfile::tempdir().unwrap();
+    // Four seconds of franck.mp4, its own frames (no re-encoding).
+    let clip = dir.path().join("clip.mp4");
+    let status = std::process::Command::new("ffmpeg")
+        .args(["-nostdin", "-loglevel", "error", "-i"])
+        .arg(root().join(".cache/data/franck.mp4"))
+        .args(["-t", "4", "-c", "copy", "-an"])
+        .arg(&clip)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let cfg = dir.path().join("c.toml");
+    std::fs::write(
+        &cfg,
+        "session_frames = 25\n\
+         [classes.reading]\nsources = [{ format = \"video\", path = \"clip.mp4\", landmarks = \"attention\" }]\n\
+         [classes.conversation]\nsources = [{ format = \"video\", path = \"clip.mp4\" }]\n",
+    )
+    .unwrap();
+    let cache = dir.path().join("cache");
+    ok(&eyereplay(&[
+        "prepare",
+        "--config",
+        s(&cfg),
+        "--out",
+        s(&dir.path().join("ds")),
+        "--cache",
+        s(&cache),
+    ]));
+    // One extraction per model, each what `eyereplay extract` writes.
+    let mut cached: Vec<Vec<u8>> = std::fs::read_dir(cache.join("extract"))
+        .unwrap()
+        .map(|e| std::fs::read(e.unwrap().path()).unwrap())
+        .collect();
+    cached.sort();
+    let whole = |name: &str, model: &str| -> Vec<u8> {
+        let out = dir.path().join(name);
+        ok(&eyereplay(&[
+            "extract",
+            s(&clip),
+            "--out",
+            s(&out),
+            "--quiet",
+            "--landmarks",
+            model,
+        ]));
+        std::fs::read(&out).unwrap()
+    };
+    let mut expected = vec![whole("a.csv", "attention"), whole("c.csv", "cascade")];
+    expected.sort();
+    assert_eq!(cached.len(), 2);
+    assert!(
+        cached == expected,
+        "the cached extractions are not extract's"
+    );
+    // The metadata names the model where it is not the default.
+    let meta = std::fs::read_to_string(dir.path().join("ds/metadata.json")).unwrap();
+    assert_eq!(
+        meta.matches("\"landmarks\": \"attention\"").count(),
+        1,
+        "{meta}"
+    );
+    assert!(!meta.contains("\"landmarks\": \"cascade\""));
+}

@@ -262,6 +262,14 @@ pub enum LandmarkModel {
 }
 
 impl LandmarkModel {
+    /// The name `--landmarks` and a `video` source's `landmarks` spell.
+    pub fn name(self) -> &'static str {
+        match self {
+            LandmarkModel::Cascade => "cascade",
+            LandmarkModel::Attention => "attention",
+        }
+    }
+
     /// The networks for reading a real video (`eyereplay extract`, the
     /// Python `extract()`): the one asked for, else the attention mesh
     /// unless an option only the cascade has was set. The attention mesh is

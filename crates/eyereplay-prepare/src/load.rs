@@ -4,7 +4,7 @@
 use crate::{DatasetConfig, GeneratedSource, PrepareError, SourceInput};
 use eyereplay_behaviour::{draw_person, generate, person_seed, Gains, ReadingText};
 use eyereplay_core::{sha256_file, sha256_hex, GazeClass, NormPos, Sample, Trajectory};
-use eyereplay_sources::{read_source, SourceSpec};
+use eyereplay_sources::{read_source, SourceSpec, VideoLandmarks};
 use eyereplay_sources::{Recording, RecordingKind};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -29,14 +29,15 @@ pub fn check_source_files(cfg: &DatasetConfig) -> Result<(), PrepareError> {
 }
 
 /// Reads all sources in parallel, in config order. `video_to_csv` turns a
-/// video path into the path of its extracted iris CSV (the caller decides
-/// how: cached extraction, or an error saying extraction is unavailable).
+/// video path, read with the landmark networks its source names, into the
+/// path of its extracted iris CSV (the caller decides how: cached
+/// extraction, or an error saying extraction is unavailable).
 pub fn load_sources<F>(
     cfg: &DatasetConfig,
     video_to_csv: F,
 ) -> Result<Vec<SourceInput>, PrepareError>
 where
-    F: Fn(&Path) -> Result<PathBuf, PrepareError> + Sync,
+    F: Fn(&Path, VideoLandmarks) -> Result<PathBuf, PrepareError> + Sync,
 {
     check_source_files(cfg)?;
     let mut read = cfg.read;
@@ -52,8 +53,8 @@ where
             let spec = &cfg.resolved_spec(written);
             let sha256 = sha256_file(spec.path())?;
             let (recs, format) = match spec {
-                SourceSpec::Video { path } => {
-                    let csv = video_to_csv(path)?;
+                SourceSpec::Video { path, landmarks } => {
+                    let csv = video_to_csv(path, *landmarks)?;
                     (
                         read_source(&SourceSpec::Extract { path: csv }, &read)?,
                         "video",
@@ -65,7 +66,7 @@ where
                 .into_iter()
                 .map(|mut r| {
                     // Ids name the configured file, also for extracted videos.
-                    if let SourceSpec::Video { path } = spec {
+                    if let SourceSpec::Video { path, .. } = spec {
                         r.id = display_name(path);
                         r.path = path.clone();
                     }

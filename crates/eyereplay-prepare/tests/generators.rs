@@ -36,7 +36,7 @@ fn tool() -> ToolInfo {
 #[test]
 fn each_session_is_one_generated_person_with_labels() {
     let cfg = config(CONFIG);
-    let inputs = load_sources(&cfg, |_| unreachable!("no video")).unwrap();
+    let inputs = load_sources(&cfg, |_, _| unreachable!("no video")).unwrap();
     assert_eq!(inputs.len(), 7);
     let p = prepare(&cfg, &inputs).unwrap();
     for c in &p.classes {
@@ -71,7 +71,7 @@ fn same_seed_same_bytes_and_a_reading_column() {
     let cfg = config(CONFIG);
     let write = || {
         let dir = tempfile::tempdir().unwrap();
-        let inputs = load_sources(&cfg, |_| unreachable!()).unwrap();
+        let inputs = load_sources(&cfg, |_, _| unreachable!()).unwrap();
         let p = prepare(&cfg, &inputs).unwrap();
         write_dataset(dir.path(), &cfg, &p, tool()).unwrap();
         dir
@@ -97,8 +97,12 @@ fn same_seed_same_bytes_and_a_reading_column() {
     assert!(text.lines().skip(1).any(|l| l.ends_with(",0")));
     // Another seed, other people.
     let other = config(&CONFIG.replace("seed = 3", "seed = 4"));
-    let p = prepare(&other, &load_sources(&other, |_| unreachable!()).unwrap()).unwrap();
-    let first = prepare(&cfg, &load_sources(&cfg, |_| unreachable!()).unwrap()).unwrap();
+    let p = prepare(
+        &other,
+        &load_sources(&other, |_, _| unreachable!()).unwrap(),
+    )
+    .unwrap();
+    let first = prepare(&cfg, &load_sources(&cfg, |_, _| unreachable!()).unwrap()).unwrap();
     assert_ne!(p.classes[0].sessions[0], first.classes[0].sessions[0]);
 }
 
@@ -129,7 +133,7 @@ fn bad_generator_tables_are_one_line_errors() {
     }
     // A text file that does not exist stops the run before any work.
     let cfg = config("[classes.reading]\nsessions = 1\n[[classes.reading.generators]]\nmodel = \"reading\"\ntext = \"no_such_script.txt\"\n");
-    let e = load_sources(&cfg, |_| unreachable!())
+    let e = load_sources(&cfg, |_, _| unreachable!())
         .unwrap_err()
         .to_string();
     assert!(e.contains("no_such_script.txt"), "{e}");

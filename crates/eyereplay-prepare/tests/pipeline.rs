@@ -3,7 +3,7 @@
 
 use eyereplay_core::{read_session_csv, CanvasPos, GazeClass};
 use eyereplay_dataset::{write_dataset, ToolInfo};
-use eyereplay_prepare::{load_sources, prepare, DatasetConfig, PrepareError};
+use eyereplay_prepare::{load_sources, prepare, DatasetConfig, PrepareError, VideoLandmarks};
 use std::path::{Path, PathBuf};
 
 /// The sample data folder; the test calling this is ignored (see build.rs)
@@ -49,7 +49,7 @@ fn tool() -> ToolInfo {
     }
 }
 
-fn no_video(p: &Path) -> Result<PathBuf, PrepareError> {
+fn no_video(p: &Path, _: VideoLandmarks) -> Result<PathBuf, PrepareError> {
     panic!("no video expected: {}", p.display())
 }
 

@@ -73,14 +73,51 @@ pub struct ScreenOptions {
     pub geometry: ViewingGeometry,
 }
 
+/// Which landmark networks read a `video` source's frames.
+///
+/// The cascade (face mesh, then the iris model on each eye's crop) is the
+/// default: the smoothing, the bundled default dataset and the detector's
+/// measurements were all made with it. The attention mesh is MediaPipe's
+/// own `refine_landmarks=True` network and `eyereplay extract`'s default for
+/// real video: it agrees with MediaPipe far better on real faces and costs
+/// half the CPU time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum VideoLandmarks {
+    #[default]
+    Cascade,
+    Attention,
+}
+
+impl VideoLandmarks {
+    fn is_cascade(&self) -> bool {
+        *self == VideoLandmarks::Cascade
+    }
+
+    /// The name a config and `eyereplay extract --landmarks` spell.
+    pub fn name(self) -> &'static str {
+        match self {
+            VideoLandmarks::Cascade => "cascade",
+            VideoLandmarks::Attention => "attention",
+        }
+    }
+}
+
 /// One configured source: a file and how to read it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "format", rename_all = "lowercase", deny_unknown_fields)]
 pub enum SourceSpec {
     /// `eyereplay extract` output.
     Extract { path: PathBuf },
-    /// A video file; extracted by `eyereplay extract` before preparation.
-    Video { path: PathBuf },
+    /// A video file; extracted by `eyereplay extract` before preparation,
+    /// with the landmark networks `landmarks` names.
+    Video {
+        path: PathBuf,
+        // Left out when the default, so that a config without the key
+        // writes the metadata it wrote before the key existed.
+        #[serde(default, skip_serializing_if = "VideoLandmarks::is_cascade")]
+        landmarks: VideoLandmarks,
+    },
     /// Generic samples table (CSV, or TSV when the name ends in `.tsv`).
     Csv {
         path: PathBuf,
@@ -150,7 +187,7 @@ macro_rules! spec_path {
     ($spec:expr) => {
         match $spec {
             SourceSpec::Extract { path }
-            | SourceSpec::Video { path }
+            | SourceSpec::Video { path, .. }
             | SourceSpec::Csv { path, .. }
             | SourceSpec::Eyelink { path, .. }
             | SourceSpec::Bids { path, .. }
@@ -244,7 +281,7 @@ impl Default for ReadOptions {
 pub fn read_source(spec: &SourceSpec, opts: &ReadOptions) -> Result<Vec<Recording>, SourceError> {
     match spec {
         SourceSpec::Extract { path } => Ok(vec![extract_csv::read(path, opts)?]),
-        SourceSpec::Video { path } => Err(SourceError::file(
+        SourceSpec::Video { path, .. } => Err(SourceError::file(
             path,
             "video sources are extracted first; call the extractor, then read its CSV",
         )),

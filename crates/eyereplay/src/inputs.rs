@@ -4,9 +4,9 @@
 use crate::{Error, Result};
 use eyereplay_core::{ArtifactCache, ArtifactKey, Progress, Stage};
 use eyereplay_dataset::{FileDigest, ToolInfo};
-use eyereplay_extract::StageFrames;
+use eyereplay_extract::{LandmarkModel, StageFrames};
 use eyereplay_prepare::{DatasetConfig, PrepareError};
-use eyereplay_sources::SourceSpec;
+use eyereplay_sources::{SourceSpec, VideoLandmarks};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
@@ -24,55 +24,121 @@ pub fn video_sources(cfg: &DatasetConfig) -> Vec<PathBuf> {
         .collect()
 }
 
-/// Extractions of a config's videos: each video's iris CSV in the cache.
+/// Each video source's resolved path with the landmark networks it is read
+/// with, each pair once, in the order the config first names them (a video
+/// listed once per model is extracted once per model).
+pub fn video_extractions(cfg: &DatasetConfig) -> Vec<(PathBuf, VideoLandmarks)> {
+    let mut seen = BTreeSet::new();
+    cfg.classes
+        .values()
+        .flat_map(|c| c.sources.iter())
+        .filter_map(|s| match s {
+            SourceSpec::Video { path, landmarks } => Some((cfg.resolve(path), *landmarks)),
+            _ => None,
+        })
+        .filter(|v| seen.insert(v.clone()))
+        .collect()
+}
+
+/// The extractor's networks a `video` source's `landmarks` names.
+pub fn landmark_model(l: VideoLandmarks) -> LandmarkModel {
+    match l {
+        VideoLandmarks::Cascade => LandmarkModel::Cascade,
+        VideoLandmarks::Attention => LandmarkModel::Attention,
+    }
+}
+
+/// Extractions of a config's videos: each video's iris CSV in the cache,
+/// per landmark model.
 #[derive(Clone, Debug, Default)]
 pub struct Extracted {
-    csv_of: BTreeMap<PathBuf, PathBuf>,
+    csv_of: BTreeMap<(PathBuf, VideoLandmarks), PathBuf>,
 }
 
 impl Extracted {
-    /// The cached CSV of `video`, for [`eyereplay_prepare::load_sources`].
-    pub fn csv_of(&self, video: &Path) -> Result<PathBuf, PrepareError> {
+    /// The cached CSV of `video` read with `landmarks`, for
+    /// [`eyereplay_prepare::load_sources`].
+    pub fn csv_of(&self, video: &Path, landmarks: VideoLandmarks) -> Result<PathBuf, PrepareError> {
         self.csv_of
-            .get(video)
+            .get(&(video.to_path_buf(), landmarks))
             .cloned()
             .ok_or_else(|| PrepareError::Source {
                 id: video.display().to_string(),
-                message: "video was not extracted".into(),
+                message: format!(
+                    "video was not extracted with the {} landmarks",
+                    landmarks.name()
+                ),
             })
     }
 }
 
-/// Extracts every video source not yet in the cache. Cached by the video's
-/// sha256 and the extractor version, so a renamed copy is not extracted
-/// twice and a new extractor does not reuse old results.
+/// Extracts every video source not yet in the cache, with the landmark
+/// networks each names. Cached by the video's sha256, the extractor version
+/// and the networks, so a renamed copy is not extracted twice and a new
+/// extractor does not reuse old results.
 pub fn extract_videos_cached(
     cfg: &DatasetConfig,
     cache: &Path,
     progress: &dyn Progress,
 ) -> Result<Extracted> {
-    let videos = video_sources(cfg);
-    let csvs = extract_cached(&videos, cache, progress)?;
-    Ok(Extracted {
-        csv_of: videos.into_iter().zip(csvs).collect(),
-    })
+    let wanted = video_extractions(cfg);
+    let mut csv_of = BTreeMap::new();
+    for model in [VideoLandmarks::Cascade, VideoLandmarks::Attention] {
+        let videos: Vec<PathBuf> = wanted
+            .iter()
+            .filter(|(_, l)| *l == model)
+            .map(|(v, _)| v.clone())
+            .collect();
+        if videos.is_empty() {
+            continue;
+        }
+        let csvs = extract_cached_with(&videos, landmark_model(model), cache, progress)?;
+        csv_of.extend(videos.into_iter().map(|v| (v, model)).zip(csvs));
+    }
+    Ok(Extracted { csv_of })
 }
 
-/// The cache file of `video`'s extraction: by content, tool version and
-/// the extractor's rows revision, as for the dataset's video sources.
+/// The cache file of `video`'s extraction with the cascade: by content,
+/// tool version and the extractor's rows revision, as for the dataset's
+/// video sources.
 pub fn extraction_cache_path(video: &Path, cache: &Path) -> Result<PathBuf> {
+    extraction_cache_path_for(video, LandmarkModel::Cascade, cache)
+}
+
+/// The cache file of `video`'s extraction with `model`. The cascade's key is
+/// the one every earlier version wrote, so its cached extractions stay
+/// valid; the attention mesh's adds the model.
+pub fn extraction_cache_path_for(
+    video: &Path,
+    model: LandmarkModel,
+    cache: &Path,
+) -> Result<PathBuf> {
     let key = ArtifactKey::of_file("extract", video, "csv")?
         .version("v", eyereplay_core::TOOL_VERSION)
         .version("r", eyereplay_extract::ROWS_REVISION);
+    let key = match model {
+        LandmarkModel::Cascade => key,
+        LandmarkModel::Attention => key.version("m", "attention"),
+    };
     Ok(ArtifactCache::new(cache).path(&key))
 }
 
-/// Extracts every video not yet in the cache (all at once, so the
-/// extractor's workers share them) and returns each video's CSV. Cached by
-/// the video's sha256 and the extractor version, so a renamed copy is not
-/// extracted twice and a new extractor does not reuse old results.
+/// Extracts every video not yet in the cache with the cascade (all at once,
+/// so the extractor's workers share them) and returns each video's CSV.
+/// Cached by the video's sha256 and the extractor version, so a renamed copy
+/// is not extracted twice and a new extractor does not reuse old results.
 pub fn extract_cached(
     videos: &[PathBuf],
+    cache: &Path,
+    progress: &dyn Progress,
+) -> Result<Vec<PathBuf>> {
+    extract_cached_with(videos, LandmarkModel::Cascade, cache, progress)
+}
+
+/// [`extract_cached`] with the landmark networks `model`.
+pub fn extract_cached_with(
+    videos: &[PathBuf],
+    model: LandmarkModel,
     cache: &Path,
     progress: &dyn Progress,
 ) -> Result<Vec<PathBuf>> {
@@ -82,7 +148,7 @@ pub fn extract_cached(
         if !v.is_file() {
             return Err(Error::input(v, "no such video"));
         }
-        let csv = extraction_cache_path(v, cache)?;
+        let csv = extraction_cache_path_for(v, model, cache)?;
         if !csv.is_file() && !todo.iter().any(|(_, c)| *c == csv) {
             todo.push((v.clone(), csv.clone()));
         }
@@ -96,7 +162,10 @@ pub fn extract_cached(
     progress.begin(Stage::Extract, 0);
     let results = eyereplay_extract::extract_many(
         &paths,
-        &eyereplay_extract::ExtractOptions::default(),
+        &eyereplay_extract::ExtractOptions {
+            landmarks: model,
+            ..Default::default()
+        },
         &StageFrames(progress),
     );
     progress.end(Stage::Extract);
@@ -104,8 +173,9 @@ pub fn extract_cached(
         let ex = r?;
         eyereplay_extract::save_csv(csv, &ex.rows)?;
         progress.info(&format!(
-            "extracted {}: {} frames, face in {:.1} %, cached as {}",
+            "extracted {} ({} landmarks): {} frames, face in {:.1} %, cached as {}",
             video.display(),
+            model.name(),
             ex.rows.len(),
             100.0 * ex.detection_rate(),
             csv.display()
@@ -210,5 +280,66 @@ sources = [{ format = "video", path = "b.mp4" }, { format = "extract", path = "c
             .collect();
         // Classes in their order (reading first), then sources in config order.
         assert_eq!(names, ["a.mp4", "b.mp4", "c.mp4"]);
+    }
+
+    #[test]
+    fn a_video_read_with_both_models_is_extracted_once_per_model() {
+        let cfg = DatasetConfig::parse(
+            r#"
+[classes.reading]
+sources = [{ format = "video", path = "a.mp4" }, { format = "video", path = "a.mp4", landmarks = "attention" }]
+[classes.conversation]
+sources = [{ format = "video", path = "a.mp4", landmarks = "cascade" }, { format = "video", path = "b.mp4", landmarks = "attention" }]
+"#,
+        )
+        .unwrap();
+        let got: Vec<(String, &str)> = video_extractions(&cfg)
+            .iter()
+            .map(|(p, l)| (p.display().to_string(), l.name()))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                ("a.mp4".to_string(), "cascade"),
+                ("a.mp4".to_string(), "attention"),
+                ("b.mp4".to_string(), "attention")
+            ]
+        );
+        assert_eq!(video_sources(&cfg).len(), 2);
+    }
+
+    #[test]
+    fn an_unknown_landmark_model_is_refused_with_its_names() {
+        let e = DatasetConfig::parse(
+            r#"
+[classes.reading]
+sources = [{ format = "video", path = "a.mp4", landmarks = "mesh" }]
+"#,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("mesh") && e.contains("cascade") && e.contains("attention"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn the_cascade_keeps_its_cache_file_and_the_attention_mesh_has_its_own() {
+        let dir = tempfile::tempdir().unwrap();
+        let video = dir.path().join("v.mp4");
+        std::fs::write(&video, b"not really a video").unwrap();
+        let cache = dir.path().join("cache");
+        let cascade = extraction_cache_path_for(&video, LandmarkModel::Cascade, &cache).unwrap();
+        let attention =
+            extraction_cache_path_for(&video, LandmarkModel::Attention, &cache).unwrap();
+        assert_eq!(cascade, extraction_cache_path(&video, &cache).unwrap());
+        assert_ne!(cascade, attention);
+        // The cascade's key is the one earlier versions wrote: no model in it.
+        let key = ArtifactKey::of_file("extract", &video, "csv")
+            .unwrap()
+            .version("v", eyereplay_core::TOOL_VERSION)
+            .version("r", eyereplay_extract::ROWS_REVISION);
+        assert_eq!(cascade, ArtifactCache::new(&cache).path(&key));
     }
 }

@@ -74,8 +74,9 @@ pub use generate::{
     estimate_bytes_per_frame, generate, plan, plan_config, GenerateOptions, GenerateSummary, Job,
 };
 pub use inputs::{
-    check_ffmpeg, check_models, extract_cached, extract_videos_cached, extraction_cache_path,
-    free_bytes, model_digests, tool_info, video_sources, Extracted,
+    check_ffmpeg, check_models, extract_cached, extract_cached_with, extract_videos_cached,
+    extraction_cache_path, extraction_cache_path_for, free_bytes, landmark_model, model_digests,
+    tool_info, video_extractions, video_sources, Extracted,
 };
 
 pub use eyereplay_backends::{
@@ -156,7 +157,7 @@ pub fn prepare_only(
     progress: &dyn Progress,
 ) -> Result<Prepared> {
     let extracted = extract_videos_cached(config, cache, progress)?;
-    let inputs = eyereplay_prepare::load_sources(config, |v| extracted.csv_of(v))?;
+    let inputs = eyereplay_prepare::load_sources(config, |v, l| extracted.csv_of(v, l))?;
     let prepared = eyereplay_prepare::prepare(config, &inputs)?;
     for w in &prepared.warnings {
         progress.warn(&format!("warning: {w}"));
