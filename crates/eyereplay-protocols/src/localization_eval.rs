@@ -198,14 +198,14 @@ pub struct LocalizationEval {
     pub methods: Vec<MethodResult>,
     pub calibration: WindowCalibration,
     pub clips: Vec<ClipResult>,
-    /// The `Hmm` method per reading surface, for sessions the interview
+    /// `detect`'s method ([`localize::DEFAULT_METHOD`]) per reading surface, for sessions the interview
     /// model made (metadata.json names where each person reads from);
     /// empty when it names none.
     pub by_surface: Vec<SurfaceResult>,
 }
 
 /// One reading surface's sessions (a teleprompter, a laptop, ...), scored
-/// by the `Hmm` method: how readable each kind of reading is once drawn.
+/// by `detect`'s method: how readable each kind of reading is once drawn.
 #[derive(Clone, Debug, Serialize)]
 pub struct SurfaceResult {
     pub surface: String,
@@ -326,11 +326,19 @@ pub fn evaluate_localization(
             .map(|(t, f)| score_session(t, f, &model, m, threshold))
             .collect()
     };
-    let (mean, hmm) = (scores_of(Method::WindowMean), scores_of(Method::Hmm));
-    let methods = vec![pool(Method::WindowMean, &mean), pool(Method::Hmm, &hmm)];
+    let (mean, hmm, edges) = (
+        scores_of(Method::WindowMean),
+        scores_of(Method::Hmm),
+        scores_of(Method::HmmEdges),
+    );
+    let methods = vec![
+        pool(Method::WindowMean, &mean),
+        pool(Method::Hmm, &hmm),
+        pool(Method::HmmEdges, &edges),
+    ];
     let calibration = window_calibration(&tracks, &flags_all, &model);
     let clips = clip_results(&tracks, &flags_all, &model, CLIPS_PER_CLASS, seed);
-    let by_surface = by_surface(&hmm, &session_surface);
+    let by_surface = by_surface(&edges, &session_surface);
     Ok(LocalizationEval {
         dataset: dir.display().to_string(),
         input: input.name().into(),
@@ -346,7 +354,7 @@ pub fn evaluate_localization(
     })
 }
 
-/// Each surface's sessions pooled from their `Hmm` scores (`hmm[i]` of
+/// Each surface's sessions pooled from their scores by `detect`'s method (`hmm[i]` of
 /// session `i`), in name order.
 pub fn by_surface(hmm: &[SessionScore], surfaces: &[Option<SourceSurface>]) -> Vec<SurfaceResult> {
     let mut names: Vec<&String> = surfaces.iter().flatten().map(|s| &s.surface).collect();
@@ -370,7 +378,7 @@ pub fn by_surface(hmm: &[SessionScore], surfaces: &[Option<SourceSurface>]) -> V
                 surface: name.clone(),
                 sessions: pick.len(),
                 line_span_deg: eyereplay_signal::stats::median(&spans).unwrap_or(f64::NAN),
-                result: pool(Method::Hmm, scores),
+                result: pool(localize::DEFAULT_METHOD, scores),
             }
         })
         .collect()

@@ -328,7 +328,7 @@ pub fn evaluate_spliced(
             let (tracks, flags): (Vec<Track>, Vec<Vec<bool>>) = streams.iter().cloned().unzip();
             SplicedCondition {
                 condition: name.clone(),
-                methods: [Method::WindowMean, Method::Hmm]
+                methods: [Method::WindowMean, Method::Hmm, Method::HmmEdges]
                     .into_iter()
                     .map(|m| score_method(&tracks, &flags, &model, m, threshold))
                     .collect(),
@@ -342,8 +342,8 @@ pub fn evaluate_spliced(
         let video = p.resolve(r.source.path());
         let csv = extract_cached(&[video], cache, progress)?.remove(0);
         let track = extract_csv_track(&csv)?;
-        let frame_p = localize::frame_probability(&track, &model, Method::Hmm);
-        let loc = localize::localization_of(&track, &frame_p, &model, Method::Hmm, threshold);
+        let (frame_p, loc) =
+            localize::localize_frames(&track, &model, localize::DEFAULT_METHOD, threshold);
         let segments: Vec<(f64, f64)> = loc.segments.iter().map(|s| (s.start_s, s.end_s)).collect();
         let scored: Vec<usize> = (0..frame_p.len())
             .filter(|&k| frame_p[k].is_finite())

@@ -516,8 +516,9 @@ pub struct Detection {
     /// for a short clip, `uncertain` when its interval holds the threshold.
     pub verdict: String,
     /// When: the probability per second and the reading segments
-    /// ([`eyereplay_detect::localize`], hidden Markov model; docs/DETECTOR.md
-    /// measures it with interview-trained models).
+    /// ([`eyereplay_detect::localize::DEFAULT_METHOD`]: the hidden Markov
+    /// model's segments, their ends where the window mean crosses;
+    /// docs/DETECTOR.md measures it).
     pub localization: eyereplay_detect::localize::Localization,
     /// A recording without one whole window of gaze (a clip of 3-10 s, a
     /// patchy one): the score of its best stretch with a bootstrap
@@ -551,7 +552,7 @@ pub fn detect_track(
     let localization = eyereplay_detect::localize::localize(
         track,
         model,
-        eyereplay_detect::localize::Method::Hmm,
+        eyereplay_detect::localize::DEFAULT_METHOD,
         eyereplay_detect::localize::SEGMENT_THRESHOLD,
     );
     if ws.is_empty() {

@@ -9,7 +9,8 @@ use std::path::PathBuf;
 /// the behaviour models' interview scenarios), finds reading segments with
 /// the detector MODEL, once per way of turning window scores into frames
 /// (the mean of overlapping windows; the same smoothed by a two-state
-/// hidden Markov model), and prints per method: segment F1 at IoU 0.5,
+/// hidden Markov model; the model's segments with their ends moved to the
+/// window mean's crossings), and prints per method: segment F1 at IoU 0.5,
 /// the median onset error, and the share of not-reading time called
 /// reading. The sessions' trajectories are scored (no video needed), or
 /// with --input extracted what the extractor reads from their videos.
@@ -93,7 +94,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     print_calibration("", &ev.calibration);
     if !ev.by_surface.is_empty() {
         println!(
-            "by where the text is read from (Hmm; a line's visual angle, median over people):"
+            "by where the text is read from ({:?}, detect's method; a line's visual angle, median over people):",
+            eyereplay::detect::localize::DEFAULT_METHOD
         );
         for s in &ev.by_surface {
             let m = &s.result;
