@@ -9,8 +9,9 @@
 //!   two-state hidden Markov model (reading / not reading) whose states
 //!   last [`MEAN_DWELL_S`] on average, smoothed by forward-backward;
 //! - the HMM's segments with each end moved to where the window mean
-//!   crosses one half nearby ([`refine_edges`]): the HMM decides which
-//!   segments there are, the window mean where they start and end.
+//!   crosses half-way between its levels inside and outside the segment,
+//!   nearby ([`refine_edges`]): the HMM decides which segments there are,
+//!   the window mean where they start and end.
 //!
 //! [`segments`] cuts the result into segments; [`match_segments`] scores
 //! them against known ones (F1 at an IoU threshold, onset errors).
@@ -48,11 +49,12 @@ pub enum Method {
     /// Those means smoothed by the two-state hidden Markov model.
     Hmm,
     /// The HMM's segments, each end moved to the nearest crossing of the
-    /// window mean within one window ([`refine_edges`]). The HMM's
-    /// evidence is tempered to one observation a window and its states
-    /// last half a minute, so its edges lag a change by seconds; the
-    /// window mean of a step crosses one half at the step, but alone it
-    /// cuts short false segments the HMM does not.
+    /// window mean, within one window, half-way between its levels inside
+    /// and outside the segment ([`refine_edges`]). The HMM's evidence is
+    /// tempered to one observation a window and its states last half a
+    /// minute, so its edges lag a change by seconds; the window mean of a
+    /// step is half-way at the step, but alone it cuts short false
+    /// segments the HMM does not.
     HmmEdges,
 }
 
@@ -223,7 +225,8 @@ fn hmm_of(mean: &[f64], window_frames: usize) -> Vec<f64> {
 /// such crossing in reach stays. A start never moves before the previous
 /// segment's end, an end never past the next segment's start, and a
 /// segment the moves would make shorter than `min_len_s` keeps its own
-/// ends. The confidence is `frame_p`'s mean over the new span.
+/// ends. The confidence is `frame_p`'s mean over the new span (`mean` and
+/// `frame_p` hold one value per frame of the same track).
 pub fn refine_edges(
     segments: &[Segment],
     mean: &[f64],
