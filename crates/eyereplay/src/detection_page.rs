@@ -123,7 +123,7 @@ video{{width:100%;max-height:480px;background:#000}}svg{{width:100%;height:auto;
 <h1>{title}</h1><p><b>{when}</b>. The recording as a whole: {verdict} (mean P(reading) {mean:.3} \
 against the model's threshold {thr:.3}). Model: {model}.</p>{video}\
 <svg id=\"t\" viewBox=\"0 0 {W} {h:.0}\" preserveAspectRatio=\"none\">{svg}</svg>\
-<p class=\"note\">0 to {dur}. Orange: reading segments (click to play from there); dashed: P = 0.5.</p>\
+<p class=\"note\">0 to {dur}. Orange: reading segments (click to play from there), their ends where the window scores cross half-way between reading and not; curve: P(reading), dashed: P = 0.5.</p>\
 <h2>Reading segments</h2><ul>{segments}</ul>\
 <script>\
 var v=document.getElementById('v'),t=document.getElementById('t'),h=document.getElementById('head'),D={durs:.3};\
