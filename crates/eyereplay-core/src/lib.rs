@@ -15,6 +15,7 @@ mod error;
 mod fsio;
 mod hash;
 mod image;
+mod landmarks;
 mod position;
 pub mod profile;
 mod progress;
@@ -32,6 +33,7 @@ pub use fsio::{
 };
 pub use hash::{mix64, splitmix64, SPLITMIX_GOLDEN};
 pub use image::RgbImage;
+pub use landmarks::LandmarkModel;
 pub use position::{Canvas, CanvasPos, NormPos, PlanePos, ScreenPos, ScreenSize};
 pub use progress::{NoProgress, Progress, Stage};
 pub use session_csv::{

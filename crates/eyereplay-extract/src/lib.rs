@@ -57,9 +57,9 @@ pub use eyecrop::{
 pub use geom::{Pt, Roi};
 pub use image::{Border, ImageView, Planes, Rotation, YuvMatrix};
 pub use models::{
-    check as check_models, default_models_dir, init_runtime, missing_files, runtime_library,
-    use_package_files, AttentionOut, DetectorOutput, Device, FaceMeshOutput, IrisOutput,
-    LandmarkModel, Models, IRIS_CPU_BATCH,
+    check as check_models, default_models_dir, init_runtime, landmarks_for_real_video,
+    missing_files, runtime_library, use_package_files, AttentionOut, DetectorOutput, Device,
+    FaceMeshOutput, IrisOutput, LandmarkModel, Models, IRIS_CPU_BATCH,
 };
 pub use output::{
     blink_threshold, flag_blinks, flag_blinks_below, output_csv_paths, save_csv, write_csv, EyeRow,

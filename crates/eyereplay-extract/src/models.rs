@@ -247,56 +247,34 @@ pub enum Device {
     Cuda,
 }
 
-/// Which landmark networks read the face and eyes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum LandmarkModel {
-    /// The face mesh (`face_landmark`), then the iris model on each eye's
-    /// own 64-px crop: MediaPipe's iris pipeline.
-    #[default]
-    Cascade,
-    /// The attention face mesh (`face_landmark_with_attention`), which
-    /// MediaPipe's Python face mesh runs with `refine_landmarks=True`: the
-    /// mesh, both eye contours and both irises from one 192-px face crop,
-    /// about a third of the cascade's arithmetic.
-    Attention,
-}
+pub use eyereplay_core::LandmarkModel;
 
-impl LandmarkModel {
-    /// The name `--landmarks` and a `video` source's `landmarks` spell.
-    pub fn name(self) -> &'static str {
-        match self {
-            LandmarkModel::Cascade => "cascade",
-            LandmarkModel::Attention => "attention",
+/// The networks for reading a real video (`eyereplay extract`, the
+/// Python `extract()`): the one asked for, else the attention mesh
+/// unless an option only the cascade has was set. The attention mesh is
+/// MediaPipe's own network and half its CPU time, so a reading of real
+/// video agrees with the peer tool; [`LandmarkModel::default`] stays the
+/// cascade because reading rendered video back (the probes, the
+/// read-back match, the report) needs its finer vertical reading of
+/// small drawn movements (docs/EXTRACTION.md).
+///
+/// `cascade_options` names each cascade-only option as the caller spells
+/// it, with whether it was set; one set with the attention mesh asked for
+/// is an error, never silently dropped, whose hint is `cascade`, the
+/// caller's way of asking for the cascade.
+pub fn landmarks_for_real_video(
+    requested: Option<LandmarkModel>,
+    cascade_options: &[(&'static str, bool)],
+    cascade: &'static str,
+) -> Result<LandmarkModel, crate::ExtractError> {
+    let set = cascade_options.iter().find(|(_, on)| *on).map(|(n, _)| *n);
+    match (requested, set) {
+        (Some(LandmarkModel::Attention), Some(option)) => {
+            Err(crate::ExtractError::CascadeOnly { option, cascade })
         }
-    }
-
-    /// The networks for reading a real video (`eyereplay extract`, the
-    /// Python `extract()`): the one asked for, else the attention mesh
-    /// unless an option only the cascade has was set. The attention mesh is
-    /// MediaPipe's own network and half its CPU time, so a reading of real
-    /// video agrees with the peer tool; [`LandmarkModel::default`] stays the
-    /// cascade because reading rendered video back (the probes, the
-    /// read-back match, the report) needs its finer vertical reading of
-    /// small drawn movements (docs/EXTRACTION.md).
-    ///
-    /// `cascade_options` names each cascade-only option as the caller spells
-    /// it, with whether it was set; one set with the attention mesh asked for
-    /// is an error, never silently dropped, whose hint is `cascade`, the
-    /// caller's way of asking for the cascade.
-    pub fn for_real_video(
-        requested: Option<LandmarkModel>,
-        cascade_options: &[(&'static str, bool)],
-        cascade: &'static str,
-    ) -> Result<LandmarkModel, crate::ExtractError> {
-        let set = cascade_options.iter().find(|(_, on)| *on).map(|(n, _)| *n);
-        match (requested, set) {
-            (Some(LandmarkModel::Attention), Some(option)) => {
-                Err(crate::ExtractError::CascadeOnly { option, cascade })
-            }
-            (Some(model), _) => Ok(model),
-            (None, Some(_)) => Ok(LandmarkModel::Cascade),
-            (None, None) => Ok(LandmarkModel::Attention),
-        }
+        (Some(model), _) => Ok(model),
+        (None, Some(_)) => Ok(LandmarkModel::Cascade),
+        (None, None) => Ok(LandmarkModel::Attention),
     }
 }
 
@@ -709,6 +687,7 @@ fn check_iris_lens(contour: usize, iris: usize, eyes: usize) -> Result<()> {
 
 #[cfg(test)]
 mod tests {
+    use super::landmarks_for_real_video;
     use super::LandmarkModel::{self, Attention, Cascade};
 
     fn choose(
@@ -716,7 +695,7 @@ mod tests {
         views: bool,
         mesh: bool,
     ) -> Result<LandmarkModel, String> {
-        LandmarkModel::for_real_video(
+        landmarks_for_real_video(
             requested,
             &[("--iris-views", views), ("--mesh-every", mesh)],
             "--landmarks cascade",

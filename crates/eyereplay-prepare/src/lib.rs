@@ -29,7 +29,6 @@ pub use config::{
     SpeedCorrection,
 };
 pub use error::{ConfigError, PrepareError};
-pub use eyereplay_sources::VideoLandmarks;
 pub use load::{check_source_files, generated_sources, load_sources};
 pub use resample::{
     is_linear_rate, resample_recording, resampled_times, scale_about_centroid, ResampleMethod,

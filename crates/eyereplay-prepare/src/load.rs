@@ -3,8 +3,10 @@
 
 use crate::{DatasetConfig, GeneratedSource, PrepareError, SourceInput};
 use eyereplay_behaviour::{draw_person, generate, person_seed, Gains, ReadingText};
-use eyereplay_core::{sha256_file, sha256_hex, GazeClass, NormPos, Sample, Trajectory};
-use eyereplay_sources::{read_source, SourceSpec, VideoLandmarks};
+use eyereplay_core::{
+    sha256_file, sha256_hex, GazeClass, LandmarkModel, NormPos, Sample, Trajectory,
+};
+use eyereplay_sources::{read_source, SourceSpec};
 use eyereplay_sources::{Recording, RecordingKind};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -37,7 +39,7 @@ pub fn load_sources<F>(
     video_to_csv: F,
 ) -> Result<Vec<SourceInput>, PrepareError>
 where
-    F: Fn(&Path, VideoLandmarks) -> Result<PathBuf, PrepareError> + Sync,
+    F: Fn(&Path, LandmarkModel) -> Result<PathBuf, PrepareError> + Sync,
 {
     check_source_files(cfg)?;
     let mut read = cfg.read;

@@ -1,9 +1,10 @@
 //! Stages 2-5 end to end on real recordings (OneStop reading fixations, raw
 //! EyeLink and BIDS samples) and on hand-built webcam-like CSVs.
 
+use eyereplay_core::LandmarkModel;
 use eyereplay_core::{read_session_csv, CanvasPos, GazeClass};
 use eyereplay_dataset::{write_dataset, ToolInfo};
-use eyereplay_prepare::{load_sources, prepare, DatasetConfig, PrepareError, VideoLandmarks};
+use eyereplay_prepare::{load_sources, prepare, DatasetConfig, PrepareError};
 use std::path::{Path, PathBuf};
 
 /// The sample data folder; the test calling this is ignored (see build.rs)
@@ -49,7 +50,7 @@ fn tool() -> ToolInfo {
     }
 }
 
-fn no_video(p: &Path, _: VideoLandmarks) -> Result<PathBuf, PrepareError> {
+fn no_video(p: &Path, _: LandmarkModel) -> Result<PathBuf, PrepareError> {
     panic!("no video expected: {}", p.display())
 }
 

@@ -357,20 +357,14 @@ fn extract_options(
     device: &str,
     landmarks: Option<&str>,
 ) -> PyResult<ex::ExtractOptions> {
-    let requested = match landmarks {
-        None => None,
-        Some("cascade") => Some(ex::LandmarkModel::Cascade),
-        Some("attention") => Some(ex::LandmarkModel::Attention),
-        Some(other) => {
-            return Err(ConfigError::new_err(format!(
-                "landmarks {other:?}: expected \"cascade\" or \"attention\""
-            )))
-        }
-    };
+    let requested = landmarks
+        .map(str::parse::<ex::LandmarkModel>)
+        .transpose()
+        .map_err(ConfigError::new_err)?;
     if mesh_every == Some(0) {
         return Err(ConfigError::new_err("mesh_every 0: expected 1 or more"));
     }
-    let landmarks = ex::LandmarkModel::for_real_video(
+    let landmarks = ex::landmarks_for_real_video(
         requested,
         &[
             ("iris_views", iris_views > 1),

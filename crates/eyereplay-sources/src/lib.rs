@@ -25,7 +25,7 @@ mod samples_csv;
 pub mod screen;
 mod series;
 
-use eyereplay_core::{NormPos, Trajectory};
+use eyereplay_core::{LandmarkModel, NormPos, Trajectory};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -73,36 +73,6 @@ pub struct ScreenOptions {
     pub geometry: ViewingGeometry,
 }
 
-/// Which landmark networks read a `video` source's frames.
-///
-/// The cascade (face mesh, then the iris model on each eye's crop) is the
-/// default: the smoothing, the bundled default dataset and the detector's
-/// measurements were all made with it. The attention mesh is MediaPipe's
-/// own `refine_landmarks=True` network and `eyereplay extract`'s default for
-/// real video: it agrees with MediaPipe far better on real faces and costs
-/// half the CPU time.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum VideoLandmarks {
-    #[default]
-    Cascade,
-    Attention,
-}
-
-impl VideoLandmarks {
-    fn is_cascade(&self) -> bool {
-        *self == VideoLandmarks::Cascade
-    }
-
-    /// The name a config and `eyereplay extract --landmarks` spell.
-    pub fn name(self) -> &'static str {
-        match self {
-            VideoLandmarks::Cascade => "cascade",
-            VideoLandmarks::Attention => "attention",
-        }
-    }
-}
-
 /// One configured source: a file and how to read it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "format", rename_all = "lowercase", deny_unknown_fields)]
@@ -110,13 +80,15 @@ pub enum SourceSpec {
     /// `eyereplay extract` output.
     Extract { path: PathBuf },
     /// A video file; extracted by `eyereplay extract` before preparation,
-    /// with the landmark networks `landmarks` names.
+    /// with the landmark networks `landmarks` names (by default the
+    /// cascade, with which the smoothing, the bundled default and the
+    /// detector were measured).
     Video {
         path: PathBuf,
         // Left out when the default, so that a config without the key
         // writes the metadata it wrote before the key existed.
-        #[serde(default, skip_serializing_if = "VideoLandmarks::is_cascade")]
-        landmarks: VideoLandmarks,
+        #[serde(default, skip_serializing_if = "is_cascade")]
+        landmarks: LandmarkModel,
     },
     /// Generic samples table (CSV, or TSV when the name ends in `.tsv`).
     Csv {
@@ -180,6 +152,10 @@ pub enum SourceSpec {
         #[serde(default)]
         saccade: SaccadeModel,
     },
+}
+
+fn is_cascade(m: &LandmarkModel) -> bool {
+    *m == LandmarkModel::Cascade
 }
 
 /// The `path` field of any variant, by reference or by mutable reference.

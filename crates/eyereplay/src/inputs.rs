@@ -6,7 +6,7 @@ use eyereplay_core::{ArtifactCache, ArtifactKey, Progress, Stage};
 use eyereplay_dataset::{FileDigest, ToolInfo};
 use eyereplay_extract::{LandmarkModel, StageFrames};
 use eyereplay_prepare::{DatasetConfig, PrepareError};
-use eyereplay_sources::{SourceSpec, VideoLandmarks};
+use eyereplay_sources::SourceSpec;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
@@ -27,7 +27,7 @@ pub fn video_sources(cfg: &DatasetConfig) -> Vec<PathBuf> {
 /// Each video source's resolved path with the landmark networks it is read
 /// with, each pair once, in the order the config first names them (a video
 /// listed once per model is extracted once per model).
-pub fn video_extractions(cfg: &DatasetConfig) -> Vec<(PathBuf, VideoLandmarks)> {
+pub fn video_extractions(cfg: &DatasetConfig) -> Vec<(PathBuf, LandmarkModel)> {
     let mut seen = BTreeSet::new();
     cfg.classes
         .values()
@@ -40,25 +40,17 @@ pub fn video_extractions(cfg: &DatasetConfig) -> Vec<(PathBuf, VideoLandmarks)> 
         .collect()
 }
 
-/// The extractor's networks a `video` source's `landmarks` names.
-pub fn landmark_model(l: VideoLandmarks) -> LandmarkModel {
-    match l {
-        VideoLandmarks::Cascade => LandmarkModel::Cascade,
-        VideoLandmarks::Attention => LandmarkModel::Attention,
-    }
-}
-
 /// Extractions of a config's videos: each video's iris CSV in the cache,
 /// per landmark model.
 #[derive(Clone, Debug, Default)]
 pub struct Extracted {
-    csv_of: BTreeMap<(PathBuf, VideoLandmarks), PathBuf>,
+    csv_of: BTreeMap<(PathBuf, LandmarkModel), PathBuf>,
 }
 
 impl Extracted {
     /// The cached CSV of `video` read with `landmarks`, for
     /// [`eyereplay_prepare::load_sources`].
-    pub fn csv_of(&self, video: &Path, landmarks: VideoLandmarks) -> Result<PathBuf, PrepareError> {
+    pub fn csv_of(&self, video: &Path, landmarks: LandmarkModel) -> Result<PathBuf, PrepareError> {
         self.csv_of
             .get(&(video.to_path_buf(), landmarks))
             .cloned()
@@ -83,7 +75,7 @@ pub fn extract_videos_cached(
 ) -> Result<Extracted> {
     let wanted = video_extractions(cfg);
     let mut csv_of = BTreeMap::new();
-    for model in [VideoLandmarks::Cascade, VideoLandmarks::Attention] {
+    for model in LandmarkModel::ALL {
         let videos: Vec<PathBuf> = wanted
             .iter()
             .filter(|(_, l)| *l == model)
@@ -92,7 +84,7 @@ pub fn extract_videos_cached(
         if videos.is_empty() {
             continue;
         }
-        let csvs = extract_cached_with(&videos, landmark_model(model), cache, progress)?;
+        let csvs = extract_cached_with(&videos, model, cache, progress)?;
         csv_of.extend(videos.into_iter().map(|v| (v, model)).zip(csvs));
     }
     Ok(Extracted { csv_of })
@@ -118,7 +110,7 @@ pub fn extraction_cache_path_for(
         .version("r", eyereplay_extract::ROWS_REVISION);
     let key = match model {
         LandmarkModel::Cascade => key,
-        LandmarkModel::Attention => key.version("m", "attention"),
+        LandmarkModel::Attention => key.version("m", model.name()),
     };
     Ok(ArtifactCache::new(cache).path(&key))
 }

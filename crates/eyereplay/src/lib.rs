@@ -75,8 +75,8 @@ pub use generate::{
 };
 pub use inputs::{
     check_ffmpeg, check_models, extract_cached, extract_cached_with, extract_videos_cached,
-    extraction_cache_path, extraction_cache_path_for, free_bytes, landmark_model, model_digests,
-    tool_info, video_extractions, video_sources, Extracted,
+    extraction_cache_path, extraction_cache_path_for, free_bytes, model_digests, tool_info,
+    video_extractions, video_sources, Extracted,
 };
 
 pub use eyereplay_backends::{

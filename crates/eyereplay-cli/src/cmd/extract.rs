@@ -166,10 +166,7 @@ fn print_profile(
     let setup_s = (total_s - measured).max(0.0);
     println!(
         "CPU time by stage ({frames:.0} frames, {workers} workers, {} landmarks, networks on {}; thread CPU clocks):",
-        match landmarks {
-            ex::LandmarkModel::Attention => "attention-mesh",
-            ex::LandmarkModel::Cascade => "cascade",
-        },
+        landmarks.name(),
         if cuda { "CUDA" } else { "CPU" }
     );
     println!("  {:<42} {:>9} {:>7}", "stage", "ms/frame", "share");
@@ -204,7 +201,7 @@ pub fn run(a: Args) -> Result<()> {
     if a.compare.is_some() && a.videos.len() != 1 {
         bail!("--compare takes exactly one video");
     }
-    let landmarks = ex::LandmarkModel::for_real_video(
+    let landmarks = ex::landmarks_for_real_video(
         a.landmarks.map(LandmarksArg::model),
         &[
             ("--iris-views", a.iris_views > 1),
