@@ -104,7 +104,8 @@ pub fn localize(
 }
 
 /// [`localize`], with the per-frame probability it cut the segments from
-/// (NaN where no window reaches).
+/// (NaN where no window reaches; the HMM's posterior for both HMM methods,
+/// since [`Method::HmmEdges`] moves only the segments' ends).
 pub fn localize_frames(
     track: &Track,
     model: &DetectorModel,
@@ -131,9 +132,9 @@ pub fn localize_frames(
     (frame_p, loc)
 }
 
-/// [`localize`] from per-frame probabilities already computed by
-/// [`frame_probability`] (for callers that need both).
-pub fn localization_of(
+/// The per-second probability, the segments cut from `frame_p` and the
+/// stretches no window scores (before [`Method::HmmEdges`] moves the ends).
+fn localization_of(
     track: &Track,
     frame_p: &[f64],
     model: &DetectorModel,
@@ -171,13 +172,6 @@ pub fn localization_of(
         segments,
         unscored,
     }
-}
-
-/// The per-frame reading probability of `track` by `method` (the HMM's
-/// posterior for both HMM methods: [`Method::HmmEdges`] moves only the
-/// segments' ends).
-pub fn frame_probability(track: &Track, model: &DetectorModel, method: Method) -> Vec<f64> {
-    localize_frames(track, model, method, SEGMENT_THRESHOLD).0
 }
 
 /// The mean probability of the windows covering each frame, windows of the
