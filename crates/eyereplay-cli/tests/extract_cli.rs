@@ -4,28 +4,37 @@
 mod common;
 use common::*;
 
-/// `eyereplay extract` on the first two seconds of `franck.mp4`, the CSV
-/// to `out`, with `flags`.
-fn extract_run(out: &std::path::Path, flags: &[&str]) -> std::process::Output {
-    let video = root().join(".cache/data/franck.mp4");
-    let mut args = vec![
-        "extract",
-        s(&video),
-        "--out",
-        s(out),
-        "--max-seconds",
-        "2",
-        "--quiet",
-    ];
+use std::path::{Path, PathBuf};
+
+/// What the tests on `franck.mp4` read of it: its first two seconds.
+const FIRST_TWO_S: [&str; 2] = ["--max-seconds", "2"];
+
+fn franck() -> PathBuf {
+    root().join(".cache/data/franck.mp4")
+}
+
+/// `eyereplay extract VIDEO --out OUT --quiet FLAGS`.
+fn extract_run_on(video: &Path, out: &Path, flags: &[&str]) -> std::process::Output {
+    let mut args = vec!["extract", s(video), "--out", s(out), "--quiet"];
     args.extend_from_slice(flags);
     eyereplay(&args)
 }
 
-/// The CSV's bytes of [`extract_run`] into `dir/name`.
-fn extract(dir: &std::path::Path, name: &str, flags: &[&str]) -> Vec<u8> {
+/// [`extract_run_on`] the first two seconds of `franck.mp4`.
+fn extract_run(out: &Path, flags: &[&str]) -> std::process::Output {
+    extract_run_on(&franck(), out, &[&FIRST_TWO_S[..], flags].concat())
+}
+
+/// The CSV's bytes of [`extract_run_on`] into `dir/name`.
+fn extract_on(video: &Path, dir: &Path, name: &str, flags: &[&str]) -> Vec<u8> {
     let out = dir.join(name);
-    ok(&extract_run(&out, flags));
+    ok(&extract_run_on(video, &out, flags));
     std::fs::read(&out).unwrap()
+}
+
+/// The CSV's bytes of [`extract_run`] into `dir/name`.
+fn extract(dir: &Path, name: &str, flags: &[&str]) -> Vec<u8> {
+    extract_on(&franck(), dir, name, &[&FIRST_TWO_S[..], flags].concat())
 }
 
 #[test]
@@ -84,7 +93,7 @@ fn a_video_source_is_read_with_the_landmarks_it_names() {
     let clip = dir.path().join("clip.mp4");
     let status = std::process::Command::new("ffmpeg")
         .args(["-nostdin", "-loglevel", "error", "-i"])
-        .arg(root().join(".cache/data/franck.mp4"))
+        .arg(franck())
         .args(["-t", "4", "-c", "copy", "-an"])
         .arg(&clip)
         .status()
@@ -114,20 +123,10 @@ fn a_video_source_is_read_with_the_landmarks_it_names() {
         .map(|e| std::fs::read(e.unwrap().path()).unwrap())
         .collect();
     cached.sort();
-    let whole = |name: &str, model: &str| -> Vec<u8> {
-        let out = dir.path().join(name);
-        ok(&eyereplay(&[
-            "extract",
-            s(&clip),
-            "--out",
-            s(&out),
-            "--quiet",
-            "--landmarks",
-            model,
-        ]));
-        std::fs::read(&out).unwrap()
-    };
-    let mut expected = vec![whole("a.csv", "attention"), whole("c.csv", "cascade")];
+    let mut expected: Vec<Vec<u8>> = ["attention", "cascade"]
+        .into_iter()
+        .map(|m| extract_on(&clip, dir.path(), &format!("{m}.csv"), &["--landmarks", m]))
+        .collect();
     expected.sort();
     assert_eq!(cached.len(), 2);
     assert!(
