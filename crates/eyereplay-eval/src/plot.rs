@@ -657,7 +657,10 @@ fn draw_detection<DB: DrawingBackend>(
         .margin(10)
         .x_label_area_size(36)
         .y_label_area_size(56)
-        .build_cartesian_2d(0.0..t_end, 0.0..1.0)
+        // A little room under 0: a bar's fill and white edge reach a pixel
+        // past its end and would paint over the x axis, which then showed
+        // only where no window was scored.
+        .build_cartesian_2d(0.0..t_end, -0.01..1.0)
         .map_err(s)?;
     chart
         .configure_mesh()
