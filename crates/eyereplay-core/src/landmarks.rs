@@ -50,7 +50,13 @@ impl std::str::FromStr for LandmarkModel {
         LandmarkModel::ALL
             .into_iter()
             .find(|m| m.name() == s)
-            .ok_or_else(|| format!("landmarks {s:?}: expected \"cascade\" or \"attention\""))
+            .ok_or_else(|| {
+                let names: Vec<String> = LandmarkModel::ALL
+                    .iter()
+                    .map(|m| format!("{:?}", m.name()))
+                    .collect();
+                format!("landmarks {s:?}: expected {}", names.join(" or "))
+            })
     }
 }
 

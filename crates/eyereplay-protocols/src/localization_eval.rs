@@ -12,7 +12,7 @@ use eyereplay_core::Progress;
 use eyereplay_detect::calibration::{expected_calibration_error, reliability, ReliabilityBin};
 use eyereplay_detect::clip::score_clip;
 use eyereplay_detect::localize::{self, match_segments, Method, SegmentMatch};
-use eyereplay_detect::metrics::rate_at;
+use eyereplay_detect::metrics::{auroc, rate_at};
 use eyereplay_detect::{windows, DetectorModel, Track, WindowSpec, FPS};
 use serde::Serialize;
 use std::path::Path;
@@ -51,6 +51,35 @@ pub struct WindowCalibration {
     /// The false-positive rate the threshold was chosen for (on the
     /// training data's validation sessions).
     pub target_false_positive_rate: f64,
+    /// How well the windows' probabilities separate the classes, pooled
+    /// over every recording; `None` without both classes.
+    pub auroc: Option<f64>,
+    /// The same within each recording, averaged over the recordings that
+    /// have windows of both classes: what a detector that knew each
+    /// person's own level could reach at best by ranking.
+    pub auroc_within_recording: Option<f64>,
+    pub recordings_with_both: usize,
+}
+
+/// Pooled AUROC of window probabilities `p` with labels `l`, and the mean
+/// AUROC within each recording (`rec[i]` the recording of window `i`) over
+/// the recordings with both classes, with their count.
+pub fn window_aurocs(p: &[f64], l: &[bool], rec: &[usize]) -> (Option<f64>, Option<f64>, usize) {
+    let mut ids: Vec<usize> = rec.to_vec();
+    ids.sort_unstable();
+    ids.dedup();
+    let within: Vec<f64> = ids
+        .into_iter()
+        .filter_map(|r| {
+            let (ps, ls): (Vec<f64>, Vec<bool>) = (0..p.len())
+                .filter(|&i| rec[i] == r)
+                .map(|i| (p[i], l[i]))
+                .unzip();
+            auroc(&ps, &ls)
+        })
+        .collect();
+    let mean = (!within.is_empty()).then(|| within.iter().sum::<f64>() / within.len() as f64);
+    (auroc(p, l), mean, within.len())
 }
 
 /// [`WindowCalibration`] of `model` on `tracks` with per-frame `flags`.
@@ -60,15 +89,17 @@ pub fn window_calibration(
     model: &DetectorModel,
 ) -> WindowCalibration {
     let spec = WindowSpec::seconds(model.window_s);
-    let (mut p, mut l) = (Vec::new(), Vec::new());
-    for (t, f) in tracks.iter().zip(flags) {
+    let (mut p, mut l, mut rec) = (Vec::new(), Vec::new(), Vec::new());
+    for (r, (t, f)) in tracks.iter().zip(flags).enumerate() {
         for w in windows(t, spec) {
             if let Some(label) = window_label(f, w.start, spec.frames) {
                 p.push(model.probability(&w));
                 l.push(label);
+                rec.push(r);
             }
         }
     }
+    let (auroc, auroc_within_recording, recordings_with_both) = window_aurocs(&p, &l, &rec);
     let reliability = reliability(&p, &l, 10);
     let of = |c: bool| -> Vec<f64> {
         p.iter()
@@ -87,6 +118,9 @@ pub fn window_calibration(
         false_positive_rate: rate_at(&neg, model.threshold),
         true_positive_rate: rate_at(&pos, model.threshold),
         target_false_positive_rate: model.training.options.max_fpr,
+        auroc,
+        auroc_within_recording,
+        recordings_with_both,
     }
 }
 
@@ -198,9 +232,9 @@ pub struct LocalizationEval {
     pub methods: Vec<MethodResult>,
     pub calibration: WindowCalibration,
     pub clips: Vec<ClipResult>,
-    /// `detect`'s method ([`localize::DEFAULT_METHOD`]) per reading surface, for sessions the interview
-    /// model made (metadata.json names where each person reads from);
-    /// empty when it names none.
+    /// `detect`'s method ([`localize::DEFAULT_METHOD`]) per reading
+    /// surface, for sessions the interview model made (metadata.json names
+    /// where each person reads from); empty when it names none.
     pub by_surface: Vec<SurfaceResult>,
 }
 
@@ -326,19 +360,17 @@ pub fn evaluate_localization(
             .map(|(t, f)| score_session(t, f, &model, m, threshold))
             .collect()
     };
-    let (mean, hmm, edges) = (
-        scores_of(Method::WindowMean),
-        scores_of(Method::Hmm),
-        scores_of(Method::HmmEdges),
-    );
-    let methods = vec![
-        pool(Method::WindowMean, &mean),
-        pool(Method::Hmm, &hmm),
-        pool(Method::HmmEdges, &edges),
-    ];
+    let scored: Vec<(Method, Vec<SessionScore>)> =
+        Method::ALL.into_iter().map(|m| (m, scores_of(m))).collect();
+    let methods = scored.iter().map(|(m, s)| pool(*m, s)).collect();
+    let detects = scored
+        .iter()
+        .find(|(m, _)| *m == localize::DEFAULT_METHOD)
+        .map(|(_, s)| s.as_slice())
+        .expect("Method::ALL holds the default");
     let calibration = window_calibration(&tracks, &flags_all, &model);
     let clips = clip_results(&tracks, &flags_all, &model, CLIPS_PER_CLASS, seed);
-    let by_surface = by_surface(&edges, &session_surface);
+    let by_surface = by_surface(detects, &session_surface);
     Ok(LocalizationEval {
         dataset: dir.display().to_string(),
         input: input.name().into(),
@@ -354,9 +386,12 @@ pub fn evaluate_localization(
     })
 }
 
-/// Each surface's sessions pooled from their scores by `detect`'s method (`hmm[i]` of
-/// session `i`), in name order.
-pub fn by_surface(hmm: &[SessionScore], surfaces: &[Option<SourceSurface>]) -> Vec<SurfaceResult> {
+/// Each surface's sessions pooled from their scores by `detect`'s method
+/// ([`localize::DEFAULT_METHOD`]; `scores[i]` of session `i`), in name order.
+pub fn by_surface(
+    scores: &[SessionScore],
+    surfaces: &[Option<SourceSurface>],
+) -> Vec<SurfaceResult> {
     let mut names: Vec<&String> = surfaces.iter().flatten().map(|s| &s.surface).collect();
     names.sort();
     names.dedup();
@@ -369,7 +404,7 @@ pub fn by_surface(hmm: &[SessionScore], surfaces: &[Option<SourceSurface>]) -> V
                 .filter(|s| &s.surface == name)
                 .collect();
             let spans: Vec<f64> = pick.iter().map(|s| s.line_span_deg).collect();
-            let scores = hmm
+            let mine = scores
                 .iter()
                 .zip(surfaces)
                 .filter(|(_, s)| s.as_ref().is_some_and(|s| &s.surface == name))
@@ -378,7 +413,7 @@ pub fn by_surface(hmm: &[SessionScore], surfaces: &[Option<SourceSurface>]) -> V
                 surface: name.clone(),
                 sessions: pick.len(),
                 line_span_deg: eyereplay_signal::stats::median(&spans).unwrap_or(f64::NAN),
-                result: pool(localize::DEFAULT_METHOD, scores),
+                result: pool(localize::DEFAULT_METHOD, mine),
             }
         })
         .collect()
@@ -478,6 +513,24 @@ pub fn score_method(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn window_aurocs_pool_and_average_within_recordings() {
+        // Recording 0: positives 0.9, 0.4 against negatives 0.5, 0.1: of
+        // the four pairs three rank right, AUROC 0.75. Recording 1:
+        // positive 0.3 against negative 0.2: 1.0. Recording 2 has only a
+        // negative and counts for the pool alone. Pooled: positives 0.9,
+        // 0.4, 0.3 against negatives 0.5, 0.1, 0.2, 0.6: 0.9 beats 4, 0.4
+        // beats 2, 0.3 beats 2: 8 of 12.
+        let p = [0.9, 0.4, 0.5, 0.1, 0.3, 0.2, 0.6];
+        let l = [true, true, false, false, true, false, false];
+        let rec = [0, 0, 0, 0, 1, 1, 2];
+        let (pooled, within, n) = window_aurocs(&p, &l, &rec);
+        assert!((pooled.unwrap() - 8.0 / 12.0).abs() < 1e-12);
+        assert!((within.unwrap() - 0.875).abs() < 1e-12);
+        assert_eq!(n, 2);
+        assert_eq!(window_aurocs(&[0.5], &[true], &[0]), (None, None, 0));
+    }
 
     #[test]
     fn runs_of_flags_in_seconds() {

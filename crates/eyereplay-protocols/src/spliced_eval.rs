@@ -328,7 +328,7 @@ pub fn evaluate_spliced(
             let (tracks, flags): (Vec<Track>, Vec<Vec<bool>>) = streams.iter().cloned().unzip();
             SplicedCondition {
                 condition: name.clone(),
-                methods: [Method::WindowMean, Method::Hmm, Method::HmmEdges]
+                methods: Method::ALL
                     .into_iter()
                     .map(|m| score_method(&tracks, &flags, &model, m, threshold))
                     .collect(),

@@ -211,6 +211,13 @@ fn print_calibration(condition: &str, c: &WindowCalibration) {
         100.0 * c.target_false_positive_rate,
         100.0 * c.true_positive_rate
     );
+    let f = |v: Option<f64>| v.map_or("n/a".to_string(), |a| format!("{a:.3}"));
+    println!(
+        "{label}windows' AUROC {} pooled, {} within one recording (mean over the {} with both)",
+        f(c.auroc),
+        f(c.auroc_within_recording),
+        c.recordings_with_both
+    );
 }
 
 /// The table of one condition's methods.
