@@ -168,6 +168,24 @@ pub fn session_csv_track(csv: &Path) -> Result<Track> {
     ))
 }
 
+/// The drawn eyes' mean `(nx, ny)` in each frame of a renderer's truth CSV
+/// (`<stem>_truth.csv`), `NaN` where the lids are closed, as the extractor
+/// leaves a blink: the track a perfect extractor would read.
+pub fn truth_csv_track(csv: &Path) -> Result<Track> {
+    let rows = eyereplay_dataset::read_truth_csv(csv)?;
+    Ok(Track::new(
+        rows.iter()
+            .map(|r| {
+                if r.blink {
+                    [f64::NAN, f64::NAN]
+                } else {
+                    r.mean_norm()
+                }
+            })
+            .collect(),
+    ))
+}
+
 /// What training reads from each session.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -178,6 +196,13 @@ pub enum TrainInput {
     /// The session CSV that drove the renderer (no video needed; for
     /// trajectory-only datasets and quick experiments).
     Trajectory,
+    /// The drawn eyes' own position in their apertures, from the
+    /// renderer's `_truth.csv` (both eyes' nx, ny averaged; closed-lid
+    /// frames are gaps): what a perfect extractor would read from the
+    /// video. Beside `extracted` it tells what the read-back loses, beside
+    /// `trajectory` what the drawing does (the head's share of a gaze
+    /// shift, the eye's size in the frame).
+    Drawn,
 }
 
 impl TrainInput {
@@ -185,6 +210,7 @@ impl TrainInput {
         match self {
             TrainInput::Extracted => "extracted",
             TrainInput::Trajectory => "trajectory",
+            TrainInput::Drawn => "drawn",
         }
     }
 }
@@ -253,11 +279,13 @@ pub fn dataset_tracks(
             let file = match input {
                 TrainInput::Extracted => paths.mp4.clone(),
                 TrainInput::Trajectory => paths.csv.clone(),
+                TrainInput::Drawn => paths.truth.clone(),
             };
             if !file.is_file() {
                 let hint = match input {
                     TrainInput::Extracted => "; render the dataset first ('eyereplay render'), or train on the trajectories with --input trajectory",
                     TrainInput::Trajectory => "",
+                    TrainInput::Drawn => "; the drawn truth is written by 'eyereplay render' (and 'generate') beside each video",
                 };
                 return Err(Error::input(&file, format!("missing{hint}")));
             }
@@ -277,6 +305,10 @@ pub fn dataset_tracks(
         TrainInput::Trajectory => files
             .iter()
             .map(|f| session_csv_track(f))
+            .collect::<Result<Vec<_>>>()?,
+        TrainInput::Drawn => files
+            .iter()
+            .map(|f| truth_csv_track(f))
             .collect::<Result<Vec<_>>>()?,
     };
     Ok(sessions
@@ -646,6 +678,107 @@ fn file_label(path: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_drawn_track_is_both_eyes_mean_with_closed_lids_as_gaps() {
+        use eyereplay_dataset::{EyeTruthRow, TruthRow};
+        let eye = |nx: f64, ny: f64| EyeTruthRow {
+            nx,
+            ny,
+            ..Default::default()
+        };
+        let rows = vec![
+            TruthRow {
+                frame: 0,
+                eyes: [eye(0.40, 0.50), eye(0.44, 0.56)],
+                ..Default::default()
+            },
+            TruthRow {
+                frame: 1,
+                eyes: [eye(0.30, 0.50), eye(0.34, 0.50)],
+                lid_closure: 0.9,
+                blink: true,
+                ..Default::default()
+            },
+            TruthRow {
+                frame: 2,
+                eyes: [eye(0.61, 0.40), eye(0.63, 0.42)],
+                ..Default::default()
+            },
+        ];
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s_truth.csv");
+        eyereplay_dataset::write_truth_csv(&path, &rows).unwrap();
+        let t = truth_csv_track(&path).unwrap();
+        assert_eq!(t.len(), 3);
+        // (0.40 + 0.44) / 2 and (0.50 + 0.56) / 2, through the file's 5 decimals.
+        assert!((t.xy[0][0] - 0.42).abs() < 1e-9 && (t.xy[0][1] - 0.53).abs() < 1e-9);
+        assert!(t.xy[1][0].is_nan() && t.xy[1][1].is_nan());
+        assert!((t.xy[2][0] - 0.62).abs() < 1e-9 && (t.xy[2][1] - 0.41).abs() < 1e-9);
+    }
+
+    #[test]
+    fn drawn_input_reads_each_sessions_truth_beside_its_reading_labels() {
+        use eyereplay_dataset::{EyeTruthRow, TruthRow};
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("d");
+        std::fs::create_dir_all(data.join("conversation")).unwrap();
+        std::fs::write(
+            data.join("labels.csv"),
+            "file,label,class,sources\nconversation/conversation_0000.csv,0,conversation,m#0\n",
+        )
+        .unwrap();
+        std::fs::write(
+            data.join("conversation/conversation_0000.csv"),
+            "frame,x,y,blink,reading\n0,600.0,300.0,0,1\n1,610.0,300.0,0,1\n2,620.0,300.0,0,0\n",
+        )
+        .unwrap();
+        let cache = dir.path().join("cache");
+        let missing = dataset_tracks(
+            std::slice::from_ref(&data),
+            TrainInput::Drawn,
+            &cache,
+            &eyereplay_core::NoProgress,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            missing.contains("conversation_0000_truth.csv") && missing.contains("missing"),
+            "{missing}"
+        );
+        let eye = |nx: f64| EyeTruthRow {
+            nx,
+            ny: 0.5,
+            ..Default::default()
+        };
+        let rows: Vec<TruthRow> = (0..3)
+            .map(|k| TruthRow {
+                frame: k,
+                eyes: [eye(0.4 + 0.1 * k as f64), eye(0.5 + 0.1 * k as f64)],
+                ..Default::default()
+            })
+            .collect();
+        eyereplay_dataset::write_truth_csv(
+            &data.join("conversation/conversation_0000_truth.csv"),
+            &rows,
+        )
+        .unwrap();
+        let t = dataset_tracks(
+            &[data],
+            TrainInput::Drawn,
+            &cache,
+            &eyereplay_core::NoProgress,
+        )
+        .unwrap();
+        assert_eq!(t.len(), 1);
+        assert!(!t[0].reading);
+        assert_eq!(t[0].frame_reading, Some(vec![true, true, false]));
+        // The eyes' means, not the session's canvas x (600-620 px).
+        let x: Vec<f64> = t[0].track.xy.iter().map(|p| p[0]).collect();
+        for (got, want) in x.iter().zip([0.45, 0.55, 0.65]) {
+            assert!((got - want).abs() < 1e-9, "{x:?}");
+        }
+    }
 
     #[test]
     fn a_window_takes_its_frames_label_or_none_when_it_straddles_a_switch() {

@@ -13,7 +13,10 @@ use std::path::PathBuf;
 /// window mean's crossings), and prints per method: segment F1 at IoU 0.5,
 /// the median onset error, and the share of not-reading time called
 /// reading. The sessions' trajectories are scored (no video needed), or
-/// with --input extracted what the extractor reads from their videos.
+/// with --input extracted what the extractor reads from their videos, or
+/// with --input drawn the drawn eyes' own positions (what a perfect
+/// extractor would read): drawn against extracted is what the read-back
+/// loses.
 ///
 /// With --spliced PROTOCOL instead of DATASET: the real eye-tracker
 /// recordings of a detector protocol (docs/DETECTOR.md) cut into pieces
@@ -48,8 +51,9 @@ pub struct Args {
     /// pieces.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// What to score: the sessions' trajectories, or what the extractor
-    /// reads back from their rendered videos (the user's path).
+    /// What to score: the sessions' trajectories, what the extractor
+    /// reads back from their rendered videos (the user's path), or the
+    /// drawn eyes' positions in their apertures (the videos' _truth.csv).
     #[arg(long, value_enum, default_value_t = super::train::InputArg::Trajectory)]
     pub input: super::train::InputArg,
     /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).

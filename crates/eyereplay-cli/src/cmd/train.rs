@@ -33,8 +33,10 @@ pub struct Args {
     #[arg(long, default_value_t = 10.0, value_name = "SECONDS")]
     pub window_s: f64,
     /// What to learn from: 'extracted' (the iris that 'eyereplay extract'
-    /// reads from each rendered video, what detect sees) or 'trajectory'
-    /// (the session CSVs that drove the renderer).
+    /// reads from each rendered video, what detect sees), 'trajectory'
+    /// (the session CSVs that drove the renderer) or 'drawn' (the drawn
+    /// eyes' own position in their apertures, from each video's
+    /// _truth.csv: what a perfect extractor would read).
     #[arg(long, value_enum, default_value_t = InputArg::Extracted)]
     pub input: InputArg,
     /// Seed of the validation split.
@@ -67,6 +69,7 @@ pub struct Args {
 pub enum InputArg {
     Extracted,
     Trajectory,
+    Drawn,
 }
 
 impl From<InputArg> for TrainInput {
@@ -74,6 +77,7 @@ impl From<InputArg> for TrainInput {
         match a {
             InputArg::Extracted => TrainInput::Extracted,
             InputArg::Trajectory => TrainInput::Trajectory,
+            InputArg::Drawn => TrainInput::Drawn,
         }
     }
 }
