@@ -82,28 +82,58 @@ pub fn window_aurocs(p: &[f64], l: &[bool], rec: &[usize]) -> (Option<f64>, Opti
     (auroc(p, l), mean, within.len())
 }
 
+/// The labelled windows of `tracks`: non-overlapping windows of the
+/// model's length, each with its probability, its label from the per-frame
+/// `flags` (windows that straddle a switch left out) and its track's index.
+#[derive(Clone, Debug, Default)]
+pub struct LabelledWindows {
+    pub probability: Vec<f64>,
+    pub reading: Vec<bool>,
+    pub track: Vec<usize>,
+}
+
+impl LabelledWindows {
+    pub fn of(tracks: &[Track], flags: &[Vec<bool>], model: &DetectorModel) -> Self {
+        let spec = WindowSpec::seconds(model.window_s);
+        let mut out = LabelledWindows::default();
+        for (r, (t, f)) in tracks.iter().zip(flags).enumerate() {
+            for w in windows(t, spec) {
+                if let Some(label) = window_label(f, w.start, spec.frames) {
+                    out.probability.push(model.probability(&w));
+                    out.reading.push(label);
+                    out.track.push(r);
+                }
+            }
+        }
+        out
+    }
+
+    /// Pooled AUROC of the windows of the tracks `keep` picks.
+    pub fn auroc_of(&self, keep: impl Fn(usize) -> bool) -> Option<f64> {
+        let (p, l): (Vec<f64>, Vec<bool>) = (0..self.probability.len())
+            .filter(|&i| keep(self.track[i]))
+            .map(|i| (self.probability[i], self.reading[i]))
+            .unzip();
+        auroc(&p, &l)
+    }
+}
+
 /// [`WindowCalibration`] of `model` on `tracks` with per-frame `flags`.
 pub fn window_calibration(
     tracks: &[Track],
     flags: &[Vec<bool>],
     model: &DetectorModel,
 ) -> WindowCalibration {
-    let spec = WindowSpec::seconds(model.window_s);
-    let (mut p, mut l, mut rec) = (Vec::new(), Vec::new(), Vec::new());
-    for (r, (t, f)) in tracks.iter().zip(flags).enumerate() {
-        for w in windows(t, spec) {
-            if let Some(label) = window_label(f, w.start, spec.frames) {
-                p.push(model.probability(&w));
-                l.push(label);
-                rec.push(r);
-            }
-        }
-    }
-    let (auroc, auroc_within_recording, recordings_with_both) = window_aurocs(&p, &l, &rec);
-    let reliability = reliability(&p, &l, 10);
+    calibration_of(&LabelledWindows::of(tracks, flags, model), model)
+}
+
+fn calibration_of(w: &LabelledWindows, model: &DetectorModel) -> WindowCalibration {
+    let (p, l) = (w.probability.as_slice(), w.reading.as_slice());
+    let (auroc, auroc_within_recording, recordings_with_both) = window_aurocs(p, l, &w.track);
+    let reliability = reliability(p, l, 10);
     let of = |c: bool| -> Vec<f64> {
         p.iter()
-            .zip(&l)
+            .zip(l)
             .filter(|(_, &x)| x == c)
             .map(|(&v, _)| v)
             .collect()
@@ -249,6 +279,10 @@ pub struct SurfaceResult {
     /// tenth of it).
     pub line_span_deg: f64,
     pub result: MethodResult,
+    /// How well these sessions' windows separate (pooled AUROC of the
+    /// labelled windows, as [`WindowCalibration::auroc`]); `None` without
+    /// both classes.
+    pub window_auroc: Option<f64>,
 }
 
 /// Where a behaviour-model source reads from.
@@ -368,9 +402,10 @@ pub fn evaluate_localization(
         .find(|(m, _)| *m == localize::DEFAULT_METHOD)
         .map(|(_, s)| s.as_slice())
         .expect("Method::ALL holds the default");
-    let calibration = window_calibration(&tracks, &flags_all, &model);
+    let labelled = LabelledWindows::of(&tracks, &flags_all, &model);
+    let calibration = calibration_of(&labelled, &model);
     let clips = clip_results(&tracks, &flags_all, &model, CLIPS_PER_CLASS, seed);
-    let by_surface = by_surface(detects, &session_surface);
+    let by_surface = by_surface(detects, &session_surface, &labelled);
     Ok(LocalizationEval {
         dataset: dir.display().to_string(),
         input: input.name().into(),
@@ -387,10 +422,13 @@ pub fn evaluate_localization(
 }
 
 /// Each surface's sessions pooled from their scores by `detect`'s method
-/// ([`localize::DEFAULT_METHOD`]; `scores[i]` of session `i`), in name order.
+/// ([`localize::DEFAULT_METHOD`]; `scores[i]` of session `i`), with their
+/// windows' AUROC from `windows` (whose track `i` is session `i`), in name
+/// order.
 pub fn by_surface(
     scores: &[SessionScore],
     surfaces: &[Option<SourceSurface>],
+    windows: &LabelledWindows,
 ) -> Vec<SurfaceResult> {
     let mut names: Vec<&String> = surfaces.iter().flatten().map(|s| &s.surface).collect();
     names.sort();
@@ -409,11 +447,13 @@ pub fn by_surface(
                 .zip(surfaces)
                 .filter(|(_, s)| s.as_ref().is_some_and(|s| &s.surface == name))
                 .map(|(score, _)| score);
+            let on = |i: usize| surfaces[i].as_ref().is_some_and(|s| &s.surface == name);
             SurfaceResult {
                 surface: name.clone(),
                 sessions: pick.len(),
                 line_span_deg: eyereplay_signal::stats::median(&spans).unwrap_or(f64::NAN),
                 result: pool(localize::DEFAULT_METHOD, mine),
+                window_auroc: windows.auroc_of(on),
             }
         })
         .collect()
@@ -623,7 +663,19 @@ mod tests {
             .zip(&flags)
             .map(|(t, f)| score_session(t, f, &model, Method::Hmm, 0.5))
             .collect();
-        let groups = by_surface(&hmm, &[s("laptop"), s("teleprompter")]);
+        let labelled = LabelledWindows::of(&tracks, &flags, &model);
+        // 10-s windows: the first session's 4 talk and 4 reading (the
+        // switch falls on a window edge), the second's 8 talk.
+        assert_eq!(
+            labelled.track,
+            [0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1]
+        );
+        assert_eq!(labelled.reading.iter().filter(|&&r| r).count(), 4);
+        let groups = by_surface(&hmm, &[s("laptop"), s("teleprompter")], &labelled);
+        // The laptop session's reading windows all rank over its talk
+        // windows; the teleprompter session has no reading window.
+        assert_eq!(groups[0].window_auroc, Some(1.0));
+        assert_eq!(groups[1].window_auroc, None);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].surface, "laptop");
         assert_eq!(groups[0].result.segments.truth, 1);

@@ -104,7 +104,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         for s in &ev.by_surface {
             let m = &s.result;
             println!(
-                "  {:<13} {:>2} sessions, line {:>4.1} deg: {:>2} of {:>2} read stretches found, F1 {:.3}, onset {}, false reading {:.1} %",
+                "  {:<13} {:>2} sessions, line {:>4.1} deg: {:>2} of {:>2} read stretches found, F1 {:.3}, onset {}, false reading {:.1} %, windows' AUROC {}",
                 s.surface,
                 s.sessions,
                 s.line_span_deg,
@@ -113,7 +113,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 m.segments.f1,
                 m.onset_error_median_s
                     .map_or("n/a".to_string(), |v| format!("{v:.1} s")),
-                100.0 * m.false_reading_fraction
+                100.0 * m.false_reading_fraction,
+                s.window_auroc.map_or("n/a".into(), |a| format!("{a:.3}"))
             );
         }
     }
