@@ -31,6 +31,7 @@ eyereplay prepare --config examples/localize_train.toml --out out/localize_train
 eyereplay train out/localize_train --input trajectory --frame-labels --window-s 6 --out out/interview.json\n  \
 eyereplay prepare --config examples/localize.toml --out out/localize        # other people\n  \
 eyereplay evaluate-localization out/localize --model out/interview.json\n  \
+eyereplay evaluate-localization out/interview_test --input drawn --model m.json  # rendered: as a perfect extractor would read\n  \
 eyereplay evaluate-localization --spliced examples/detector/protocol_behaviour.toml --model out/interview.json")]
 pub struct Args {
     /// A dataset folder with interview sessions (`eyereplay prepare` or `generate`).
