@@ -442,12 +442,12 @@ pub fn by_surface(
                 .filter(|s| &s.surface == name)
                 .collect();
             let spans: Vec<f64> = pick.iter().map(|s| s.line_span_deg).collect();
+            let on = |i: usize| surfaces[i].as_ref().is_some_and(|s| &s.surface == name);
             let mine = scores
                 .iter()
-                .zip(surfaces)
-                .filter(|(_, s)| s.as_ref().is_some_and(|s| &s.surface == name))
-                .map(|(score, _)| score);
-            let on = |i: usize| surfaces[i].as_ref().is_some_and(|s| &s.surface == name);
+                .enumerate()
+                .filter(|&(i, _)| on(i))
+                .map(|(_, score)| score);
             SurfaceResult {
                 surface: name.clone(),
                 sessions: pick.len(),
