@@ -61,27 +61,6 @@ pub struct WindowCalibration {
     pub recordings_with_both: usize,
 }
 
-/// Pooled AUROC of window probabilities `p` with labels `l`, and the mean
-/// AUROC within each recording (`rec[i]` the recording of window `i`) over
-/// the recordings with both classes, with their count.
-pub fn window_aurocs(p: &[f64], l: &[bool], rec: &[usize]) -> (Option<f64>, Option<f64>, usize) {
-    let mut ids: Vec<usize> = rec.to_vec();
-    ids.sort_unstable();
-    ids.dedup();
-    let within: Vec<f64> = ids
-        .into_iter()
-        .filter_map(|r| {
-            let (ps, ls): (Vec<f64>, Vec<bool>) = (0..p.len())
-                .filter(|&i| rec[i] == r)
-                .map(|i| (p[i], l[i]))
-                .unzip();
-            auroc(&ps, &ls)
-        })
-        .collect();
-    let mean = (!within.is_empty()).then(|| within.iter().sum::<f64>() / within.len() as f64);
-    (auroc(p, l), mean, within.len())
-}
-
 /// The labelled windows of `tracks`: non-overlapping windows of the
 /// model's length, each with its probability, its label from the per-frame
 /// `flags` (windows that straddle a switch left out) and its track's index.
@@ -116,6 +95,20 @@ impl LabelledWindows {
             .unzip();
         auroc(&p, &l)
     }
+
+    /// The pooled AUROC, and the mean AUROC within each track over the
+    /// tracks with windows of both classes, with their count.
+    pub fn aurocs(&self) -> (Option<f64>, Option<f64>, usize) {
+        let mut ids = self.track.clone();
+        ids.sort_unstable();
+        ids.dedup();
+        let within: Vec<f64> = ids
+            .into_iter()
+            .filter_map(|r| self.auroc_of(|t| t == r))
+            .collect();
+        let mean = (!within.is_empty()).then(|| within.iter().sum::<f64>() / within.len() as f64);
+        (self.auroc_of(|_| true), mean, within.len())
+    }
 }
 
 /// [`WindowCalibration`] of `model` on `tracks` with per-frame `flags`.
@@ -129,7 +122,7 @@ pub fn window_calibration(
 
 fn calibration_of(w: &LabelledWindows, model: &DetectorModel) -> WindowCalibration {
     let (p, l) = (w.probability.as_slice(), w.reading.as_slice());
-    let (auroc, auroc_within_recording, recordings_with_both) = window_aurocs(p, l, &w.track);
+    let (auroc, auroc_within_recording, recordings_with_both) = w.aurocs();
     let reliability = reliability(p, l, 10);
     let of = |c: bool| -> Vec<f64> {
         p.iter()
@@ -555,7 +548,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn window_aurocs_pool_and_average_within_recordings() {
+    fn window_aurocs_pool_and_average_within_tracks() {
         // Recording 0: positives 0.9, 0.4 against negatives 0.5, 0.1: of
         // the four pairs three rank right, AUROC 0.75. Recording 1:
         // positive 0.3 against negative 0.2: 1.0. Recording 2 has only a
@@ -565,11 +558,16 @@ mod tests {
         let p = [0.9, 0.4, 0.5, 0.1, 0.3, 0.2, 0.6];
         let l = [true, true, false, false, true, false, false];
         let rec = [0, 0, 0, 0, 1, 1, 2];
-        let (pooled, within, n) = window_aurocs(&p, &l, &rec);
+        let w = |p: &[f64], l: &[bool], rec: &[usize]| LabelledWindows {
+            probability: p.to_vec(),
+            reading: l.to_vec(),
+            track: rec.to_vec(),
+        };
+        let (pooled, within, n) = w(&p, &l, &rec).aurocs();
         assert!((pooled.unwrap() - 8.0 / 12.0).abs() < 1e-12);
         assert!((within.unwrap() - 0.875).abs() < 1e-12);
         assert_eq!(n, 2);
-        assert_eq!(window_aurocs(&[0.5], &[true], &[0]), (None, None, 0));
+        assert_eq!(w(&[0.5], &[true], &[0]).aurocs(), (None, None, 0));
     }
 
     #[test]

@@ -213,6 +213,24 @@ impl TrainInput {
             TrainInput::Drawn => "drawn",
         }
     }
+
+    /// The file this input reads for a session.
+    fn file(self, paths: &eyereplay_dataset::SessionPaths) -> &Path {
+        match self {
+            TrainInput::Extracted => &paths.mp4,
+            TrainInput::Trajectory => &paths.csv,
+            TrainInput::Drawn => &paths.truth,
+        }
+    }
+
+    /// What to do when that file is missing, after "missing".
+    fn missing_hint(self) -> &'static str {
+        match self {
+            TrainInput::Extracted => "; render the dataset first ('eyereplay render'), or train on the trajectories with --input trajectory",
+            TrainInput::Trajectory => "",
+            TrainInput::Drawn => "; the drawn truth is written by 'eyereplay render' (and 'generate') beside each video",
+        }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -276,18 +294,12 @@ pub fn dataset_tracks(
         for row in &labels {
             let paths = eyereplay_dataset::SessionPaths::new(dir, &row.file)
                 .map_err(|e| Error::input(dir.join("labels.csv"), e.to_string()))?;
-            let file = match input {
-                TrainInput::Extracted => paths.mp4.clone(),
-                TrainInput::Trajectory => paths.csv.clone(),
-                TrainInput::Drawn => paths.truth.clone(),
-            };
+            let file = input.file(&paths).to_path_buf();
             if !file.is_file() {
-                let hint = match input {
-                    TrainInput::Extracted => "; render the dataset first ('eyereplay render'), or train on the trajectories with --input trajectory",
-                    TrainInput::Trajectory => "",
-                    TrainInput::Drawn => "; the drawn truth is written by 'eyereplay render' (and 'generate') beside each video",
-                };
-                return Err(Error::input(&file, format!("missing{hint}")));
+                return Err(Error::input(
+                    &file,
+                    format!("missing{}", input.missing_hint()),
+                ));
             }
             let frame_reading = eyereplay_dataset::read_reading_column(&paths.csv)?;
             sessions.push((
@@ -305,11 +317,11 @@ pub fn dataset_tracks(
         TrainInput::Trajectory => files
             .iter()
             .map(|f| session_csv_track(f))
-            .collect::<Result<Vec<_>>>()?,
+            .collect::<Result<_>>()?,
         TrainInput::Drawn => files
             .iter()
             .map(|f| truth_csv_track(f))
-            .collect::<Result<Vec<_>>>()?,
+            .collect::<Result<_>>()?,
     };
     Ok(sessions
         .into_iter()
