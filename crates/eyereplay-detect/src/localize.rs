@@ -95,6 +95,25 @@ pub struct Unscored {
     pub needed_s: f64,
 }
 
+impl Unscored {
+    /// Why the stretch has no score, for people (`detect`'s log, the
+    /// reviewer's page): too little gaze in it, or enough gaze cut up by
+    /// gaps so that no whole window of `window_s` holds `needed_s` of it.
+    pub fn reason(&self, window_s: f64) -> String {
+        if self.usable_s >= self.needed_s {
+            format!(
+                "no score: gaze gaps leave no whole {window_s} s window with gaze in {:.1} s of it",
+                self.needed_s
+            )
+        } else {
+            format!(
+                "not enough gaze: {:.1} s usable, {:.1} s needed within one {window_s} s window",
+                self.usable_s, self.needed_s
+            )
+        }
+    }
+}
+
 /// Scores `track` with windows of the model's length every
 /// [`STRIDE_S`], turns them into per-frame probabilities by `method`, and
 /// cuts segments where they reach `threshold` ([`SEGMENT_THRESHOLD`]
@@ -537,6 +556,24 @@ impl SegmentMatch {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_unscored_stretch_says_which_of_the_two_reasons_it_has() {
+        let u = |usable_s| Unscored {
+            start_s: 12.0,
+            end_s: 19.0,
+            usable_s,
+            needed_s: 7.0,
+        };
+        assert_eq!(
+            u(3.24).reason(10.0),
+            "not enough gaze: 3.2 s usable, 7.0 s needed within one 10 s window"
+        );
+        assert_eq!(
+            u(7.0).reason(10.0),
+            "no score: gaze gaps leave no whole 10 s window with gaze in 7.0 s of it"
+        );
+    }
 
     #[test]
     fn frames_take_the_mean_of_the_windows_covering_them() {

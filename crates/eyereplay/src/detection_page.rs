@@ -8,6 +8,7 @@
 use crate::detector::Detection;
 use eyereplay_detect::{Track, FPS};
 use eyereplay_eval::html_escape as esc;
+use eyereplay_signal::stats::quantile;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -22,8 +23,7 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
     let dur = track.duration_s().max(d.localization.step_s);
     let x = |t: f64| (t / dur * W).clamp(0.0, W);
     let mut svg = String::new();
-    // Gaze: nx (or the trajectory's x) normalized to its 5-95 % range.
-    let (lo, hi) = track.x_quantiles_5_95().unwrap_or((0.0, 1.0));
+    let band = GazeBand::of(track);
     let mut path = String::new();
     let step = (track.len() / 2000).max(1);
     let mut pen_up = true;
@@ -32,13 +32,12 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
             pen_up = true;
             continue;
         }
-        let y = H_GAZE - 5.0 - (p[0] - lo) / (hi - lo).max(1e-12) * (H_GAZE - 10.0);
         let _ = write!(
             path,
             "{}{:.1},{:.1} ",
             if pen_up { "M" } else { "L" },
             x(k as f64 / FPS),
-            y.clamp(0.0, H_GAZE)
+            band.y(p[0])
         );
         pen_up = false;
     }
@@ -61,6 +60,25 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
             g.start_s,
             g.end_s,
             g.confidence
+        );
+    }
+    // Stretches no window could score, with why (a short clip is scored
+    // whole, so its stretches are not drawn, as `detect` does not list them).
+    let unscored = if d.clip.is_none() {
+        &d.localization.unscored[..]
+    } else {
+        &[]
+    };
+    for u in unscored {
+        let _ = write!(
+            svg,
+            "<rect class=\"gap\" x=\"{:.1}\" y=\"0\" width=\"{:.1}\" height=\"{:.1}\"><title>{}-{}: {}</title></rect>",
+            x(u.start_s),
+            (x(u.end_s) - x(u.start_s)).max(1.0),
+            top + H_PROB,
+            clock(u.start_s),
+            clock(u.end_s),
+            esc(&u.reason(d.model.window_s))
         );
     }
     let mut prob = String::new();
@@ -105,6 +123,23 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
             })
             .collect()
     };
+    let not_scored: String = if unscored.is_empty() {
+        String::new()
+    } else {
+        let items: String = unscored
+            .iter()
+            .map(|u| {
+                format!(
+                    "<li><a href=\"#\" onclick=\"seek({:.2});return false\">{} - {}</a>: {}</li>",
+                    u.start_s,
+                    clock(u.start_s),
+                    clock(u.end_s),
+                    esc(&u.reason(d.model.window_s))
+                )
+            })
+            .collect();
+        format!("<h2>Not scored</h2><ul>{items}</ul>")
+    };
     let video = match video_href {
         Some(h) => format!(
             "<video id=\"v\" src=\"{}\" controls preload=\"metadata\"></video>",
@@ -119,12 +154,12 @@ body{{font:15px system-ui,sans-serif;margin:24px auto;max-width:1040px;color:#22
 video{{width:100%;max-height:480px;background:#000}}svg{{width:100%;height:auto;border:1px solid #ccc;cursor:pointer}}\
 .gaze{{fill:none;stroke:#456;stroke-width:1}}.prob{{fill:none;stroke:#c60;stroke-width:2}}\
 .half{{stroke:#999;stroke-dasharray:4 4}}.seg{{fill:#fc8;opacity:.45}}.seg:hover{{opacity:.8}}\
-.head{{stroke:#d00;stroke-width:2}}.lab{{font-size:12px;fill:#555}}.note{{color:#666}}</style></head><body>\
+.gap{{fill:#888;opacity:.3}}.head{{stroke:#d00;stroke-width:2}}.lab{{font-size:12px;fill:#555}}.note{{color:#666}}</style></head><body>\
 <h1>{title}</h1><p><b>{when}</b>. The recording as a whole: {verdict} (mean P(reading) {mean:.3} \
 against the model's threshold {thr:.3}). Model: {model}.</p>{video}\
 <svg id=\"t\" viewBox=\"0 0 {W} {h:.0}\" preserveAspectRatio=\"none\">{svg}</svg>\
-<p class=\"note\">0 to {dur}. Orange: reading segments (click to play from there), their ends where the window scores cross half-way between reading and not; curve: P(reading), dashed: P = 0.5.</p>\
-<h2>Reading segments</h2><ul>{segments}</ul>\
+<p class=\"note\">0 to {dur}. Orange: reading segments (click to play from there), their ends where the window scores cross half-way between reading and not; curve: P(reading), dashed: P = 0.5{grey}.</p>\
+<h2>Reading segments</h2><ul>{segments}</ul>{not_scored}\
 <script>\
 var v=document.getElementById('v'),t=document.getElementById('t'),h=document.getElementById('head'),D={durs:.3};\
 function seek(s){{if(v){{v.currentTime=s;v.play();}}}}\
@@ -140,7 +175,47 @@ if(v)v.addEventListener('timeupdate',function(){{var x=v.currentTime/D*{W};h.set
         h = top + H_PROB,
         dur = clock(dur),
         durs = dur,
+        grey = if unscored.is_empty() {
+            ""
+        } else {
+            "; grey: no score, too little gaze (hover for why)"
+        },
     )
+}
+
+/// The gaze trace's vertical scale: the 0.5-99.5 % range of x fills the
+/// strip. A 5-95 % range (the detector's own unit) flattened every look
+/// away from the camera into a line at the strip's edge, yet those looks
+/// are what a reviewer scans for beside the reading segments; the extreme
+/// half percent on each side is left out so that a single-frame tracking
+/// glitch cannot squash the rest of the trace into a thin band.
+struct GazeBand {
+    lo: f64,
+    hi: f64,
+}
+
+impl GazeBand {
+    const TAIL: f64 = 0.005;
+
+    fn of(track: &Track) -> Self {
+        let xs: Vec<f64> = track
+            .xy
+            .iter()
+            .map(|p| p[0])
+            .filter(|v| v.is_finite())
+            .collect();
+        match (quantile(&xs, Self::TAIL), quantile(&xs, 1.0 - Self::TAIL)) {
+            (Some(lo), Some(hi)) => GazeBand { lo, hi },
+            _ => GazeBand { lo: 0.0, hi: 1.0 },
+        }
+    }
+
+    /// SVG y of gaze `x`: `lo` at the strip's foot, `hi` at its top, 5 units
+    /// of margin; the clipped tails at the strip's edges.
+    fn y(&self, x: f64) -> f64 {
+        let u = (x - self.lo) / (self.hi - self.lo).max(1e-12);
+        (H_GAZE - 5.0 - u * (H_GAZE - 10.0)).clamp(0.0, H_GAZE)
+    }
 }
 
 /// The headline: how much of the recording is read, in how many segments.
@@ -178,6 +253,72 @@ fn file_name(path: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// 95 % of the frames spread over x in [0, 1), 4 % a look away at
+    /// x = 3, one frame a tracking glitch at x = 100. By hand: the 99.5 %
+    /// quantile of the 1000 values falls among the 40 at 3 and the 0.5 %
+    /// one among the evenly spread ones near 0.
+    #[test]
+    fn gaze_band_keeps_looks_away_and_drops_glitches() {
+        let mut xy: Vec<[f64; 2]> = (0..959).map(|i| [i as f64 / 959.0, 0.0]).collect();
+        xy.extend((0..40).map(|_| [3.0, 0.0]));
+        xy.push([100.0, 0.0]);
+        xy.push([f64::NAN, f64::NAN]);
+        let band = GazeBand::of(&Track::new(xy));
+        assert_eq!(band.hi, 3.0);
+        assert!(band.lo >= 0.0 && band.lo < 0.01, "lo {}", band.lo);
+        // The look away is drawn at the top, well above the ordinary
+        // range (at 5-95 % it was clamped flat at the strip's edge, level
+        // with x = 1).
+        assert!((band.y(3.0) - 5.0).abs() < 1e-9);
+        assert!(band.y(1.0) > band.y(3.0) + 40.0, "y(1) {}", band.y(1.0));
+        assert!((band.y(band.lo) - (H_GAZE - 5.0)).abs() < 1e-9);
+        // The glitch is clamped inside the strip.
+        assert_eq!(band.y(100.0), 0.0);
+    }
+
+    /// A 60-s detection with one reading segment and one stretch without
+    /// gaze: the page draws the stretch grey with its reason and lists it
+    /// with a link that seeks there; a short clip's page (scored whole)
+    /// draws none.
+    #[test]
+    fn the_page_marks_and_lists_what_could_not_be_scored() {
+        let mut d: Detection = serde_json::from_value(serde_json::json!({
+            "input": {"path": "call.mp4", "kind": "video", "frames": 1500, "gaze_fraction": 0.8},
+            "model": {"path": "m.json", "kind": "logistic_regression", "window_s": 10.0, "threshold": 0.6},
+            "windows": [], "reading_probability": 0.4, "reading_window_fraction": 0.3,
+            "verdict": "not reading",
+            "localization": {
+                "method": "hmm_edges", "step_s": 1.0, "probability": [0.2, null, 0.9],
+                "segments": [{"start_s": 40.0, "end_s": 55.0, "confidence": 0.8}],
+                "unscored": [{"start_s": 12.0, "end_s": 19.0, "usable_s": 3.24, "needed_s": 7.0}]
+            },
+            "clip": null
+        }))
+        .unwrap();
+        let track = Track::new(vec![[0.5, 0.5]; 1500]);
+        let page = detection_page(&track, &d, Some("call.mp4"));
+        // 12 s of 60 on a 1000-unit timeline: x = 200, width 7 s = 116.7.
+        assert!(
+            page.contains("<rect class=\"gap\" x=\"200.0\" y=\"0\" width=\"116.7\""),
+            "{page}"
+        );
+        let why = "not enough gaze: 3.2 s usable, 7.0 s needed within one 10 s window";
+        assert!(page.contains(&format!("<title>0:12-0:19: {why}</title>")));
+        assert!(page.contains(&format!(
+            "<h2>Not scored</h2><ul><li><a href=\"#\" onclick=\"seek(12.00);return false\">0:12 - 0:19</a>: {why}</li></ul>"
+        )));
+        assert!(page.contains("grey: no score"));
+        d.clip = Some(
+            serde_json::from_value(serde_json::json!({
+                "start_s": 0.0, "end_s": 8.0, "usable_s": 8.0, "reading_probability": 0.4,
+                "low": 0.3, "high": 0.5, "level": 0.9
+            }))
+            .unwrap(),
+        );
+        let page = detection_page(&track, &d, None);
+        assert!(!page.contains("class=\"gap\"") && !page.contains("Not scored"));
+    }
 
     #[test]
     fn clock_reads_like_a_player() {

@@ -224,17 +224,12 @@ fn print_detection(d: &Detection) {
     }
     // A short clip is scored whole below; its stretches need no list.
     for u in d.localization.unscored.iter().filter(|_| d.clip.is_none()) {
-        if u.usable_s >= u.needed_s {
-            eprintln!(
-                "{:.1}-{:.1} s: no score: gaze gaps leave no whole {} s window with gaze in {:.1} s of it",
-                u.start_s, u.end_s, d.model.window_s, u.needed_s
-            );
-        } else {
-            eprintln!(
-                "{:.1}-{:.1} s: not enough gaze: {:.1} s usable, {:.1} s needed within one {} s window",
-                u.start_s, u.end_s, u.usable_s, u.needed_s, d.model.window_s
-            );
-        }
+        eprintln!(
+            "{:.1}-{:.1} s: {}",
+            u.start_s,
+            u.end_s,
+            u.reason(d.model.window_s)
+        );
     }
     if let Some(c) = &d.clip {
         println!(
