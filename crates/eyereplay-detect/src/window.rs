@@ -42,13 +42,19 @@ impl Track {
     /// The 5 % and 95 % quantiles of x over the frames with gaze; `None`
     /// without any.
     pub fn x_quantiles_5_95(&self) -> Option<(f64, f64)> {
+        self.x_quantiles(0.05, 0.95)
+    }
+
+    /// Quantiles `lo` and `hi` (in [0, 1]) of x over the frames with gaze;
+    /// `None` without any.
+    pub fn x_quantiles(&self, lo: f64, hi: f64) -> Option<(f64, f64)> {
         let xs: Vec<f64> = self
             .xy
             .iter()
             .map(|p| p[0])
             .filter(|v| v.is_finite())
             .collect();
-        Some((quantile(&xs, 0.05)?, quantile(&xs, 0.95)?))
+        Some((quantile(&xs, lo)?, quantile(&xs, hi)?))
     }
 }
 

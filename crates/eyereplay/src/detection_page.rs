@@ -8,7 +8,6 @@
 use crate::detector::Detection;
 use eyereplay_detect::{Track, FPS};
 use eyereplay_eval::html_escape as esc;
-use eyereplay_signal::stats::quantile;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -48,13 +47,21 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
     // Probability per second, the 0.5 line, segments.
     let top = H_GAZE + 10.0;
     let yp = |p: f64| top + (1.0 - p) * H_PROB;
+    // A band over the whole timeline from `a` to `b` seconds: its x, width
+    // and height attributes.
+    let band = |a: f64, b: f64| {
+        format!(
+            "x=\"{:.1}\" y=\"0\" width=\"{:.1}\" height=\"{:.1}\"",
+            x(a),
+            (x(b) - x(a)).max(1.0),
+            top + H_PROB
+        )
+    };
     for g in &d.localization.segments {
         let _ = write!(
             svg,
-            "<rect class=\"seg\" x=\"{:.1}\" y=\"0\" width=\"{:.1}\" height=\"{:.1}\" data-start=\"{:.2}\" onclick=\"seek({:.2})\"><title>reading {:.1}-{:.1} s, confidence {:.2}</title></rect>",
-            x(g.start_s),
-            (x(g.end_s) - x(g.start_s)).max(1.0),
-            top + H_PROB,
+            "<rect class=\"seg\" {} data-start=\"{:.2}\" onclick=\"seek({:.2})\"><title>reading {:.1}-{:.1} s, confidence {:.2}</title></rect>",
+            band(g.start_s, g.end_s),
             g.start_s,
             g.start_s,
             g.start_s,
@@ -72,10 +79,8 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
     for u in unscored {
         let _ = write!(
             svg,
-            "<rect class=\"gap\" x=\"{:.1}\" y=\"0\" width=\"{:.1}\" height=\"{:.1}\"><title>{}-{}: {}</title></rect>",
-            x(u.start_s),
-            (x(u.end_s) - x(u.start_s)).max(1.0),
-            top + H_PROB,
+            "<rect class=\"gap\" {}><title>{}-{}: {}</title></rect>",
+            band(u.start_s, u.end_s),
             clock(u.start_s),
             clock(u.end_s),
             esc(&u.reason(d.model.window_s))
@@ -198,16 +203,10 @@ impl GazeBand {
     const TAIL: f64 = 0.005;
 
     fn of(track: &Track) -> Self {
-        let xs: Vec<f64> = track
-            .xy
-            .iter()
-            .map(|p| p[0])
-            .filter(|v| v.is_finite())
-            .collect();
-        match (quantile(&xs, Self::TAIL), quantile(&xs, 1.0 - Self::TAIL)) {
-            (Some(lo), Some(hi)) => GazeBand { lo, hi },
-            _ => GazeBand { lo: 0.0, hi: 1.0 },
-        }
+        let (lo, hi) = track
+            .x_quantiles(Self::TAIL, 1.0 - Self::TAIL)
+            .unwrap_or((0.0, 1.0));
+        GazeBand { lo, hi }
     }
 
     /// SVG y of gaze `x`: `lo` at the strip's foot, `hi` at its top, 5 units
