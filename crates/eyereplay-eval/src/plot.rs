@@ -18,6 +18,8 @@ const SRC_COLOR: RGBColor = RGBColor(31, 119, 180);
 const GEN_COLOR: RGBColor = RGBColor(255, 127, 14);
 const X_COLOR: RGBColor = RGBColor(31, 119, 180);
 const Y_COLOR: RGBColor = RGBColor(214, 39, 40);
+/// Stretches without a score: grey, as on the reviewer's page.
+const NO_SCORE_COLOR: RGBColor = RGBColor(136, 136, 136);
 
 /// One figure in both formats.
 #[derive(Clone, Debug)]
@@ -604,6 +606,7 @@ fn draw_detection<DB: DrawingBackend>(
     xy: &[[f64; 2]],
     fps: f64,
     windows: &[(f64, f64, f64)],
+    unscored: &[(f64, f64)],
     threshold: f64,
     title: &str,
 ) -> DrawResult {
@@ -671,6 +674,22 @@ fn draw_detection<DB: DrawingBackend>(
         .light_line_style(WHITE)
         .draw()
         .map_err(s)?;
+    // Without it a stretch no window could score and a window that scored
+    // near 0 looked alike: both left the panel empty.
+    if !unscored.is_empty() {
+        chart
+            .draw_series(unscored.iter().map(|&(a, b)| {
+                Rectangle::new([(a, 0.0), (b, 1.0)], NO_SCORE_COLOR.mix(0.3).filled())
+            }))
+            .map_err(s)?
+            .label("no score: too little gaze")
+            .legend(|(x, y)| {
+                Rectangle::new(
+                    [(x, y - 5), (x + 16, y + 5)],
+                    NO_SCORE_COLOR.mix(0.3).filled(),
+                )
+            });
+    }
     chart
         .draw_series(windows.iter().map(|&(a, b, p)| {
             let color = if p >= threshold { GEN_COLOR } else { SRC_COLOR };
@@ -709,19 +728,21 @@ fn draw_detection<DB: DrawingBackend>(
 
 /// The detector's view of one recording: the gaze track (x and y over
 /// time, gaps left open) above the reading probability of each window
-/// (orange at or above the threshold, blue below), the threshold dashed.
+/// (orange at or above the threshold, blue below), the threshold dashed,
+/// and the `unscored` stretches (start, end in seconds) grey.
 pub fn detection_figure(
     xy: &[[f64; 2]],
     fps: f64,
     windows: &[(f64, f64, f64)],
+    unscored: &[(f64, f64)],
     threshold: f64,
     title: &str,
 ) -> Result<Figure, EvalError> {
     render(
         "detection",
         (1200, 560),
-        |r| draw_detection(r, xy, fps, windows, threshold, title),
-        |r| draw_detection(r, xy, fps, windows, threshold, title),
+        |r| draw_detection(r, xy, fps, windows, unscored, threshold, title),
+        |r| draw_detection(r, xy, fps, windows, unscored, threshold, title),
     )
 }
 
@@ -861,6 +882,34 @@ fn draw_unit_panels<DB: DrawingBackend>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// 60 s of gaze, windows at 0-10 and 50-60 s: the stretch between
+    /// them without a score is drawn grey and named in the legend; with no
+    /// such stretch neither appears.
+    #[test]
+    fn the_detection_figure_greys_what_could_not_be_scored() {
+        let xy = vec![[0.5, 0.5]; 1500];
+        let windows = [(0.0, 10.0, 0.9), (50.0, 60.0, 0.02)];
+        let grey = "opacity=\"0.3\" fill=\"#888888\"";
+        let fig = detection_figure(&xy, 25.0, &windows, &[(12.0, 48.0)], 0.6, "t").unwrap();
+        assert!(fig.svg.contains("no score: too little gaze"));
+        // The stretch and its legend swatch.
+        assert_eq!(fig.svg.matches(grey).count(), 2, "{}", fig.svg);
+        // The panel's plot area runs from x = 10 + 56 (margin, y labels)
+        // to 1200 - 10 over 60 s: 12 s falls at 66 + 12 / 60 * 1124 =
+        // 290.8, 48 s at 965.2, so the grey rect spans 290 to 964; and
+        // from P = 1 at the bottom half's top (280 + 10) down to P = 0,
+        // 224 px of -0.01..1 lower: 290 + 224 / 1.01 = 511.8.
+        assert!(
+            fig.svg.contains(&format!(
+                "<rect x=\"290\" y=\"290\" width=\"674\" height=\"221\" {grey}"
+            )),
+            "{}",
+            fig.svg
+        );
+        let fig = detection_figure(&xy, 25.0, &windows, &[], 0.6, "t").unwrap();
+        assert!(!fig.svg.contains("no score") && !fig.svg.contains(grey));
+    }
 
     #[test]
     fn log_ticks_name_one_two_and_five_per_decade() {

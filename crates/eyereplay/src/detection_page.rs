@@ -69,13 +69,8 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
             g.confidence
         );
     }
-    // Stretches no window could score, with why (a short clip is scored
-    // whole, so its stretches are not drawn, as `detect` does not list them).
-    let unscored = if d.clip.is_none() {
-        &d.localization.unscored[..]
-    } else {
-        &[]
-    };
+    // Stretches no window could score, with why.
+    let unscored = d.unscored();
     for u in unscored {
         let _ = write!(
             svg,

@@ -570,6 +570,18 @@ pub struct Detection {
     pub clip: Option<ClipScore>,
 }
 
+impl Detection {
+    /// The stretches no window could score, to show and explain; none for
+    /// a short clip, which is scored whole from its best stretch.
+    pub fn unscored(&self) -> &[eyereplay_detect::localize::Unscored] {
+        if self.clip.is_none() {
+            &self.localization.unscored
+        } else {
+            &[]
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DetectionModelInfo {
     pub path: String,
@@ -671,10 +683,12 @@ pub fn detection_figure(track: &Track, d: &Detection) -> Result<eyereplay_eval::
         .iter()
         .map(|w| (w.start_s, w.end_s, w.reading_probability))
         .collect();
+    let unscored: Vec<(f64, f64)> = d.unscored().iter().map(|u| (u.start_s, u.end_s)).collect();
     Ok(eyereplay_eval::plot::detection_figure(
         &track.xy,
         FPS,
         &windows,
+        &unscored,
         d.model.threshold,
         &format!("{}: {}", file_label(&d.input.path), d.verdict),
     )?)

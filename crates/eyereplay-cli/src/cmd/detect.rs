@@ -223,7 +223,7 @@ fn print_detection(d: &Detection) {
         eprintln!("reading segments (confidence): {}", list.join(", "));
     }
     // A short clip is scored whole below; its stretches need no list.
-    for u in d.localization.unscored.iter().filter(|_| d.clip.is_none()) {
+    for u in d.unscored() {
         eprintln!(
             "{:.1}-{:.1} s: {}",
             u.start_s,
