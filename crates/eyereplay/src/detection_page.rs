@@ -22,7 +22,7 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
     let dur = track.duration_s().max(d.localization.step_s);
     let x = |t: f64| (t / dur * W).clamp(0.0, W);
     let mut svg = String::new();
-    let band = GazeBand::of(track);
+    let gaze_band = GazeBand::of(track);
     let mut path = String::new();
     let step = (track.len() / 2000).max(1);
     let mut pen_up = true;
@@ -36,7 +36,7 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
             "{}{:.1},{:.1} ",
             if pen_up { "M" } else { "L" },
             x(k as f64 / FPS),
-            band.y(p[0])
+            gaze_band.y(p[0])
         );
         pen_up = false;
     }
@@ -47,9 +47,9 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
     // Probability per second, the 0.5 line, segments.
     let top = H_GAZE + 10.0;
     let yp = |p: f64| top + (1.0 - p) * H_PROB;
-    // A band over the whole timeline from `a` to `b` seconds: its x, width
-    // and height attributes.
-    let band = |a: f64, b: f64| {
+    // A rect over the whole timeline's height from `a` to `b` seconds: its
+    // x, width and height attributes.
+    let span = |a: f64, b: f64| {
         format!(
             "x=\"{:.1}\" y=\"0\" width=\"{:.1}\" height=\"{:.1}\"",
             x(a),
@@ -61,7 +61,7 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
         let _ = write!(
             svg,
             "<rect class=\"seg\" {} data-start=\"{:.2}\" onclick=\"seek({:.2})\"><title>reading {:.1}-{:.1} s, confidence {:.2}</title></rect>",
-            band(g.start_s, g.end_s),
+            span(g.start_s, g.end_s),
             g.start_s,
             g.start_s,
             g.start_s,
@@ -75,7 +75,7 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
         let _ = write!(
             svg,
             "<rect class=\"gap\" {}><title>{}-{}: {}</title></rect>",
-            band(u.start_s, u.end_s),
+            span(u.start_s, u.end_s),
             clock(u.start_s),
             clock(u.end_s),
             esc(&u.reason(d.model.window_s))
@@ -114,10 +114,8 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
             .iter()
             .map(|g| {
                 format!(
-                    "<li><a href=\"#\" onclick=\"seek({:.2});return false\">{} - {}</a> (confidence {:.2})</li>",
-                    g.start_s,
-                    clock(g.start_s),
-                    clock(g.end_s),
+                    "<li>{} (confidence {:.2})</li>",
+                    seek_link(g.start_s, g.end_s),
                     g.confidence
                 )
             })
@@ -130,10 +128,8 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
             .iter()
             .map(|u| {
                 format!(
-                    "<li><a href=\"#\" onclick=\"seek({:.2});return false\">{} - {}</a>: {}</li>",
-                    u.start_s,
-                    clock(u.start_s),
-                    clock(u.end_s),
+                    "<li>{}: {}</li>",
+                    seek_link(u.start_s, u.end_s),
                     esc(&u.reason(d.model.window_s))
                 )
             })
@@ -225,6 +221,16 @@ fn when(d: &Detection, dur: f64) -> String {
         if segs.len() == 1 { "" } else { "s" },
         clock(read),
         clock(dur)
+    )
+}
+
+/// A list entry's link: the stretch as `m:ss - m:ss`, playing the video
+/// from its start when clicked.
+fn seek_link(start_s: f64, end_s: f64) -> String {
+    format!(
+        "<a href=\"#\" onclick=\"seek({start_s:.2});return false\">{} - {}</a>",
+        clock(start_s),
+        clock(end_s)
     )
 }
 
