@@ -10,6 +10,7 @@ use crate::EvalError;
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::FontStyle;
 use std::sync::Once;
 
@@ -601,6 +602,69 @@ fn finite_runs(points: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f64)>>
     out
 }
 
+/// The detection figure's outer margin, and the row above its lower
+/// panel that holds that panel's legend.
+const DETECTION_MARGIN_PX: i32 = 10;
+const DETECTION_LEGEND_PX: i32 = 22;
+
+/// How a legend entry is drawn: a line, a dashed line or a filled swatch.
+#[derive(Clone, Copy)]
+enum LegendMark {
+    Line(RGBColor),
+    Dashed(RGBColor),
+    Swatch(RGBAColor),
+}
+
+/// Legend entries in one row whose right end is at `right_px` and whose
+/// middle is at `y_px` of `area`: drawn beside the plot, not over it, so
+/// that no entry hides data (a box in the plot's corner lay over the last
+/// half minute's bars).
+fn legend_row<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    right_px: i32,
+    y_px: i32,
+    entries: &[(LegendMark, String)],
+) -> DrawResult {
+    const MARK_PX: i32 = 16;
+    const GAP_PX: i32 = 6;
+    const BETWEEN_PX: i32 = 18;
+    let font = TextStyle::from((FONT, 13).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+    let mut widths = Vec::with_capacity(entries.len());
+    for (_, text) in entries {
+        widths.push(area.estimate_text_size(text, &font).map_err(s)?.0 as i32);
+    }
+    let total: i32 = widths.iter().map(|w| MARK_PX + GAP_PX + w).sum::<i32>()
+        + BETWEEN_PX * (entries.len() as i32 - 1).max(0);
+    let mut x = right_px - total;
+    for ((mark, text), w) in entries.iter().zip(widths) {
+        match *mark {
+            LegendMark::Line(c) => area
+                .draw(&PathElement::new(
+                    vec![(x, y_px), (x + MARK_PX, y_px)],
+                    c.stroke_width(2),
+                ))
+                .map_err(s)?,
+            LegendMark::Dashed(c) => {
+                for (a, b) in [(0, 6), (10, MARK_PX)] {
+                    area.draw(&PathElement::new(vec![(x + a, y_px), (x + b, y_px)], c))
+                        .map_err(s)?;
+                }
+            }
+            LegendMark::Swatch(c) => area
+                .draw(&Rectangle::new(
+                    [(x, y_px - 5), (x + MARK_PX, y_px + 5)],
+                    c.filled(),
+                ))
+                .map_err(s)?,
+        }
+        x += MARK_PX + GAP_PX;
+        area.draw(&Text::new(text.clone(), (x, y_px), font.clone()))
+            .map_err(s)?;
+        x += w + BETWEEN_PX;
+    }
+    Ok(())
+}
+
 fn draw_detection<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     xy: &[[f64; 2]],
@@ -610,6 +674,10 @@ fn draw_detection<DB: DrawingBackend>(
     threshold: f64,
     title: &str,
 ) -> DrawResult {
+    // The legends sit in a row above each panel's plot, right-aligned at
+    // the figure's right margin.
+    let right_px = root.dim_in_pixel().0 as i32 - DETECTION_MARGIN_PX;
+    let seconds = |v: &f64| format!("{v:.0}");
     let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 / 2);
     let t_end = (xy.len() as f64 / fps).max(1.0);
     let finite: Vec<f64> = xy
@@ -622,7 +690,7 @@ fn draw_detection<DB: DrawingBackend>(
     let (lo, hi) = padded_range(lo, hi);
     let mut chart = ChartBuilder::on(&top)
         .caption(title, (FONT, 17))
-        .margin(10)
+        .margin(DETECTION_MARGIN_PX)
         .x_label_area_size(30)
         .y_label_area_size(56)
         .build_cartesian_2d(0.0..t_end, lo..hi)
@@ -630,34 +698,32 @@ fn draw_detection<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .y_desc("gaze position")
+        .x_label_formatter(&seconds)
         .label_style((FONT, 12))
         .axis_desc_style((FONT, 13))
         .light_line_style(WHITE)
         .draw()
         .map_err(s)?;
-    for (k, color, name) in [(0, X_COLOR, "x"), (1, Y_COLOR, "y")] {
-        let runs = finite_runs(xy.iter().enumerate().map(|(i, p)| (i as f64 / fps, p[k])));
-        for (ri, run) in runs.into_iter().enumerate() {
-            let series = chart
+    for (k, color) in [(0, X_COLOR), (1, Y_COLOR)] {
+        for run in finite_runs(xy.iter().enumerate().map(|(i, p)| (i as f64 / fps, p[k]))) {
+            chart
                 .draw_series(LineSeries::new(run, color.stroke_width(1)))
                 .map_err(s)?;
-            if ri == 0 {
-                series
-                    .label(name)
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
-            }
         }
     }
-    chart
-        .configure_series_labels()
-        .label_font((FONT, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(s)?;
+    // On the caption's line, right of the title.
+    legend_row(
+        &top,
+        right_px,
+        DETECTION_MARGIN_PX + 9,
+        &[
+            (LegendMark::Line(X_COLOR), "x".into()),
+            (LegendMark::Line(Y_COLOR), "y".into()),
+        ],
+    )?;
     let mut chart = ChartBuilder::on(&bottom)
-        .margin(10)
+        .margin(DETECTION_MARGIN_PX)
+        .margin_top(DETECTION_MARGIN_PX + DETECTION_LEGEND_PX)
         .x_label_area_size(36)
         .y_label_area_size(56)
         // A little room under 0: a bar's fill and white edge reach a pixel
@@ -669,6 +735,7 @@ fn draw_detection<DB: DrawingBackend>(
         .configure_mesh()
         .x_desc("time (s)")
         .y_desc("P(reading)")
+        .x_label_formatter(&seconds)
         .label_style((FONT, 12))
         .axis_desc_style((FONT, 13))
         .light_line_style(WHITE)
@@ -676,25 +743,20 @@ fn draw_detection<DB: DrawingBackend>(
         .map_err(s)?;
     // Without it a stretch no window could score and a window that scored
     // near 0 looked alike: both left the panel empty.
-    if !unscored.is_empty() {
-        chart
-            .draw_series(unscored.iter().map(|&(a, b)| {
-                Rectangle::new([(a, 0.0), (b, 1.0)], NO_SCORE_COLOR.mix(0.3).filled())
-            }))
-            .map_err(s)?
-            .label("no score: too little gaze")
-            .legend(|(x, y)| {
-                Rectangle::new(
-                    [(x, y - 5), (x + 16, y + 5)],
-                    NO_SCORE_COLOR.mix(0.3).filled(),
-                )
-            });
-    }
     chart
-        .draw_series(windows.iter().map(|&(a, b, p)| {
-            let color = if p >= threshold { GEN_COLOR } else { SRC_COLOR };
-            Rectangle::new([(a, 0.0), (b, p)], color.mix(0.6).filled())
-        }))
+        .draw_series(
+            unscored.iter().map(|&(a, b)| {
+                Rectangle::new([(a, 0.0), (b, 1.0)], NO_SCORE_COLOR.mix(0.3).filled())
+            }),
+        )
+        .map_err(s)?;
+    let color_of = |p: f64| if p >= threshold { GEN_COLOR } else { SRC_COLOR };
+    chart
+        .draw_series(
+            windows.iter().map(|&(a, b, p)| {
+                Rectangle::new([(a, 0.0), (b, p)], color_of(p).mix(0.6).filled())
+            }),
+        )
         .map_err(s)?;
     // A white edge between windows, so that neighbours of equal height
     // read as separate windows.
@@ -705,6 +767,17 @@ fn draw_detection<DB: DrawingBackend>(
                 .map(|&(a, b, p)| Rectangle::new([(a, 0.0), (b, p)], WHITE.stroke_width(2))),
         )
         .map_err(s)?;
+    // Each window's score as a line across it, so that a window scored
+    // near 0, whose bar has no height, still shows that it was scored.
+    chart
+        .draw_series(windows.iter().map(|&(a, b, p)| {
+            let inset = (b - a) * 0.02;
+            PathElement::new(
+                vec![(a + inset, p), (b - inset, p)],
+                color_of(p).stroke_width(2),
+            )
+        }))
+        .map_err(s)?;
     chart
         .draw_series(DashedLineSeries::new(
             vec![(0.0, threshold), (t_end, threshold)],
@@ -712,18 +785,33 @@ fn draw_detection<DB: DrawingBackend>(
             4,
             BLACK.stroke_width(1),
         ))
-        .map_err(s)?
-        .label(format!("threshold {threshold:.2}"))
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK));
-    chart
-        .configure_series_labels()
-        .label_font((FONT, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
         .map_err(s)?;
-    Ok(())
+    let mut legend = vec![
+        (
+            LegendMark::Swatch(GEN_COLOR.mix(0.6)),
+            "reading".to_string(),
+        ),
+        (
+            LegendMark::Swatch(SRC_COLOR.mix(0.6)),
+            "not reading".to_string(),
+        ),
+        (
+            LegendMark::Dashed(BLACK),
+            format!("threshold {threshold:.2}"),
+        ),
+    ];
+    if !unscored.is_empty() {
+        legend.push((
+            LegendMark::Swatch(NO_SCORE_COLOR.mix(0.3)),
+            "no score: too little gaze".into(),
+        ));
+    }
+    legend_row(
+        &bottom,
+        right_px,
+        DETECTION_MARGIN_PX + DETECTION_LEGEND_PX / 2,
+        &legend,
+    )
 }
 
 /// The detector's view of one recording: the gaze track (x and y over
@@ -885,7 +973,8 @@ mod tests {
 
     /// 60 s of gaze, windows at 0-10 and 50-60 s: the stretch between
     /// them without a score is drawn grey and named in the legend; with no
-    /// such stretch neither appears.
+    /// such stretch neither appears. The window scored 0.02 shows as a
+    /// line, and the legends lie outside the plots.
     #[test]
     fn the_detection_figure_greys_what_could_not_be_scored() {
         let xy = vec![[0.5, 0.5]; 1500];
@@ -895,18 +984,47 @@ mod tests {
         assert!(fig.svg.contains("no score: too little gaze"));
         // The stretch and its legend swatch.
         assert_eq!(fig.svg.matches(grey).count(), 2, "{}", fig.svg);
-        // The panel's plot area runs from x = 10 + 56 (margin, y labels)
-        // to 1200 - 10 over 60 s: 12 s falls at 66 + 12 / 60 * 1124 =
-        // 290.8, 48 s at 965.2, so the grey rect spans 290 to 964; and
-        // from P = 1 at the bottom half's top (280 + 10) down to P = 0,
-        // 224 px of -0.01..1 lower: 290 + 224 / 1.01 = 511.8.
+        // The lower panel's plot spans x 66 (margin 10, y labels 56) to
+        // 1189 (plotters maps onto 1123 of the 1124 px up to the margin)
+        // over 60 s: 12 s falls at 66 + 12 / 60 * 1123 = 290.6, 48 s at
+        // 964.4. It spans y from 312 (the bottom half starts at 280, then
+        // margin 10 and the legend's row of 22) to 514 (560 less margin 10
+        // and x labels 36), 202 px for P from 1 down to -0.01: P = 1 at
+        // 312, P = 0 at 312 + 202 / 1.01 = 512.
         assert!(
             fig.svg.contains(&format!(
-                "<rect x=\"290\" y=\"290\" width=\"674\" height=\"221\" {grey}"
+                "<rect x=\"290\" y=\"312\" width=\"674\" height=\"200\" {grey}"
             )),
             "{}",
             fig.svg
         );
+        // The 0.02 window's line: 2 % inset from its ends, 50.2 s at
+        // 1005.6 and 59.8 s at 1185.6; P = 0.02 at 312 + 0.98 * 200 = 508.
+        assert!(
+            fig.svg.contains("points=\"1005,508 1185,508 \""),
+            "{}",
+            fig.svg
+        );
+        // Every legend swatch (the bars' two colours and the grey) ends
+        // above the plot's top at 312.
+        let swatches: Vec<&str> = fig
+            .svg
+            .lines()
+            .filter(|l| l.contains("width=\"16\" height=\"10\""))
+            .collect();
+        assert_eq!(swatches.len(), 3, "{}", fig.svg);
+        for l in swatches {
+            let y: i32 = l
+                .split("y=\"")
+                .nth(1)
+                .unwrap()
+                .split('"')
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap();
+            assert!(y + 10 <= 312, "{l}");
+        }
         let fig = detection_figure(&xy, 25.0, &windows, &[], 0.6, "t").unwrap();
         assert!(!fig.svg.contains("no score") && !fig.svg.contains(grey));
     }

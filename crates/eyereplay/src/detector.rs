@@ -683,15 +683,43 @@ pub fn detection_figure(track: &Track, d: &Detection) -> Result<eyereplay_eval::
         .iter()
         .map(|w| (w.start_s, w.end_s, w.reading_probability))
         .collect();
-    let unscored: Vec<(f64, f64)> = d.unscored().iter().map(|u| (u.start_s, u.end_s)).collect();
     Ok(eyereplay_eval::plot::detection_figure(
         &track.xy,
         FPS,
         &windows,
-        &unscored,
+        &figure_unscored(track.len(), d),
         d.model.threshold,
         &format!("{}: {}", file_label(&d.input.path), d.verdict),
     )?)
+}
+
+/// What the figure greys: the stretches no window could score
+/// ([`Detection::unscored`]) and, since its bars are `detect`'s own
+/// back-to-back windows, each of those windows that had too little gaze
+/// for a score (such a window can lie between stretches that overlapping
+/// windows did score); merged, in seconds.
+fn figure_unscored(track_frames: usize, d: &Detection) -> Vec<(f64, f64)> {
+    let mut spans: Vec<(f64, f64)> = d.unscored().iter().map(|u| (u.start_s, u.end_s)).collect();
+    if d.clip.is_none() {
+        let spec = WindowSpec::seconds(d.model.window_s);
+        let mut start = 0;
+        while start + spec.frames <= track_frames {
+            let (a, b) = (start as f64 / FPS, (start + spec.frames) as f64 / FPS);
+            if !d.windows.iter().any(|w| (w.start_s - a).abs() < 0.5 / FPS) {
+                spans.push((a, b));
+            }
+            start += spec.step;
+        }
+    }
+    spans.sort_by(|p, q| p.0.total_cmp(&q.0));
+    let mut merged: Vec<(f64, f64)> = Vec::with_capacity(spans.len());
+    for (a, b) in spans {
+        match merged.last_mut() {
+            Some(last) if a <= last.1 => last.1 = last.1.max(b),
+            _ => merged.push((a, b)),
+        }
+    }
+    merged
 }
 
 fn file_label(path: &str) -> String {
@@ -704,6 +732,66 @@ fn file_label(path: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// 65 s scored in back-to-back 10-s windows, of which 0-10, 30-40 and
+    /// 40-50 s had a score, and 12-18 s that no window could score: the
+    /// figure greys 10-30 s (two unscored windows around that stretch,
+    /// merged) and 50-60 s; not the last 5 s, which no window covers.
+    #[test]
+    fn the_figure_greys_unscored_stretches_and_windows_merged() {
+        use eyereplay_detect::localize::{Localization, Unscored, DEFAULT_METHOD};
+        let window = |start_s: f64| WindowScore {
+            start_s,
+            end_s: start_s + 10.0,
+            reading_probability: 0.0,
+            reading: false,
+            forward_run_fraction: 0.0,
+        };
+        let mut d = Detection {
+            input: TrackInfo {
+                path: "v.mp4".into(),
+                kind: "video".into(),
+                frames: 1625,
+                gaze_fraction: 0.8,
+            },
+            model: DetectionModelInfo {
+                path: "m.json".into(),
+                kind: "features".into(),
+                window_s: 10.0,
+                threshold: 0.6,
+            },
+            windows: vec![window(0.0), window(30.0), window(40.0)],
+            reading_probability: 0.0,
+            reading_window_fraction: 0.0,
+            verdict: "not reading".into(),
+            localization: Localization {
+                method: DEFAULT_METHOD,
+                step_s: 1.0,
+                probability: Vec::new(),
+                segments: Vec::new(),
+                unscored: vec![Unscored {
+                    start_s: 12.0,
+                    end_s: 18.0,
+                    usable_s: 1.0,
+                    needed_s: 7.0,
+                }],
+            },
+            clip: None,
+        };
+        assert_eq!(figure_unscored(1625, &d), [(10.0, 30.0), (50.0, 60.0)]);
+        // A short clip is scored whole: nothing grey.
+        d.windows.clear();
+        d.clip = Some(ClipScore {
+            start_s: 0.0,
+            end_s: 8.0,
+            usable_s: 7.5,
+            reading_probability: 0.3,
+            low: 0.2,
+            high: 0.4,
+            level: 0.9,
+        });
+        assert_eq!(figure_unscored(1625, &d), []);
+    }
 
     #[test]
     fn the_drawn_track_is_both_eyes_mean_with_closed_lids_as_gaps() {
