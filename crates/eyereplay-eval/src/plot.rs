@@ -261,6 +261,7 @@ fn draw_series_panel<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .x_desc("time (s)")
+        .x_label_formatter(&time_tick)
         .y_desc("canvas position (px)")
         .label_style((FONT, 12))
         .axis_desc_style((FONT, 13))
@@ -269,23 +270,25 @@ fn draw_series_panel<DB: DrawingBackend>(
         .map_err(s)?;
     time_lines(
         &mut chart,
+        area,
         &[(pts, 0, X_COLOR, "x"), (pts, 1, Y_COLOR, "y")],
         fps,
-        13,
-        SeriesLabelPosition::UpperRight,
+        (10, 16),
     )
 }
 
 /// One line per `(points, axis, colour, label)` against time (frame / fps),
-/// skipping non-finite values, then the legend.
+/// skipping non-finite values, then the legend on the caption's line of
+/// `area` (whose margin is `margin_px` and caption font `caption_px`), right
+/// of the title: a box inside the plot hid the trace's last seconds.
 fn time_lines<'a, DB: DrawingBackend + 'a>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    area: &DrawingArea<DB, Shift>,
     lines: &[(&[[f64; 2]], usize, RGBColor, &str)],
     fps: f64,
-    legend_font_px: u32,
-    legend_at: SeriesLabelPosition,
+    (margin_px, caption_px): (i32, i32),
 ) -> DrawResult {
-    for &(pts, axis, color, label) in lines {
+    for &(pts, axis, color, _) in lines {
         chart
             .draw_series(LineSeries::new(
                 pts.iter()
@@ -294,21 +297,19 @@ fn time_lines<'a, DB: DrawingBackend + 'a>(
                     .map(|(i, p)| (i as f64 / fps, p[axis])),
                 color.stroke_width(1),
             ))
-            .map_err(s)?
-            .label(label)
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-            });
+            .map_err(s)?;
     }
-    chart
-        .configure_series_labels()
-        .label_font((FONT, legend_font_px))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(legend_at)
-        .draw()
-        .map_err(s)?;
-    Ok(())
+    let entries: Vec<(LegendMark, String)> = lines
+        .iter()
+        .map(|&(_, _, color, label)| (LegendMark::Line(color), label.to_string()))
+        .collect();
+    legend_row(
+        area,
+        area.dim_in_pixel().0 as i32 - margin_px,
+        margin_px + caption_px / 2,
+        12,
+        &entries,
+    )
 }
 
 fn draw_windows<DB: DrawingBackend>(
@@ -507,6 +508,7 @@ fn draw_visual<DB: DrawingBackend>(
         chart
             .configure_mesh()
             .x_desc("time (s)")
+            .x_label_formatter(&time_tick)
             .label_style((FONT, 12))
             .axis_desc_style((FONT, 13))
             .light_line_style(WHITE)
@@ -514,13 +516,13 @@ fn draw_visual<DB: DrawingBackend>(
             .map_err(s)?;
         time_lines(
             &mut chart,
+            &rows[axis],
             &[
                 (source_n, axis, SRC_COLOR, "source"),
                 (rendered_n, axis, GEN_COLOR, "rendered"),
             ],
             fps,
-            12,
-            SeriesLabelPosition::MiddleRight,
+            (8, 15),
         )?;
     }
     // Error histogram.
@@ -607,6 +609,19 @@ fn finite_runs(points: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f64)>>
 const DETECTION_MARGIN_PX: i32 = 10;
 const DETECTION_LEGEND_PX: i32 = 22;
 
+/// A time axis's tick label: whole seconds without a decimal ("20", not
+/// "20.0"), fractions with as many decimals as they need (a short clip's
+/// axis ticks every 0.5 s).
+fn time_tick(v: &f64) -> String {
+    let text = format!("{:.3}", v);
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    if text == "-0" {
+        "0".into()
+    } else {
+        text.into()
+    }
+}
+
 /// How a legend entry is drawn: a line, a dashed line or a filled swatch.
 #[derive(Clone, Copy)]
 enum LegendMark {
@@ -623,12 +638,13 @@ fn legend_row<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     right_px: i32,
     y_px: i32,
+    font_px: u32,
     entries: &[(LegendMark, String)],
 ) -> DrawResult {
     const MARK_PX: i32 = 16;
     const GAP_PX: i32 = 6;
     const BETWEEN_PX: i32 = 18;
-    let font = TextStyle::from((FONT, 13).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+    let font = TextStyle::from((FONT, font_px).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
     let mut widths = Vec::with_capacity(entries.len());
     for (_, text) in entries {
         widths.push(area.estimate_text_size(text, &font).map_err(s)?.0 as i32);
@@ -677,7 +693,6 @@ fn draw_detection<DB: DrawingBackend>(
     // The legends sit in a row above each panel's plot, right-aligned at
     // the figure's right margin.
     let right_px = root.dim_in_pixel().0 as i32 - DETECTION_MARGIN_PX;
-    let seconds = |v: &f64| format!("{v:.0}");
     let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 / 2);
     let t_end = (xy.len() as f64 / fps).max(1.0);
     let finite: Vec<f64> = xy
@@ -698,7 +713,7 @@ fn draw_detection<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .y_desc("gaze position")
-        .x_label_formatter(&seconds)
+        .x_label_formatter(&time_tick)
         .label_style((FONT, 12))
         .axis_desc_style((FONT, 13))
         .light_line_style(WHITE)
@@ -716,6 +731,7 @@ fn draw_detection<DB: DrawingBackend>(
         &top,
         right_px,
         DETECTION_MARGIN_PX + 9,
+        13,
         &[
             (LegendMark::Line(X_COLOR), "x".into()),
             (LegendMark::Line(Y_COLOR), "y".into()),
@@ -735,7 +751,7 @@ fn draw_detection<DB: DrawingBackend>(
         .configure_mesh()
         .x_desc("time (s)")
         .y_desc("P(reading)")
-        .x_label_formatter(&seconds)
+        .x_label_formatter(&time_tick)
         .label_style((FONT, 12))
         .axis_desc_style((FONT, 13))
         .light_line_style(WHITE)
@@ -810,6 +826,7 @@ fn draw_detection<DB: DrawingBackend>(
         &bottom,
         right_px,
         DETECTION_MARGIN_PX + DETECTION_LEGEND_PX / 2,
+        13,
         &legend,
     )
 }
@@ -1027,6 +1044,15 @@ mod tests {
         }
         let fig = detection_figure(&xy, 25.0, &windows, &[], 0.6, "t").unwrap();
         assert!(!fig.svg.contains("no score") && !fig.svg.contains(grey));
+    }
+
+    #[test]
+    fn time_ticks_drop_a_whole_seconds_decimals_only() {
+        let named: Vec<String> = [0.0, 20.0, 2.5, 0.25, 7.000_000_1, -0.0001]
+            .iter()
+            .map(time_tick)
+            .collect();
+        assert_eq!(named, ["0", "20", "2.5", "0.25", "7", "0"]);
     }
 
     #[test]
