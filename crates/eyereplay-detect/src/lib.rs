@@ -6,7 +6,8 @@
 //! |---|---|
 //! | a 25 fps gaze series, cut into windows, each normalized and oriented | [`window`] |
 //! | 14 documented features per window | [`features()`] |
-//! | logistic regression over them, threshold fixed on validation sessions | [`model`] |
+//! | bagged decision trees over them (the default) | [`forest`] |
+//! | or a logistic regression; calibration and threshold on held-out sessions | [`model`] |
 //! | the zero-training rule (forward-saccade runs) | [`features::rule_score`] |
 //! | AUROC, ROC curve, bootstrap over people | [`metrics`] |
 //! | per-frame probability, reading segments, segment F1 | [`localize`] |
@@ -23,6 +24,7 @@ pub mod clip;
 pub mod cnn;
 mod error;
 pub mod features;
+pub mod forest;
 pub mod localize;
 pub mod metrics;
 pub mod model;
@@ -32,5 +34,5 @@ pub mod window;
 pub use error::DetectError;
 pub use features::{features, rule_score, FEATURE_COUNT, FEATURE_NAMES};
 pub use metrics::{auroc, pairwise_auroc, roc_curve, AurocCi, PairAuroc};
-pub use model::{train, DetectorModel, Example, TrainOptions};
+pub use model::{train, Classifier, DetectorModel, Example, TrainOptions};
 pub use window::{windows, Track, Window, WindowSpec, FPS};

@@ -75,6 +75,10 @@ pub struct Protocol {
     /// rendered sessions alone.
     #[serde(default = "d_copies")]
     pub training_noise_copies: usize,
+    /// What learns from the features: `bagged_trees` (the default, as
+    /// `eyereplay train`'s) or `logistic_regression`.
+    #[serde(default)]
+    pub classifier: eyereplay_detect::Classifier,
     /// Render modes by name.
     pub modes: BTreeMap<String, ModeSpec>,
     pub recording: Vec<RecordingSpec>,
@@ -394,6 +398,9 @@ pub struct FoldModel {
 pub struct DetectorEvaluation {
     pub protocol: String,
     pub seed: u64,
+    /// The feature model's classifier.
+    #[serde(default = "eyereplay_detect::Classifier::before_the_choice")]
+    pub classifier: eyereplay_detect::Classifier,
     pub recordings: Vec<RecordingInfo>,
     pub models: Vec<FoldModel>,
     pub conditions: Vec<ConditionResult>,
@@ -446,9 +453,13 @@ pub fn run_protocol(
     protocol_path: &Path,
     out: &Path,
     cache: &Path,
+    classifier: Option<eyereplay_detect::Classifier>,
     progress: &dyn Progress,
 ) -> Result<DetectorEvaluation> {
-    let p = Protocol::load(protocol_path)?;
+    let mut p = Protocol::load(protocol_path)?;
+    if let Some(c) = classifier {
+        p.classifier = c;
+    }
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let used: Vec<&RecordingSpec> = p
         .recording
@@ -581,6 +592,7 @@ pub fn run_protocol(
                     continue;
                 };
                 let train_opts = TrainOptions {
+                    classifier: p.classifier,
                     seed: p.seed,
                     noise_copies: p.training_noise_copies,
                     ..TrainOptions::default()
@@ -731,6 +743,7 @@ pub fn run_protocol(
             .file_name()
             .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
         seed: p.seed,
+        classifier: p.classifier,
         recordings: infos,
         models,
         conditions,
@@ -825,6 +838,9 @@ fn ceiling_pairs(
                 &train,
                 0.0,
                 TrainOptions {
+                    // A reference, the model of the protocol's first
+                    // version: kept so its figures stay comparable.
+                    classifier: eyereplay_detect::Classifier::LogisticRegression,
                     validation_fraction: 0.0,
                     noise_copies: 0,
                     seed,

@@ -147,15 +147,16 @@ figure{margin:1em 0}img{max-width:100%;height:auto;border:1px solid #ddd}figcapt
     );
     let _ = writeln!(
         h,
-        "<p>Protocol <code>{}</code>, seed {}. A logistic regression over 14 gaze features, trained only on synthetic \
+        "<p>Protocol <code>{}</code>, seed {}. {} over 14 gaze features, trained only on synthetic \
 video (what <code>eyereplay extract</code> reads from each rendered session), scored on real recordings it never saw. \
 Beside it on the same windows: a <b>1D-CNN</b> trained on the same synthetic windows, the <b>zero-training rule</b> \
-(share of saccades in runs of 3 or more forward saccades) and a <b>ceiling</b>: the feature model trained on the real \
-windows themselves, leaving out the pair of people it is tested on. Each fold's model scores its own held-out reader; \
+(share of saccades in runs of 3 or more forward saccades) and a <b>ceiling</b>: a logistic regression over the same \
+features trained on the real windows themselves, leaving out the pair of people it is tested on. Each fold's model scores its own held-out reader; \
 a reader's AUROC against the non-readers is computed within one model (scores of two models are not compared), then \
 readers are averaged. 95 % intervals from a bootstrap over people (readers and non-readers drawn with replacement).</p>",
         esc(&ev.protocol),
-        ev.seed
+        ev.seed,
+        capitalized(&ev.classifier.describe())
     );
     h.push_str("<h2>AUROC on held-out real eye-tracker recordings</h2>\n");
     table_head(
@@ -377,4 +378,12 @@ fn per_recording(h: &mut String, c: &ConditionResult) {
             ],
         );
     }
+}
+
+/// `text` with its first letter upper-case, to open a sentence.
+fn capitalized(text: &str) -> String {
+    let mut chars = text.chars();
+    chars
+        .next()
+        .map_or(String::new(), |c| c.to_uppercase().chain(chars).collect())
 }

@@ -31,14 +31,16 @@ use std::path::Path;
 
 /// Runs the detector protocol of `protocol_path` into `out`: the generated
 /// datasets under `train/` and `real/`, the results in
-/// `detector_eval.json` and `index.html`.
+/// `detector_eval.json` and `index.html`; `classifier`, when given,
+/// replaces the protocol's.
 pub fn evaluate_detector(
     protocol_path: &Path,
     out: &Path,
     cache: &Path,
+    classifier: Option<eyereplay_detect::Classifier>,
     progress: &dyn Progress,
 ) -> Result<DetectorEvaluation> {
-    let eval = detector_eval::run_protocol(protocol_path, out, cache, progress)?;
+    let eval = detector_eval::run_protocol(protocol_path, out, cache, classifier, progress)?;
     detector_report::write(out, &eval)?;
     Ok(eval)
 }

@@ -639,7 +639,10 @@ mod tests {
         let model = train(
             &examples,
             10.0,
-            TrainOptions::default(),
+            TrainOptions {
+                classifier: eyereplay_detect::Classifier::LogisticRegression,
+                ..TrainOptions::default()
+            },
             vec![],
             "trajectory",
         )

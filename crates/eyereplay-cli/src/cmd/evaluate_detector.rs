@@ -27,11 +27,21 @@ pub struct Args {
     /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
+    /// The feature model's classifier, in place of the protocol's
+    /// `classifier` (as 'eyereplay train --classifier').
+    #[arg(long, value_enum, value_name = "CLASSIFIER")]
+    pub classifier: Option<super::train::ClassifierArg>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let cache = eyereplay::cache_dir(args.cache.as_deref());
-    let ev = evaluate_detector(&args.protocol, &args.out, &cache, &Bars::default())?;
+    let ev = evaluate_detector(
+        &args.protocol,
+        &args.out,
+        &cache,
+        args.classifier.map(Into::into),
+        &Bars::default(),
+    )?;
     let f = |a: &Option<eyereplay::detect::AurocCi>| {
         a.as_ref().map_or("  n/a ".into(), |a| {
             format!("{:.3} [{:.2}, {:.2}]", a.auroc, a.low, a.high)
