@@ -95,18 +95,47 @@ fn train_is_deterministic_and_detect_scores_a_recording_and_its_mirror_alike() {
     ]));
     assert_eq!(std::fs::read(&m1).unwrap(), std::fs::read(&m2).unwrap());
     let model: serde_json::Value = serde_json::from_slice(&std::fs::read(&m1).unwrap()).unwrap();
-    // 16 sessions of 20 s, windows of 10 s every 5 s: 3 a session.
+    // 16 sessions of 20 s, windows of 10 s every 5 s: 3 a session. The
+    // default trees are fitted on all of them, and every one is also
+    // validated, scored by trees fitted without its session.
     let t = &model["training"];
-    let windows = [
+    let windows = |keys: [&str; 2]| keys.iter().map(|k| t[k].as_u64().unwrap()).sum::<u64>();
+    assert_eq!(model["kind"], "bagged_trees");
+    assert_eq!(
+        windows(["train_windows_reading", "train_windows_other"]),
+        48
+    );
+    assert_eq!(
+        windows(["validation_windows_reading", "validation_windows_other"]),
+        48
+    );
+    // The logistic regression holds a quarter of the sessions out instead:
+    // the windows split between fit and validation.
+    let m3 = dir.path().join("m3.json");
+    ok(&eyereplay(&[
+        "train",
+        s(&ds),
+        "--out",
+        s(&m3),
+        "--input",
+        "trajectory",
+        "--classifier",
+        "logistic",
+    ]));
+    let logistic: serde_json::Value = serde_json::from_slice(&std::fs::read(&m3).unwrap()).unwrap();
+    assert_eq!(logistic["kind"], "logistic_regression");
+    let t3 = &logistic["training"];
+    let split: u64 = [
         "train_windows_reading",
         "train_windows_other",
         "validation_windows_reading",
         "validation_windows_other",
     ]
     .iter()
-    .map(|k| t[k].as_u64().unwrap())
-    .sum::<u64>();
-    assert_eq!(windows, 48);
+    .map(|k| t3[k].as_u64().unwrap())
+    .sum();
+    assert_eq!(split, 48);
+    assert_eq!(logistic["weights"].as_array().unwrap().len(), 14);
     assert_eq!(model["features"].as_array().unwrap().len(), 14);
 
     // A session, and the same session mirrored left-right on the canvas.
