@@ -293,20 +293,27 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DetectError> {
     std::fs::rename(&tmp, path).map_err(|e| DetectError::io(path, e))
 }
 
+/// The groups (sessions) with windows of `class`, sorted, then shuffled by
+/// `rng`: the order the validation split and the folds deal from.
+fn shuffled_groups<'a>(examples: &'a [Example], class: bool, rng: &mut ChaCha8Rng) -> Vec<&'a str> {
+    let mut groups: Vec<&str> = Vec::new();
+    for e in examples.iter().filter(|e| e.reading == class) {
+        if !groups.contains(&e.group.as_str()) {
+            groups.push(&e.group);
+        }
+    }
+    groups.sort_unstable();
+    groups.shuffle(rng);
+    groups
+}
+
 /// Splits examples into (train, validation) by group, per class, with the
 /// seed; every class keeps at least one group for training.
 pub fn split_by_group(examples: &[Example], fraction: f64, seed: u64) -> (Vec<usize>, Vec<usize>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut valid_groups: Vec<&str> = Vec::new();
     for class in [true, false] {
-        let mut groups: Vec<&str> = Vec::new();
-        for e in examples.iter().filter(|e| e.reading == class) {
-            if !groups.contains(&e.group.as_str()) {
-                groups.push(&e.group);
-            }
-        }
-        groups.sort_unstable();
-        groups.shuffle(&mut rng);
+        let groups = shuffled_groups(examples, class, &mut rng);
         let k =
             ((groups.len() as f64 * fraction).round() as usize).min(groups.len().saturating_sub(1));
         valid_groups.extend(&groups[..k]);
@@ -335,14 +342,7 @@ pub fn group_folds(examples: &[Example], k: usize, seed: u64) -> Vec<usize> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut fold_of: Vec<(&str, usize)> = Vec::new();
     for class in [true, false] {
-        let mut groups: Vec<&str> = Vec::new();
-        for e in examples.iter().filter(|e| e.reading == class) {
-            if !groups.contains(&e.group.as_str()) {
-                groups.push(&e.group);
-            }
-        }
-        groups.sort_unstable();
-        groups.shuffle(&mut rng);
+        let groups = shuffled_groups(examples, class, &mut rng);
         fold_of.extend(
             groups
                 .into_iter()
