@@ -44,7 +44,30 @@ enum Command {
     EvaluateLocalization(cmd::evaluate_localization::Args),
 }
 
+/// Ends the program quietly, as other Unix tools end, when whoever reads
+/// its standard output has gone (`eyereplay train ... | head -1`): Rust
+/// ignores SIGPIPE, so `println!` panics with a backtrace there. Not by
+/// restoring SIGPIPE itself: a closed pipe to ffmpeg must stay an error
+/// that names ffmpeg's own message.
+fn quiet_when_stdout_is_gone() {
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let message = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
+            // 128 + SIGPIPE: what a shell reports for a tool ended by it.
+            std::process::exit(141);
+        }
+        default_hook(info);
+    }));
+}
+
 fn main() -> std::process::ExitCode {
+    quiet_when_stdout_is_gone();
     let cli = Cli::parse();
     init_tracing(cli.verbose);
     let result = match cli.command {

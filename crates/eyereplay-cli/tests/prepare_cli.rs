@@ -29,6 +29,41 @@ fn one_line_error(o: &Output) -> String {
     e
 }
 
+/// Output into a pipe nobody reads any more (`| head -1` after its line):
+/// the program ends quietly with 141 (128 + SIGPIPE), as other Unix tools
+/// do, not with a panic and a backtrace.
+#[test]
+fn a_closed_standard_output_ends_the_program_quietly() {
+    let dir = tempfile::tempdir().unwrap();
+    webcam_csv(&dir.path().join("r.csv"), 600);
+    let cfg = dir.path().join("d.toml");
+    std::fs::write(
+        &cfg,
+        "session_frames = 100\n[classes.reading]\nsessions = 3\nsources = [{ format = \"extract\", path = \"r.csv\" }]\n",
+    )
+    .unwrap();
+    let (reader, writer) = std::io::pipe().unwrap();
+    // Closed before the program starts, so its first line already fails.
+    drop(reader);
+    let out = dir.path().join("o");
+    let o = Command::new(env!("CARGO_BIN_EXE_eyereplay"))
+        .args([
+            "prepare",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--dry-run",
+        ])
+        .stdout(writer)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(141), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
 #[test]
 fn prepare_writes_dataset_and_dry_run_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
