@@ -22,8 +22,9 @@ export EYEREPLAY_CACHE="${EYEREPLAY_CACHE:-$root/.cache}"
 # The default reading detector (docs/DETECTOR.md): trained on what the
 # extractor reads from generated readers and talkers drawn as whole faces
 # (examples/detector/train_behaviour_face.toml: 32 people, 30 s each; about
-# 7 minutes the first time, skipped once rendered), 10 s windows, its
-# probabilities calibrated and its threshold set for 5 % false positives.
+# 7 minutes the first time, skipped once rendered), 10 s windows, 100
+# bagged decision trees, its probabilities calibrated and its threshold set
+# for 5 % false positives.
 # Detect your own video, or find when someone reads in an interview, with
 #   target/release/eyereplay detect VIDEO --model out/default/detector.json
 train="${out%/}-detector-train"
