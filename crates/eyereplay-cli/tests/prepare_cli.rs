@@ -21,6 +21,18 @@ fn webcam_csv(path: &Path, frames: usize) {
     std::fs::write(path, s).unwrap();
 }
 
+/// `prepare --config CFG --out OUT --dry-run`.
+fn dry_run<'a>(cfg: &'a Path, out: &'a Path) -> [&'a str; 6] {
+    [
+        "prepare",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--dry-run",
+    ]
+}
+
 fn one_line_error(o: &Output) -> String {
     assert!(!o.status.success());
     let e = String::from_utf8_lossy(&o.stderr).to_string();
@@ -47,14 +59,7 @@ fn a_closed_standard_output_ends_the_program_quietly() {
     drop(reader);
     let out = dir.path().join("o");
     let o = Command::new(env!("CARGO_BIN_EXE_eyereplay"))
-        .args([
-            "prepare",
-            "--config",
-            cfg.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--dry-run",
-        ])
+        .args(dry_run(&cfg, &out))
         .stdout(writer)
         .stderr(std::process::Stdio::piped())
         .output()
@@ -77,14 +82,7 @@ fn prepare_writes_dataset_and_dry_run_writes_nothing() {
     )
     .unwrap();
     let out = dir.path().join("out");
-    let o = eyereplay(&[
-        "prepare",
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--dry-run",
-    ]);
+    let o = eyereplay(&dry_run(&cfg, &out));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(String::from_utf8_lossy(&o.stdout).contains("dry run: would write 7 sessions"));
     assert!(!out.exists());
