@@ -80,6 +80,14 @@ impl Tree {
         }
     }
 
+    /// The reading share of the leaf `f` falls in.
+    fn reading_share(&self, f: &[f64; FEATURE_COUNT]) -> f64 {
+        match self.nodes[self.leaf_of(f)] {
+            Node::Leaf { reading_share } => reading_share,
+            Node::Split { .. } => unreachable!("leaf_of ends on a leaf"),
+        }
+    }
+
     /// The list form of a linfa tree, its leaves' shares left at 0.
     fn of(root: &TreeNode<f64, bool>) -> Self {
         fn push(node: &TreeNode<f64, bool>, nodes: &mut Vec<Node>) -> usize {
@@ -165,14 +173,7 @@ impl Forest {
 
     /// The mean over the trees of the reading share of the leaf `f` falls in.
     pub fn probability(&self, f: &[f64; FEATURE_COUNT]) -> f64 {
-        let sum: f64 = self
-            .trees
-            .iter()
-            .map(|t| match t.nodes[t.leaf_of(f)] {
-                Node::Leaf { reading_share } => reading_share,
-                Node::Split { .. } => unreachable!("leaf_of ends on a leaf"),
-            })
-            .sum();
+        let sum: f64 = self.trees.iter().map(|t| t.reading_share(f)).sum();
         sum / self.trees.len().max(1) as f64
     }
 

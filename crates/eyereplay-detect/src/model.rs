@@ -258,14 +258,16 @@ impl DetectorModel {
             ));
         }
         let names: Vec<&str> = m.features.iter().map(String::as_str).collect();
-        let fitted_ok = match &m.forest {
-            Some(forest) => forest.is_well_formed(),
-            None => m.weights.len() == FEATURE_COUNT,
-        };
+        if m.forest.as_ref().is_some_and(|f| !f.is_well_formed()) {
+            return Err(DetectError::file(
+                path,
+                "its trees name a feature or a node that is not there; train it again",
+            ));
+        }
         if names != FEATURE_NAMES
             || m.mean.len() != FEATURE_COUNT
             || m.std.len() != FEATURE_COUNT
-            || !fitted_ok
+            || (m.forest.is_none() && m.weights.len() != FEATURE_COUNT)
         {
             return Err(DetectError::file(
                 path,
@@ -361,6 +363,46 @@ pub fn group_folds(examples: &[Example], k: usize, seed: u64) -> Vec<usize> {
         .collect()
 }
 
+/// Where a model's validation scores come from.
+enum Validation {
+    /// Windows of sessions the fit did not see, scored by the model.
+    HeldOut(Vec<usize>),
+    /// Every window's log-odds from trees fitted without its session.
+    CrossFitted(Vec<f64>),
+}
+
+/// The features and labels of the examples at `idx`.
+fn features_and_labels(
+    examples: &[Example],
+    idx: &[usize],
+) -> (Vec<[f64; FEATURE_COUNT]>, Vec<bool>) {
+    (
+        idx.iter().map(|&i| examples[i].features).collect(),
+        idx.iter().map(|&i| examples[i].reading).collect(),
+    )
+}
+
+/// Each window's log-odds from trees fitted on the other folds' sessions
+/// ([`CROSS_FIT_FOLDS`]), so that calibrating on them is calibrating on
+/// sessions the trees did not see.
+fn cross_fitted_log_odds(examples: &[Example], seed: u64) -> Result<Vec<f64>, DetectError> {
+    let folds = group_folds(examples, CROSS_FIT_FOLDS, seed);
+    let mut log_odds = vec![0.0; examples.len()];
+    for k in 0..CROSS_FIT_FOLDS {
+        let (held, fit): (Vec<usize>, Vec<usize>) =
+            (0..examples.len()).partition(|&i| folds[i] == k);
+        if held.is_empty() {
+            continue;
+        }
+        let (x, y) = features_and_labels(examples, &fit);
+        let forest = Forest::fit(&x, &y, seed.wrapping_add(1 + k as u64))?;
+        for i in held {
+            log_odds[i] = forest.log_odds(&examples[i].features);
+        }
+    }
+    Ok(log_odds)
+}
+
 /// Fits the model on the training sessions and fixes its threshold on the
 /// validation sessions.
 pub fn train(
@@ -379,32 +421,39 @@ pub fn train(
             count(&all, false)
         )));
     }
-    let (train_idx, valid_idx) = split_by_group(examples, opts.validation_fraction, opts.seed);
+    // What the fit sees, and how its calibration and threshold are
+    // validated: the regression on a quarter of the sessions held out,
+    // the trees on every session scored by trees fitted without it.
+    let (fit_idx, validation) = match opts.classifier {
+        Classifier::LogisticRegression => {
+            let (train_idx, valid_idx) =
+                split_by_group(examples, opts.validation_fraction, opts.seed);
+            (train_idx, Validation::HeldOut(valid_idx))
+        }
+        Classifier::BaggedTrees => (
+            all.clone(),
+            Validation::CrossFitted(cross_fitted_log_odds(examples, opts.seed)?),
+        ),
+    };
     let mut mean = vec![0.0; FEATURE_COUNT];
     let mut std = vec![0.0; FEATURE_COUNT];
     for k in 0..FEATURE_COUNT {
-        let v: Vec<f64> = train_idx.iter().map(|&i| examples[i].features[k]).collect();
+        let v: Vec<f64> = fit_idx.iter().map(|&i| examples[i].features[k]).collect();
         mean[k] = eyereplay_signal::stats::mean(&v).unwrap_or(0.0);
         let s = eyereplay_signal::stats::std_pop(&v).unwrap_or(0.0);
         // A feature that never varies in training carries nothing; a unit
         // scale keeps it harmless instead of dividing by zero.
         std[k] = if s > 1e-12 { s } else { 1.0 };
     }
-    let standardize = |idx: &[usize]| {
-        let mut x = Array2::<f64>::zeros((idx.len(), FEATURE_COUNT));
-        for (r, &i) in idx.iter().enumerate() {
-            for k in 0..FEATURE_COUNT {
-                x[[r, k]] = (examples[i].features[k] - mean[k]) / std[k];
-            }
-        }
-        x
-    };
-    // The bagged trees' held-out log-odds of every window, cross-fitted.
-    let mut cross_fitted: Option<Vec<f64>> = None;
     let (kind, weights, intercept, forest) = match opts.classifier {
         Classifier::LogisticRegression => {
-            let x = standardize(&train_idx);
-            let y: Array1<usize> = train_idx
+            let mut x = Array2::<f64>::zeros((fit_idx.len(), FEATURE_COUNT));
+            for (r, &i) in fit_idx.iter().enumerate() {
+                for k in 0..FEATURE_COUNT {
+                    x[[r, k]] = (examples[i].features[k] - mean[k]) / std[k];
+                }
+            }
+            let y: Array1<usize> = fit_idx
                 .iter()
                 .map(|&i| usize::from(examples[i].reading))
                 .collect();
@@ -429,33 +478,13 @@ pub fn train(
             )
         }
         Classifier::BaggedTrees => {
-            let x: Vec<[f64; FEATURE_COUNT]> = examples.iter().map(|e| e.features).collect();
-            let y: Vec<bool> = examples.iter().map(|e| e.reading).collect();
-            let subset = |idx: &[usize]| -> (Vec<[f64; FEATURE_COUNT]>, Vec<bool>) {
-                (
-                    idx.iter().map(|&i| x[i]).collect(),
-                    idx.iter().map(|&i| y[i]).collect(),
-                )
-            };
-            // Cross-fitted: each session scored by trees fitted without
-            // it, for the calibration and threshold; the model itself
-            // fitted on every session (see `CROSS_FIT_FOLDS`).
-            let folds = group_folds(examples, CROSS_FIT_FOLDS, opts.seed);
-            let mut held_out_log_odds = vec![0.0; examples.len()];
-            for k in 0..CROSS_FIT_FOLDS {
-                let fit: Vec<usize> = (0..examples.len()).filter(|&i| folds[i] != k).collect();
-                if fit.len() == examples.len() {
-                    continue;
-                }
-                let (fx, fy) = subset(&fit);
-                let forest = Forest::fit(&fx, &fy, opts.seed.wrapping_add(1 + k as u64))?;
-                for i in (0..examples.len()).filter(|&i| folds[i] == k) {
-                    held_out_log_odds[i] = forest.log_odds(&x[i]);
-                }
-            }
-            cross_fitted = Some(held_out_log_odds);
-            let forest = Forest::fit(&x, &y, opts.seed)?;
-            ("bagged_trees", Vec::new(), 0.0, Some(forest))
+            let (x, y) = features_and_labels(examples, &all);
+            (
+                "bagged_trees",
+                Vec::new(),
+                0.0,
+                Some(Forest::fit(&x, &y, opts.seed)?),
+            )
         }
     };
     let mut model = DetectorModel {
@@ -475,38 +504,29 @@ pub fn train(
             datasets,
             input: input.into(),
             options: opts,
-            train_windows_reading: count(&train_idx, true),
-            train_windows_other: count(&train_idx, false),
-            validation_windows_reading: count(&valid_idx, true),
-            validation_windows_other: count(&valid_idx, false),
+            train_windows_reading: count(&fit_idx, true),
+            train_windows_other: count(&fit_idx, false),
+            validation_windows_reading: 0,
+            validation_windows_other: 0,
             validation_auroc: None,
             validation_fpr: None,
             validation_tpr: None,
             validation_ece: None,
         },
     };
-    if let Some(ref held_out) = cross_fitted {
-        model.training.train_windows_reading = count(&all, true);
-        model.training.train_windows_other = count(&all, false);
-        model.training.validation_windows_reading = count(&all, true);
-        model.training.validation_windows_other = count(&all, false);
-        debug_assert_eq!(held_out.len(), all.len());
-    }
-    let valid_idx = if cross_fitted.is_some() {
-        all
-    } else {
-        valid_idx
+    let (valid_idx, log_odds): (Vec<usize>, Vec<f64>) = match validation {
+        Validation::HeldOut(idx) => {
+            let z = idx
+                .iter()
+                .map(|&i| model.log_odds_of(&examples[i].features))
+                .collect();
+            (idx, z)
+        }
+        Validation::CrossFitted(z) => (all, z),
     };
-    let (log_odds, labels): (Vec<f64>, Vec<bool>) = valid_idx
-        .iter()
-        .map(|&i| {
-            let z = match &cross_fitted {
-                Some(held_out) => held_out[i],
-                None => model.log_odds_of(&examples[i].features),
-            };
-            (z, examples[i].reading)
-        })
-        .unzip();
+    model.training.validation_windows_reading = count(&valid_idx, true);
+    model.training.validation_windows_other = count(&valid_idx, false);
+    let labels: Vec<bool> = valid_idx.iter().map(|&i| examples[i].reading).collect();
     if labels.iter().any(|&l| l) && labels.iter().any(|&l| !l) {
         model.calibration = Platt::fit(&log_odds, &labels);
         let scores: Vec<f64> = log_odds
@@ -637,6 +657,13 @@ mod tests {
         let back = DetectorModel::load(&p).unwrap();
         // JSON keeps 17 significant digits; the last bit may round.
         assert!((back.probability_of(&f) - m.probability_of(&f)).abs() < 1e-12);
+        // A split that names a feature that is not there: refused, named.
+        let text = std::fs::read_to_string(&p).unwrap();
+        let at = text.find("\"feature\": ").unwrap() + "\"feature\": ".len();
+        let end = at + text[at..].find(',').unwrap();
+        std::fs::write(&p, format!("{}99{}", &text[..at], &text[end..])).unwrap();
+        let e = DetectorModel::load(&p).unwrap_err().to_string();
+        assert!(e.contains("trees.json") && e.contains("trees name a feature"), "{e}");
     }
 
     /// Four folds of 4 sessions a class: each fold holds one session of

@@ -279,8 +279,7 @@ fn draw_series_panel<DB: DrawingBackend>(
 
 /// One line per `(points, axis, colour, label)` against time (frame / fps),
 /// skipping non-finite values, then the legend on the caption's line of
-/// `area` (whose margin is `margin_px` and caption font `caption_px`), right
-/// of the title: a box inside the plot hid the trace's last seconds.
+/// `area` ([`caption_legend`]).
 fn time_lines<'a, DB: DrawingBackend + 'a>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     area: &DrawingArea<DB, Shift>,
@@ -303,12 +302,23 @@ fn time_lines<'a, DB: DrawingBackend + 'a>(
         .iter()
         .map(|&(_, _, color, label)| (LegendMark::Line(color), label.to_string()))
         .collect();
+    caption_legend(area, (margin_px, caption_px), 12, &entries)
+}
+
+/// A legend on the caption's line of `area` (its margin and caption font
+/// size in px), right of the title: a box inside the plot hid data.
+fn caption_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    (margin_px, caption_px): (i32, i32),
+    font_px: u32,
+    entries: &[(LegendMark, String)],
+) -> DrawResult {
     legend_row(
         area,
         area.dim_in_pixel().0 as i32 - margin_px,
         margin_px + caption_px / 2,
-        12,
-        &entries,
+        font_px,
+        entries,
     )
 }
 
@@ -608,6 +618,8 @@ fn finite_runs(points: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f64)>>
 /// panel that holds that panel's legend.
 const DETECTION_MARGIN_PX: i32 = 10;
 const DETECTION_LEGEND_PX: i32 = 22;
+/// The detection figure's title font size.
+const DETECTION_TITLE_PX: i32 = 17;
 
 /// A time axis's tick label: whole seconds without a decimal ("20", not
 /// "20.0"), fractions with as many decimals as they need (a short clip's
@@ -704,7 +716,7 @@ fn draw_detection<DB: DrawingBackend>(
     let hi = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let (lo, hi) = padded_range(lo, hi);
     let mut chart = ChartBuilder::on(&top)
-        .caption(title, (FONT, 17))
+        .caption(title, (FONT, DETECTION_TITLE_PX as u32))
         .margin(DETECTION_MARGIN_PX)
         .x_label_area_size(30)
         .y_label_area_size(56)
@@ -726,11 +738,9 @@ fn draw_detection<DB: DrawingBackend>(
                 .map_err(s)?;
         }
     }
-    // On the caption's line, right of the title.
-    legend_row(
+    caption_legend(
         &top,
-        right_px,
-        DETECTION_MARGIN_PX + 9,
+        (DETECTION_MARGIN_PX, DETECTION_TITLE_PX),
         13,
         &[
             (LegendMark::Line(X_COLOR), "x".into()),
