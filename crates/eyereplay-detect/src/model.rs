@@ -663,7 +663,10 @@ mod tests {
         let end = at + text[at..].find(',').unwrap();
         std::fs::write(&p, format!("{}99{}", &text[..at], &text[end..])).unwrap();
         let e = DetectorModel::load(&p).unwrap_err().to_string();
-        assert!(e.contains("trees.json") && e.contains("trees name a feature"), "{e}");
+        assert!(
+            e.contains("trees.json") && e.contains("trees name a feature"),
+            "{e}"
+        );
     }
 
     /// Four folds of 4 sessions a class: each fold holds one session of
