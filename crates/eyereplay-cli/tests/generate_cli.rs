@@ -236,6 +236,27 @@ fn generate_is_deterministic_resumable_and_shardable() {
     assert_eq!(std::fs::read(&mp4).unwrap(), before);
     assert_eq!(views(&a), serde_json::json!(1));
 
+    // Another seed from the command line: a second draw of the same config
+    // (other sessions, rendered again though the old files are complete);
+    // the config's own seed then gives back the first draw's files.
+    let o = generate(&a, &["--seed", "8", "--no-evaluate"]);
+    ok(&o);
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        said.contains("rendered 8 sessions") && said.contains("rendered again"),
+        "{said}"
+    );
+    let meta: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(a.join("metadata.json")).unwrap()).unwrap();
+    assert_eq!(meta["seed"], serde_json::json!(8));
+    assert_ne!(std::fs::read(&mp4).unwrap(), before);
+    ok(&generate(&a, &[]));
+    assert_eq!(hashes(&a), ha);
+
     // Two shards into one folder, then merge: same files as one machine.
     let s = dir.path().join("s");
     ok(&generate(&s, &["--shard", "0/2"]));

@@ -173,6 +173,7 @@ impl EyeCropTracker {
                     iris: e.iris,
                     corner_left: cl,
                     corner_right: cr,
+                    nx_head: f64::NAN,
                 }
             };
             rows.push(Row {
@@ -181,6 +182,7 @@ impl EyeCropTracker {
                 face_score: 1.0,
                 eyes: Some([row(0), row(1)]),
                 blink: false,
+                head: Vec::new(),
             });
             Ok(if rows.len() >= max {
                 ControlFlow::Break(())

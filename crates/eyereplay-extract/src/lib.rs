@@ -28,6 +28,7 @@
 //!   (`best_effort_timestamp x time_base`, as ffprobe's `pts_time`), so
 //!   variable-frame-rate video keeps its real timing.
 
+mod anchor;
 pub mod attention;
 mod compare;
 mod decode;
@@ -46,6 +47,7 @@ mod shapes;
 mod stage_progress;
 mod tracker;
 
+pub use anchor::{anchor_to_head, HeadAnchor, MAX_ANCHOR_GAP_S};
 pub use compare::{compare, pearson, percentile, Agreement, Series};
 pub use decode::{probe, Decoder, VideoInfo};
 pub use detect::{anchors, decode as decode_detections, weighted_nms, Detection};
@@ -74,7 +76,8 @@ pub use run::{
     NoProgress, Progress, DEFAULT_MESH_EVERY,
 };
 pub use shapes::{
-    DETECTOR_ANCHORS, DETECTOR_ANCHOR_VALUES, EYE_CONTOUR_POINTS, FACE_MESH_LANDMARKS, IRIS_POINTS,
+    DETECTOR_ANCHORS, DETECTOR_ANCHOR_VALUES, EYE_CONTOUR_POINTS, FACE_MESH_LANDMARKS, HEAD_POINTS,
+    IRIS_POINTS,
 };
 pub use stage_progress::StageFrames;
 pub use tracker::{Eye, EyeMeasure, Face, Tracker, IRIS_VIEW_SHIFT_PX, MAX_IRIS_VIEWS};
@@ -82,7 +85,9 @@ pub use tracker::{Eye, EyeMeasure, Face, Tracker, IRIS_VIEW_SHIFT_PX, MAX_IRIS_V
 /// The revision of the rows an extraction writes: raised whenever a change
 /// moves them (not for speed-ups that keep them bit for bit). Cached
 /// extractions carry it in their file name, so a new extractor never
-/// reuses an older one's rows. 3: the converter writes the models' channel
+/// reuses an older one's rows. Not raised for the last column, `nx_head`
+/// (every other column stays bit for bit, readers find columns by name and
+/// nothing reads `nx_head` from the cache). 3: the converter writes the models' channel
 /// padding as a 1x1 convolution, so ONNX Runtime fuses the residual
 /// additions and rounds them differently (nx within 7e-4 of revision 2 on
 /// `franck.mp4`). 2: segments of about 15 s starting on keyframes,

@@ -17,7 +17,8 @@ pub const CSV_HEADER: &str = "frame,time_s,valid,nx,ny,blink,face,face_score,ape
 nx_left,ny_left,nx_right,ny_right,aperture_left,aperture_right,\
 iris_left_x_px,iris_left_y_px,iris_right_x_px,iris_right_y_px,\
 left_eye_left_corner_x_px,left_eye_left_corner_y_px,left_eye_right_corner_x_px,left_eye_right_corner_y_px,\
-right_eye_left_corner_x_px,right_eye_left_corner_y_px,right_eye_right_corner_x_px,right_eye_right_corner_y_px";
+right_eye_left_corner_x_px,right_eye_left_corner_y_px,right_eye_right_corner_x_px,right_eye_right_corner_y_px,\
+nx_head";
 
 /// One eye's values for a row.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,6 +29,9 @@ pub struct EyeRow {
     pub iris: Pt,
     pub corner_left: Pt,
     pub corner_right: Pt,
+    /// `nx` against the corners anchored to the head (crate `anchor`);
+    /// NaN until [`crate::anchor_to_head`] sets it.
+    pub nx_head: f64,
 }
 
 /// One decoded frame.
@@ -41,6 +45,9 @@ pub struct Row {
     pub eyes: Option<[EyeRow; 2]>,
     /// Set by [`flag_blinks`].
     pub blink: bool,
+    /// The face mesh's [`crate::HEAD_POINTS`] on frames that ran the mesh;
+    /// empty on the others.
+    pub head: Vec<Pt>,
 }
 
 impl Row {
@@ -55,6 +62,7 @@ impl Row {
                     iris: f.eyes[k].iris,
                     corner_left: f.eyes[k].corner_left,
                     corner_right: f.eyes[k].corner_right,
+                    nx_head: f64::NAN,
                 }
             };
             [e(0), e(1)]
@@ -65,6 +73,7 @@ impl Row {
             face_score: face.map(|f| f.score).unwrap_or(0.0),
             eyes,
             blink: false,
+            head: face.map(Face::head_points).unwrap_or_default(),
         }
     }
     /// A row carrying only a mean aperture and mean (nx, ny), both eyes
@@ -77,6 +86,7 @@ impl Row {
             iris: Pt::default(),
             corner_left: Pt::default(),
             corner_right: Pt::default(),
+            nx_head: f64::NAN,
         };
         Row {
             frame: 0,
@@ -84,6 +94,7 @@ impl Row {
             face_score: 0.0,
             eyes: values.map(|(a, n)| [eye(a, n), eye(a, n)]),
             blink: false,
+            head: Vec::new(),
         }
     }
     pub fn face(&self) -> bool {
@@ -93,6 +104,10 @@ impl Row {
     pub fn mean_n(&self) -> Option<(f64, f64)> {
         self.eyes
             .map(|e| ((e[0].nx + e[1].nx) / 2.0, (e[0].ny + e[1].ny) / 2.0))
+    }
+    /// Mean of the two eyes' `nx_head`.
+    pub fn mean_nx_head(&self) -> Option<f64> {
+        self.eyes.map(|e| (e[0].nx_head + e[1].nx_head) / 2.0)
     }
     pub fn aperture(&self) -> Option<f64> {
         self.eyes.map(|e| (e[0].aperture + e[1].aperture) / 2.0)
@@ -193,11 +208,11 @@ pub fn write_csv(w: &mut dyn Write, rows: &[Row]) -> std::io::Result<()> {
                 ] {
                     write!(w, ",{:.2},{:.2}", p.x, p.y)?;
                 }
-                writeln!(w)?;
+                writeln!(w, ",{}", num(r.mean_nx_head().unwrap_or(f64::NAN), 5))?;
             }
             _ => {
                 // No face: gaze fields empty, blink 0, face 0.
-                writeln!(w, ",,,0,0,0{}", ",".repeat(19))?;
+                writeln!(w, ",,,0,0,0{}", ",".repeat(20))?;
             }
         }
     }
@@ -256,6 +271,7 @@ mod tests {
             iris: Pt::default(),
             corner_left: Pt::default(),
             corner_right: Pt::default(),
+            nx_head: f64::NAN,
         };
         Row {
             frame,
@@ -263,6 +279,7 @@ mod tests {
             face_score: 0.9,
             eyes: ap.map(|a| [e(a), e(a)]),
             blink: false,
+            head: Vec::new(),
         }
     }
 

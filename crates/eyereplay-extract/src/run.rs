@@ -8,6 +8,7 @@
 //! queue, so several videos share the cores too. Memory stays bounded:
 //! frames are streamed, only the small per-frame rows are kept.
 
+use crate::anchor::anchor_to_head;
 use crate::decode::{Decoder, VideoInfo};
 use crate::error::{ExtractError, Result};
 use crate::image::{ImageView, Planes, Rotation};
@@ -301,6 +302,7 @@ fn finish_video(
         });
     }
     let blinks = flag_blinks(&mut rows, opts.blink_ratio);
+    anchor_to_head(&mut rows);
     if let Some(t0) = blinks_t0 {
         stage_times.charge(Stage::Post, thread_cpu_s() - t0);
     }
@@ -690,6 +692,7 @@ impl FrameStream {
         }
         let face_frames = rows.iter().filter(|r| r.face()).count();
         let blinks = flag_blinks(&mut rows, self.blink_ratio);
+        anchor_to_head(&mut rows);
         Ok(FrameExtraction {
             rows,
             face_frames,

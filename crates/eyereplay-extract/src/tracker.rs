@@ -11,6 +11,7 @@ use crate::geom::{Pt, Roi};
 use crate::image::{Border, ImageView};
 use crate::models::{AttentionOut, IrisOutput, LandmarkModel, Models};
 use crate::profile::{Stage, StageClock};
+use crate::shapes::{FACE_MESH_LANDMARKS, HEAD_POINTS};
 
 const MESH_INPUT: usize = 192;
 pub(crate) const IRIS_INPUT: usize = 64;
@@ -114,6 +115,17 @@ pub struct Face {
     pub mesh: Vec<Pt>,
     /// True when the detector ran on this frame (not tracked).
     pub detected: bool,
+}
+
+impl Face {
+    /// The mesh's [`HEAD_POINTS`] (empty on frames that did not run the
+    /// mesh).
+    pub fn head_points(&self) -> Vec<Pt> {
+        if self.mesh.len() < FACE_MESH_LANDMARKS {
+            return Vec::new();
+        }
+        HEAD_POINTS.iter().map(|&i| self.mesh[i]).collect()
+    }
 }
 
 pub struct Tracker {

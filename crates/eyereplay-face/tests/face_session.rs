@@ -145,6 +145,29 @@ fn full_face_session_reads_back() {
     assert!(r >= 0.9, "r {r}");
     assert!((0.8..=1.2).contains(&gain), "gain {gain}");
 
+    // Against the drawn eyes' own nx (the truth file): the iris model's
+    // corners follow the iris, so `nx` shows less than the eye's movement;
+    // `nx_head`, against corners carried by the head, shows more of it.
+    let (mut drawn, mut model, mut anchored) = (vec![], vec![], vec![]);
+    for (r, t) in ex.rows.iter().zip(&rows) {
+        if let (Some(e), false) = (r.eyes, r.blink || t.blink) {
+            let h = 0.5 * (e[0].nx_head + e[1].nx_head);
+            if h.is_finite() {
+                drawn.push(0.5 * (t.eyes[0].nx + t.eyes[1].nx));
+                model.push(0.5 * (e[0].nx + e[1].nx));
+                anchored.push(h);
+            }
+        }
+    }
+    assert!(drawn.len() >= 120, "{} frames with nx_head", drawn.len());
+    let (r_model, gain_model) = pearson(&drawn, &model);
+    let (r_head, gain_head) = pearson(&drawn, &anchored);
+    eprintln!(
+        "against the drawn nx: nx r {r_model:.3} gain {gain_model:.3}; nx_head r {r_head:.3} gain {gain_head:.3}"
+    );
+    assert!(gain_head > gain_model, "{gain_head} vs {gain_model}");
+    assert!(r_head >= 0.9, "nx_head r {r_head}");
+
     // Five crops per eye (`--iris-views 5`) read the drawn iris centre more
     // precisely than one: the spread of extracted minus drawn, px, along
     // each image axis, over the frames both read with the eyes open.

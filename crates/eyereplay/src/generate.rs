@@ -217,10 +217,11 @@ pub fn generate(
 
 /// A rerun resumes by skipping finished sessions, which is right only when
 /// they were rendered as this config says: when `out` holds a dataset whose
-/// recorded `[render]` table differs from `config`'s (a setting changed
-/// since, say), its sessions' rendered files are removed so that they are
-/// rendered again, and a line says so. The trajectories (`prepare`) are
-/// written anew anyway.
+/// recorded config differs from `config` (a `[render]` setting changed
+/// since, another seed, other sources or sessions: each moves the
+/// trajectories or their drawing), its sessions' rendered files are
+/// removed so that they are rendered again, and a line says so. The
+/// trajectories (`prepare`) are written anew anyway.
 fn forget_renders_of_another_config(
     out: &Path,
     config: &DatasetConfig,
@@ -230,7 +231,13 @@ fn forget_renders_of_another_config(
         return Ok(());
     }
     let old = eyereplay_dataset::read_metadata(out)?.dataset;
-    if old.config.render == config.render {
+    // The folder the config was read from is not recorded (nor does it
+    // move a session).
+    let recorded = DatasetConfig {
+        base_dir: config.base_dir.clone(),
+        ..old.config.clone()
+    };
+    if recorded == *config {
         return Ok(());
     }
     let mut removed = 0;
@@ -246,7 +253,7 @@ fn forget_renders_of_another_config(
     }
     if removed > 0 {
         progress.info(&format!(
-            "{}: made with another [render] table than this config's; its {removed} rendered sessions are rendered again",
+            "{}: made with another config than this one (its [render] table, seed, sources or sessions); its {removed} rendered sessions are rendered again",
             out.display()
         ));
     }

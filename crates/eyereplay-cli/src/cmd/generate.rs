@@ -39,6 +39,11 @@ pub struct Args {
     /// Output dataset folder.
     #[arg(long, value_name = "DIR", required_unless_present_any = ["dry_run", "profile"])]
     pub out: Option<PathBuf>,
+    /// Draw with this seed instead of the config's `seed`: a second draw
+    /// of the same config (other people, other sessions) without copying
+    /// it. Give every shard of a job the same one.
+    #[arg(long, value_name = "N")]
+    pub seed: Option<u64>,
     /// Render only shard K of N (0-based), e.g. 3/8.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
@@ -99,7 +104,11 @@ pub fn run(args: Args) -> Result<()> {
         None => default_config()?,
     };
     let shard = Shard::resolve(args.shard.as_deref(), args.shards)?;
-    let job = eyereplay::plan(&config_path, shard)?;
+    let mut config = eyereplay::DatasetConfig::load(&config_path)?;
+    if let Some(seed) = args.seed {
+        config.seed = seed;
+    }
+    let job = eyereplay::plan_config(config, &config_path, shard)?;
     if args.dry_run || args.profile {
         let cache = eyereplay::cache_dir(args.cache.as_deref());
         let bars = super::Bars::default();

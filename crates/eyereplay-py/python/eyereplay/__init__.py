@@ -147,8 +147,11 @@ def extract(
     see :data:`EXTRACT_COLUMNS`), or a pandas DataFrame with
     ``pandas=True``. ``nx`` runs from the image-left eye corner (0) to the
     image-right one (1), ``ny`` from the upper lid (0) to the lower (1);
-    frames without a face have ``valid == 0`` and NaN positions. With
-    ``out``, the CSV is also written there, byte-identical to the command's.
+    ``nx_head`` is ``nx`` against eye corners carried by the head's own
+    face-mesh points (the iris model's corners follow the iris, so ``nx``
+    shows a little over half the eye's movement); frames without a face
+    have ``valid == 0`` and NaN positions. With ``out``, the CSV is also
+    written there, byte-identical to the command's.
 
     ``device`` is ``"cpu"`` (the default: these small networks ran slower
     on a GPU), ``"cuda"`` (with ``EYEREPLAY_ORT_LIB`` pointing at an
@@ -375,6 +378,7 @@ EXTRACT_COLUMNS: Tuple[str, ...] = (
     "left_eye_right_corner_x_px", "left_eye_right_corner_y_px",
     "right_eye_left_corner_x_px", "right_eye_left_corner_y_px",
     "right_eye_right_corner_x_px", "right_eye_right_corner_y_px",
+    "nx_head",
 )
 
 
