@@ -403,6 +403,36 @@ fn interview_reading_segments_are_found_on_other_people() {
         hmm["false_reading_fraction"].as_f64().unwrap() <= 0.05,
         "{hmm}"
     );
+
+    // `detect` on one interview: its last line names the segments it
+    // found before the recording's one verdict, an average.
+    let session = test.join("conversation/conversation_0000.csv");
+    let out = dir.path().join("det");
+    let o = eyereplay(&[
+        "detect",
+        s(&session),
+        "--model",
+        s(&model),
+        "--out",
+        s(&out),
+    ]);
+    let stdout = ok(&o);
+    let d: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("conversation_0000_detect.json")).unwrap())
+            .unwrap();
+    let segs = d["localization"]["segments"].as_array().unwrap();
+    assert!(!segs.is_empty(), "{d}");
+    let read_s: f64 = segs
+        .iter()
+        .map(|g| g["end_s"].as_f64().unwrap() - g["start_s"].as_f64().unwrap())
+        .sum();
+    let plural = if segs.len() == 1 { "" } else { "s" };
+    let want = format!(
+        ": reading in {} segment{plural}, {read_s:.1} of 180.0 s; {} on average (mean P(reading) ",
+        segs.len(),
+        d["verdict"].as_str().unwrap()
+    );
+    assert!(stdout.contains(&want), "{want} in {stdout}");
 }
 
 #[test]

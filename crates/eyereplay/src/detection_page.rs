@@ -151,8 +151,7 @@ video{{width:100%;max-height:480px;background:#000}}svg{{width:100%;height:auto;
 .gaze{{fill:none;stroke:#456;stroke-width:1}}.prob{{fill:none;stroke:#c60;stroke-width:2}}\
 .half{{stroke:#999;stroke-dasharray:4 4}}.seg{{fill:#fc8;opacity:.45}}.seg:hover{{opacity:.8}}\
 .gap{{fill:#888;opacity:.3}}.head{{stroke:#d00;stroke-width:2}}.lab{{font-size:12px;fill:#555}}.note{{color:#666}}</style></head><body>\
-<h1>{title}</h1><p><b>{when}</b>. The recording as a whole: {verdict} (mean P(reading) {mean:.3} \
-against the model's threshold {thr:.3}). Model: {model}.</p>{video}\
+<h1>{title}</h1><p><b>{when}</b>. {average} Model: {model}.</p>{video}\
 <svg id=\"t\" viewBox=\"0 0 {W} {h:.0}\" preserveAspectRatio=\"none\">{svg}</svg>\
 <p class=\"note\">0 to {dur}. Orange: reading segments (click to play from there), their ends where the window scores cross half-way between reading and not; curve: P(reading), dashed: P = 0.5{grey}.</p>\
 <h2>Reading segments</h2><ul>{segments}</ul>{not_scored}\
@@ -163,9 +162,7 @@ t.addEventListener('click',function(e){{if(e.target.classList.contains('seg'))re
 if(v)v.addEventListener('timeupdate',function(){{var x=v.currentTime/D*{W};h.setAttribute('x1',x);h.setAttribute('x2',x);}});\
 </script></body></html>\n",
         title = esc(&format!("Reading detection: {}", file_name(&d.input.path))),
-        verdict = esc(&d.verdict),
-        mean = d.reading_probability,
-        thr = d.model.threshold,
+        average = esc(&average(d)),
         when = esc(&when(d, dur)),
         model = esc(&d.model.path),
         h = top + H_PROB,
@@ -222,6 +219,21 @@ fn when(d: &Detection, dur: f64) -> String {
         clock(read),
         clock(dur)
     )
+}
+
+/// The whole recording's one verdict, worded so that it does not read as
+/// a contradiction of the segments beside it: a long interview with one
+/// read answer is "not reading" on average.
+fn average(d: &Detection) -> String {
+    let said = format!(
+        "Averaged over the whole recording, P(reading) is {:.3} against the model's threshold {:.3}",
+        d.reading_probability, d.model.threshold
+    );
+    if d.localization.segments.is_empty() {
+        format!("{said}: {}.", d.verdict)
+    } else {
+        format!("{said} ({} on average; the segments say when).", d.verdict)
+    }
 }
 
 /// A list entry's link: the stretch as `m:ss - m:ss`, playing the video
@@ -309,6 +321,24 @@ mod tests {
             "<h2>Not scored</h2><ul><li><a href=\"#\" onclick=\"seek(12.00);return false\">0:12 - 0:19</a>: {why}</li></ul>"
         )));
         assert!(page.contains("grey: no score"));
+        // The one verdict is an average beside the segment, not a
+        // contradiction of it; without segments it is the answer.
+        let headline = |page: &str| page.split("<p>").nth(1).unwrap_or("").to_string();
+        assert!(
+            page.contains(
+                "<b>Reading in 1 segment: 0:15 of 1:00</b>. Averaged over the whole recording, \
+             P(reading) is 0.400 against the model's threshold 0.600 (not reading on average; \
+             the segments say when)."
+            ),
+            "{page}"
+        );
+        let mut none = d.clone();
+        none.localization.segments.clear();
+        let page = detection_page(&track, &none, None);
+        assert!(page.contains(
+            "<b>No reading segment</b>. Averaged over the whole recording, P(reading) is 0.400 \
+             against the model's threshold 0.600: not reading."
+        ), "{}", headline(&page));
         d.clip = Some(
             serde_json::from_value(serde_json::json!({
                 "start_s": 0.0, "end_s": 8.0, "usable_s": 8.0, "reading_probability": 0.4,

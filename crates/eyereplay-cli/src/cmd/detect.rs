@@ -248,10 +248,24 @@ fn print_detection(d: &Detection) {
         );
         return;
     }
+    // With segments, the recording's one verdict is its average: a long
+    // interview with one read answer is "not reading" on average.
+    let segs = &d.localization.segments;
+    let dur = d.input.frames as f64 / eyereplay::detect::FPS;
+    let lead = if segs.is_empty() {
+        d.verdict.clone()
+    } else {
+        let read: f64 = segs.iter().map(|g| g.duration_s()).sum();
+        format!(
+            "reading in {} segment{}, {read:.1} of {dur:.1} s; {} on average",
+            segs.len(),
+            if segs.len() == 1 { "" } else { "s" },
+            d.verdict
+        )
+    };
     println!(
-        "{}: {} (mean P(reading) {:.3} against threshold {:.3}; {} of {} windows of {} s called reading)",
+        "{}: {lead} (mean P(reading) {:.3} against threshold {:.3}; {} of {} windows of {} s called reading)",
         d.input.path,
-        d.verdict,
         d.reading_probability,
         d.model.threshold,
         d.windows.iter().filter(|w| w.reading).count(),
