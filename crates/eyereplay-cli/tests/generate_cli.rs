@@ -38,6 +38,21 @@ fn generate(out: &Path, extra: &[&str]) -> Output {
     eyereplay(&a)
 }
 
+/// A run into a finished folder made with another config: every session
+/// is drawn again, and a line says why.
+fn rendered_again(o: &Output) {
+    ok(o);
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        said.contains("rendered 8 sessions") && said.contains("rendered again"),
+        "{said}"
+    );
+}
+
 /// sha256 of every CSV and JSON below `dir` (the run log is not data).
 fn hashes(dir: &Path) -> BTreeMap<String, String> {
     let mut m = BTreeMap::new();
@@ -206,16 +221,7 @@ fn generate_is_deterministic_resumable_and_shardable() {
         a.to_str().unwrap(),
         "--no-evaluate",
     ]);
-    ok(&o);
-    let said = format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    assert!(
-        said.contains("rendered 8 sessions") && said.contains("rendered again"),
-        "{said}"
-    );
+    rendered_again(&o);
     assert_ne!(
         std::fs::read(&mp4).unwrap(),
         before,
@@ -240,16 +246,7 @@ fn generate_is_deterministic_resumable_and_shardable() {
     // (other sessions, rendered again though the old files are complete);
     // the config's own seed then gives back the first draw's files.
     let o = generate(&a, &["--seed", "8", "--no-evaluate"]);
-    ok(&o);
-    let said = format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    assert!(
-        said.contains("rendered 8 sessions") && said.contains("rendered again"),
-        "{said}"
-    );
+    rendered_again(&o);
     let meta: serde_json::Value =
         serde_json::from_slice(&std::fs::read(a.join("metadata.json")).unwrap()).unwrap();
     assert_eq!(meta["seed"], serde_json::json!(8));
