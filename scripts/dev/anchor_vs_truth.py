@@ -4,6 +4,7 @@ eye corners (`nx`) and against corners anchored to the head (`nx_head`):
 
     eyereplay extract --landmarks cascade DATASET/*/*.mp4 --out EXTRACTED
     python3 scripts/dev/anchor_vs_truth.py DATASET EXTRACTED
+    python3 scripts/dev/anchor_vs_truth.py --no-truth EXTRACT.csv ...
 
 DATASET is a generated dataset (`eyereplay generate`); EXTRACTED holds
 `eyereplay extract`'s `<video stem>.csv` of its videos (`--landmarks
@@ -13,6 +14,10 @@ eyes' mean nx), r, and the frame-to-frame noise (the sd of the extracted
 step, divided by the gain, minus the drawn step, over the sd of the drawn
 step: 0 is perfect, 1 is noise as large as the eye's own movement). Then
 the medians. Frames valid in the extraction and open in the drawing only.
+
+With --no-truth (real video, no drawn eyes to compare with): for each
+extraction CSV, the 5-95 % range of nx_head over that of nx, and r
+between them, whole and in their fast part (minus a 1-s running mean).
 Standard library only.
 """
 import csv
@@ -47,7 +52,33 @@ def measure(ext, truth, column):
     return gain, r, statistics.pstdev(steps) / statistics.pstdev(true_steps)
 
 
+def running_mean_residual(v, half=12):
+    out = []
+    for i in range(len(v)):
+        w = v[max(0, i - half) : i + half + 1]
+        out.append(v[i] - sum(w) / len(w))
+    return out
+
+
+def no_truth(paths):
+    print(f"{'extraction':32s} {'frames':>6s} {'range ratio':>11s} {'r':>6s} {'r fast':>6s}")
+    for path in paths:
+        with open(path) as f:
+            rows = [r for r in csv.DictReader(f) if r["valid"] == "1" and r.get("nx_head")]
+        if len(rows) < 50:
+            sys.exit(f"{path}: {len(rows)} frames with nx and nx_head, too few")
+        nx = [float(r["nx"]) for r in rows]
+        head = [float(r["nx_head"]) for r in rows]
+        q = statistics.quantiles
+        ratio = (q(head, n=20)[-1] - q(head, n=20)[0]) / (q(nx, n=20)[-1] - q(nx, n=20)[0])
+        r = fit(nx, head)[1]
+        r_fast = fit(running_mean_residual(nx), running_mean_residual(head))[1]
+        print(f"{os.path.basename(path):32s} {len(rows):6d} {ratio:11.2f} {r:6.3f} {r_fast:6.3f}")
+
+
 def main():
+    if len(sys.argv) >= 3 and sys.argv[1] == "--no-truth":
+        return no_truth(sys.argv[2:])
     if len(sys.argv) != 3:
         sys.exit("usage: anchor_vs_truth.py DATASET EXTRACTED")
     dataset, extracted = sys.argv[1:]
