@@ -127,11 +127,18 @@ impl HeadAnchor {
     /// of each corner in it over the open-eyed mesh frames of `rows`;
     /// `None` without any.
     pub fn fit(rows: &[Row]) -> Option<HeadAnchor> {
+        Self::fit_with_maps(rows).map(|(anchor, _)| anchor)
+    }
+
+    /// [`HeadAnchor::fit`], with each row's map from the template (`None`
+    /// where the row has no head points), for [`HeadAnchor::apply_maps`].
+    fn fit_with_maps(rows: &[Row]) -> Option<(HeadAnchor, Vec<Option<Affine>>)> {
         let first = rows.iter().find(|r| r.head.len() == HEAD_POINTS.len())?;
         let template: Vec<[f64; 2]> = first.head.iter().map(|&p| xy(p)).collect();
+        let maps = head_maps(&template, rows);
         let mut coords: Vec<Vec<f64>> = vec![Vec::new(); 8];
-        for r in rows.iter().filter(|r| !r.blink) {
-            let (Some(eyes), Some(map)) = (r.eyes, head_map(&template, r)) else {
+        for (r, map) in rows.iter().zip(&maps).filter(|(r, _)| !r.blink) {
+            let (Some(eyes), Some(map)) = (r.eyes, map) else {
                 continue;
             };
             let Some(back) = map.inverse() else {
@@ -151,14 +158,19 @@ impl HeadAnchor {
         let mut next = || med.next().flatten();
         let mut corner = || Some([next()?, next()?]);
         let corners = [[corner()?, corner()?], [corner()?, corner()?]];
-        Some(HeadAnchor { template, corners })
+        Some((HeadAnchor { template, corners }, maps))
     }
 
     /// Sets each eye's `nx_head` in `rows` (consecutive rows of the
     /// recording `self` was fitted on, in time order): NaN where no mesh
     /// frame lies within [`MAX_ANCHOR_GAP_S`].
     pub fn apply(&self, rows: &mut [Row]) {
-        let maps: Vec<Option<Affine>> = rows.iter().map(|r| head_map(&self.template, r)).collect();
+        let maps = head_maps(&self.template, rows);
+        self.apply_maps(rows, &maps);
+    }
+
+    /// [`HeadAnchor::apply`] with the rows' maps from the template.
+    fn apply_maps(&self, rows: &mut [Row], maps: &[Option<Affine>]) {
         // The mesh frames before (at) and after each row, and the one
         // before that, for rows past the last mesh frame.
         let mut prev = vec![None; rows.len()];
@@ -214,21 +226,28 @@ impl HeadAnchor {
     }
 }
 
-/// The affine map from `template` to this row's head points, if it has them.
-fn head_map(template: &[[f64; 2]], r: &Row) -> Option<Affine> {
-    if r.head.len() != template.len() {
-        return None;
-    }
-    let to: Vec<[f64; 2]> = r.head.iter().map(|&p| xy(p)).collect();
-    Affine::fit(template, &to)
+/// The affine map from `template` to each row's head points, where it
+/// has them.
+fn head_maps(template: &[[f64; 2]], rows: &[Row]) -> Vec<Option<Affine>> {
+    rows.iter()
+        .map(|r| {
+            if r.head.len() != template.len() {
+                return None;
+            }
+            let to: Vec<[f64; 2]> = r.head.iter().map(|&p| xy(p)).collect();
+            Affine::fit(template, &to)
+        })
+        .collect()
 }
 
 /// Sets `nx_head` on every row of one recording (see the module docs);
 /// returns false, leaving them NaN, when no row has head points.
 pub fn anchor_to_head(rows: &mut [Row]) -> bool {
-    match HeadAnchor::fit(rows) {
-        Some(a) => {
-            a.apply(rows);
+    // Each row's map is fitted once, for the corners' places and for
+    // the rows' values.
+    match HeadAnchor::fit_with_maps(rows) {
+        Some((a, maps)) => {
+            a.apply_maps(rows, &maps);
             true
         }
         None => false,
