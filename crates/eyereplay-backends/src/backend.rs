@@ -40,8 +40,6 @@ pub struct Rendered {
 pub trait SessionBackend: Sync {
     /// As `render.backend` spells it.
     fn name(&self) -> &'static str;
-    /// The ffmpeg whose ffprobe tells whether a session's video is whole.
-    fn ffmpeg(&self) -> &Path;
     /// Files of a session besides `mp4`, `truth` and `identity_json` (the
     /// face mode's head CSV, the replay mode's carrier CSV).
     fn extra_outputs(&self, _paths: &SessionPaths) -> Vec<PathBuf> {

@@ -10,7 +10,6 @@ use eyereplay_browser::BrowserSettings;
 use eyereplay_core::Progress;
 use eyereplay_dataset::SessionIdentity;
 use eyereplay_render::EncoderSettings;
-use std::path::Path;
 
 /// The browser backend, ready to draw sessions.
 pub struct BrowserBackend {
@@ -57,10 +56,6 @@ impl BrowserBackend {
 impl SessionBackend for BrowserBackend {
     fn name(&self) -> &'static str {
         "browser"
-    }
-
-    fn ffmpeg(&self) -> &Path {
-        &self.encoder.ffmpeg
     }
 
     fn parallel_sessions(&self) -> usize {

@@ -21,6 +21,12 @@ pub struct RenderSummary {
     pub clamped_points: usize,
 }
 
+/// A finished session's frame count, read in-process (see
+/// [`is_complete`]); `None` for a video that cannot be read.
+fn video_frames(mp4: &Path) -> Option<u64> {
+    eyereplay_extract::count_video_packets(mp4).ok()
+}
+
 /// The sessions of `out` in labels.csv order, this shard's only.
 pub fn shard_sessions(out: &Path, seed: u64, shard: Option<Shard>) -> Result<Vec<SessionJob>> {
     let sessions = list_sessions(out, seed)?;
@@ -45,7 +51,6 @@ pub fn render_dataset(
     progress: &dyn Progress,
 ) -> Result<RenderSummary> {
     let meta = eyereplay_dataset::read_metadata(out)?.dataset;
-    let ffprobe = eyereplay_render::ffprobe_for(backend.ffmpeg());
     let mut summary = RenderSummary::default();
     let mut todo = Vec::new();
     // A session whose trajectory cannot be read fails alone, after the
@@ -66,7 +71,7 @@ pub fn render_dataset(
                 continue;
             }
         };
-        if extra.iter().all(|p| p.exists()) && is_complete(&job, trajectory.len(), &ffprobe) {
+        if extra.iter().all(|p| p.exists()) && is_complete(&job, trajectory.len(), &video_frames) {
             summary.skipped += 1;
             continue;
         }

@@ -8,7 +8,6 @@ use eyereplay_core::profile::lap;
 use eyereplay_core::Progress;
 use eyereplay_dataset::SessionIdentity;
 use eyereplay_render::{render_session, DatasetInfo, Identity, RenderParams};
-use std::path::Path;
 
 /// The eyes backend, ready to draw sessions.
 pub struct EyesBackend {
@@ -41,10 +40,6 @@ impl EyesBackend {
 impl SessionBackend for EyesBackend {
     fn name(&self) -> &'static str {
         "eyes"
-    }
-
-    fn ffmpeg(&self) -> &Path {
-        &self.params.encoder.ffmpeg
     }
 
     fn parallel_sessions(&self) -> usize {

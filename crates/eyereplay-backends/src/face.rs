@@ -249,10 +249,6 @@ impl SessionBackend for FaceBackend {
         "face"
     }
 
-    fn ffmpeg(&self) -> &Path {
-        &self.encoder.ffmpeg
-    }
-
     fn extra_outputs(&self, paths: &SessionPaths) -> Vec<PathBuf> {
         vec![paths.head_csv()]
     }

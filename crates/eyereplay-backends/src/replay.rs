@@ -193,10 +193,6 @@ impl SessionBackend for ReplayBackend {
         "replay"
     }
 
-    fn ffmpeg(&self) -> &Path {
-        &self.encoder.ffmpeg
-    }
-
     fn extra_outputs(&self, paths: &SessionPaths) -> Vec<PathBuf> {
         vec![paths.carrier_csv()]
     }

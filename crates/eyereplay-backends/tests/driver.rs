@@ -201,9 +201,6 @@ impl SessionBackend for FailsAfterWriting {
     fn name(&self) -> &'static str {
         "fails"
     }
-    fn ffmpeg(&self) -> &Path {
-        Path::new("ffmpeg")
-    }
     fn render(
         &self,
         _: &eyereplay_backends::Session,

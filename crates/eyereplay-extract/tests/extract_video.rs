@@ -844,3 +844,71 @@ fn frames_in_memory_read_like_the_video() {
     let e = s.push_rgb(&frames[0].3, 1.0).unwrap_err().to_string();
     assert!(e.contains("does not follow"), "{e}");
 }
+
+/// `count_video_packets` against ffprobe's own count (`-count_packets`,
+/// `nb_read_packets`), on a video with an audio track beside the picture
+/// (whose packets must not count) and B-frames (stored out of order); a
+/// file cut short counts fewer.
+#[test]
+#[cfg_attr(not(has_ffmpeg), ignore = "needs ffmpeg: run scripts/setup.sh")]
+fn video_packets_are_counted_as_ffprobe_counts_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let mp4 = dir.path().join("a.mp4");
+    // 61 frames: a count no default (25, 50, 100) could give by chance.
+    run_ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "testsrc=size=160x120:rate=25",
+        "-f",
+        "lavfi",
+        "-i",
+        "sine=frequency=440:sample_rate=8000",
+        "-frames:v",
+        "61",
+        "-t",
+        "2.44",
+        "-c:v",
+        "libx264",
+        "-bf",
+        "2",
+        "-c:a",
+        "aac",
+        // The index first, as eyereplay's encoder writes it: a file cut
+        // short then still opens, and only the demuxing finds the loss.
+        "-movflags",
+        "+faststart",
+        mp4.to_str().unwrap(),
+    ]);
+    let out = Command::new("ffprobe")
+        .args(["-v", "error", "-select_streams", "v:0", "-count_packets"])
+        .args(["-show_entries", "stream=nb_read_packets", "-of", "csv=p=0"])
+        .arg(&mp4)
+        .output()
+        .expect("ffprobe runs");
+    let ffprobe_count: u64 = String::from_utf8_lossy(&out.stdout).trim().parse().unwrap();
+    assert_eq!(ffprobe_count, 61);
+    assert_eq!(count_video_packets(&mp4).unwrap(), ffprobe_count);
+
+    let bytes = std::fs::read(&mp4).unwrap();
+    let cut = dir.path().join("cut.mp4");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let n = count_video_packets(&cut).unwrap();
+    assert!(n < 61, "a file cut in half still counted {n} packets");
+    let missing = dir.path().join("missing.mp4");
+    let e = count_video_packets(&missing).unwrap_err().to_string();
+    assert!(
+        e.contains("missing.mp4") && e.contains("no such file"),
+        "{e}"
+    );
+    let audio_only = dir.path().join("a.m4a");
+    run_ffmpeg(&[
+        "-i",
+        mp4.to_str().unwrap(),
+        "-vn",
+        "-c:a",
+        "copy",
+        audio_only.to_str().unwrap(),
+    ]);
+    assert!(count_video_packets(&audio_only).is_err());
+}

@@ -3,7 +3,6 @@
 //! `<stem>_identity.json` beside it. Listing the sessions and telling a
 //! whole one; the driver that renders them is eyereplay-backends'.
 
-use crate::encode::probe_video;
 use crate::rng::mix64;
 use crate::{Calibration, GazeMapping, RenderError};
 use eyereplay_core::{Canvas, GazeClass};
@@ -110,12 +109,19 @@ pub fn list_sessions(dir: &Path, dataset_seed: u64) -> Result<Vec<SessionJob>, R
 }
 
 /// True when the session's video exists, has as many frames as its CSV
-/// rows, and the ground truth is there.
-pub fn is_complete(job: &SessionJob, frames: usize, ffprobe: &Path) -> bool {
+/// rows, and the ground truth is there. `count_frames` gives a video's
+/// frame count, or `None` where it cannot be read: the callers count its
+/// packets in-process (`eyereplay_extract::count_video_packets`), since
+/// this crate does not link FFmpeg's libraries and starting `ffprobe`
+/// for every session of a large dataset cost more than the count.
+pub fn is_complete(
+    job: &SessionJob,
+    frames: usize,
+    count_frames: &dyn Fn(&Path) -> Option<u64>,
+) -> bool {
     let p = &job.paths;
     p.truth.exists()
         && p.identity_json.exists()
-        && probe_video(&p.mp4, ffprobe)
-            .map(|i| i.frames as usize == frames)
-            .unwrap_or(false)
+        && p.mp4.exists()
+        && count_frames(&p.mp4) == Some(frames as u64)
 }

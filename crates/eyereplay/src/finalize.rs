@@ -7,7 +7,7 @@ use crate::{Error, Result};
 use eyereplay_dataset::{
     read_metadata, write_metadata, DatasetMetadata, Metadata, RenderMetadata, SessionIdentity,
 };
-use eyereplay_render::{ffprobe_for, is_complete, list_sessions, SessionJob};
+use eyereplay_render::{is_complete, list_sessions, SessionJob};
 use std::path::Path;
 
 /// Sessions of `dir` whose video, truth or identity file is missing or
@@ -21,10 +21,10 @@ pub fn missing_sessions(dir: &Path) -> Result<Vec<String>> {
 }
 
 fn incomplete(dir: &Path, meta: &DatasetMetadata) -> Result<Vec<SessionJob>> {
-    let ffprobe = ffprobe_for(Path::new("ffmpeg"));
+    let frames = |p: &Path| eyereplay_extract::count_video_packets(p).ok();
     Ok(list_sessions(dir, meta.seed)?
         .into_iter()
-        .filter(|j| !is_complete(j, meta.session_frames, &ffprobe))
+        .filter(|j| !is_complete(j, meta.session_frames, &frames))
         .collect())
 }
 
