@@ -56,14 +56,34 @@ pub fn render_dataset(
     // A session whose trajectory cannot be read fails alone, after the
     // others are rendered.
     let mut failed = Vec::new();
-    for job in shard_sessions(out, meta.seed, shard)? {
-        let extra = backend.extra_outputs(&job.paths);
-        // Leftovers of an interrupted render of this session only: other
-        // shards may be writing theirs.
-        for p in SessionOutputs::leftovers(&job.paths, &extra) {
-            std::fs::remove_file(&p).map_err(|e| BackendError::io(&p, e))?;
-        }
-        let trajectory = match eyereplay_core::read_session_csv(&job.paths.csv) {
+    // Each session checked on its own (its files only), all of them at
+    // once: a resumed run of thousands of sessions reads every finished
+    // video through (`is_complete`), some milliseconds each. The results
+    // are then taken in labels.csv order.
+    let checked: Vec<Result<(SessionJob, _, Vec<_>, bool)>> =
+        shard_sessions(out, meta.seed, shard)?
+            .into_par_iter()
+            .map(|job| {
+                let extra = backend.extra_outputs(&job.paths);
+                // Leftovers of an interrupted render of this session only:
+                // other shards may be writing theirs.
+                for p in SessionOutputs::leftovers(&job.paths, &extra) {
+                    std::fs::remove_file(&p).map_err(|e| BackendError::io(&p, e))?;
+                }
+                let trajectory = eyereplay_core::read_session_csv(&job.paths.csv);
+                let complete = match &trajectory {
+                    Ok(t) => {
+                        extra.iter().all(|p| p.exists())
+                            && is_complete(&job, t.len(), &video_frames)
+                    }
+                    Err(_) => false,
+                };
+                Ok((job, trajectory, extra, complete))
+            })
+            .collect();
+    for item in checked {
+        let (job, trajectory, extra, complete) = item?;
+        let trajectory = match trajectory {
             Ok(t) => t,
             Err(e) => {
                 progress.warn(&format!("error: {}: {e}", job.paths.file));
@@ -71,7 +91,7 @@ pub fn render_dataset(
                 continue;
             }
         };
-        if extra.iter().all(|p| p.exists()) && is_complete(&job, trajectory.len(), &video_frames) {
+        if complete {
             summary.skipped += 1;
             continue;
         }
