@@ -57,19 +57,7 @@ pub struct Decoder {
 
 impl Decoder {
     pub fn open(path: &Path) -> Result<Decoder> {
-        init();
-        let open_err = |e: ff::Error| ExtractError::Open {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        };
-        if !path.is_file() {
-            return Err(ExtractError::Open {
-                path: path.to_path_buf(),
-                message: "no such file".into(),
-            });
-        }
-        let ictx = ff::format::input(&path).map_err(open_err)?;
-        Self::from_input(path, ictx)
+        Self::from_input(path, open_file(path)?)
     }
 
     /// Opens a stream that is not a file: `pipe:0` (standard input, in any
@@ -359,15 +347,8 @@ pub fn probe(path: &Path) -> Result<VideoInfo> {
     Ok(Decoder::open(path)?.info)
 }
 
-/// The packets of a file's video stream, counted by demuxing it without
-/// decoding: for the H.264 MP4s eyereplay writes, one packet a frame. It
-/// reads the whole file, so a cut-off one shows its loss. What `ffprobe
-/// -count_packets` reports as `nb_read_packets`, in this process: a
-/// resumed or merged dataset checks every session's video this way, and
-/// starting ffprobe once per session cost about 0.14 CPU-s each (its
-/// dynamic linking of the libav* libraries), a third of a small session's
-/// whole check.
-pub fn count_video_packets(path: &Path) -> Result<u64> {
+/// A file's demuxer, or the one-line error naming it.
+fn open_file(path: &Path) -> Result<ff::format::context::Input> {
     init();
     if !path.is_file() {
         return Err(ExtractError::Open {
@@ -375,10 +356,21 @@ pub fn count_video_packets(path: &Path) -> Result<u64> {
             message: "no such file".into(),
         });
     }
-    let mut ictx = ff::format::input(&path).map_err(|e| ExtractError::Open {
+    ff::format::input(&path).map_err(|e| ExtractError::Open {
         path: path.to_path_buf(),
         message: e.to_string(),
-    })?;
+    })
+}
+
+/// The packets of a file's video stream, counted by demuxing it without
+/// decoding: for the H.264 MP4s eyereplay writes, one packet a frame. It
+/// reads the whole file, so a cut-off one counts fewer. What `ffprobe
+/// -count_packets` reports as `nb_read_packets`, without starting a
+/// process (whose dynamic linking of the libav* libraries alone cost
+/// about 0.15 CPU-s): a resumed or merged dataset checks every session's
+/// video this way.
+pub fn count_video_packets(path: &Path) -> Result<u64> {
+    let mut ictx = open_file(path)?;
     let stream = ictx
         .streams()
         .best(ff::media::Type::Video)

@@ -107,21 +107,3 @@ pub fn list_sessions(dir: &Path, dataset_seed: u64) -> Result<Vec<SessionJob>, R
         })
         .collect())
 }
-
-/// True when the session's video exists, has as many frames as its CSV
-/// rows, and the ground truth is there. `count_frames` gives a video's
-/// frame count, or `None` where it cannot be read: the callers count its
-/// packets in-process (`eyereplay_extract::count_video_packets`), since
-/// this crate does not link FFmpeg's libraries and starting `ffprobe`
-/// for every session of a large dataset cost more than the count.
-pub fn is_complete(
-    job: &SessionJob,
-    frames: usize,
-    count_frames: &dyn Fn(&Path) -> Option<u64>,
-) -> bool {
-    let p = &job.paths;
-    p.truth.exists()
-        && p.identity_json.exists()
-        && p.mp4.exists()
-        && count_frames(&p.mp4) == Some(frames as u64)
-}

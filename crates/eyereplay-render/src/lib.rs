@@ -67,9 +67,7 @@ pub use bench::{
     BenchShape,
 };
 pub use blink::{closure_at, closure_track};
-pub use dataset::{
-    is_complete, list_sessions, read_dataset_info, session_seed, DatasetInfo, SessionJob,
-};
+pub use dataset::{list_sessions, read_dataset_info, session_seed, DatasetInfo, SessionJob};
 pub use encode::{
     ffprobe_for, probe_video, rgb_to_yuv420, Codec, Encoder, EncoderSettings, VideoInfo,
     DEFAULT_X264_PARAMS,

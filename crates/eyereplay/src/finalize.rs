@@ -4,10 +4,11 @@
 
 use crate::evaluate::{evaluate, EvaluateOptions, EvaluateOutcome};
 use crate::{Error, Result};
+use eyereplay_backends::is_complete;
 use eyereplay_dataset::{
     read_metadata, write_metadata, DatasetMetadata, Metadata, RenderMetadata, SessionIdentity,
 };
-use eyereplay_render::{is_complete, list_sessions, SessionJob};
+use eyereplay_render::{list_sessions, SessionJob};
 use rayon::prelude::*;
 use std::path::Path;
 
@@ -24,10 +25,9 @@ pub fn missing_sessions(dir: &Path) -> Result<Vec<String>> {
 fn incomplete(dir: &Path, meta: &DatasetMetadata) -> Result<Vec<SessionJob>> {
     // Every finished video is read through (some milliseconds each), so
     // the sessions are checked in parallel; `collect` keeps their order.
-    let frames = |p: &Path| eyereplay_extract::count_video_packets(p).ok();
     Ok(list_sessions(dir, meta.seed)?
         .into_par_iter()
-        .filter(|j| !is_complete(j, meta.session_frames, &frames))
+        .filter(|j| !is_complete(j, meta.session_frames))
         .collect())
 }
 
