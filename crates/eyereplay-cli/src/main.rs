@@ -16,7 +16,8 @@ recordings, calibrates, resamples, normalizes and slices them into sessions (the
 pipeline of 'A Synthetic Eye Movement Dataset for Script Reading Detection'), renders \
 each session on a 3D eye simulator, and measures how faithful the result is.",
     after_help = "Examples:\n  \
-eyereplay prepare --config dataset.toml --out data/    # stages 2-5: trajectories\n  \
+# stages 2-5: trajectories\n  \
+eyereplay prepare --config dataset.toml --out data/\n  \
 eyereplay prepare --config dataset.toml --out data/ --dry-run\n\n\
 Run 'eyereplay <command> --help' for each command's options and examples."
 )]
@@ -68,7 +69,23 @@ fn quiet_when_stdout_is_gone() {
 
 fn main() -> std::process::ExitCode {
     quiet_when_stdout_is_gone();
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) {
+                e.exit();
+            }
+            let args: Vec<String> = std::env::args().collect();
+            eprintln!("{}", one_line_usage_error(&e.to_string(), &args));
+            return std::process::ExitCode::from(2);
+        }
+    };
     init_tracing(cli.verbose);
     let result = match cli.command {
         Command::Prepare(a) => cmd::prepare::run(a),
@@ -92,6 +109,31 @@ fn main() -> std::process::ExitCode {
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// clap's usage error on one line, as every other error is: its message
+/// and any tip (clap puts a list of missing arguments, and a "did you
+/// mean", on lines of their own), then which help to read: that of the
+/// subcommand named in `args`, if any.
+fn one_line_usage_error(rendered: &str, args: &[String]) -> String {
+    let parts: Vec<&str> = rendered
+        .lines()
+        .map(str::trim)
+        .filter(|l| {
+            !l.is_empty() && !l.starts_with("Usage:") && !l.starts_with("For more information")
+        })
+        .collect();
+    let mut line = parts.join(" ");
+    let subcommands: Vec<String> = <Cli as clap::CommandFactory>::command()
+        .get_subcommands()
+        .map(|c| c.get_name().to_string())
+        .collect();
+    let command = match args.iter().skip(1).find(|a| subcommands.contains(a)) {
+        Some(sub) => format!("eyereplay {sub}"),
+        None => "eyereplay".to_string(),
+    };
+    line.push_str(&format!(" (see '{command} --help')"));
+    line
 }
 
 fn format_chain(e: &anyhow::Error) -> String {
@@ -119,4 +161,44 @@ fn init_tracing(verbose: u8) {
         .with_target(false)
         .without_time()
         .init();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Usage errors come out on one line naming what is wrong and the
+    /// subcommand whose help to read.
+    #[test]
+    fn usage_errors_are_one_line() {
+        for (args, says) in [
+            (vec!["eyereplay", "train"], "--out <MODEL>"),
+            (
+                vec![
+                    "eyereplay",
+                    "extract",
+                    "v.mp4",
+                    "--out",
+                    "x.csv",
+                    "--blink-ratio",
+                    "5",
+                ],
+                "--blink-ratio",
+            ),
+            (vec!["eyereplay", "trian"], "trian"),
+        ] {
+            let e = Cli::try_parse_from(&args).err().expect("a usage error");
+            let args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
+            let line = one_line_usage_error(&e.to_string(), &args);
+            assert!(!line.contains('\n'), "{line}");
+            assert!(line.starts_with("error: ") && line.contains(says), "{line}");
+            assert!(line.contains("--help"), "{line}");
+        }
+        let e = Cli::try_parse_from(["eyereplay", "train"]).err().unwrap();
+        let args = ["eyereplay".to_string(), "train".to_string()];
+        assert!(one_line_usage_error(&e.to_string(), &args).contains("'eyereplay train --help'"));
+        // clap's "did you mean" is kept.
+        let e = Cli::try_parse_from(["eyereplay", "trian"]).err().unwrap();
+        assert!(one_line_usage_error(&e.to_string(), &[]).contains("'train'"));
+    }
 }

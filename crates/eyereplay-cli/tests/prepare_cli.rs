@@ -166,3 +166,112 @@ fn help_teaches_with_examples() {
     let h = String::from_utf8_lossy(&o.stdout);
     assert!(h.contains("Examples:") && h.contains("--dry-run") && h.contains("fixations"));
 }
+
+/// Mistakes found by trying every command as a user would (29 Nov 2026),
+/// each refused in one line before any work, with nothing written: a bad
+/// `[render]` table at `prepare` (which writes it for the render), a
+/// usage error, a dataset given twice to `train`, a render whose output
+/// cannot be written, and a detector's output folder that is a file.
+#[test]
+fn mistakes_are_refused_up_front_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    webcam_csv(&d.join("r.csv"), 600);
+    let source = "sources = [{ format = \"extract\", path = \"r.csv\" }]\n";
+    let classes = format!(
+        "[classes.reading]\nsessions = 2\n{source}[classes.conversation]\nsessions = 2\n{source}"
+    );
+    for (i, (table, want)) in [
+        ("[render]\njbos = 2\n", "did you mean 'jobs'"),
+        ("[render]\ncrf = 200\n", "crf"),
+        ("[render]\npreset = \"fastest\"\n", "'fastest'"),
+        ("[render]\nwidth = 100000\nheight = 720\n", "8192"),
+        ("[read]\nmax_gap_s = 0.0\n", "read.max_gap_s"),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let cfg = d.join(format!("r{i}.toml"));
+        std::fs::write(&cfg, format!("session_frames = 100\n{table}{classes}")).unwrap();
+        let out = d.join(format!("out{i}"));
+        let e = one_line_error(&eyereplay(&[
+            "prepare",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]));
+        assert!(e.contains(want) && e.contains(&format!("r{i}.toml")), "{e}");
+        assert!(!out.exists(), "case {i} wrote output");
+    }
+    // clap's usage errors: one line, the help to read named.
+    let e = one_line_error(&eyereplay(&["train"]));
+    assert!(
+        e.contains("--out") && e.contains("'eyereplay train --help'"),
+        "{e}"
+    );
+    let e = one_line_error(&eyereplay(&["evaluate", "x", "--d-max", "2"]));
+    assert!(e.contains("--d-max"), "{e}");
+    // A dataset, then the same folder twice to `train`.
+    let cfg = d.join("ok.toml");
+    std::fs::write(&cfg, format!("session_frames = 100\n{classes}")).unwrap();
+    let ds = d.join("ds");
+    let o = eyereplay(&[
+        "prepare",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        ds.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let m = d.join("m.json");
+    let (ds_s, m_s) = (ds.to_str().unwrap(), m.to_str().unwrap());
+    let train = [
+        "train",
+        ds_s,
+        ds_s,
+        "--input",
+        "trajectory",
+        "--window-s",
+        "2",
+        "--out",
+        m_s,
+    ];
+    let e = one_line_error(&eyereplay(&train));
+    assert!(e.contains("given twice"), "{e}");
+    assert!(!m.exists());
+    // A render whose truth file would land under a plain file: refused
+    // before the probe and the drawing, naming that file; nothing written.
+    let blocker = d.join("f");
+    std::fs::write(&blocker, b"x").unwrap();
+    let session = ds.join("reading/reading_0000.csv");
+    let video = blocker.join("v.mp4");
+    let e = one_line_error(&eyereplay(&[
+        "render",
+        session.to_str().unwrap(),
+        "--out",
+        video.to_str().unwrap(),
+    ]));
+    assert!(e.contains("f/v_truth.csv"), "{e}");
+    // A detector whose --out is a file, refused before the input is read.
+    let o = eyereplay(&[
+        "train",
+        ds_s,
+        "--input",
+        "trajectory",
+        "--window-s",
+        "2",
+        "--out",
+        m_s,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let e = one_line_error(&eyereplay(&[
+        "detect",
+        session.to_str().unwrap(),
+        "--model",
+        m_s,
+        "--out",
+        blocker.to_str().unwrap(),
+    ]));
+    assert!(e.contains("--out takes a folder"), "{e}");
+}

@@ -60,7 +60,9 @@ pub fn atomic_write_with(
         .prefix(&format!(".{name}."))
         .suffix(".tmp")
         .tempfile_in(dir)
-        .map_err(|e| CoreError::io(dir, e))?;
+        // tempfile's error names the random temporary file; the user
+        // asked for `path`, so name that, with the OS's reason alone.
+        .map_err(|e| CoreError::io(path, std::io::Error::from(e.kind())))?;
     // tempfile creates 0600; datasets are shared, so use what a plain
     // create would give (0666 less the usual umask 022).
     #[cfg(unix)]
@@ -77,6 +79,26 @@ pub fn atomic_write_with(
     tmp.persist(path)
         .map_err(|e| CoreError::io(path, e.error))?;
     Ok(())
+}
+
+/// Checks, before long work starts, that a file can later be written at
+/// `path` as [`atomic_write`] writes it: its folder is created if needed
+/// and a temporary file is made there and removed. A folder at `path`
+/// itself is an error.
+pub fn check_writable(path: &Path) -> Result<(), CoreError> {
+    if path.is_dir() {
+        return Err(CoreError::invalid(path, "is a folder; give a file name"));
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    std::fs::create_dir_all(dir).map_err(|e| CoreError::io(path, e))?;
+    tempfile::Builder::new()
+        .prefix(".eyereplay-check.")
+        .tempfile_in(dir)
+        .map(drop)
+        .map_err(|e| CoreError::io(path, std::io::Error::from(e.kind())))
 }
 
 /// Leftover temporary files of `target` in its folder (from a process that
@@ -140,6 +162,25 @@ pub fn find_upwards(rel: &Path) -> Option<std::path::PathBuf> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn writability_is_checked_without_leaving_a_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("sub/out.csv");
+        check_writable(&target).unwrap();
+        // The folder is made, nothing is left in it.
+        assert_eq!(
+            std::fs::read_dir(dir.path().join("sub")).unwrap().count(),
+            0
+        );
+        let e = check_writable(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("is a folder"), "{e}");
+        // A file where a folder should be: the error names the target.
+        std::fs::write(dir.path().join("f"), b"x").unwrap();
+        let inside = dir.path().join("f/out.csv");
+        let e = check_writable(&inside).unwrap_err().to_string();
+        assert!(e.contains("f/out.csv"), "{e}");
+    }
 
     #[test]
     fn sha256_of_abc_matches_fips_180_2_vector() {

@@ -24,6 +24,9 @@ use std::path::Path;
 /// What a model file says it is.
 pub const MODEL_FORMAT: &str = "eyereplay-detector";
 pub const MODEL_VERSION: u32 = 1;
+/// The shortest window a model may score: two seconds hold a few
+/// fixations and saccades, fewer give the features nothing to measure.
+pub const MIN_WINDOW_S: f64 = 2.0;
 
 /// One training window: its features, its label, and the session it came
 /// from (validation is held out by session, never by window, since
@@ -257,6 +260,38 @@ impl DetectorModel {
                 ),
             ));
         }
+        let kind_ok = match m.kind.as_str() {
+            "bagged_trees" => m.forest.is_some(),
+            "logistic_regression" => m.forest.is_none(),
+            _ => false,
+        };
+        if !kind_ok {
+            return Err(DetectError::file(
+                path,
+                format!(
+                    "model kind '{}' is not 'bagged_trees' (with trees) or 'logistic_regression' (with weights)",
+                    m.kind
+                ),
+            ));
+        }
+        if !(m.window_s.is_finite() && m.window_s >= MIN_WINDOW_S) {
+            return Err(DetectError::file(
+                path,
+                format!(
+                    "window_s must be at least {MIN_WINDOW_S} s, got {}",
+                    m.window_s
+                ),
+            ));
+        }
+        if !(0.0..=1.0).contains(&m.threshold) {
+            return Err(DetectError::file(
+                path,
+                format!(
+                    "threshold must be a probability (0 to 1), got {}",
+                    m.threshold
+                ),
+            ));
+        }
         let names: Vec<&str> = m.features.iter().map(String::as_str).collect();
         if m.forest.as_ref().is_some_and(|f| !f.is_well_formed()) {
             return Err(DetectError::file(
@@ -291,8 +326,13 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DetectError> {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "out".into());
     let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    std::fs::write(&tmp, bytes).map_err(|e| DetectError::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| DetectError::io(path, e))
+    // Errors name `path`, the file asked for, not the temporary one.
+    std::fs::write(&tmp, bytes)
+        .and_then(|()| std::fs::rename(&tmp, path))
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            DetectError::io(path, e)
+        })
 }
 
 /// The groups (sessions) with windows of `class`, sorted, then shuffled by
@@ -753,5 +793,32 @@ mod tests {
             e.contains("m.json") && e.contains("not a detector model"),
             "{e}"
         );
+    }
+
+    /// A model file edited by hand into values no training writes is
+    /// refused by its field, naming the file; the written one loads.
+    #[test]
+    fn a_model_with_impossible_values_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let m = train(&examples(), 10.0, logistic(), vec![], "trajectory").unwrap();
+        let p = dir.path().join("m.json");
+        for (field, value, says) in [
+            ("window_s", serde_json::json!(0.0), "window_s"),
+            ("window_s", serde_json::json!(-10.0), "window_s"),
+            ("threshold", serde_json::json!(7.0), "threshold"),
+            ("threshold", serde_json::json!(-0.1), "threshold"),
+            ("kind", serde_json::json!("svm"), "'svm'"),
+            // Weights but no trees: not what a forest's file holds.
+            ("kind", serde_json::json!("bagged_trees"), "'bagged_trees'"),
+        ] {
+            let mut v = serde_json::to_value(&m).unwrap();
+            v[field] = value;
+            std::fs::write(&p, serde_json::to_string(&v).unwrap()).unwrap();
+            let e = DetectorModel::load(&p).unwrap_err().to_string();
+            assert!(e.contains("m.json") && e.contains(says), "{field}: {e}");
+            assert!(!e.contains('\n'));
+        }
+        m.save(&p).unwrap();
+        assert!(DetectorModel::load(&p).is_ok());
     }
 }

@@ -353,7 +353,11 @@ fn open_file(path: &Path) -> Result<ff::format::context::Input> {
     if !path.is_file() {
         return Err(ExtractError::Open {
             path: path.to_path_buf(),
-            message: "no such file".into(),
+            message: if path.is_dir() {
+                "is a folder, not a video file".into()
+            } else {
+                "no such file".into()
+            },
         });
     }
     ff::format::input(&path).map_err(|e| ExtractError::Open {

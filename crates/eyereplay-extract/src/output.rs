@@ -237,6 +237,18 @@ pub fn output_csv_paths(
             videos.len()
         )));
     }
+    if !single_file && out.exists() && !out.is_dir() {
+        return Err(ExtractError::Output(format!(
+            "--out {} is a file that is not a .csv; give a .csv file (one video) or a folder",
+            out.display()
+        )));
+    }
+    if single_file && out.is_dir() {
+        return Err(ExtractError::Output(format!(
+            "--out {} is a folder named .csv; give a file name or another folder",
+            out.display()
+        )));
+    }
     Ok(videos
         .iter()
         .map(|video| {

@@ -245,6 +245,10 @@ impl Default for ResampleConfig {
     }
 }
 
+/// The longest session a config may ask for, in frames: 10 million, about
+/// 111 hours at 25 fps.
+pub const MAX_SESSION_FRAMES: usize = 10_000_000;
+
 impl DatasetConfig {
     /// Reads and validates a config; relative source paths are resolved
     /// against the config file's folder.
@@ -309,6 +313,17 @@ impl DatasetConfig {
                 "session_frames must be at least 1 (the paper uses 7500)".into(),
             ));
         }
+        // A session is held in memory whole (16 bytes a frame, more while
+        // it is drawn): past this, a typo's extra zeros would end in an
+        // allocation failure instead of a message.
+        if self.session_frames > MAX_SESSION_FRAMES {
+            return Err(ConfigError::Invalid(format!(
+                "session_frames must be at most {MAX_SESSION_FRAMES} (about {:.0} h at {} fps), got {}",
+                MAX_SESSION_FRAMES as f64 / self.fps / 3600.0,
+                self.fps,
+                self.session_frames
+            )));
+        }
         if self.canvas.width_px == 0 || self.canvas.height_px == 0 {
             return Err(ConfigError::Invalid(
                 "canvas width_px and height_px must be positive".into(),
@@ -348,11 +363,42 @@ impl DatasetConfig {
                 }
             }
         }
-        if self.blink_filter.iqr_k <= 0.0 {
-            return Err(ConfigError::Invalid(
-                "blink_filter.iqr_k must be positive".into(),
-            ));
+        let positive = |name: &str, v: f64| -> Result<(), ConfigError> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(ConfigError::Invalid(format!(
+                    "{name} must be a positive number, got {v}"
+                )))
+            }
+        };
+        // Zero or negative values here do not fail: they loop (a gap of 0
+        // s splits a recording at every sample) or smooth nothing.
+        positive("read.max_gap_s", self.read.max_gap_s)?;
+        positive("read.eye_gains.nx_per_deg", self.read.eye_gains.nx_per_deg)?;
+        positive("read.eye_gains.ny_per_deg", self.read.eye_gains.ny_per_deg)?;
+        positive("smoothing.sigma_s", self.smoothing.sigma_s)?;
+        positive("smoothing.window_s", self.smoothing.window_s)?;
+        positive("smoothing.z", self.smoothing.z)?;
+        if !(self.smoothing.min_step_px.is_finite() && self.smoothing.min_step_px >= 0.0) {
+            return Err(ConfigError::Invalid(format!(
+                "smoothing.min_step_px must be 0 or more, got {}",
+                self.smoothing.min_step_px
+            )));
         }
+        if !(self.resample.linear_max_ratio.is_finite() && self.resample.linear_max_ratio >= 1.0) {
+            return Err(ConfigError::Invalid(format!(
+                "resample.linear_max_ratio must be at least 1, got {}",
+                self.resample.linear_max_ratio
+            )));
+        }
+        let g = self.resample.antialias_stop_gain;
+        if !(g > 0.0 && g < 1.0) {
+            return Err(ConfigError::Invalid(format!(
+                "resample.antialias_stop_gain must be between 0 and 1 (exclusive), got {g}"
+            )));
+        }
+        positive("blink_filter.iqr_k", self.blink_filter.iqr_k)?;
         for (class, cc) in &self.classes {
             if cc.sessions == 0 {
                 return Err(ConfigError::Invalid(format!(
@@ -509,5 +555,47 @@ mod tests {
         c.session_frames = 10;
         c.classes.get_mut(&GazeClass::Reading).unwrap().sessions = 0;
         assert!(c.validate().unwrap_err().to_string().contains("sessions"));
+    }
+
+    /// Values that used to loop, allocate terabytes or pass silently are
+    /// refused by name, in one line; the defaults pass.
+    #[test]
+    fn out_of_range_numbers_are_named() {
+        let base = "[classes.reading]\nsources = [{ format = \"extract\", path = \"a.csv\" }]\n";
+        assert!(DatasetConfig::parse(base).unwrap().validate().is_ok());
+        for (line, name) in [
+            ("session_frames = 100000000000", "session_frames"),
+            ("[read]\nmax_gap_s = 0.0", "read.max_gap_s"),
+            ("[read]\nmax_gap_s = -1.0", "read.max_gap_s"),
+            (
+                "[read]\neye_gains = { nx_per_deg = 0.0, ny_per_deg = 0.01 }",
+                "nx_per_deg",
+            ),
+            ("[smoothing]\nsigma_s = -1.0", "smoothing.sigma_s"),
+            ("[smoothing]\nwindow_s = 0.0", "smoothing.window_s"),
+            ("[smoothing]\nz = -1.0", "smoothing.z"),
+            ("[smoothing]\nz = nan", "smoothing.z"),
+            ("[smoothing]\nmin_step_px = -2.0", "smoothing.min_step_px"),
+            ("[resample]\nlinear_max_ratio = 0.5", "linear_max_ratio"),
+            (
+                "[resample]\nantialias_stop_gain = 1.0",
+                "antialias_stop_gain",
+            ),
+            ("[blink_filter]\niqr_k = nan", "blink_filter.iqr_k"),
+        ] {
+            // Top-level keys go before the first table.
+            let text = if line.starts_with('[') {
+                format!("{base}{line}\n")
+            } else {
+                format!("{line}\n{base}")
+            };
+            let e = DatasetConfig::parse(&text)
+                .unwrap()
+                .validate()
+                .expect_err(line)
+                .to_string();
+            assert!(e.contains(name), "{line}: {e}");
+            assert!(!e.contains('\n'), "{e}");
+        }
     }
 }

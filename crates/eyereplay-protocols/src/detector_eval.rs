@@ -184,6 +184,19 @@ impl Protocol {
                     ),
                 ));
             }
+            // A video that does not open would fail only when its turn
+            // comes, after the training data is drawn: open it now (the
+            // container and stream only, no decoding).
+            if r.is_webcam() {
+                eyereplay::extract::probe(&file).map_err(|e| {
+                    // The extractor's message names the file too.
+                    let e = e.to_string();
+                    let why = e
+                        .strip_prefix(&format!("{}: ", file.display()))
+                        .unwrap_or(&e);
+                    Error::input(&file, format!("recording '{}': {why}", r.name))
+                })?;
+            }
             if r.is_webcam() && r.reading {
                 return bad(format!(
                     "recording '{}': a webcam video is scored as a negative only; set reading = false",

@@ -75,6 +75,70 @@ impl Default for EncoderSettings {
     }
 }
 
+/// x264's presets, fastest first (`x264 --help`).
+pub const X264_PRESETS: [&str; 10] = [
+    "ultrafast",
+    "superfast",
+    "veryfast",
+    "faster",
+    "fast",
+    "medium",
+    "slow",
+    "slower",
+    "veryslow",
+    "placebo",
+];
+
+/// x264's tunings (`x264 --help`).
+pub const X264_TUNES: [&str; 8] = [
+    "film",
+    "animation",
+    "grain",
+    "stillimage",
+    "psnr",
+    "ssim",
+    "fastdecode",
+    "zerolatency",
+];
+
+/// x264's largest constant rate factor for 8-bit video.
+pub const MAX_CRF: u32 = 51;
+
+impl EncoderSettings {
+    /// Rejects a preset, tuning or CRF that x264 would refuse (or, for the
+    /// CRF, clamp without a word), before any frame is drawn; ffmpeg's own
+    /// message for them names neither the option nor the value.
+    pub fn validate(&self) -> Result<(), RenderError> {
+        if !X264_PRESETS.contains(&self.preset.as_str()) {
+            return Err(RenderError::Params(format!(
+                "x264 preset '{}' is not one of {}",
+                self.preset,
+                X264_PRESETS.join(", ")
+            )));
+        }
+        if let Some(t) = &self.tune {
+            if !X264_TUNES.contains(&t.as_str()) {
+                return Err(RenderError::Params(format!(
+                    "x264 tune '{t}' is not one of {}",
+                    X264_TUNES.join(", ")
+                )));
+            }
+        }
+        if self.crf > MAX_CRF {
+            return Err(RenderError::Params(format!(
+                "crf must be between 0 and {MAX_CRF} (x264, 8-bit), got {}",
+                self.crf
+            )));
+        }
+        if self.bitrate_kbps == Some(0) {
+            return Err(RenderError::Params(
+                "bitrate must be at least 1 kbit/s".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// A running ffmpeg child that accepts yuv420p frames.
 pub struct Encoder {
     child: Option<Child>,

@@ -25,6 +25,9 @@ pub struct RenderParams {
     pub encoder: EncoderSettings,
 }
 
+/// The largest video side the renderers draw, in pixels.
+pub const MAX_SIDE_PX: usize = 8192;
+
 impl RenderParams {
     /// 1280x720 at 25 fps, default canvas and calibration, the given identity.
     pub fn new(identity: Identity) -> RenderParams {
@@ -46,12 +49,22 @@ impl RenderParams {
                 self.width, self.height
             )));
         }
+        // H.264's largest level (6.2) ends at 8192 px a side; past it the
+        // encoder refuses, after the frame buffers of a huge frame were
+        // allocated and drawn.
+        if self.width > MAX_SIDE_PX || self.height > MAX_SIDE_PX {
+            return Err(RenderError::Params(format!(
+                "video size must be at most {MAX_SIDE_PX} px a side (H.264), got {}x{}",
+                self.width, self.height
+            )));
+        }
         if !(self.fps.is_finite() && self.fps > 0.0 && self.fps <= 1000.0) {
             return Err(RenderError::Params(format!(
                 "fps must be in (0, 1000], got {}",
                 self.fps
             )));
         }
+        self.encoder.validate()?;
         self.mapping.validate()
     }
 }

@@ -338,9 +338,16 @@ fn bad_input_gives_one_line_errors_and_no_files() {
     let e = err(render_session(&ok, None, &missing, &mp4, &csv));
     assert!(e.contains("apt-get install ffmpeg"), "{e}");
 
-    // A broken encoder (bad preset) fails after frames were sent.
+    // A preset x264 does not have is refused before ffmpeg starts.
+    let mut bad_preset = p.clone();
+    bad_preset.encoder.preset = "no-such-preset".into();
+    let e = err(render_session(&ok, None, &bad_preset, &mp4, &csv));
+    assert!(e.contains("preset 'no-such-preset'"), "{e}");
+
+    // A broken encoder (x264 refuses a negative quantizer when it opens)
+    // fails after frames were sent.
     let mut broken = p.clone();
-    broken.encoder.preset = "no-such-preset".into();
+    broken.encoder.x264_params = Some("qp=-3".into());
     let e = err(render_session(&ok, None, &broken, &mp4, &csv));
     assert!(e.contains("ffmpeg failed"), "{e}");
 

@@ -226,7 +226,7 @@ impl TrainInput {
     /// What to do when that file is missing, after "missing".
     fn missing_hint(self) -> &'static str {
         match self {
-            TrainInput::Extracted => "; render the dataset first ('eyereplay render'), or train on the trajectories with --input trajectory",
+            TrainInput::Extracted => "; render the dataset first ('eyereplay render'), or use its trajectories (--input trajectory)",
             TrainInput::Trajectory => "",
             TrainInput::Drawn => "; the drawn truth is written by 'eyereplay render' (and 'generate') beside each video",
         }
@@ -472,11 +472,26 @@ pub fn train_detector(
     opts: &TrainDetectorOptions,
     progress: &dyn Progress,
 ) -> Result<DetectorModel> {
-    if !(opts.window_s >= 2.0 && opts.window_s.is_finite()) {
+    if !(opts.window_s >= eyereplay_detect::MIN_WINDOW_S && opts.window_s.is_finite()) {
         return Err(Error::Setting(format!(
-            "--window-s must be at least 2 s, got {}",
+            "--window-s must be at least {} s, got {}",
+            eyereplay_detect::MIN_WINDOW_S,
             opts.window_s
         )));
+    }
+    // The same folder twice would put each session on both sides of the
+    // validation split, and its AUROC would not be of unseen sessions.
+    for (i, d) in datasets.iter().enumerate() {
+        let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => a == b,
+        };
+        if datasets[..i].iter().any(|e| same(e, d)) {
+            return Err(Error::input(
+                d,
+                "given twice: each dataset may be trained on once",
+            ));
+        }
     }
     let tracks = dataset_tracks(datasets, opts.input, &opts.cache, progress)?;
     let examples = if opts.frame_labels {

@@ -53,12 +53,29 @@ pub fn plan(config_path: &Path, shard: Option<Shard>) -> Result<Job> {
     plan_config(DatasetConfig::load(config_path)?, config_path, shard)
 }
 
+/// The config's `[render]` table typed and its values checked (keys of
+/// the backend, video size, encoder, the face mode's ranges), without
+/// the backend's heavier checks (photos, carriers, the browser): what
+/// `prepare` checks so that a typo there is not found only when the
+/// dataset is rendered. Errors name `config_path`.
+pub fn render_table(
+    config: &DatasetConfig,
+    config_path: &Path,
+) -> Result<(RenderSettings, RenderParams)> {
+    let settings = RenderSettings::from_config(config, config_path)?;
+    let params =
+        render_params(&settings, config).map_err(|e| Error::input(config_path, e.to_string()))?;
+    if let BackendSettings::Face(f) = &settings.backend {
+        eyereplay_backends::face::FaceSettings::from_backend(f)
+            .map_err(|e| Error::input(config_path, e.to_string()))?;
+    }
+    Ok((settings, params))
+}
+
 /// [`plan`] for a config already loaded (from text or built in code);
 /// `config_path` is the name errors give it.
 pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shard>) -> Result<Job> {
-    let settings = RenderSettings::from_config(&config, config_path)?;
-    let params =
-        render_params(&settings, &config).map_err(|e| Error::input(config_path, e.to_string()))?;
+    let (settings, params) = render_table(&config, config_path)?;
     eyereplay_prepare::check_source_files(&config)?;
     if let BackendSettings::Face(f) = &settings.backend {
         if f.head_motion == HeadMotion::Source && video_sources(&config).is_empty() {
@@ -103,6 +120,31 @@ pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shar
     })
 }
 
+impl Job {
+    /// The evaluation compares each class with its sources and the classes
+    /// with each other: a class without sessions would fail it only after
+    /// every session is rendered, so `generate` (and its dry run) refuse
+    /// such a config up front unless the evaluation is skipped.
+    pub fn check_evaluable(&self) -> Result<()> {
+        for class in eyereplay_core::GazeClass::ALL {
+            if self
+                .config
+                .classes
+                .get(&class)
+                .is_none_or(|c| c.sessions == 0)
+            {
+                return Err(Error::input(
+                    &self.config_path,
+                    format!(
+                        "class '{class}' has no sessions, and the evaluation needs both classes: add [classes.{class}], or skip the evaluation (--no-evaluate)"
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// MP4 bytes per rendered frame at x264 veryfast, CRF 18, from measured
 /// 1280x720 sessions (about 4 KB), scaled by pixel count, with a margin.
 pub fn estimate_bytes_per_frame(width: usize, height: usize) -> u64 {
@@ -128,25 +170,8 @@ pub fn generate(
     progress: &dyn Progress,
 ) -> Result<GenerateSummary> {
     let out = &opts.out;
-    // The evaluation compares each class with its sources and the classes
-    // with each other: a class without sessions would fail it only after
-    // every session is rendered.
     if opts.evaluate.is_some() && job.shard.is_none() {
-        for class in eyereplay_core::GazeClass::ALL {
-            if job
-                .config
-                .classes
-                .get(&class)
-                .is_none_or(|c| c.sessions == 0)
-            {
-                return Err(Error::input(
-                    &job.config_path,
-                    format!(
-                        "class '{class}' has no sessions, and the evaluation needs both classes: add [classes.{class}], or skip the evaluation (--no-evaluate)"
-                    ),
-                ));
-            }
-        }
+        job.check_evaluable()?;
     }
     std::fs::create_dir_all(out).map_err(|e| Error::input(out, format!("cannot create: {e}")))?;
     if let Some(free) = free_bytes(out) {

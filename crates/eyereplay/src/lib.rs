@@ -71,7 +71,8 @@ pub use error::{Error, Result};
 pub use evaluate::{evaluate, EvaluateOptions, EvaluateOutcome, VisualChoice};
 pub use finalize::{finalize, missing_sessions};
 pub use generate::{
-    estimate_bytes_per_frame, generate, plan, plan_config, GenerateOptions, GenerateSummary, Job,
+    estimate_bytes_per_frame, generate, plan, plan_config, render_table, GenerateOptions,
+    GenerateSummary, Job,
 };
 pub use inputs::{
     check_ffmpeg, check_models, extract_cached, extract_cached_with, extract_videos_cached,

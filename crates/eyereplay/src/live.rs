@@ -143,6 +143,10 @@ fn open(source: &LiveSource, ffmpeg: &Path) -> Result<(Decoder, Option<std::proc
         LiveSource::Url(u) => Ok((Decoder::open_url(u)?, None)),
         LiveSource::Camera(dev) => {
             use std::os::fd::AsRawFd;
+            // Said here in one line, rather than by ffmpeg's own lines.
+            if !Path::new(dev).exists() {
+                return Err(Error::input(dev, "no such camera device"));
+            }
             let child = std::process::Command::new(ffmpeg)
                 .args(["-hide_banner", "-loglevel", "error", "-f", "v4l2", "-i"])
                 .arg(dev)

@@ -19,10 +19,14 @@ use std::path::{Path, PathBuf};
 #[command(after_help = "Examples:\n  \
 eyereplay detect interview.mp4 --model out/default/detector.json\n  \
 eyereplay detect iris.csv --model m.json --out results/ --json\n  \
-eyereplay detect --live /dev/video0 --model m.json                  # a camera\n  \
+# a camera\n  \
+eyereplay detect --live /dev/video0 --model m.json\n  \
 eyereplay detect --live rtsp://camera.local/stream --model m.json\n  \
-ffmpeg -re -i call.mp4 -f nut -c:v rawvideo -pix_fmt yuv420p - | eyereplay detect --live - --model m.json\n\n\
-The bundled default's model: scripts/run.sh trains it into out/default/detector.json.")]
+# a call played at real speed through standard input\n  \
+ffmpeg -re -i call.mp4 -f nut -c:v rawvideo -pix_fmt yuv420p - | \\\n      \
+eyereplay detect --live - --model m.json\n\n\
+The bundled default's model: scripts/run.sh trains it into\n\
+out/default/detector.json.")]
 pub struct Args {
     /// A video, an 'eyereplay extract' CSV, or a frame,x,y session CSV.
     #[arg(required_unless_present = "live", conflicts_with = "live")]
@@ -59,6 +63,15 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     // The model first: a bad one stops before any extraction.
     let model = DetectorModel::load(&args.model)?;
+    // And the output folder: a file there would fail only after the
+    // video is read.
+    if let Some(out) = &args.out {
+        anyhow::ensure!(
+            !out.exists() || out.is_dir(),
+            "{}: --out takes a folder (the results are written into it), and this is a file",
+            out.display()
+        );
+    }
     if let Some(source) = &args.live {
         return live(&args, source, &model);
     }
@@ -127,12 +140,18 @@ fn live(args: &Args, source: &str, model: &DetectorModel) -> anyhow::Result<()> 
         model.window_s,
         model.threshold
     );
-    println!(
-        "{:>8} {:>8}  {:>10}  {:>7}  {:>6}  {:>6}",
-        "start_s", "end_s", "P(reading)", "call", "gaze_s", "lag_s"
-    );
+    // The table's header with its first row, so that a source that never
+    // opens leaves stdout empty.
+    let mut header = true;
     let mut on_window = |w: &eyereplay::live::LiveWindow| {
         let mut out = std::io::stdout().lock();
+        if std::mem::take(&mut header) {
+            let _ = writeln!(
+                out,
+                "{:>8} {:>8}  {:>10}  {:>7}  {:>6}  {:>6}",
+                "start_s", "end_s", "P(reading)", "call", "gaze_s", "lag_s"
+            );
+        }
         let p = w
             .reading_probability
             .map_or("no gaze".to_string(), |p| format!("{p:.3}"));

@@ -13,9 +13,11 @@ use std::path::PathBuf;
 /// source, frame by frame.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
-eyereplay evaluate data/                 # writes data/report/index.html and metrics.json\n  \
+# writes data/report/index.html and metrics.json\n  \
+eyereplay evaluate data/\n  \
 eyereplay evaluate data/ --json | jq .distribution.reading.speed\n  \
-eyereplay evaluate data/ --visual-session reading/reading_0003.csv --visual-seconds 120\n  \
+eyereplay evaluate data/ --visual-session reading/reading_0003.csv \\\n      \
+--visual-seconds 120\n  \
 eyereplay evaluate data/ --video other_sim.mp4 --trajectory other_sim.csv")]
 pub struct Args {
     /// Dataset folder written by 'eyereplay prepare' (labels.csv, metadata.json, pool/).
@@ -32,15 +34,15 @@ pub struct Args {
     /// Length of the time-series windows in the report (s).
     #[arg(long, default_value_t = 30.0, value_name = "SECONDS")]
     pub window_s: f64,
-    /// A KS D at or below this counts as a pass in the report.
-    #[arg(long, default_value_t = 0.15)]
+    /// A KS D at or below this counts as a pass in the report (0 to 1).
+    #[arg(long, default_value_t = 0.15, value_parser = super::values::probability)]
     pub d_max: f64,
     /// Canvas pixels per degree of visual angle, if the viewing geometry is
     /// known; adds saccade amplitudes in degrees.
-    #[arg(long, value_name = "PX")]
+    #[arg(long, value_name = "PX", value_parser = super::values::positive)]
     pub px_per_deg: Option<f64>,
     /// Skip the visual fidelity section.
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["video", "trajectory", "visual_session"])]
     pub no_visual: bool,
     /// Session whose rendered video is compared (path relative to the
     /// dataset, as in labels.csv); default: the first rendered reading session.

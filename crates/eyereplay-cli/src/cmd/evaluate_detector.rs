@@ -16,7 +16,8 @@ use std::path::PathBuf;
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
 scripts/detector-data.sh        # the real test recordings (once)\n  \
-eyereplay evaluate-detector examples/detector/protocol.toml --out out/detector-eval\n\n\
+eyereplay evaluate-detector examples/detector/protocol.toml \\\n      \
+--out out/detector-eval\n\n\
 docs/DETECTOR.md explains the protocol file and how to read the report.")]
 pub struct Args {
     /// The protocol (TOML): recordings, folds, render modes.

@@ -27,12 +27,19 @@ use std::path::PathBuf;
 /// every second called reading is a false one.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
-eyereplay prepare --config examples/localize_train.toml --out out/localize_train\n  \
-eyereplay train out/localize_train --input trajectory --frame-labels --window-s 6 --out out/interview.json\n  \
-eyereplay prepare --config examples/localize.toml --out out/localize        # other people\n  \
+eyereplay prepare --config examples/localize_train.toml \\\n      \
+--out out/localize_train\n  \
+eyereplay train out/localize_train --input trajectory --frame-labels \\\n      \
+--window-s 6 --out out/interview.json\n  \
+# other people\n  \
+eyereplay prepare --config examples/localize.toml --out out/localize\n  \
 eyereplay evaluate-localization out/localize --model out/interview.json\n  \
-eyereplay evaluate-localization out/interview_test --input drawn --model m.json  # rendered: as a perfect extractor would read\n  \
-eyereplay evaluate-localization --spliced examples/detector/protocol_behaviour.toml --model out/interview.json")]
+# rendered: as a perfect extractor would read\n  \
+eyereplay evaluate-localization out/interview_test --input drawn \\\n      \
+--model m.json\n  \
+eyereplay evaluate-localization \\\n      \
+--spliced examples/detector/protocol_behaviour.toml \\\n      \
+--model out/interview.json")]
 pub struct Args {
     /// A dataset folder with interview sessions (`eyereplay prepare` or `generate`).
     #[arg(required_unless_present = "spliced", conflicts_with = "spliced")]
@@ -45,9 +52,9 @@ pub struct Args {
     /// --out`), whose renderings of the recordings give the `rendered` streams.
     #[arg(long, value_name = "DIR", requires = "spliced")]
     pub rendered_from: Option<PathBuf>,
-    /// With --spliced: how many streams of 5 minutes.
-    #[arg(long, default_value_t = 20, requires = "spliced")]
-    pub streams: usize,
+    /// With --spliced: how many streams of 5 minutes [default: 20].
+    #[arg(long, requires = "spliced", value_parser = clap::value_parser!(u32).range(1..))]
+    pub streams: Option<u32>,
     /// Where the short clips are cut and, with --spliced, the streams'
     /// pieces.
     #[arg(long, default_value_t = 1)]
@@ -64,7 +71,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub model: PathBuf,
     /// Cut segments where the per-frame probability of reading reaches this.
-    #[arg(long, default_value_t = eyereplay::detect::localize::SEGMENT_THRESHOLD)]
+    #[arg(long, default_value_t = eyereplay::detect::localize::SEGMENT_THRESHOLD, value_parser = super::values::open_fraction)]
     pub threshold: f64,
     /// Also write every number here as JSON.
     #[arg(long, value_name = "FILE")]
@@ -74,6 +81,17 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(protocol) = &args.spliced {
         return run_spliced(&args, protocol);
+    }
+    // clap lets these through beside DATASET (it conflicts with --spliced,
+    // which they require), where they would be ignored.
+    for (given, name) in [
+        (args.rendered_from.is_some(), "--rendered-from"),
+        (args.streams.is_some(), "--streams"),
+    ] {
+        anyhow::ensure!(
+            !given,
+            "{name} applies to --spliced streams only, not to a dataset folder"
+        );
     }
     let dataset = args.dataset.as_deref().expect("clap requires it");
     let cache = eyereplay::cache_dir(args.cache.as_deref());
@@ -143,7 +161,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn run_spliced(args: &Args, protocol: &std::path::Path) -> anyhow::Result<()> {
     let cache = eyereplay::cache_dir(args.cache.as_deref());
     let opts = SpliceOptions {
-        streams: args.streams,
+        streams: args
+            .streams
+            .map_or(SpliceOptions::default().streams, |n| n as usize),
         seed: args.seed,
         ..Default::default()
     };

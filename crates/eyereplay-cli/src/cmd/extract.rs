@@ -24,11 +24,16 @@ video back with it, each eye from 5 crops: --iris-views 5); the attention mesh \
 follows MediaPipe to r 0.99 (docs/EXTRACTION.md).",
     after_help = "Examples:\n  \
 eyereplay extract interview.mp4 --out interview.csv\n  \
-eyereplay extract a.mp4 b.webm c.mov --out iris/            # several videos in parallel\n  \
-eyereplay extract clip.mp4 --out iris/ --preview previews/  # annotated PNGs every 5 s\n  \
-eyereplay extract franck.mp4 --out /tmp/f.csv --compare crates/eyereplay-extract/tests/data/franck_mediapipe.csv\n  \
-eyereplay extract franck.mp4 --out /tmp/f.csv --profile           # CPU time per frame by stage\n  \
-eyereplay extract talk.mp4 --out talk.csv --landmarks cascade --iris-views 5   # finest on small movements, ~7x the CPU"
+# several videos in parallel\n  \
+eyereplay extract a.mp4 b.webm c.mov --out iris/\n  \
+# annotated PNGs every 5 s\n  \
+eyereplay extract clip.mp4 --out iris/ --preview previews/\n  \
+eyereplay extract franck.mp4 --out /tmp/f.csv --compare \\\n      \
+crates/eyereplay-extract/tests/data/franck_mediapipe.csv\n  \
+# CPU time per frame by stage\n  \
+eyereplay extract franck.mp4 --out /tmp/f.csv --profile\n  \
+# finest on small movements, ~7x the CPU\n  \
+eyereplay extract talk.mp4 --out talk.csv --landmarks cascade --iris-views 5"
 )]
 pub struct Args {
     /// Video files (mp4, mov, webm, mkv, avi, ...).
@@ -48,13 +53,13 @@ pub struct Args {
     #[arg(long)]
     pub preview: Option<PathBuf>,
     /// Seconds between preview frames.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, value_parser = super::values::positive, requires = "preview")]
     pub preview_every: f64,
     /// A frame is a blink when its lid aperture is below this fraction of the video's median.
-    #[arg(long, default_value_t = ex::DEFAULT_BLINK_RATIO)]
+    #[arg(long, default_value_t = ex::DEFAULT_BLINK_RATIO, value_parser = super::values::open_fraction)]
     pub blink_ratio: f64,
     /// Only the first this many seconds of each video.
-    #[arg(long)]
+    #[arg(long, value_parser = super::values::positive)]
     pub max_seconds: Option<f64>,
     /// Cascade: run the face mesh on one frame in N (1 = MediaPipe's iris pipeline
     /// on every frame; larger is faster but agrees less with MediaPipe). Selects the
@@ -198,6 +203,10 @@ fn peak_rss_mib() -> Option<f64> {
 
 pub fn run(a: Args) -> Result<()> {
     let csv_paths = ex::output_csv_paths(&a.out, &a.videos).map_err(anyhow::Error::msg)?;
+    // Every CSV can be written, before any video is read.
+    for csv in &csv_paths {
+        eyereplay_core::check_writable(csv)?;
+    }
     if a.compare.is_some() && a.videos.len() != 1 {
         bail!("--compare takes exactly one video");
     }

@@ -18,20 +18,29 @@ use std::time::Instant;
 /// finishes the dataset once every shard is done.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
-eyereplay generate --out out/default                        # the bundled default sample\n  \
-eyereplay generate --config dataset.toml --dry-run           # projected time and disk, from one session\n  \
-eyereplay generate --profile                                # where one default session's CPU goes\n  \
-eyereplay generate --config dataset.toml --out /shared/data --shard 2/8   # on a cluster node\n  \
-eyereplay merge /shared/data                                # after all shards\n\n\
-The config is a 'prepare' config (see examples/dataset.toml and docs/CONFIG.md) with an optional [render] table:\n  \
+# the bundled default sample\n  \
+eyereplay generate --out out/default\n  \
+# projected time and disk, from one session\n  \
+eyereplay generate --config dataset.toml --dry-run\n  \
+# where one default session's CPU goes\n  \
+eyereplay generate --profile\n  \
+# on a cluster node\n  \
+eyereplay generate --config dataset.toml --out /shared/data --shard 2/8\n  \
+# after all shards\n  \
+eyereplay merge /shared/data\n\n\
+The config is a 'prepare' config (examples/dataset.toml, docs/CONFIG.md)\n\
+with an optional [render] table; each backend takes its own keys:\n  \
 [render]\n  \
-width = 1280        height = 720      # video size (default: the canvas)\n  \
-gain = 1.0                            # trajectory amplification of the iris excursion\n  \
-natural_blinks = true                 # blink at a natural rate\n  \
-preset = \"veryfast\"  crf = 18         # x264\n  \
-jobs = 2                              # sessions rendered at once\n  \
-backend = \"eyes\"                      # or \"face\" (examples/face.toml), \"replay\" (examples/replay.toml), \"browser\"\n  \
-carriers = [\"me.mp4\"]                 # replay: real talking-head clips (default: the bundled ones)")]
+backend = \"eyes\"        # or \"face\", \"replay\", \"browser\" (examples/*.toml)\n  \
+width = 1280            # video size (default: the canvas)\n  \
+height = 720\n  \
+gain = 1.0              # amplification of the iris excursion\n  \
+natural_blinks = true   # blink at a natural rate\n  \
+preset = \"veryfast\"     # x264\n  \
+crf = 18\n  \
+jobs = 2                # sessions rendered at once\n\
+With backend = \"replay\": carriers = [\"me.mp4\"], real talking-head clips\n\
+(default: the bundled ones).")]
 pub struct Args {
     /// Dataset config (TOML); default: the bundled default sample (examples/default.toml).
     #[arg(long, value_name = "TOML")]
@@ -48,8 +57,8 @@ pub struct Args {
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
     /// Shard count for engines that give only an index (JOB_COMPLETION_INDEX).
-    #[arg(long, value_name = "N", env = "EYEREPLAY_SHARDS")]
-    pub shards: Option<usize>,
+    #[arg(long, value_name = "N", env = "EYEREPLAY_SHARDS", value_parser = clap::value_parser!(u32).range(1..))]
+    pub shards: Option<u32>,
     /// Print the plan, and the wall time and disk it projects from one
     /// session rendered now in a scratch folder (as --profile); write
     /// nothing under --out.
@@ -103,12 +112,25 @@ pub fn run(args: Args) -> Result<()> {
         Some(p) => p.clone(),
         None => default_config()?,
     };
-    let shard = Shard::resolve(args.shard.as_deref(), args.shards)?;
+    // clap drops these requirements when --dry-run, which conflicts with
+    // --profile, is given; they would be ignored.
+    anyhow::ensure!(
+        args.session.is_none() || args.profile,
+        "--session names the session --profile measures; add --profile"
+    );
+    anyhow::ensure!(
+        args.profile_json.is_none() || args.profile || args.dry_run,
+        "--profile-json writes the measurement of --profile or --dry-run; add one of them"
+    );
+    let shard = Shard::resolve(args.shard.as_deref(), args.shards.map(|n| n as usize))?;
     let mut config = eyereplay::DatasetConfig::load(&config_path)?;
     if let Some(seed) = args.seed {
         config.seed = seed;
     }
     let job = eyereplay::plan_config(config, &config_path, shard)?;
+    if args.dry_run && !args.no_evaluate && shard.is_none() {
+        job.check_evaluable()?;
+    }
     if args.dry_run || args.profile {
         let cache = eyereplay::cache_dir(args.cache.as_deref());
         let bars = super::Bars::default();
@@ -337,6 +359,29 @@ fn dry_run(job: &Job, p: &eyereplay::profile::SessionProfile, read_back: usize) 
 #[cfg(test)]
 mod tests {
     use super::took;
+
+    /// The `[render]` table `generate --help` shows can be pasted into a
+    /// config: it parses, and every key in it is one the renderer takes.
+    #[test]
+    fn the_help_s_render_table_is_a_valid_config() {
+        let cmd = <super::Args as clap::Args>::augment_args(clap::Command::new("generate"));
+        let help = cmd.get_after_help().expect("examples").to_string();
+        let table: Vec<&str> = help
+            .lines()
+            .skip_while(|l| l.trim() != "[render]")
+            .take_while(|l| l.starts_with("  "))
+            .map(str::trim)
+            .collect();
+        assert!(table.len() > 5, "{help}");
+        let text = format!(
+            "{}\n[classes.reading]\nsources = [{{ format = \"extract\", path = \"a.csv\" }}]\n",
+            table.join("\n")
+        );
+        let cfg = eyereplay::DatasetConfig::parse(&text).expect("valid TOML");
+        let settings =
+            eyereplay::RenderSettings::from_config(&cfg, std::path::Path::new("help")).unwrap();
+        assert_eq!((settings.width, settings.crf), (Some(1280), 18));
+    }
 
     #[test]
     fn took_states_the_speed_against_the_video_rendered() {

@@ -7,7 +7,8 @@ use std::path::PathBuf;
 /// labels.csv and metadata.json, and the evaluation report.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
-eyereplay merge /shared/data          # after every 'generate --shard K/N' finished\n  \
+# after every 'generate --shard K/N' finished\n  \
+eyereplay merge /shared/data\n  \
 eyereplay merge data/ --no-evaluate")]
 pub struct Args {
     /// Dataset folder that the shards wrote into.

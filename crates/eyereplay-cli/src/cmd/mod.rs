@@ -77,3 +77,66 @@ impl Progress for Bars {
         }
     }
 }
+
+/// clap value parsers for numbers with a range, so that a bad value is
+/// refused in one line naming the option before any work starts.
+pub mod values {
+    fn number(s: &str) -> Result<f64, String> {
+        let v: f64 = s
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{s}' is not a number"))?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(format!("'{s}' is not a finite number"))
+        }
+    }
+
+    /// A finite number above 0.
+    pub fn positive(s: &str) -> Result<f64, String> {
+        let v = number(s)?;
+        if v > 0.0 {
+            Ok(v)
+        } else {
+            Err(format!("must be above 0, got {v}"))
+        }
+    }
+
+    /// A fraction strictly between 0 and 1.
+    pub fn open_fraction(s: &str) -> Result<f64, String> {
+        let v = number(s)?;
+        if v > 0.0 && v < 1.0 {
+            Ok(v)
+        } else {
+            Err(format!("must be between 0 and 1 (exclusive), got {v}"))
+        }
+    }
+
+    /// A probability, 0 to 1 inclusive.
+    pub fn probability(s: &str) -> Result<f64, String> {
+        let v = number(s)?;
+        if (0.0..=1.0).contains(&v) {
+            Ok(v)
+        } else {
+            Err(format!("must be between 0 and 1, got {v}"))
+        }
+    }
+
+    #[cfg(test)]
+    mod tests {
+        use super::*;
+
+        #[test]
+        fn ranges_hold_at_their_edges() {
+            assert_eq!(positive("0.5"), Ok(0.5));
+            assert!(positive("0").is_err() && positive("-1").is_err());
+            assert!(positive("nan").is_err() && positive("inf").is_err());
+            assert!(positive("abc").unwrap_err().contains("'abc'"));
+            assert!(open_fraction("0").is_err() && open_fraction("1").is_err());
+            assert_eq!(open_fraction("0.3"), Ok(0.3));
+            assert_eq!(probability("1"), Ok(1.0));
+            assert!(probability("1.01").is_err() && probability("-0.5").is_err());
+        }
+    }
+}

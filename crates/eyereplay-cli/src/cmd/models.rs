@@ -13,7 +13,8 @@ sources and one inference per model. The models are fetched and converted by \
 scripts/setup.sh (it runs scripts/models.sh; `cargo xtask models [--dir DIR]` in a checkout \
 does the same), into $EYEREPLAY_MODELS or .cache/models.",
     after_help = "Examples:\n  \
-eyereplay models check            # sha256 of the sources, one inference per model\n  \
+# sha256 of the sources, one inference per model\n  \
+eyereplay models check\n  \
 eyereplay models check --dir /opt/eyereplay-models"
 )]
 pub struct Args {

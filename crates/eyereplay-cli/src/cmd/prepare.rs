@@ -14,13 +14,15 @@ use std::time::Instant;
 #[command(after_help = "Examples:\n  \
 eyereplay prepare --config examples/dataset.toml --out out/dataset\n  \
 eyereplay prepare --config examples/dataset.toml --out out/dataset --dry-run\n\n\
-A minimal config (paper defaults: 72 sessions x 7500 frames per class, 25 fps, 1280x720):\n\n  \
+A minimal config (paper defaults: 72 sessions x 7500 frames per class, 25 fps,\n\
+1280x720):\n\n  \
 [classes.reading]\n  \
 sources = [{ format = \"eyelink\", path = \"reader1.asc\" }]\n  \
 [classes.conversation]\n  \
 sources = [{ format = \"extract\", path = \"interview_iris.csv\" }]\n\n\
-Source formats: extract (eyereplay extract CSV), video, csv (samples table), eyelink (.asc),\n\
-bids (*_physio.tsv.gz + .json), fixations (one row per fixation). See docs/CONFIG.md.")]
+Source formats (docs/CONFIG.md): extract (eyereplay extract CSV), video,\n\
+csv (samples table), eyelink (.asc), bids (*_physio.tsv.gz + .json),\n\
+fixations (one row per fixation).")]
 pub struct Args {
     /// Dataset config (TOML).
     #[arg(long, value_name = "TOML")]
@@ -39,6 +41,9 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let started = Instant::now();
     let cfg = DatasetConfig::load(&args.config)?;
+    // The `[render]` table is rendered later, from metadata.json: checked
+    // now, so that a typo in it does not wait for the render.
+    eyereplay::render_table(&cfg, &args.config)?;
     let cache = eyereplay::cache_dir(args.cache.as_deref());
     let bars = super::Bars::default();
     let Some(out) = args.out.filter(|_| !args.dry_run) else {

@@ -14,14 +14,20 @@ use std::path::PathBuf;
 /// centre in the image, lid aperture and blink flag.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
-eyereplay render data/reading/reading_0000.csv --out s.mp4       # s.mp4 + s_truth.csv\n  \
+# s.mp4 + s_truth.csv\n  \
+eyereplay render data/reading/reading_0000.csv --out s.mp4\n  \
 eyereplay render traj.csv --out s.mp4 --seed 7 --gain 2 --natural-blinks\n  \
 eyereplay render traj.csv --out s.mp4 --calibration data/metadata.json\n  \
-eyereplay render traj.csv --png-frames frames/                   # lossless stills\n  \
-eyereplay render --dataset data/                                 # every session of a prepared dataset, its [render] backend\n  \
-eyereplay render --bench --frames 1000                           # frames/s, real-time factor\n  \
-eyereplay render --bench --face --size 640x480                   # the full-face webcam mode's speed\n  \
-eyereplay render --bench --replay clip.mp4                       # real-face replay's speed on a carrier")]
+# lossless stills\n  \
+eyereplay render traj.csv --png-frames frames/\n  \
+# every session of a prepared dataset, its [render] backend\n  \
+eyereplay render --dataset data/\n  \
+# frames/s, real-time factor\n  \
+eyereplay render --bench --frames 1000\n  \
+# the full-face webcam mode's speed\n  \
+eyereplay render --bench --face --size 640x480\n  \
+# real-face replay's speed on a carrier\n  \
+eyereplay render --bench --replay clip.mp4")]
 pub struct Args {
     /// Session trajectory CSV (frame,x,y in canvas pixels).
     #[arg(required_unless_present_any = ["dataset", "bench"], conflicts_with_all = ["dataset", "bench"])]
@@ -33,7 +39,7 @@ pub struct Args {
     #[arg(long)]
     pub truth: Option<PathBuf>,
     /// Write PNG frames into this folder instead of a video (lossless).
-    #[arg(long, value_name = "DIR", conflicts_with = "lossless")]
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["lossless", "out"])]
     pub png_frames: Option<PathBuf>,
     /// Render every unfinished session of a dataset folder written by
     /// 'eyereplay prepare', with the backend and settings of the `[render]`
@@ -73,7 +79,8 @@ pub struct Args {
     #[arg(long, default_value_t = 600.0, value_name = "MM")]
     pub viewing_distance_mm: f64,
     /// Take canvas, fps and calibration (s_x, s_y, mu_x, mu_y) from a
-    /// dataset's metadata.json, so the iris reproduces the source's amplitude.
+    /// dataset's metadata.json (or its folder), so the iris reproduces the
+    /// source's amplitude.
     #[arg(long, value_name = "METADATA_JSON")]
     pub calibration: Option<PathBuf>,
     /// Video size WIDTHxHEIGHT (even numbers).
@@ -126,14 +133,27 @@ fn params(args: &Args) -> anyhow::Result<RenderParams> {
     };
     let mut p = RenderParams::new(identity);
     (p.width, p.height) = parse_size(&args.size)?;
-    if let Some(meta) = &args.calibration {
-        let dir = meta.parent().unwrap_or(std::path::Path::new("."));
-        let info = read_dataset_info(dir)?;
+    if let Some(given) = &args.calibration {
+        // A dataset folder or its metadata.json; any other file is refused
+        // by its own name before anything is read.
+        let meta = if given.is_dir() {
+            given.join(eyereplay_dataset::layout::METADATA_FILE)
+        } else {
+            given.clone()
+        };
         anyhow::ensure!(
-            meta.file_name().is_some_and(|n| n == "metadata.json"),
-            "--calibration expects a dataset's metadata.json, got {}",
-            meta.display()
+            meta.file_name()
+                .is_some_and(|n| n == eyereplay_dataset::layout::METADATA_FILE),
+            "{}: --calibration expects a dataset's metadata.json or its folder",
+            given.display()
         );
+        anyhow::ensure!(meta.is_file(), "{}: no such file", meta.display());
+        let dir = match meta.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => std::path::Path::new("."),
+        };
+        let info = read_dataset_info(dir)?;
+        let meta = &meta;
         p.mapping.canvas = info.canvas;
         p.fps = info.fps;
         match info.calibration {
@@ -178,11 +198,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let traj_path = args.trajectory.as_ref().expect("clap requires it");
     let traj = read_session_csv(traj_path)?;
-    let mut p = p;
-    let probe = ResponseProbe::when(args.match_extractor, 1)?;
-    if let Some(probe) = &probe {
-        p.mapping.extractor_response = probe.measure(&p, &traj)?;
-    }
     let blinks = read_blink_column(traj_path)?;
     let out = args
         .out
@@ -192,6 +207,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .truth
         .clone()
         .unwrap_or_else(|| eyereplay_dataset::SessionPaths::beside_video(&out).truth);
+    // Every output can be written, before the probe and the drawing.
+    let mut outputs = vec![&truth];
+    if args.png_frames.is_none() {
+        outputs.push(&out);
+    }
+    outputs.extend(args.identity_out.as_ref());
+    for path in outputs {
+        eyereplay_core::check_writable(path)?;
+    }
+    let mut p = p;
+    let probe = ResponseProbe::when(args.match_extractor, 1)?;
+    if let Some(probe) = &probe {
+        p.mapping.extractor_response = probe.measure(&p, &traj)?;
+    }
     let stats = if let Some(dir) = &args.png_frames {
         render_session_pngs(&traj, blinks.as_deref(), &p, dir, &truth)?
     } else {
@@ -243,9 +272,17 @@ fn run_dataset(dir: &std::path::Path, args: &Args) -> anyhow::Result<()> {
         settings.jobs = jobs;
     }
     let cache = eyereplay::cache_dir(None);
+    // A setting's error names the file that holds the `[render]` table.
+    let in_meta = |e: eyereplay::backends::BackendError| match e {
+        eyereplay::backends::BackendError::Setting(m) => {
+            anyhow::anyhow!("{}: {m}", meta_path.display())
+        }
+        e => e.into(),
+    };
     let settings =
-        eyereplay::check_settings(&settings, &|p: &std::path::Path| p.to_path_buf(), &cache)?;
-    let params = eyereplay::render_params(&settings, &config)?;
+        eyereplay::check_settings(&settings, &|p: &std::path::Path| p.to_path_buf(), &cache)
+            .map_err(in_meta)?;
+    let params = eyereplay::render_params(&settings, &config).map_err(in_meta)?;
     let bars = super::Bars::default();
     let backend = eyereplay::open_backend(dir, &settings, params, &cache, &bars)?;
     let summary = render_dataset(dir, backend.as_ref(), None, &bars)?;

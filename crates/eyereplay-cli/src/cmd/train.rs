@@ -20,8 +20,10 @@ use std::path::PathBuf;
 #[command(after_help = "Examples:\n  \
 eyereplay train out/default --out reading.model.json\n  \
 eyereplay train data/a data/b --out m.json --window-s 30\n  \
-eyereplay train data/ --out m.json --input trajectory   # no videos: the session CSVs\n  \
-eyereplay train out/interview_train --frame-labels --out interview.json   # when: interviews\n\n\
+# no videos: the session CSVs\n  \
+eyereplay train data/ --out m.json --input trajectory\n  \
+# when: interviews\n  \
+eyereplay train out/interview_train --frame-labels --out interview.json\n\n\
 Then: eyereplay detect interview.mp4 --model reading.model.json")]
 pub struct Args {
     /// Dataset folders written by 'eyereplay generate' (labels.csv and the
