@@ -21,6 +21,17 @@ fn webcam_csv(path: &Path, frames: usize) {
     std::fs::write(path, s).unwrap();
 }
 
+/// `prepare --config CFG --out OUT`.
+fn prepare(cfg: &Path, out: &Path) -> Output {
+    eyereplay(&[
+        "prepare",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ])
+}
+
 /// `prepare --config CFG --out OUT --dry-run`.
 fn dry_run<'a>(cfg: &'a Path, out: &'a Path) -> [&'a str; 6] {
     [
@@ -87,13 +98,7 @@ fn prepare_writes_dataset_and_dry_run_writes_nothing() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("dry run: would write 7 sessions"));
     assert!(!out.exists());
 
-    let o = eyereplay(&[
-        "prepare",
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = prepare(&cfg, &out);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for f in [
         "labels.csv",
@@ -139,13 +144,7 @@ fn bad_configs_fail_in_one_line_and_write_nothing() {
     for (i, (body, want)) in cases.iter().enumerate() {
         let cfg = dir.path().join(format!("c{i}.toml"));
         std::fs::write(&cfg, body).unwrap();
-        let o = eyereplay(&[
-            "prepare",
-            "--config",
-            cfg.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let o = prepare(&cfg, &out);
         let e = one_line_error(&o);
         assert!(e.contains(want), "case {i}: {e}");
         assert!(!out.exists(), "case {i} wrote output");
@@ -194,13 +193,7 @@ fn mistakes_are_refused_up_front_in_one_line() {
         let cfg = d.join(format!("r{i}.toml"));
         std::fs::write(&cfg, format!("session_frames = 100\n{table}{classes}")).unwrap();
         let out = d.join(format!("out{i}"));
-        let e = one_line_error(&eyereplay(&[
-            "prepare",
-            "--config",
-            cfg.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ]));
+        let e = one_line_error(&prepare(&cfg, &out));
         assert!(e.contains(want) && e.contains(&format!("r{i}.toml")), "{e}");
         assert!(!out.exists(), "case {i} wrote output");
     }
@@ -216,13 +209,7 @@ fn mistakes_are_refused_up_front_in_one_line() {
     let cfg = d.join("ok.toml");
     std::fs::write(&cfg, format!("session_frames = 100\n{classes}")).unwrap();
     let ds = d.join("ds");
-    let o = eyereplay(&[
-        "prepare",
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        ds.to_str().unwrap(),
-    ]);
+    let o = prepare(&cfg, &ds);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let m = d.join("m.json");
     let (ds_s, m_s) = (ds.to_str().unwrap(), m.to_str().unwrap());
