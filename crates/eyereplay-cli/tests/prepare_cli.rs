@@ -213,18 +213,14 @@ fn mistakes_are_refused_up_front_in_one_line() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let m = d.join("m.json");
     let (ds_s, m_s) = (ds.to_str().unwrap(), m.to_str().unwrap());
-    let train = [
-        "train",
-        ds_s,
-        ds_s,
-        "--input",
-        "trajectory",
-        "--window-s",
-        "2",
-        "--out",
-        m_s,
-    ];
-    let e = one_line_error(&eyereplay(&train));
+    // `train DATASETS --input trajectory --window-s 2 --out m.json`.
+    let train = |datasets: &[&str]| {
+        let mut args = vec!["train"];
+        args.extend_from_slice(datasets);
+        args.extend(["--input", "trajectory", "--window-s", "2", "--out", m_s]);
+        eyereplay(&args)
+    };
+    let e = one_line_error(&train(&[ds_s, ds_s]));
     assert!(e.contains("given twice"), "{e}");
     assert!(!m.exists());
     // A render whose truth file would land under a plain file: refused
@@ -241,16 +237,7 @@ fn mistakes_are_refused_up_front_in_one_line() {
     ]));
     assert!(e.contains("f/v_truth.csv"), "{e}");
     // A detector whose --out is a file, refused before the input is read.
-    let o = eyereplay(&[
-        "train",
-        ds_s,
-        "--input",
-        "trajectory",
-        "--window-s",
-        "2",
-        "--out",
-        m_s,
-    ]);
+    let o = train(&[ds_s]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let e = one_line_error(&eyereplay(&[
         "detect",
