@@ -364,6 +364,19 @@ fn extract_options(
     if mesh_every == Some(0) {
         return Err(ConfigError::new_err("mesh_every 0: expected 1 or more"));
     }
+    // What `eyereplay extract --blink-ratio` and `--max-seconds` accept;
+    // outside it blinks take every frame, or none, and a video "has no
+    // frames".
+    if !(blink_ratio > 0.0 && blink_ratio < 1.0) {
+        return Err(ConfigError::new_err(format!(
+            "blink_ratio {blink_ratio}: expected a number between 0 and 1 (exclusive)"
+        )));
+    }
+    if let Some(s) = max_seconds.filter(|s| !(s.is_finite() && *s > 0.0)) {
+        return Err(ConfigError::new_err(format!(
+            "max_seconds {s}: expected a positive number of seconds"
+        )));
+    }
     let landmarks = ex::landmarks_for_real_video(
         requested,
         &[

@@ -36,6 +36,29 @@ def test_unknown_device_is_a_config_error_and_cpu_is_the_default(tmp_path):
         assert inspect.signature(f).parameters["device"].default == "cpu"
 
 
+def test_out_of_range_options_name_themselves(tmp_path):
+    # Refused before the video is opened, as the command line refuses them.
+    video = DATA / "franck.mp4"
+    for kwargs, name in (
+        ({"blink_ratio": 5.0}, "blink_ratio"),
+        ({"blink_ratio": float("nan")}, "blink_ratio"),
+        ({"blink_ratio": -1.0}, "blink_ratio"),
+        ({"max_seconds": 0}, "max_seconds"),
+        ({"max_seconds": -1.0}, "max_seconds"),
+        ({"threads": -1}, "threads"),
+        ({"iris_views": -3}, "iris_views"),
+    ):
+        with pytest.raises(eyereplay.ConfigError) as e:
+            eyereplay.extract(video, out=tmp_path / "x.csv", progress=False, **kwargs)
+        assert name in str(e.value) and "\n" not in str(e.value), kwargs
+    assert not (tmp_path / "x.csv").exists()
+    # One path where a list is wanted, and the other way round.
+    with pytest.raises(TypeError, match="list of paths"):
+        eyereplay.extract_many(str(video), progress=False)
+    with pytest.raises(TypeError, match="extract_many"):
+        eyereplay.extract([str(video)], progress=False)
+
+
 def test_missing_models_is_a_model_error(tmp_path):
     with pytest.raises(eyereplay.ModelError) as e:
         eyereplay.extract(DATA / "franck.mp4", models=tmp_path, progress=False)
@@ -132,3 +155,21 @@ def test_bad_frames_are_config_errors():
             eyereplay.extract(progress=False, **kw)
         assert want in str(e.value), (kw, str(e.value))
         assert "\n" not in str(e.value)
+
+
+def test_detect_on_too_few_frames_names_the_frames_not_a_temporary_file():
+    import subprocess
+
+    import numpy as np
+
+    raw = subprocess.run(
+        ["ffmpeg", "-v", "error", "-i", str(DATA / "franck.mp4"), "-frames:v", "12",
+         "-f", "rawvideo", "-pix_fmt", "rgb24", "-"],
+        check=True, capture_output=True,
+    ).stdout
+    frames = np.frombuffer(raw, dtype=np.uint8).reshape(12, 288, 360, 3)
+    with pytest.raises(eyereplay.EyereplayError) as e:
+        eyereplay.detect(frames, fps=24, progress=False)
+    msg = str(e.value)
+    assert msg.startswith("frames: ") and "not enough gaze" in msg, msg
+    assert "eyereplay-detect-" not in msg and "\n" not in msg

@@ -196,6 +196,11 @@ def extract(
             t.pop("csv_text")
         table = t["table"]
         return to_pandas(table) if pandas else table
+    if isinstance(video, (list, tuple)):
+        raise TypeError(
+            "video: expected one path or a numpy uint8 array (T, H, W, 3), got a "
+            f"{type(video).__name__} (extract_many takes a list of paths)"
+        )
     if fps is not None or timestamps is not None:
         raise ConfigError("fps and timestamps apply to frames in memory, not to a video file")
     tables = extract_many(
@@ -300,7 +305,11 @@ def detect(
         with tempfile.TemporaryDirectory(prefix="eyereplay-detect-") as tmp:
             csv = Path(tmp) / "frames.csv"
             extract(video_or_frames, fps=fps, timestamps=timestamps, out=csv, progress=progress)
-            d = json.loads(_native.detect(str(csv), str(model_path), cache=_opt_path(cache)))
+            try:
+                d = json.loads(_native.detect(str(csv), str(model_path), cache=_opt_path(cache)))
+            except EyereplayError as e:
+                # The temporary CSV is ours, not the caller's: name the frames.
+                raise type(e)(str(e).replace(str(csv), "frames")) from None
             d["input"]["path"] = "<frames>"
     else:
         if fps is not None or timestamps is not None:
@@ -347,9 +356,17 @@ def extract_many(
     """:func:`extract` on several videos at once (in parallel), one table
     each in the order given. ``out`` is a ``.csv`` file for one video or a
     folder that gets ``<video stem>.csv`` for each."""
+    if isinstance(videos, (str, bytes, os.PathLike)):
+        raise TypeError(
+            f"videos: expected a list of paths, got one {type(videos).__name__} "
+            "(extract takes a single video)"
+        )
     videos = [os.fspath(v) for v in videos]
     if not videos:
         raise ConfigError("no videos given")
+    for name, value in (("threads", threads), ("iris_views", iris_views)):
+        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+            raise ConfigError(f"{name} {value!r}: expected a whole number, 0 or more")
     results = _native.extract(
         videos,
         out=_opt_path(out),
