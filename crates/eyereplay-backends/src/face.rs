@@ -66,16 +66,10 @@ impl FaceSettings {
         let mut table = settings.webcam.clone().unwrap_or_default();
         let x264_preset = match table.remove("x264_preset") {
             None => FACE_X264_PRESET.to_string(),
-            Some(toml::Value::String(p))
-                if eyereplay_render::X264_PRESETS.contains(&p.as_str()) =>
-            {
-                p
-            }
             Some(toml::Value::String(p)) => {
-                return Err(Error::Setting(format!(
-                    "[render.webcam]: x264_preset '{p}' is not one of {}",
-                    eyereplay_render::X264_PRESETS.join(", ")
-                )))
+                eyereplay_render::check_x264_preset(&p)
+                    .map_err(|e| Error::Setting(format!("[render.webcam]: {e}")))?;
+                p
             }
             Some(v) => {
                 return Err(Error::Setting(format!(

@@ -55,6 +55,9 @@ pub enum ExtractError {
         /// How the caller asks for the cascade (`--landmarks cascade`).
         cascade: &'static str,
     },
+    /// An option out of its range ([`crate::ExtractOptions::validate`]).
+    #[error("{0}")]
+    Option(String),
     /// Reading a rendered video back failed.
     #[error("{path}: {message}")]
     ReadBack { path: PathBuf, message: String },

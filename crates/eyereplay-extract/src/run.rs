@@ -83,6 +83,42 @@ impl Default for ExtractOptions {
 }
 
 impl ExtractOptions {
+    /// Refuses options out of their range, by the name the command line
+    /// and the Python package give them: outside it blinks take every
+    /// frame or none, a video "has no frames", or a preview is written
+    /// for every frame. Every extraction checks this before it starts.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(ExtractError::Option(m));
+        if !(self.blink_ratio > 0.0 && self.blink_ratio < 1.0) {
+            return bad(format!(
+                "blink_ratio {}: expected a number between 0 and 1 (exclusive)",
+                self.blink_ratio
+            ));
+        }
+        if let Some(s) = self.max_duration_s.filter(|s| !(s.is_finite() && *s > 0.0)) {
+            return bad(format!(
+                "max_seconds {s}: expected a positive number of seconds"
+            ));
+        }
+        let every = self.preview_every_s;
+        if self.preview_dir.is_some() && !(every.is_finite() && every > 0.0) {
+            return bad(format!(
+                "preview_every {every}: expected a positive number of seconds"
+            ));
+        }
+        if self.mesh_every == 0 {
+            return bad("mesh_every 0: expected 1 or more".into());
+        }
+        if !(1..=crate::MAX_IRIS_VIEWS).contains(&self.iris_views) {
+            return bad(format!(
+                "iris_views {}: expected 1 to {}",
+                self.iris_views,
+                crate::MAX_IRIS_VIEWS
+            ));
+        }
+        Ok(())
+    }
+
     pub fn worker_count(&self) -> usize {
         if self.threads > 0 {
             self.threads
@@ -166,6 +202,12 @@ pub fn extract_many(
 ) -> Vec<Result<Extraction>> {
     let started = Instant::now();
     let workers = opts.worker_count();
+    if let Err(e) = opts.validate() {
+        return paths
+            .iter()
+            .map(|_| Err(ExtractError::Option(e.to_string())))
+            .collect();
+    }
     // Fail fast, and once, when the models are missing.
     let missing = crate::models::missing_files(&opts.models_dir);
     if !missing.is_empty() {
@@ -615,6 +657,7 @@ impl FrameStream {
                 "frames of {width}x{height} px: too small to hold a face"
             )));
         }
+        opts.validate()?;
         let models = Models::load_on(&opts.models_dir, opts.device)?;
         Ok(FrameStream {
             tracker: new_tracker(models, opts),
@@ -714,6 +757,40 @@ pub fn extract_video_to_csv(video: &Path, csv: &Path, opts: &ExtractOptions) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Options out of range are refused by their name, in one line, and
+    /// an extraction with them fails before it opens a model or a video.
+    #[test]
+    fn options_out_of_range_are_named() {
+        assert!(ExtractOptions::default().validate().is_ok());
+        let cases: [(fn(&mut ExtractOptions), &str); 7] = [
+            (|o| o.blink_ratio = 5.0, "blink_ratio 5"),
+            (|o| o.blink_ratio = f64::NAN, "blink_ratio NaN"),
+            (|o| o.max_duration_s = Some(-1.0), "max_seconds -1"),
+            (|o| o.max_duration_s = Some(0.0), "max_seconds 0"),
+            (
+                |o| {
+                    o.preview_dir = Some("p".into());
+                    o.preview_every_s = 0.0
+                },
+                "preview_every 0",
+            ),
+            (|o| o.mesh_every = 0, "mesh_every 0"),
+            (|o| o.iris_views = 0, "iris_views 0"),
+        ];
+        for (set, says) in cases {
+            let mut o = ExtractOptions {
+                models_dir: "/nonexistent-models".into(),
+                ..ExtractOptions::default()
+            };
+            set(&mut o);
+            let e = o.validate().unwrap_err().to_string();
+            assert!(e.starts_with(says) && !e.contains('\n'), "{e}");
+            // Before the (missing) models are looked for.
+            let r = extract_many(&["v.mp4".into()], &o, &NoProgress);
+            assert_eq!(r[0].as_ref().unwrap_err().to_string(), e);
+        }
+    }
     use crate::image::Rotation;
 
     fn info(start_s: f64, duration_s: Option<f64>) -> VideoInfo {

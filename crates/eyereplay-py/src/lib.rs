@@ -361,22 +361,6 @@ fn extract_options(
         .map(str::parse::<ex::LandmarkModel>)
         .transpose()
         .map_err(ConfigError::new_err)?;
-    if mesh_every == Some(0) {
-        return Err(ConfigError::new_err("mesh_every 0: expected 1 or more"));
-    }
-    // What `eyereplay extract --blink-ratio` and `--max-seconds` accept;
-    // outside it blinks take every frame, or none, and a video "has no
-    // frames".
-    if !(blink_ratio > 0.0 && blink_ratio < 1.0) {
-        return Err(ConfigError::new_err(format!(
-            "blink_ratio {blink_ratio}: expected a number between 0 and 1 (exclusive)"
-        )));
-    }
-    if let Some(s) = max_seconds.filter(|s| !(s.is_finite() && *s > 0.0)) {
-        return Err(ConfigError::new_err(format!(
-            "max_seconds {s}: expected a positive number of seconds"
-        )));
-    }
     let landmarks = ex::landmarks_for_real_video(
         requested,
         &[
@@ -386,13 +370,7 @@ fn extract_options(
         "landmarks=\"cascade\"",
     )
     .map_err(|e| ConfigError::new_err(e.to_string()))?;
-    if !(1..=ex::MAX_IRIS_VIEWS).contains(&iris_views) {
-        return Err(ConfigError::new_err(format!(
-            "iris_views {iris_views}: expected 1 to {}",
-            ex::MAX_IRIS_VIEWS
-        )));
-    }
-    Ok(ex::ExtractOptions {
+    let opts = ex::ExtractOptions {
         models_dir: models.unwrap_or_else(ex::default_models_dir),
         threads,
         blink_ratio,
@@ -404,7 +382,11 @@ fn extract_options(
         profile: false,
         device: device_of(device)?,
         landmarks,
-    })
+    };
+    // The library's ranges, checked before a model loads.
+    opts.validate()
+        .map_err(|e| ConfigError::new_err(e.to_string()))?;
+    Ok(opts)
 }
 
 /// Extraction from frames in memory (`eyereplay.extract(frames, fps=..)`):

@@ -104,18 +104,26 @@ pub const X264_TUNES: [&str; 8] = [
 /// x264's largest constant rate factor for 8-bit video.
 pub const MAX_CRF: u32 = 51;
 
+/// Refuses a preset x264 does not have, naming it and the ones it has
+/// (ffmpeg's own message names neither); for every setting that holds
+/// one, the close-up's `preset` and the face mode's `x264_preset`.
+pub fn check_x264_preset(preset: &str) -> Result<(), String> {
+    if X264_PRESETS.contains(&preset) {
+        Ok(())
+    } else {
+        Err(format!(
+            "x264 preset '{preset}' is not one of {}",
+            X264_PRESETS.join(", ")
+        ))
+    }
+}
+
 impl EncoderSettings {
     /// Rejects a preset, tuning or CRF that x264 would refuse (or, for the
     /// CRF, clamp without a word), before any frame is drawn; ffmpeg's own
     /// message for them names neither the option nor the value.
     pub fn validate(&self) -> Result<(), RenderError> {
-        if !X264_PRESETS.contains(&self.preset.as_str()) {
-            return Err(RenderError::Params(format!(
-                "x264 preset '{}' is not one of {}",
-                self.preset,
-                X264_PRESETS.join(", ")
-            )));
-        }
+        check_x264_preset(&self.preset).map_err(RenderError::Params)?;
         if let Some(t) = &self.tune {
             if !X264_TUNES.contains(&t.as_str()) {
                 return Err(RenderError::Params(format!(

@@ -69,8 +69,8 @@ pub use bench::{
 pub use blink::{closure_at, closure_track};
 pub use dataset::{list_sessions, read_dataset_info, session_seed, DatasetInfo, SessionJob};
 pub use encode::{
-    ffprobe_for, probe_video, rgb_to_yuv420, Codec, Encoder, EncoderSettings, VideoInfo,
-    DEFAULT_X264_PARAMS, MAX_CRF, X264_PRESETS, X264_TUNES,
+    check_x264_preset, ffprobe_for, probe_video, rgb_to_yuv420, Codec, Encoder, EncoderSettings,
+    VideoInfo, DEFAULT_X264_PARAMS, MAX_CRF, X264_PRESETS, X264_TUNES,
 };
 pub use error::RenderError;
 pub use eyereplay_dataset::{read_blink_column, TRUTH_HEADER};

@@ -136,29 +136,28 @@ fn params(args: &Args) -> anyhow::Result<RenderParams> {
     if let Some(given) = &args.calibration {
         // A dataset folder or its metadata.json; any other file is refused
         // by its own name before anything is read.
-        let meta = if given.is_dir() {
-            given.join(eyereplay_dataset::layout::METADATA_FILE)
+        let dir = if given.is_dir() {
+            given.as_path()
         } else {
-            given.clone()
-        };
-        anyhow::ensure!(
-            meta.file_name()
-                .is_some_and(|n| n == eyereplay_dataset::layout::METADATA_FILE),
-            "{}: --calibration expects a dataset's metadata.json or its folder",
-            given.display()
-        );
-        anyhow::ensure!(meta.is_file(), "{}: no such file", meta.display());
-        let dir = match meta.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => std::path::Path::new("."),
+            anyhow::ensure!(
+                given
+                    .file_name()
+                    .is_some_and(|n| n == eyereplay_dataset::layout::METADATA_FILE),
+                "{}: --calibration expects a dataset's metadata.json or its folder",
+                given.display()
+            );
+            anyhow::ensure!(given.is_file(), "{}: no such file", given.display());
+            match given.parent() {
+                Some(d) if !d.as_os_str().is_empty() => d,
+                _ => std::path::Path::new("."),
+            }
         };
         let info = read_dataset_info(dir)?;
-        let meta = &meta;
         p.mapping.canvas = info.canvas;
         p.fps = info.fps;
         match info.calibration {
             Some(c) => p.mapping.calibration = c,
-            None => tracing::warn!("{}: no calibration; using the default", meta.display()),
+            None => tracing::warn!("{}: no calibration; using the default", given.display()),
         }
     } else {
         p.mapping.canvas = Canvas::default();
