@@ -763,7 +763,9 @@ mod tests {
     #[test]
     fn options_out_of_range_are_named() {
         assert!(ExtractOptions::default().validate().is_ok());
-        let cases: [(fn(&mut ExtractOptions), &str); 7] = [
+        // Each case: how it spoils the options, and what the error says.
+        type Spoil = fn(&mut ExtractOptions);
+        let cases: [(Spoil, &str); 7] = [
             (|o| o.blink_ratio = 5.0, "blink_ratio 5"),
             (|o| o.blink_ratio = f64::NAN, "blink_ratio NaN"),
             (|o| o.max_duration_s = Some(-1.0), "max_seconds -1"),
