@@ -28,9 +28,20 @@ pub struct RenderSummary {
 /// is not complete, and its session is drawn again.
 pub fn is_complete(job: &SessionJob, frames: usize) -> bool {
     let p = &job.paths;
-    p.truth.exists()
+    csv_data_rows(&p.truth) == Some(frames)
         && p.identity_json.exists()
         && eyereplay_extract::count_video_packets(&p.mp4).ok() == Some(frames as u64)
+}
+
+/// Data rows of a CSV with one header line (a last line without its
+/// newline counted); `None` when it cannot be read.
+pub fn csv_data_rows(path: &Path) -> Option<usize> {
+    let bytes = std::fs::read(path).ok()?;
+    let lines = bytes
+        .split(|b| *b == b'\n')
+        .filter(|l| !l.is_empty() && *l != b"\r")
+        .count();
+    Some(lines.saturating_sub(1))
 }
 
 /// The sessions of `out` in labels.csv order, this shard's only.

@@ -29,7 +29,7 @@ pub mod replay;
 pub mod source_head;
 
 pub use backend::{Rendered, Session, SessionBackend, SessionOutputs};
-pub use driver::{is_complete, render_dataset, shard_sessions, RenderSummary};
+pub use driver::{csv_data_rows, is_complete, render_dataset, shard_sessions, RenderSummary};
 pub use error::{BackendError, Result};
 pub use probe::{measure_response, ResponseProbe};
 

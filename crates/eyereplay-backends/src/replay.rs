@@ -204,7 +204,7 @@ impl SessionBackend for ReplayBackend {
         let k = s.job.balanced_choice(s.dataset_seed, self.carriers.len());
         let carrier = &self.carriers[k];
         let targets = targets(&self.mapping, traj);
-        let start = eyereplay_replay::start_frame(&carrier.times_s, traj.len(), s.fps, seed);
+        let start = eyereplay_replay::usable_start_frame(carrier, traj.len(), s.fps, seed);
         let (w, h) = carrier.size();
         let stats = eyereplay_core::profile::lap("redraw the carrier's irises and encode", || {
             eyereplay_replay::render_replay_session(

@@ -142,3 +142,60 @@ fn a_video_source_is_read_with_the_landmarks_it_names() {
     );
     assert!(!meta.contains("\"landmarks\": \"cascade\""));
 }
+
+/// A file cut off part-way (a download or copy stopped short, its index
+/// first so that it still opens) is read as far as its frames go, and the
+/// summary says it stopped short of what the file declares: without that
+/// the rows pass for the whole recording.
+#[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models, has_ffmpeg)),
+    ignore = "needs .cache/data, the models and ffmpeg: run scripts/setup.sh"
+)]
+fn a_video_cut_off_part_way_is_read_as_far_as_it_goes_and_said_to_be() {
+    let dir = tempfile::tempdir().unwrap();
+    let whole = dir.path().join("whole.mp4");
+    let status = std::process::Command::new("ffmpeg")
+        .args(["-v", "error", "-i", s(&franck()), "-t", "12", "-c", "copy"])
+        .args(["-movflags", "+faststart", s(&whole)])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let bytes = std::fs::read(&whole).unwrap();
+    let cut = dir.path().join("cut.mp4");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+
+    let said = ok(&extract_run_on(&whole, &dir.path().join("whole.csv"), &[]));
+    assert!(!said.contains("warning"), "{said}");
+    let said = ok(&extract_run_on(&cut, &dir.path().join("cut.csv"), &[]));
+    let line = said
+        .lines()
+        .find(|l| l.contains("(cut off?)"))
+        .unwrap_or_else(|| panic!("no cut-off warning in:\n{said}"));
+    // The number in the warning after `before`.
+    let seconds_after = |before: &str| -> f64 {
+        line.split(before)
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("{line}"))
+    };
+    // Half the bytes hold about half of the 12 s.
+    let end_s = seconds_after("the frames end at ");
+    assert!((3.0..10.0).contains(&end_s), "{line}");
+    // The copy of 12 s ends on a whole frame after the cut: 12.0-12.5 s.
+    let declared_s = seconds_after("of the ");
+    assert!((12.0..=12.5).contains(&declared_s), "{line}");
+    // The rows cover what the warning says: from the first frame's time
+    // to the last's, plus the last frame's 1/24 s (the video's rate).
+    let rows = std::fs::read_to_string(dir.path().join("cut.csv")).unwrap();
+    let time_s = |l: &str| -> f64 { l.split(',').nth(1).unwrap().parse().unwrap() };
+    let mut lines = rows.lines().skip(1);
+    let first = time_s(lines.next().unwrap());
+    let last = time_s(lines.last().unwrap());
+    let covered_s = last - first + 1.0 / 24.0;
+    assert!(
+        (covered_s - end_s).abs() <= 0.051,
+        "{covered_s} s of rows, {line}"
+    );
+}

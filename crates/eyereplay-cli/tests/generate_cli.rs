@@ -268,6 +268,7 @@ fn generate_is_deterministic_resumable_and_shardable() {
     ok(&generate(&s, &["--shard", "1/2"]));
     ok(&eyereplay(&["merge", s.to_str().unwrap()]));
     assert_eq!(hashes(&s), ha);
+    merge_refuses_damage_leaving_the_dataset_as_it_was(&s, &dir.path().join("damaged"));
 
     // kill -9 in the middle of rendering, then the same command again.
     let k = dir.path().join("k");
@@ -363,6 +364,80 @@ fn render_dataset_draws_what_generate_draws() {
         "{}",
         String::from_utf8_lossy(&o.stderr)
     );
+}
+
+/// `merge` on copies of the finished dataset `done`, each damaged one way
+/// a disk, a copy or a hand can: refused in one line naming what is wrong,
+/// with `metadata.json` left as it was (every check runs before it is
+/// rewritten).
+fn merge_refuses_damage_leaving_the_dataset_as_it_was(done: &Path, scratch: &Path) {
+    let keep_lines = |p: &Path, n: usize| {
+        let text = std::fs::read_to_string(p).unwrap();
+        let kept: String = text.lines().take(n).map(|l| format!("{l}\n")).collect();
+        std::fs::write(p, kept).unwrap();
+    };
+    type Damage = fn(&Path, &dyn Fn(&Path, usize));
+    let cases: [(&str, Damage, &str); 5] = [
+        (
+            "a row of labels.csv lost",
+            |d, keep| keep(&d.join("labels.csv"), 8),
+            "labels.csv: lists 7 sessions where metadata.json plans 8",
+        ),
+        (
+            "a row of labels.csv repeated",
+            |d, _| {
+                let p = d.join("labels.csv");
+                let mut text = std::fs::read_to_string(&p).unwrap();
+                let row = text.lines().nth(1).unwrap().to_string();
+                text.push_str(&format!("{row}\n"));
+                std::fs::write(&p, text).unwrap();
+            },
+            "lists 9 sessions where metadata.json plans 8; from session 9 on",
+        ),
+        (
+            "a session trajectory cut short",
+            |d, keep| keep(&d.join("reading/reading_0002.csv"), 20),
+            "reading/reading_0002.csv (19 rows)",
+        ),
+        (
+            "a truth file cut short",
+            |d, keep| keep(&d.join("conversation/conversation_0001_truth.csv"), 30),
+            "1 of 8 sessions are not rendered whole",
+        ),
+        (
+            "another session's identity copied over",
+            |d, _| {
+                std::fs::copy(
+                    d.join("reading/reading_0001_identity.json"),
+                    d.join("reading/reading_0000_identity.json"),
+                )
+                .unwrap();
+            },
+            "reading_0000_identity.json: is the identity of reading/reading_0001.csv, not of reading/reading_0000.csv",
+        ),
+    ];
+    for (what, damage, says) in cases {
+        let _ = std::fs::remove_dir_all(scratch);
+        for f in walk_files(done) {
+            let to = scratch.join(f.strip_prefix(done).unwrap());
+            std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+            std::fs::copy(&f, &to).unwrap();
+        }
+        damage(scratch, &keep_lines);
+        let before = std::fs::read(scratch.join("metadata.json")).unwrap();
+        let o = eyereplay(&["merge", scratch.to_str().unwrap(), "--no-evaluate"]);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{what}: merged");
+        assert!(
+            e.contains(says) && e.trim_end().lines().count() == 1,
+            "{what}: {e}"
+        );
+        assert_eq!(
+            std::fs::read(scratch.join("metadata.json")).unwrap(),
+            before,
+            "{what}: metadata.json rewritten"
+        );
+    }
 }
 
 fn walk_files(dir: &Path) -> Vec<PathBuf> {

@@ -231,6 +231,49 @@ fn replay_dataset_follows_the_trajectory_keeps_the_carrier_and_is_deterministic(
         table_only(&table),
         "the same numbers from the moved carrier"
     );
+
+    // Mistakes refused in one line before any reading, the dataset as it
+    // was: --json over the dataset's own files, --carrier of nothing.
+    let labels_before = std::fs::read(a.join("labels.csv")).unwrap();
+    let (labels, meta, gone) = (
+        a.join("labels.csv"),
+        a.join("metadata.json"),
+        dir.path().join("gone.mp4"),
+    );
+    let refused = [
+        (
+            vec!["--json", s(&labels)],
+            "--json takes a file name ending in .json",
+        ),
+        (vec!["--json", s(&meta)], "is the dataset's own metadata"),
+        (vec!["--carrier", s(&gone)], "--carrier: no such video"),
+        (
+            vec!["--carrier", s(dir.path())],
+            "--carrier: is a folder, not a video",
+        ),
+    ];
+    for (extra, says) in refused {
+        let mut args = vec!["evaluate-replay", s(&a)];
+        args.extend(extra);
+        let e = one_line_error(&eyereplay(&args));
+        assert!(e.contains(says), "{e}");
+    }
+    assert_eq!(std::fs::read(a.join("labels.csv")).unwrap(), labels_before);
+    // A truth file cut short is named before any video is read.
+    let truth = a.join("reading/reading_0000_truth.csv");
+    let text = std::fs::read_to_string(&truth).unwrap();
+    let cut: String = text.lines().take(10).map(|l| format!("{l}\n")).collect();
+    std::fs::write(&truth, cut).unwrap();
+    let e = one_line_error(&eyereplay(&[
+        "evaluate-replay",
+        s(&a),
+        "--carrier",
+        s(&moved),
+    ]));
+    assert!(
+        e.contains("reading_0000_truth.csv: 9 rows; the dataset's sessions have"),
+        "{e}"
+    );
 }
 
 #[test]

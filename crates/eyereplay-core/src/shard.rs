@@ -34,19 +34,31 @@ impl Shard {
         Shard::new(k, n)
     }
 
-    /// `--shard` first; else Slurm's array variables; else Kubernetes'
-    /// `JOB_COMPLETION_INDEX` with `--shards` / `EYEREPLAY_SHARDS`.
+    /// [`Shard::resolve_with`] on this process's environment.
     pub fn resolve(flag: Option<&str>, shards: Option<usize>) -> Result<Option<Self>> {
         Self::resolve_with(flag, shards, |k| std::env::var(k).ok())
     }
 
+    /// `--shard` first; else Slurm's array variables; else Kubernetes'
+    /// `JOB_COMPLETION_INDEX`. `shards` (`--shards` / `EYEREPLAY_SHARDS`)
+    /// is the total count: with Slurm it makes the task id itself the
+    /// shard index (a rerun of some shards, `--array=2,5`), as
+    /// `docs/cluster/slurm-array.sbatch` reads it; with `--shard K/N` it
+    /// must agree with N; with no index at all it is an error, not
+    /// ignored (every such process would render the whole dataset).
     pub fn resolve_with(
         flag: Option<&str>,
         shards: Option<usize>,
         env: impl Fn(&str) -> Option<String>,
     ) -> Result<Option<Self>> {
         if let Some(f) = flag {
-            return Shard::parse(f).map(Some);
+            let shard = Shard::parse(f)?;
+            return match shards {
+                Some(n) if n != shard.count => Err(Error::Setting(format!(
+                    "--shard {f} and --shards {n} (or EYEREPLAY_SHARDS) disagree on the shard count"
+                ))),
+                _ => Ok(Some(shard)),
+            };
         }
         let num = |k: &str| -> Result<Option<usize>> {
             match env(k) {
@@ -59,13 +71,23 @@ impl Shard {
             }
         };
         if let Some(k) = num("SLURM_ARRAY_TASK_ID")? {
+            if let Some(n) = shards {
+                return Shard::new(k, n).map(Some);
+            }
             let n = num("SLURM_ARRAY_TASK_COUNT")?.ok_or_else(|| {
                 Error::Setting(
-                    "SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not".into(),
+                    "SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not: set EYEREPLAY_SHARDS to the shard count".into(),
                 )
             })?;
-            // Arrays may start at a nonzero id (--array=1-4).
+            // Arrays may start at a nonzero id (--array=1-4); one with
+            // holes (--array=2,5) does not say the shard count.
             let min = num("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
+            let max = num("SLURM_ARRAY_TASK_MAX")?.unwrap_or(min + n.saturating_sub(1));
+            if max + 1 != min + n {
+                return Err(Error::Setting(format!(
+                    "the Slurm array {min}-{max} has {n} tasks, not a contiguous range: set EYEREPLAY_SHARDS to the shard count (the task id is then the shard index)"
+                )));
+            }
             return Shard::new(
                 k.checked_sub(min).ok_or_else(|| {
                     Error::Setting("SLURM_ARRAY_TASK_ID below SLURM_ARRAY_TASK_MIN".into())
@@ -80,7 +102,12 @@ impl Shard {
             })?;
             return Shard::new(k, n).map(Some);
         }
-        Ok(None)
+        match shards {
+            Some(n) => Err(Error::Setting(format!(
+                "--shards {n} (or EYEREPLAY_SHARDS) gives the shard count, but nothing gives this process's shard: use --shard K/{n}, or run it as a Slurm array task or a Kubernetes Indexed Job"
+            ))),
+            None => Ok(None),
+        }
     }
 
     pub fn contains(&self, session_ordinal: usize) -> bool {
@@ -186,5 +213,43 @@ mod tests {
             Some(Shard { index: 0, count: 3 })
         );
         assert_eq!(Shard::resolve_with(None, None, env(&[])).unwrap(), None);
+    }
+
+    #[test]
+    fn the_shard_count_agrees_with_the_index_or_is_refused() {
+        fn err(
+            flag: Option<&str>,
+            shards: Option<usize>,
+            e: impl Fn(&str) -> Option<String>,
+        ) -> String {
+            Shard::resolve_with(flag, shards, e)
+                .unwrap_err()
+                .to_string()
+        }
+        // The flag and the count: the same N, or an error naming both.
+        assert_eq!(
+            Shard::resolve_with(Some("5/8"), Some(8), env(&[])).unwrap(),
+            Some(Shard { index: 5, count: 8 })
+        );
+        assert!(err(Some("5/8"), Some(4), env(&[])).contains("--shard 5/8 and --shards 4"));
+        // A count and no index: every process would render everything.
+        assert!(err(None, Some(4), env(&[])).contains("--shard K/4"));
+        // A Slurm rerun of shards 2 and 5 of 24 (--array=2,5): the task id
+        // is the shard, the count EYEREPLAY_SHARDS, not the array's 2 tasks.
+        let rerun = env(&[
+            ("SLURM_ARRAY_TASK_ID", "5"),
+            ("SLURM_ARRAY_TASK_COUNT", "2"),
+            ("SLURM_ARRAY_TASK_MIN", "2"),
+            ("SLURM_ARRAY_TASK_MAX", "5"),
+        ]);
+        assert_eq!(
+            Shard::resolve_with(None, Some(24), &rerun).unwrap(),
+            Some(Shard {
+                index: 5,
+                count: 24
+            })
+        );
+        // Without the count, that array cannot say which shard task 5 is.
+        assert!(err(None, None, &rerun).contains("not a contiguous range"));
     }
 }

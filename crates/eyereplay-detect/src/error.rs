@@ -13,6 +13,9 @@ pub enum DetectError {
     /// A file is not what it should be (a model, a trajectory).
     #[error("{path}: {message}")]
     File { path: PathBuf, message: String },
+    /// Writing a file (through a temporary file and a rename).
+    #[error(transparent)]
+    Core(#[from] eyereplay_core::CoreError),
     /// Training cannot go on with these examples.
     #[error("training: {0}")]
     Train(String),

@@ -238,7 +238,7 @@ impl DetectorModel {
     pub fn save(&self, path: &Path) -> Result<(), DetectError> {
         let mut text = serde_json::to_string_pretty(self).expect("model serializes");
         text.push('\n');
-        write_atomic(path, text.as_bytes())
+        Ok(eyereplay_core::atomic_write(path, text.as_bytes())?)
     }
 
     pub fn load(path: &Path) -> Result<Self, DetectError> {
@@ -311,28 +311,6 @@ impl DetectorModel {
         }
         Ok(m)
     }
-}
-
-/// Writes through a temporary file in the same folder and renames it, so
-/// an interrupted write never leaves half a file under the final name.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DetectError> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(|e| DetectError::io(dir, e))?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    // Errors name `path`, the file asked for, not the temporary one.
-    std::fs::write(&tmp, bytes)
-        .and_then(|()| std::fs::rename(&tmp, path))
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            DetectError::io(path, e)
-        })
 }
 
 /// The groups (sessions) with windows of `class`, sorted, then shuffled by

@@ -601,7 +601,13 @@ pub fn write_report(
     dataset_dir: &Path,
     ev: &Evaluation,
 ) -> Result<(ReportPaths, String), EvalError> {
-    let dir = dataset_dir.join("report");
+    let final_dir = dataset_dir.join("report");
+    // The report is made whole in a folder of its own and then swapped in:
+    // an interrupted run leaves the old report or none, never a mix of
+    // the two or a report without its index.html. Leftovers of a killed
+    // run are removed first.
+    remove_report_leftovers(dataset_dir)?;
+    let dir = dataset_dir.join(format!(".report.tmp{}", std::process::id()));
     let figs = figures(ev)?;
     for f in &figs {
         atomic_write(&dir.join("figures").join(format!("{}.png", f.name)), &f.png)?;
@@ -620,18 +626,51 @@ pub fn write_report(
         }
     }
     let metrics = metrics_json(ev).to_pretty();
-    let mpath = dir.join("metrics.json");
-    atomic_write(&mpath, metrics.as_bytes())?;
-    let hpath = dir.join("index.html");
-    atomic_write(&hpath, report_html(ev, &figs).as_bytes())?;
+    atomic_write(&dir.join("metrics.json"), metrics.as_bytes())?;
+    atomic_write(&dir.join("index.html"), report_html(ev, &figs).as_bytes())?;
+    swap_in(&dir, &final_dir)?;
     Ok((
         ReportPaths {
-            dir,
-            html: hpath,
-            metrics: mpath,
+            html: final_dir.join("index.html"),
+            metrics: final_dir.join("metrics.json"),
+            dir: final_dir,
         },
         metrics,
     ))
+}
+
+/// Removes `.report.tmp*` and `.report.old*` folders a killed run left in
+/// `dataset_dir`.
+fn remove_report_leftovers(dataset_dir: &Path) -> Result<(), EvalError> {
+    let entries = match std::fs::read_dir(dataset_dir) {
+        Ok(e) => e,
+        Err(e) => return Err(EvalError::io(dataset_dir, e)),
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        if name.starts_with(".report.tmp") || name.starts_with(".report.old") {
+            let p = entry.path();
+            std::fs::remove_dir_all(&p).map_err(|e| EvalError::io(&p, e))?;
+        }
+    }
+    Ok(())
+}
+
+/// Puts the finished folder `new` in the place of `target`: the old one
+/// is moved aside, the new one renamed in, the old one removed.
+fn swap_in(new: &Path, target: &Path) -> Result<(), EvalError> {
+    let old = target.with_file_name(format!(".report.old{}", std::process::id()));
+    let had_old = match std::fs::rename(target, &old) {
+        Ok(()) => true,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => false,
+        Err(e) => return Err(EvalError::io(target, e)),
+    };
+    std::fs::rename(new, target).map_err(|e| EvalError::io(target, e))?;
+    if had_old {
+        std::fs::remove_dir_all(&old).map_err(|e| EvalError::io(&old, e))?;
+    }
+    Ok(())
 }
 
 /// Metric keys used in metrics.json, in table order.
@@ -647,6 +686,39 @@ pub fn metric_keys() -> [&'static str; 3] {
 mod tests {
     use super::*;
     use crate::compare_visual;
+
+    /// The new report takes the old one's place whole: none of the old
+    /// files stays beside the new ones, and what a killed run left is
+    /// cleared first.
+    #[test]
+    fn a_new_report_replaces_the_old_one_whole() {
+        let d = tempfile::tempdir().unwrap();
+        let (report, ds) = (d.path().join("report"), d.path());
+        std::fs::create_dir_all(report.join("figures")).unwrap();
+        std::fs::write(report.join("figures/old_only.png"), b"old").unwrap();
+        std::fs::write(report.join("index.html"), b"old").unwrap();
+        let killed = ds.join(".report.tmp999999");
+        std::fs::create_dir_all(&killed).unwrap();
+        std::fs::write(killed.join("metrics.json"), b"half").unwrap();
+        remove_report_leftovers(ds).unwrap();
+        assert!(!killed.exists());
+        let new = ds.join(".report.tmp1");
+        std::fs::create_dir_all(&new).unwrap();
+        std::fs::write(new.join("index.html"), b"new").unwrap();
+        swap_in(&new, &report).unwrap();
+        assert_eq!(std::fs::read(report.join("index.html")).unwrap(), b"new");
+        assert!(!report.join("figures").exists());
+        let names: Vec<String> = std::fs::read_dir(ds)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, ["report"]);
+        // The first report: nothing to move aside.
+        std::fs::remove_dir_all(&report).unwrap();
+        std::fs::create_dir_all(&new).unwrap();
+        swap_in(&new, &report).unwrap();
+        assert!(report.is_dir() && !new.exists());
+    }
 
     fn row(session: &str, head_yaw: Option<HeadYawReadBack>) -> SessionReadBack {
         let src: Vec<[f64; 2]> = (0..50)

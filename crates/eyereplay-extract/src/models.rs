@@ -210,6 +210,26 @@ pub fn init_runtime(dir: &Path) -> Result<()> {
                 lib.display()
             )));
         }
+        // ort panics (with a backtrace) when the file does not load or
+        // lacks ONNX Runtime's entry point; try both here first.
+        // SAFETY: loading runs the library's initializers, as ort's own
+        // load right after does; the handle only checks one symbol.
+        unsafe {
+            let handle = libloading::Library::new(&lib).map_err(|e| {
+                ExtractError::Runtime(format!(
+                    "{}: not a loadable ONNX Runtime library ({e}); run scripts/setup.sh (or `cargo xtask models`) to fetch it again",
+                    lib.display()
+                ))
+            })?;
+            handle
+                .get::<unsafe extern "C" fn() -> *const std::ffi::c_void>(b"OrtGetApiBase\0")
+                .map_err(|_| {
+                    ExtractError::Runtime(format!(
+                        "{}: not an ONNX Runtime library (no OrtGetApiBase)",
+                        lib.display()
+                    ))
+                })?;
+        }
         ort::init_from(lib.to_string_lossy().to_string())
             .with_name("eyereplay")
             .commit()

@@ -160,6 +160,10 @@ pub struct Extraction {
     pub on_cuda: bool,
     /// Wall time of the whole run this video was part of.
     pub elapsed_s: f64,
+    /// What the user should know that did not stop the extraction, one
+    /// line each without the file's name: corrupt data skipped, a video
+    /// that ends well before the duration its container declares.
+    pub warnings: Vec<String>,
 }
 
 impl Extraction {
@@ -348,8 +352,14 @@ fn finish_video(
     if let Some(t0) = blinks_t0 {
         stage_times.charge(Stage::Post, thread_cpu_s() - t0);
     }
+    let mut warnings = vec![];
+    if decode_errors > 0 {
+        warnings.push(format!("{decode_errors} corrupt packets or frames skipped"));
+    }
+    warnings.extend(ended_early(&info, &rows, opts.max_duration_s));
     Ok(Extraction {
         path: path.to_path_buf(),
+        warnings,
         info,
         rows,
         face_frames,
@@ -364,6 +374,29 @@ fn finish_video(
 }
 
 /// Where `--max-seconds` stops a video (stream clock), if it does.
+/// A warning when the decoded frames stop well short of the duration the
+/// container declares for the video stream (up to `max_duration_s`): a
+/// download or copy cut off, whose missing end would otherwise pass as
+/// the whole recording. "Well short": by more than a second and 2 % of
+/// the declared span, past what edit lists and rounding move.
+fn ended_early(info: &VideoInfo, rows: &[Row], max_duration_s: Option<f64>) -> Option<String> {
+    let declared_s = match (info.duration_s, max_duration_s) {
+        (Some(d), Some(m)) => d.min(m),
+        (Some(d), None) => d,
+        (None, _) => return None,
+    };
+    let (first, last) = (rows.first()?, rows.last()?);
+    // The last frame lasts one frame interval.
+    let frame_s = info.avg_fps.filter(|f| *f > 0.0).map_or(0.0, |f| 1.0 / f);
+    let decoded_s = last.time_s - first.time_s + frame_s;
+    (declared_s - decoded_s > (0.02 * declared_s).max(1.0)).then(|| {
+        format!(
+            "the frames end at {decoded_s:.1} s of the {declared_s:.1} s the file declares \
+             (cut off?); the rows stop there"
+        )
+    })
+}
+
 fn end_limit(info: &VideoInfo, max_duration_s: Option<f64>) -> Option<f64> {
     max_duration_s.map(|d| info.start_s + d)
 }
@@ -757,6 +790,48 @@ pub fn extract_video_to_csv(video: &Path, csv: &Path, opts: &ExtractOptions) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A video declared 200 s long at 25 fps whose frames stop at
+    /// `frames`: the span they cover is `frames / 25` s (the last frame
+    /// lasts 40 ms), against 200 s or `max_s`.
+    fn span_warning(frames: usize, declared_s: Option<f64>, max_s: Option<f64>) -> Option<String> {
+        let info = VideoInfo {
+            width: 360,
+            height: 288,
+            rotation: Rotation::None,
+            start_s: 0.5,
+            duration_s: declared_s,
+            frames_estimate: None,
+            avg_fps: Some(25.0),
+            codec: "h264".into(),
+        };
+        let rows: Vec<Row> = (0..frames)
+            .map(|k| Row::from_face(k as u64, 0.5 + k as f64 / 25.0, None))
+            .collect();
+        ended_early(&info, &rows, max_s)
+    }
+
+    /// The cut-off check by hand: 2,200 frames cover 88.0 s of a declared
+    /// 200; the threshold is the larger of 1 s and 2 % of the declared
+    /// span (4 s of 200, 1 s of 30).
+    #[test]
+    fn a_video_that_stops_short_of_its_declared_length_is_named() {
+        let w = span_warning(2200, Some(200.0), None).expect("88 s of 200");
+        assert!(w.contains("88.0 s of the 200.0 s"), "{w}");
+        // 196.4 s covered: 3.6 s short, under 4 s.
+        assert_eq!(span_warning(4910, Some(200.0), None), None);
+        // 195.6 s covered: 4.4 s short.
+        assert!(span_warning(4890, Some(200.0), None).is_some());
+        // --max-seconds 30 asks for 30 s: 750 frames are all of it, 700
+        // (28 s) are 2 s short, over the 1 s floor.
+        assert_eq!(span_warning(750, Some(200.0), Some(30.0)), None);
+        assert!(span_warning(700, Some(200.0), Some(30.0))
+            .expect("28 s of 30")
+            .contains("28.0 s of the 30.0 s"));
+        // No declared duration (a stream): nothing to compare with.
+        assert_eq!(span_warning(10, None, Some(30.0)), None);
+        assert_eq!(span_warning(0, Some(200.0), None), None);
+    }
 
     /// Options out of range are refused by their name, in one line, and
     /// an extraction with them fails before it opens a model or a video.

@@ -4,7 +4,7 @@
 
 use crate::detector_eval::{ConditionResult, DetectorEvaluation};
 use eyereplay::Result;
-use eyereplay_detect::model::write_atomic;
+use eyereplay_core::atomic_write;
 use eyereplay_detect::AurocCi;
 use eyereplay_eval::plot::{reliability_figure, roc_figure, Figure, RocCurve};
 use std::fmt::Write as _;
@@ -34,7 +34,7 @@ fn png_b64(f: &Figure) -> String {
 pub fn write(out: &Path, ev: &DetectorEvaluation) -> Result<()> {
     let mut json = serde_json::to_string_pretty(ev).expect("evaluation serializes");
     json.push('\n');
-    write_atomic(&out.join("detector_eval.json"), json.as_bytes())?;
+    atomic_write(&out.join("detector_eval.json"), json.as_bytes())?;
     let figs_dir = out.join("figures");
     let mut figs = Vec::new();
     let mut keys: Vec<(f64, String)> = ev
@@ -77,8 +77,8 @@ pub fn write(out: &Path, ev: &DetectorEvaluation) -> Result<()> {
             .collect();
         let name = format!("roc_{mode}_{w}s");
         let f = roc_figure(&name, &panels)?;
-        write_atomic(&figs_dir.join(format!("{name}.png")), &f.png)?;
-        write_atomic(&figs_dir.join(format!("{name}.svg")), f.svg.as_bytes())?;
+        atomic_write(&figs_dir.join(format!("{name}.png")), &f.png)?;
+        atomic_write(&figs_dir.join(format!("{name}.svg")), f.svg.as_bytes())?;
         figs.push((w, mode.clone(), f));
     }
     // Reliability: one figure, a panel per condition of the first window
@@ -112,10 +112,10 @@ pub fn write(out: &Path, ev: &DetectorEvaluation) -> Result<()> {
         })
         .collect();
     let rel = reliability_figure("reliability", &panels)?;
-    write_atomic(&figs_dir.join("reliability.png"), &rel.png)?;
-    write_atomic(&figs_dir.join("reliability.svg"), rel.svg.as_bytes())?;
+    atomic_write(&figs_dir.join("reliability.png"), &rel.png)?;
+    atomic_write(&figs_dir.join("reliability.svg"), rel.svg.as_bytes())?;
     let html = html(ev, &figs, &rel);
-    write_atomic(&out.join("index.html"), html.as_bytes())?;
+    atomic_write(&out.join("index.html"), html.as_bytes())?;
     Ok(())
 }
 

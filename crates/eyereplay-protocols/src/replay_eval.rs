@@ -112,17 +112,33 @@ fn residual(y: &[f64], x: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+/// Fewer frames than this compared give no fidelity figures (n/a): a
+/// correlation needs a few points, and `compare_visual` refuses fewer.
+const MIN_FRAMES: usize = 3;
+
 fn check(carrier: &str, class: &str, f: &Frames) -> Result<ReplayCheck> {
-    let v = compare_visual(&f.target, &f.read, None)?;
+    let (n_frames, x, y) = if f.target.len() < MIN_FRAMES {
+        let none = AxisFidelity {
+            r: None,
+            amplitude_ratio: None,
+            gain: None,
+            std_source: f64::NAN,
+            std_rendered: f64::NAN,
+        };
+        (f.target.len(), none, none)
+    } else {
+        let v = compare_visual(&f.target, &f.read, None)?;
+        (v.n_frames, v.x, v.y)
+    };
     let col = |v: &[[f64; 2]], k: usize| v.iter().map(|p| p[k]).collect::<Vec<_>>();
     let mean = |v: &[f64]| mean(v).unwrap_or(f64::NAN);
     Ok(ReplayCheck {
         carrier: carrier.into(),
         class: class.into(),
         sessions: f.sessions,
-        frames: v.n_frames,
-        x: v.x,
-        y: v.y,
+        frames: n_frames,
+        x,
+        y,
         removal_r_x: pearson(&col(&f.read, 0), &col(&f.carrier_n, 0)),
         removal_r_y: pearson(&col(&f.read, 1), &col(&f.carrier_n, 1)),
         chance_r_x: pearson(&col(&f.target, 0), &col(&f.carrier_n, 0)),
@@ -179,6 +195,14 @@ pub fn evaluate_replay(
             "not a replay dataset (render.backend is not \"replay\")",
         ));
     };
+    for c in carriers {
+        if c.is_dir() {
+            return Err(Error::input(c, "--carrier: is a folder, not a video"));
+        }
+        if !c.is_file() {
+            return Err(Error::input(c, "--carrier: no such video"));
+        }
+    }
     let mut candidates = carriers.to_vec();
     candidates.extend(configured.iter().cloned());
     candidates.extend(eyereplay_backends::replay::carrier_videos(&[], |p| {
@@ -186,54 +210,128 @@ pub fn evaluate_replay(
     }));
     let cache = eyereplay_core::cache_dir(None);
     let labels = eyereplay_dataset::read_labels(dataset)?;
-    let paths: Vec<eyereplay_dataset::SessionPaths> = labels
-        .iter()
-        .map(|l| {
-            eyereplay_dataset::SessionPaths::new(dataset, &l.file)
-                .map_err(|e| Error::input(dataset.join("labels.csv"), e.to_string()))
-        })
-        .collect::<Result<_>>()?;
-    let videos: Vec<PathBuf> = paths.iter().map(|p| p.mp4.clone()).collect();
-    let csvs = eyereplay::extract_cached(&videos, &cache, progress)?;
-    let mut hashes = BTreeMap::new();
-    let mut prepared: BTreeMap<String, eyereplay_replay::Carrier> = BTreeMap::new();
-    let mut groups: BTreeMap<(String, String), Frames> = BTreeMap::new();
-    let mut sessions = vec![];
-    for ((label, paths), read_csv) in labels.iter().zip(&paths).zip(&csvs) {
-        let ident = eyereplay_dataset::SessionIdentity::read(&paths.identity_json)?;
+    let listed: Vec<(&str, eyereplay_core::GazeClass)> =
+        labels.iter().map(|l| (l.file.as_str(), l.class)).collect();
+    eyereplay::check_labels_against_plan(dataset, &meta.dataset, &listed)?;
+    let frames = meta.dataset.session_frames;
+
+    // Every session's files read and checked, and every carrier found,
+    // before any video is extracted (minutes on a large dataset).
+    struct Ready {
+        name: String,
+        sha: String,
+        kept: Vec<eyereplay_replay::CarrierCsvRow>,
+        truth: Vec<eyereplay_dataset::TruthRow>,
+    }
+    let mut ready = Vec::with_capacity(labels.len());
+    let mut paths = Vec::with_capacity(labels.len());
+    for label in &labels {
+        let p = eyereplay_dataset::SessionPaths::new(dataset, &label.file)
+            .map_err(|e| Error::input(dataset.join("labels.csv"), e.to_string()))?;
+        if !p.mp4.is_file() {
+            return Err(Error::input(&p.mp4, "no such video"));
+        }
+        let ident = eyereplay_dataset::SessionIdentity::read(&p.identity_json)?;
+        if ident.file != label.file {
+            return Err(Error::input(
+                &p.identity_json,
+                format!("is the identity of {}, not of {}", ident.file, label.file),
+            ));
+        }
         let field = |k: &str| {
             ident.identity[k]
                 .as_str()
                 .map(str::to_string)
-                .ok_or_else(|| Error::input(&paths.identity_json, format!("no {k}")))
+                .ok_or_else(|| Error::input(&p.identity_json, format!("no {k}")))
         };
         let (name, sha) = (field("carrier")?, field("carrier_sha256")?);
-        if !prepared.contains_key(&sha) {
-            let video = find_carrier(&sha, &candidates, &mut hashes)?.ok_or_else(|| {
+        let kept = eyereplay_replay::read_carrier_csv(&p.carrier_csv())?;
+        let truth = eyereplay_dataset::read_truth_csv(&p.truth)?;
+        for (file, rows) in [
+            (p.carrier_csv(), kept.len()),
+            (p.truth.clone(), truth.len()),
+        ] {
+            if rows != frames {
+                return Err(Error::input(
+                    &file,
+                    format!("{rows} rows; the dataset's sessions have {frames} frames"),
+                ));
+            }
+        }
+        ready.push(Ready {
+            name,
+            sha,
+            kept,
+            truth,
+        });
+        paths.push(p);
+    }
+    let mut hashes = BTreeMap::new();
+    let mut prepared: BTreeMap<String, eyereplay_replay::Carrier> = BTreeMap::new();
+    for (r, p) in ready.iter().zip(&paths) {
+        if !prepared.contains_key(&r.sha) {
+            let video = find_carrier(&r.sha, &candidates, &mut hashes)?.ok_or_else(|| {
                 Error::input(
-                    &paths.identity_json,
-                    format!("carrier {name} (sha256 {sha}) not found; pass it with --carrier PATH"),
+                    &p.identity_json,
+                    format!(
+                        "carrier {} (sha256 {}) not found; pass it with --carrier PATH",
+                        r.name, r.sha
+                    ),
                 )
             })?;
             let track = eyereplay_backends::replay::carrier_track(&video, &cache, progress)?;
             let carrier = eyereplay_replay::Carrier::prepare(&video, track)?;
-            prepared.insert(sha.clone(), carrier);
+            prepared.insert(r.sha.clone(), carrier);
         }
-        let carrier = &prepared[&sha];
-        let kept = eyereplay_replay::read_carrier_csv(&paths.carrier_csv())?;
-        let truth = eyereplay_dataset::read_truth_csv(&paths.truth)?;
-        let r = Columns::read(read_csv)?;
+        let carrier_frames = prepared[&r.sha].track.frames.len();
+        if let Some(k) = r
+            .kept
+            .iter()
+            .position(|c| c.carrier_frame >= carrier_frames)
+        {
+            return Err(Error::input(
+                p.carrier_csv(),
+                format!(
+                    "line {}: carrier_frame {} is past the carrier's {carrier_frames} frames ({})",
+                    k + 2,
+                    r.kept[k].carrier_frame,
+                    r.name
+                ),
+            ));
+        }
+    }
+    for c in carriers {
+        if !hashes
+            .get(c)
+            .is_some_and(|h| prepared.contains_key(h.as_str()))
+        {
+            progress.warn(&format!(
+                "warning: --carrier {}: no session of {} was replayed on it",
+                c.display(),
+                dataset.display()
+            ));
+        }
+    }
+
+    let videos: Vec<PathBuf> = paths.iter().map(|p| p.mp4.clone()).collect();
+    let csvs = eyereplay::extract_cached(&videos, &cache, progress)?;
+    let mut groups: BTreeMap<(String, String), Frames> = BTreeMap::new();
+    let mut sessions = vec![];
+    for (((label, paths), read_csv), r) in labels.iter().zip(&paths).zip(&csvs).zip(&ready) {
+        let (name, kept, truth) = (&r.name, &r.kept, &r.truth);
+        let carrier = &prepared[&r.sha];
+        let rc = Columns::read(read_csv)?;
         let (valid, rnx, rny, rscore) = (
-            r.col(read_csv, "valid")?,
-            r.col(read_csv, "nx")?,
-            r.col(read_csv, "ny")?,
-            r.col(read_csv, "face_score")?,
+            rc.col(read_csv, "valid")?,
+            rc.col(read_csv, "nx")?,
+            rc.col(read_csv, "ny")?,
+            rc.col(read_csv, "face_score")?,
         );
         let mut f = Frames {
             sessions: 1,
             ..Default::default()
         };
-        for (k, (c, t)) in kept.iter().zip(&truth).enumerate().take(valid.len()) {
+        for (k, (c, t)) in kept.iter().zip(truth).enumerate().take(valid.len()) {
             f.score_out.push(rscore[k].unwrap_or(0.0));
             f.score_carrier.push(c.face_score);
             let ok = c.redrawn && valid[k] == Some(1.0);
@@ -243,12 +341,20 @@ pub fn evaluate_replay(
                 f.carrier_n.push(own);
             }
         }
+        if f.target.len() < MIN_FRAMES {
+            progress.warn(&format!(
+                "warning: {}: {} of its frames were redrawn and read back open ({} redrawn); its fidelity is n/a",
+                paths.mp4.display(),
+                f.target.len(),
+                kept.iter().filter(|c| c.redrawn).count()
+            ));
+        }
         let plan: Vec<usize> = kept.iter().map(|c| c.carrier_frame).collect();
         f.psnr_db.push(eyereplay_replay::psnr_outside_eyes(
             carrier, &paths.mp4, &plan, PSNR_EVERY,
         )?);
         let class = label.class.to_string();
-        sessions.push((label.file.clone(), check(&name, &class, &f)?));
+        sessions.push((label.file.clone(), check(name, &class, &f)?));
         // Per class, and per carrier over both classes.
         for key in [(name.clone(), class), (name.clone(), "both".to_string())] {
             let g = groups.entry(key).or_default();

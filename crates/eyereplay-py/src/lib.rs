@@ -44,7 +44,7 @@ create_exception!(
     eyereplay,
     ModelError,
     EyereplayError,
-    "The face/iris models or the ONNX Runtime library are missing or do not match their pinned sha256 (run scripts/setup.sh or scripts/models.sh in an eyereplay checkout)."
+    "The face/iris models or the ONNX Runtime library are missing or do not match their pinned sha256 (run scripts/setup.sh or scripts/models.sh in an eyereplay checkout), or a detector model file is missing or not one this eyereplay reads."
 );
 create_exception!(
     eyereplay,
@@ -321,6 +321,7 @@ fn extract<'py>(
         d.set_item("valid_frames", x.valid_frames())?;
         d.set_item("blinks", x.blinks)?;
         d.set_item("decode_errors", x.decode_errors)?;
+        d.set_item("warnings", &x.warnings)?;
         d.set_item("on_cuda", x.on_cuda)?;
         out.append(d)?;
     }
@@ -502,22 +503,37 @@ impl FrameExtractor {
 /// session CSV (`eyereplay detect`): the detection as JSON, as the
 /// command writes it.
 #[pyfunction]
-#[pyo3(signature = (input, model, cache=None))]
+#[pyo3(signature = (input, model, cache=None, progress=None))]
 fn detect(
     py: Python<'_>,
     input: PathBuf,
     model: PathBuf,
     cache: Option<PathBuf>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
     let cache = cache_of(cache);
+    let progress = PyProgress(progress);
+    // One class per thing at fault: the detector file is a model; the
+    // input, a video or a gaze CSV, whatever layer noticed its problem
+    // (missing, not a kind `detect` reads, too little gaze), except the
+    // extraction's own models.
+    let m = py
+        .allow_threads(|| eyereplay::detect::DetectorModel::load(&model))
+        .map_err(|e| ModelError::new_err(e.to_string()))?;
+    let input_kind = if eyereplay::detector::is_video(&input) {
+        Kind::Video
+    } else {
+        Kind::Source
+    };
     let d = py
         .allow_threads(|| -> Result<_, Error> {
-            let m = eyereplay::detect::DetectorModel::load(&model)?;
-            let (track, info) =
-                eyereplay::detector::load_track(&input, &cache, &eyereplay::NoProgress)?;
+            let (track, info) = eyereplay::detector::load_track(&input, &cache, &progress)?;
             eyereplay::detector::detect_track(&track, info, &m, &model)
         })
-        .map_err(py_err)?;
+        .map_err(|e| match kind_of(&e) {
+            Kind::Model => py_err(e),
+            _ => raise(input_kind, e.to_string()),
+        })?;
     serde_json::to_string(&d).map_err(|e| EyereplayError::new_err(e.to_string()))
 }
 

@@ -2,6 +2,7 @@
 line's one-line messages, and nothing is left half-written."""
 
 import json
+import re
 import shutil
 
 import pytest
@@ -173,3 +174,75 @@ def test_detect_on_too_few_frames_names_the_frames_not_a_temporary_file():
     msg = str(e.value)
     assert msg.startswith("frames: ") and "not enough gaze" in msg, msg
     assert "eyereplay-detect-" not in msg and "\n" not in msg
+
+
+def test_detect_errors_name_what_is_at_fault_by_class(tmp_path):
+    session = tmp_path / "s.csv"
+    session.write_text("frame,x,y\n" + "".join(f"{k},640,360\n" for k in range(30)))
+    # The detector file: missing, or not a detector.
+    with pytest.raises(eyereplay.ModelError, match="not found"):
+        eyereplay.detect(session, model=tmp_path / "none.json", progress=False)
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"kind": "svm"}')
+    with pytest.raises(eyereplay.ModelError) as e:
+        eyereplay.detect(session, model=bad, progress=False)
+    assert str(e.value).startswith(str(bad)) and "\n" not in str(e.value)
+    # The input: a CSV of no kind detect reads is a source; a video that
+    # is not one, a video.
+    other = tmp_path / "other.csv"
+    other.write_text("a,b\n1,2\n")
+    with pytest.raises(eyereplay.SourceError, match="header: a,b"):
+        eyereplay.detect(other, progress=False)
+    fake = tmp_path / "fake.mp4"
+    fake.write_bytes(b"not a video")
+    with pytest.raises(eyereplay.VideoError, match="fake.mp4"):
+        eyereplay.detect(fake, progress=False)
+    with pytest.raises(eyereplay.VideoError, match="no such file"):
+        eyereplay.detect(tmp_path / "gone.mp4", progress=False)
+
+
+def test_progress_must_be_a_flag_or_an_object_with_its_methods(tmp_path):
+    video = DATA / "franck.mp4"
+    # Refused before any work, naming what it takes.
+    for bad in ("yes", 1, object()):
+        with pytest.raises(TypeError, match="progress: expected True, False, None"):
+            eyereplay.extract(video, out=tmp_path / "x.csv", progress=bad)
+    assert not (tmp_path / "x.csv").exists()
+
+    # An object with some of the methods gets the events it can take;
+    # the rest do nothing (no exception on a worker thread per event).
+    class Count:
+        frames = 0
+
+        def advance(self, n):
+            Count.frames += n
+
+    t = eyereplay.extract(video, max_seconds=1, progress=Count())
+    assert 0 < Count.frames and len(t["frame"]) > 0
+
+
+def test_fps_true_is_not_one_frame_a_second():
+    import numpy as np
+
+    frames = np.zeros((2, 8, 8, 3), dtype=np.uint8)
+    with pytest.raises(eyereplay.ConfigError, match="fps True"):
+        eyereplay.extract(frames, fps=True, progress=False)
+
+
+def test_a_video_cut_off_part_way_warns_with_its_name(tmp_path):
+    import subprocess
+
+    whole = tmp_path / "whole.mp4"
+    subprocess.run(
+        ["ffmpeg", "-v", "error", "-i", str(DATA / "franck.mp4"), "-t", "8", "-c", "copy",
+         "-movflags", "+faststart", str(whole)],
+        check=True,
+    )
+    cut = tmp_path / "cut.mp4"
+    cut.write_bytes(whole.read_bytes()[: whole.stat().st_size // 2])
+    with pytest.warns(eyereplay.EyereplayWarning) as said:
+        t = eyereplay.extract(cut, progress=False)
+    # The cut may also leave a corrupt packet, its own warning.
+    pattern = r"cut\.mp4: the frames end at [0-9.]+ s of the 8\.[0-5] s"
+    assert any(re.search(pattern, str(w.message)) for w in said), [str(w.message) for w in said]
+    assert 0 < len(t["frame"]) < 8 * 24

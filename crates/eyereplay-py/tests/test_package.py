@@ -83,3 +83,16 @@ def test_every_shared_library_in_the_wheel_keeps_the_manylinux_2_35_policy():
         needed = {l.split()[1] for l in out.stdout.splitlines() if l.strip().startswith("NEEDED")}
         assert needed and needed <= policy, (so.name, needed - policy)
         assert max(_glibc_versions(so)) <= (2, 35), so.name
+
+
+def test_the_type_stubs_declare_every_native_function_and_class():
+    # _native.pyi is written by hand: a function added to the extension
+    # and not to the stubs is invisible to type checkers and editors.
+    import ast
+
+    from eyereplay import _native
+
+    stubs = ast.parse((Path(eyereplay.__file__).parent / "_native.pyi").read_text())
+    declared = {n.name for n in stubs.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+    native = {k for k in dir(_native) if not k.startswith("_") and callable(getattr(_native, k))}
+    assert native == declared, (sorted(native - declared), sorted(declared - native))

@@ -43,6 +43,6 @@ pub use error::{ReplayError, Result};
 pub use frame::{FrameView, RgbFrame};
 pub use session::{
     plan_frames, psnr_outside_eyes, read_carrier_csv, render_replay_session, run_replay_bench,
-    start_frame, Calibration, Carrier, CarrierCsvRow, ReplayStats, Response, APPEARANCE_FRAMES,
-    CALIBRATION_VERSION, CARRIER_CSV_HEADER, GEOMETRY_SMOOTHING_HALF,
+    start_frame, usable_start_frame, Calibration, Carrier, CarrierCsvRow, ReplayStats, Response,
+    APPEARANCE_FRAMES, CALIBRATION_VERSION, CARRIER_CSV_HEADER, GEOMETRY_SMOOTHING_HALF,
 };

@@ -72,9 +72,20 @@ pub fn read_carrier_csv(path: &Path) -> Result<Vec<CarrierCsvRow>> {
             };
             let need =
                 |k: usize| num(k)?.ok_or_else(|| bad(i + 2, format!("column {} is empty", k + 1)));
+            let frame = need(1)?;
+            if !(frame >= 0.0 && frame.fract() == 0.0) {
+                return Err(bad(
+                    i + 2,
+                    format!("carrier_frame {frame} is not a frame index"),
+                ));
+            }
+            let redrawn = match need(3)? {
+                v if v == 0.0 || v == 1.0 => v == 1.0,
+                v => return Err(bad(i + 2, format!("redrawn {v} is not 0 or 1"))),
+            };
             Ok(CarrierCsvRow {
-                carrier_frame: need(1)? as usize,
-                redrawn: need(3)? == 1.0,
+                carrier_frame: frame as usize,
+                redrawn,
                 face_score: need(5)?,
                 carrier_n: num(6)?.zip(num(7)?).map(|(x, y)| [x, y]),
             })
@@ -472,6 +483,52 @@ pub fn start_frame(times_s: &[f64], frames: usize, fps: f64, seed: u64) -> usize
     (eyereplay_core::splitmix64(seed) % (last_start as u64 + 1)) as usize
 }
 
+/// Seeded starts [`usable_start_frame`] tries before it settles.
+const START_TRIES: u64 = 16;
+
+/// [`start_frame`], moved off a stretch of the carrier whose eyes cannot
+/// be redrawn (a long squint, the head turned away): such a session would
+/// show the carrier's own gaze under the class's label. The first try is
+/// [`start_frame`]'s own start, kept when at least half the session's
+/// frames are redrawn (so a carrier usable throughout starts where it
+/// always did); else up to [`START_TRIES`] seeded starts, the first that
+/// redraws half, or the one that redraws the most.
+pub fn usable_start_frame(carrier: &Carrier, frames: usize, fps: f64, seed: u64) -> usize {
+    usable_start(&carrier.times_s, frames, fps, seed, |i| {
+        carrier.track.skip(i).is_none()
+    })
+}
+
+/// [`usable_start_frame`] over the carrier's frame times and which of
+/// its frames can be redrawn.
+fn usable_start(
+    times_s: &[f64],
+    frames: usize,
+    fps: f64,
+    seed: u64,
+    usable: impl Fn(usize) -> bool,
+) -> usize {
+    let redrawn = |start: usize| {
+        plan_frames(times_s, start, frames, fps)
+            .into_iter()
+            .filter(|&i| usable(i))
+            .count()
+    };
+    let first = start_frame(times_s, frames, fps, seed);
+    let mut best = (redrawn(first), first);
+    for t in 1..START_TRIES {
+        if 2 * best.0 >= frames {
+            break;
+        }
+        let s = start_frame(times_s, frames, fps, eyereplay_core::splitmix64(seed ^ t));
+        let n = redrawn(s);
+        if n > best.0 {
+            best = (n, s);
+        }
+    }
+    best.1
+}
+
 /// The carrier frame each of `frames` output frames (at `fps`) shows,
 /// from `start` on: real time, so the head moves at its real speed; at
 /// the clip's end the clip plays backwards, then forwards again (a
@@ -773,6 +830,38 @@ pub fn psnr_outside_eyes(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A 20-s carrier at 25 fps whose frames 150-349 (8 s) cannot be
+    /// redrawn: a 4-s session must land where at least half its frames
+    /// can be (half the possible starts, so 16 tries miss with odds of
+    /// 2^-16), and a carrier usable throughout keeps the plain start.
+    #[test]
+    fn sessions_start_where_the_carrier_s_eyes_can_be_redrawn() {
+        let t: Vec<f64> = (0..500).map(|k| k as f64 / 25.0).collect();
+        let usable = |i: usize| !(150..350).contains(&i);
+        let mut moved = 0;
+        for seed in 0..40 {
+            let s = usable_start(&t, 100, 25.0, seed, usable);
+            let redrawn = plan_frames(&t, s, 100, 25.0)
+                .into_iter()
+                .filter(|&i| usable(i))
+                .count();
+            assert!(redrawn >= 50, "seed {seed}: start {s}, {redrawn} redrawn");
+            moved += usize::from(s != start_frame(&t, 100, 25.0, seed));
+            assert_eq!(
+                usable_start(&t, 100, 25.0, seed, |_| true),
+                start_frame(&t, 100, 25.0, seed)
+            );
+        }
+        // About half the plain starts put the session mostly in the
+        // unusable 8 s: those were moved.
+        assert!(moved >= 10, "{moved} of 40 moved");
+        // Nothing usable: the plain start, nothing better to find.
+        assert_eq!(
+            usable_start(&t, 100, 25.0, 3, |_| false),
+            start_frame(&t, 100, 25.0, 3)
+        );
+    }
 
     #[test]
     fn plan_plays_in_real_time_and_ping_pongs_at_the_ends() {

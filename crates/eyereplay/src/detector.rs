@@ -442,7 +442,7 @@ fn save_corner_track(path: &Path, n: &[[f64; 2]]) -> Result<()> {
     for (i, p) in n.iter().enumerate() {
         text += &format!("{i},{},{}\n", p[0], p[1]);
     }
-    eyereplay_detect::model::write_atomic(path, text.as_bytes())?;
+    eyereplay_core::atomic_write(path, text.as_bytes())?;
     Ok(())
 }
 

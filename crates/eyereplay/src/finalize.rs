@@ -4,7 +4,8 @@
 
 use crate::evaluate::{evaluate, EvaluateOptions, EvaluateOutcome};
 use crate::{Error, Result};
-use eyereplay_backends::is_complete;
+use eyereplay_backends::{csv_data_rows, is_complete};
+use eyereplay_core::GazeClass;
 use eyereplay_dataset::{
     read_metadata, write_metadata, DatasetMetadata, Metadata, RenderMetadata, SessionIdentity,
 };
@@ -40,6 +41,14 @@ pub fn finalize(
 ) -> Result<Option<EvaluateOutcome>> {
     let meta = read_metadata(dir)?;
     let jobs = list_sessions(dir, meta.dataset.seed)?;
+    // Everything is checked before metadata.json is rewritten: a merge
+    // that fails leaves the dataset as it found it.
+    let listed: Vec<(&str, GazeClass)> = jobs
+        .iter()
+        .map(|j| (j.paths.file.as_str(), j.class))
+        .collect();
+    check_labels_against_plan(dir, &meta.dataset, &listed)?;
+    check_trajectories(dir, &meta.dataset, &jobs)?;
     let missing = incomplete(dir, &meta.dataset)?;
     if !missing.is_empty() {
         let shown: Vec<&str> = missing
@@ -50,9 +59,10 @@ pub fn finalize(
         return Err(Error::input(
             dir,
             format!(
-                "{} of {} sessions are not rendered: {}{} (rerun the shard(s) that own them with the same command)",
+                "{} of {} sessions are not rendered whole (a video of other than session_frames = {} frames, its truth file short or missing, or its identity file missing): {}{} (rerun the shard(s) that own them with the same command)",
                 missing.len(),
                 jobs.len(),
+                meta.dataset.session_frames,
                 shown.join(", "),
                 if missing.len() > shown.len() { ", ..." } else { "" }
             ),
@@ -60,12 +70,93 @@ pub fn finalize(
     }
     let sessions = jobs
         .iter()
-        .map(|j| SessionIdentity::read(&j.paths.identity_json))
-        .collect::<std::result::Result<Vec<_>, _>>()?;
+        .map(|j| {
+            let id = SessionIdentity::read(&j.paths.identity_json)?;
+            // A file copied from another session would put that
+            // session's identity into metadata.json under this one.
+            if id.file != j.paths.file {
+                return Err(Error::input(
+                    &j.paths.identity_json,
+                    format!("is the identity of {}, not of {}", id.file, j.paths.file),
+                ));
+            }
+            Ok(id)
+        })
+        .collect::<Result<Vec<_>>>()?;
     let merged = Metadata {
         dataset: meta.dataset,
         render: Some(RenderMetadata { sessions }),
     };
     write_metadata(dir, &merged)?;
     evaluate_with.map(|o| evaluate(dir, o)).transpose()
+}
+
+/// `labels.csv` lists the sessions `metadata.json` planned, in its order
+/// and classes: a row lost, cut off, repeated or edited would otherwise be
+/// merged (and evaluated) as if it were the dataset. `listed`: each row's
+/// session file and class.
+pub fn check_labels_against_plan(
+    dir: &Path,
+    meta: &DatasetMetadata,
+    listed: &[(&str, GazeClass)],
+) -> Result<()> {
+    let planned: Vec<(&str, GazeClass)> = meta
+        .sessions
+        .iter()
+        .map(|s| (s.file.as_str(), s.class))
+        .collect();
+    if listed == planned.as_slice() {
+        return Ok(());
+    }
+    let show = |e: Option<&(&str, GazeClass)>| match e {
+        Some((file, class)) => format!("{file} ({})", class.name()),
+        None => "nothing".into(),
+    };
+    let k = listed
+        .iter()
+        .zip(&planned)
+        .take_while(|(a, b)| a == b)
+        .count();
+    Err(Error::input(
+        dir.join(eyereplay_dataset::layout::LABELS_FILE),
+        format!(
+            "lists {} sessions where metadata.json plans {}; from session {} on it has {} where the plan has {} (restore it, or prepare the dataset again)",
+            listed.len(),
+            planned.len(),
+            k + 1,
+            show(listed.get(k)),
+            show(planned.get(k)),
+        ),
+    ))
+}
+
+/// Each session's trajectory CSV (what `labels.csv` points at) is there
+/// with its `session_frames` rows.
+fn check_trajectories(dir: &Path, meta: &DatasetMetadata, jobs: &[SessionJob]) -> Result<()> {
+    let bad: Vec<String> = jobs
+        .par_iter()
+        .filter_map(|j| {
+            let why = match csv_data_rows(&j.paths.csv) {
+                None => "missing or unreadable".to_string(),
+                Some(rows) if rows == meta.session_frames => return None,
+                Some(rows) => format!("{rows} rows"),
+            };
+            Some(format!("{} ({why})", j.paths.file))
+        })
+        .collect();
+    if bad.is_empty() {
+        return Ok(());
+    }
+    let shown: Vec<&str> = bad.iter().take(12).map(String::as_str).collect();
+    Err(Error::input(
+        dir,
+        format!(
+            "{} of {} session trajectories are not whole ({} rows each): {}{} (prepare the dataset again)",
+            bad.len(),
+            jobs.len(),
+            meta.session_frames,
+            shown.join(", "),
+            if bad.len() > shown.len() { ", ..." } else { "" }
+        ),
+    ))
 }

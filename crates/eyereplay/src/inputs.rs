@@ -164,6 +164,10 @@ pub fn extract_cached_with(
     for ((video, csv), r) in todo.iter().zip(results) {
         let ex = r?;
         eyereplay_extract::save_csv(csv, &ex.rows)?;
+        // Said when the extraction runs, not on later cache hits.
+        for w in &ex.warnings {
+            progress.warn(&format!("warning: {}: {w}", video.display()));
+        }
         progress.info(&format!(
             "extracted {} ({} landmarks): {} frames, face in {:.1} %, cached as {}",
             video.display(),

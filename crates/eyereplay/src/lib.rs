@@ -69,7 +69,7 @@ pub mod profile;
 pub use detection_page::detection_page;
 pub use error::{Error, Result};
 pub use evaluate::{evaluate, EvaluateOptions, EvaluateOutcome, VisualChoice};
-pub use finalize::{finalize, missing_sessions};
+pub use finalize::{check_labels_against_plan, finalize, missing_sessions};
 pub use generate::{
     estimate_bytes_per_frame, generate, plan, plan_config, render_table, GenerateOptions,
     GenerateSummary, Job,

@@ -121,12 +121,12 @@ fn write_detection(
     let html_path = out_dir.join(format!("{stem}_detect.html"));
     let mut text = serde_json::to_string_pretty(d)?;
     text.push('\n');
-    eyereplay::detect::model::write_atomic(&json_path, text.as_bytes())?;
+    eyereplay::core::atomic_write(&json_path, text.as_bytes())?;
     let fig = detection_figure(track, d)?;
-    eyereplay::detect::model::write_atomic(&png_path, &fig.png)?;
+    eyereplay::core::atomic_write(&png_path, &fig.png)?;
     // The reviewer's page links the video by a path relative to itself.
     let page = eyereplay::detection_page(track, d, video_href);
-    eyereplay::detect::model::write_atomic(&html_path, page.as_bytes())?;
+    eyereplay::core::atomic_write(&html_path, page.as_bytes())?;
     Ok((text, [json_path, png_path, html_path]))
 }
 

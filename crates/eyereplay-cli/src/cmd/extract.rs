@@ -293,11 +293,8 @@ pub fn run(a: Args) -> Result<()> {
             x.blinks,
             out.display()
         );
-        if x.decode_errors > 0 {
-            println!(
-                "  warning: {} corrupt packets or frames skipped",
-                x.decode_errors
-            );
+        for w in &x.warnings {
+            println!("  warning: {w}");
         }
         if let Some(r) = &reference {
             let agreement = ex::compare(&ex::Series::from_rows(&x.rows), r, opts.blink_ratio);

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from pathlib import Path
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
@@ -234,7 +235,8 @@ def _frame_times(n: int, fps: Optional[float], timestamps: Optional[Sequence[flo
         if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
             raise ConfigError("timestamps: must be finite and increasing")
         return t
-    if not (isinstance(fps, (int, float)) and np.isfinite(fps) and fps > 0):
+    # bool is an int to Python: fps=True would be 1 frame a second.
+    if isinstance(fps, bool) or not (isinstance(fps, (int, float)) and np.isfinite(fps) and fps > 0):
         raise ConfigError(f"fps {fps!r}: expected a positive number")
     return np.arange(n, dtype=np.float64) / float(fps)
 
@@ -251,11 +253,11 @@ def _extract_frames(frames: np.ndarray, *, fps, timestamps, models, blink_ratio,
     if n == 0:
         raise ConfigError("frames: no frames given")
     times = _frame_times(n, fps, timestamps)
+    bar = _resolve_progress(progress)
     fx = _native.FrameExtractor(
         w, h, models=_opt_path(models), blink_ratio=blink_ratio, mesh_every=mesh_every,
         iris_views=iris_views, device=device, landmarks=landmarks,
     )
-    bar = _resolve_progress(progress)
     if bar is not None:
         bar.begin("extract", n)
     for k in range(0, n, _FRAME_CHUNK):
@@ -295,12 +297,17 @@ def detect(
     confidence, and the stretches without enough gaze), ``clip`` (a clip
     shorter than one window: its probability with a 90 % interval, else
     ``None``), and the ``model`` and ``input`` it was made from.
+
+    Raises :class:`ModelError` for a detector file that is missing or not
+    one; :class:`VideoError` for a video (or frames) that cannot be read or
+    shows too little gaze; :class:`SourceError` for a CSV that is not one
+    ``detect`` reads or holds too little gaze.
     """
     import tempfile
 
     model_path = Path(model) if model is not None else DEFAULT_DETECTOR
     if not model_path.is_file():
-        raise ConfigError(f"{model_path}: detector model not found")
+        raise ModelError(f"{model_path}: detector model not found")
     if isinstance(video_or_frames, np.ndarray) or hasattr(video_or_frames, "__array_interface__"):
         with tempfile.TemporaryDirectory(prefix="eyereplay-detect-") as tmp:
             csv = Path(tmp) / "frames.csv"
@@ -308,14 +315,17 @@ def detect(
             try:
                 d = json.loads(_native.detect(str(csv), str(model_path), cache=_opt_path(cache)))
             except EyereplayError as e:
-                # The temporary CSV is ours, not the caller's: name the frames.
-                raise type(e)(str(e).replace(str(csv), "frames")) from None
+                # The temporary CSV is ours, not the caller's: name the
+                # frames, and what is wrong with them is a video's fault.
+                cls = VideoError if type(e) is SourceError else type(e)
+                raise cls(str(e).replace(str(csv), "frames")) from None
             d["input"]["path"] = "<frames>"
     else:
         if fps is not None or timestamps is not None:
             raise ConfigError("fps and timestamps apply to frames in memory, not to a file")
         d = json.loads(
-            _native.detect(os.fspath(video_or_frames), str(model_path), cache=_opt_path(cache))
+            _native.detect(os.fspath(video_or_frames), str(model_path), cache=_opt_path(cache),
+                           progress=_resolve_progress(progress))
         )
     rows = d.pop("windows")
     names = list(rows[0].keys()) if rows else ["start_s", "end_s", "reading_probability"]
@@ -382,6 +392,10 @@ def extract_many(
     )
     tables = []
     for video, r in zip(videos, results):
+        # As the command prints them: the file's rows are what it could
+        # read, and the user should know when that is not all of it.
+        for w in r["warnings"]:
+            warnings.warn(f"{video}: {w}", EyereplayWarning, stacklevel=3)
         t = parse_csv(r["csv"], video)
         tables.append(to_pandas(t) if pandas else t)
     return tables

@@ -106,11 +106,42 @@ class ProgressBar:
         self._shown_at = 0.0
 
 
+_METHODS = ("begin", "add_total", "advance", "status", "end", "info", "warn")
+
+
+def _ignore(*_args) -> None:
+    pass
+
+
+def _warn(line: str) -> None:
+    warnings.warn(line.removeprefix("warning: "), EyereplayWarning, stacklevel=3)
+
+
+class _Partial:
+    """A user's progress object with some of the methods: the ones it has
+    are called, the rest do nothing (warnings still become
+    :class:`EyereplayWarning`), so that a missing method is not an
+    exception on a worker thread at every event."""
+
+    def __init__(self, target, have):
+        for name in _METHODS:
+            fallback = _warn if name == "warn" else _ignore
+            setattr(self, name, getattr(target, name) if name in have else fallback)
+
+
 def resolve(progress):
     """``True`` -> a :class:`ProgressBar`, ``False``/``None`` -> nothing,
-    anything else is used as it is."""
+    an object with some of the methods above -> that object (the missing
+    methods do nothing); anything else is a ``TypeError``, before any work
+    starts."""
     if progress is True:
         return ProgressBar()
     if progress is False or progress is None:
         return None
-    return progress
+    have = [m for m in _METHODS if callable(getattr(progress, m, None))]
+    if not have:
+        raise TypeError(
+            f"progress: expected True, False, None or an object with the methods "
+            f"{', '.join(_METHODS)}; got {type(progress).__name__} {progress!r:.40}"
+        )
+    return progress if len(have) == len(_METHODS) else _Partial(progress, have)
