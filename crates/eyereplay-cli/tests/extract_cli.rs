@@ -199,3 +199,70 @@ fn a_video_cut_off_part_way_is_read_as_far_as_it_goes_and_said_to_be() {
         "{covered_s} s of rows, {line}"
     );
 }
+
+/// `scripts/models.sh` puts the models in `$EYEREPLAY_CACHE/models` when
+/// that is set: the binary finds them there from any folder, where it
+/// used to look only for `.cache/models` up from the current folder and
+/// from its own (a copy outside the checkout here, so neither has them).
+#[test]
+#[cfg_attr(not(has_models), ignore = "needs the models: run scripts/setup.sh")]
+fn the_models_are_found_through_eyereplay_cache_from_any_folder() {
+    let elsewhere = tempfile::tempdir().unwrap();
+    let bin = elsewhere.path().join("eyereplay");
+    std::fs::copy(env!("CARGO_BIN_EXE_eyereplay"), &bin).unwrap();
+    let models = |cache: Option<&Path>| {
+        let mut c = std::process::Command::new(&bin);
+        c.args(["models", "check"])
+            .current_dir(elsewhere.path())
+            .env_remove("EYEREPLAY_MODELS")
+            .env_remove("EYEREPLAY_CACHE");
+        if let Some(cache) = cache {
+            c.env("EYEREPLAY_CACHE", cache);
+        }
+        c.output().unwrap()
+    };
+    let said = ok(&models(Some(&root().join(".cache"))));
+    assert!(said.contains("runs"), "{said}");
+    // Without it, nothing up from that folder holds them: one line.
+    let e = one_line_error(&models(None));
+    assert!(e.contains("models"), "{e}");
+}
+
+/// Where stderr is not a terminal (a Slurm log, `nohup`) the progress bar
+/// draws nothing; a plain line with its counts goes there every
+/// `EYEREPLAY_LOG_EVERY_S` seconds (30 by default) instead, and none with
+/// `--quiet`. 60 s of `franck.mp4` take a few seconds to extract.
+#[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models)),
+    ignore = "needs .cache/data and the models: run scripts/setup.sh"
+)]
+fn a_log_shows_the_extraction_moving() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |quiet: bool| {
+        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_eyereplay"));
+        c.args(["extract", s(&franck()), "--max-seconds", "60", "--out"])
+            .arg(dir.path().join("f.csv"))
+            .current_dir(root())
+            .env("EYEREPLAY_LOG_EVERY_S", "1");
+        if quiet {
+            c.arg("--quiet");
+        }
+        let o = c.output().unwrap();
+        ok(&o);
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let log = run(false);
+    let lines: Vec<&str> = log
+        .lines()
+        .filter(|l| l.starts_with("extract franck.mp4: "))
+        .collect();
+    assert!(!lines.is_empty(), "{log}");
+    for l in &lines {
+        assert!(
+            l.contains("/1440 frames (") && l.contains(" frames/s, ETA "),
+            "{l}"
+        );
+    }
+    assert!(!run(true).contains("frames/s"));
+}

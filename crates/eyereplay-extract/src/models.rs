@@ -81,15 +81,23 @@ fn package_files() -> Option<(PathBuf, Option<PathBuf>)> {
 }
 
 /// Where the models live: `$EYEREPLAY_MODELS`; else the installed
-/// package's own ([`use_package_files`]); else `.cache/models` in the
-/// current directory or the nearest ancestor that has one (so the binary
-/// works from anywhere inside the checkout).
+/// package's own ([`use_package_files`]); else `$EYEREPLAY_CACHE/models`
+/// when it holds them (where `scripts/models.sh` puts them with that
+/// variable set); else `.cache/models` in the current directory or the
+/// nearest ancestor that has one (so the binary works from anywhere
+/// inside the checkout).
 pub fn default_models_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("EYEREPLAY_MODELS") {
         return PathBuf::from(d);
     }
     if let Some((dir, _)) = package_files() {
         return dir;
+    }
+    if let Some(cache) = std::env::var_os("EYEREPLAY_CACHE").filter(|c| !c.is_empty()) {
+        let dir = PathBuf::from(cache).join("models");
+        if dir.join(DETECTOR).is_file() {
+            return dir;
+        }
     }
     if let Some(marker) = eyereplay_core::find_upwards(&Path::new(".cache/models").join(DETECTOR)) {
         return marker.parent().expect("a file has a folder").to_path_buf();

@@ -142,6 +142,8 @@ impl DeviceArg {
 
 struct Bars {
     bars: Vec<ProgressBar>,
+    /// Plain lines where stderr is no terminal (not with `--quiet`).
+    logged: Option<super::LogClock>,
 }
 
 impl ex::Progress for Bars {
@@ -151,7 +153,11 @@ impl ex::Progress for Bars {
         }
     }
     fn advance(&self, video: usize, n: u64) {
-        self.bars[video].inc(n);
+        let b = &self.bars[video];
+        b.inc(n);
+        if self.logged.as_ref().is_some_and(|c| c.due()) {
+            super::log_line(&format!("extract {}", b.prefix()), b);
+        }
     }
 }
 
@@ -261,6 +267,7 @@ pub fn run(a: Args) -> Result<()> {
                 b
             })
             .collect(),
+        logged: (!a.quiet).then(super::LogClock::default),
     };
     let results = ex::extract_many(&a.videos, &opts, &bars);
     for b in &bars.bars {

@@ -20,10 +20,14 @@ use std::sync::Mutex;
 
 /// The library's progress events as terminal progress bars: one bar per
 /// stage, counting frames, with rate and ETA; result lines on stdout,
-/// warnings on stderr, printed above the bar.
+/// warnings on stderr, printed above the bar. Where stderr is not a
+/// terminal, plain lines instead ([`LogClock`]).
 #[derive(Default)]
 pub struct Bars {
     bar: Mutex<Option<ProgressBar>>,
+    logged: LogClock,
+    /// The stage's name, for the plain line.
+    stage: Mutex<&'static str>,
 }
 
 impl Bars {
@@ -32,6 +36,69 @@ impl Bars {
             f(b);
         }
     }
+}
+
+/// Seconds between plain progress lines where stderr is not a terminal;
+/// `EYEREPLAY_LOG_EVERY_S` (a whole number, at least 1) overrides it.
+pub const LOG_EVERY_S: u64 = 30;
+
+/// Where stderr is not a terminal (a Slurm log, `nohup`, a pipe)
+/// indicatif draws nothing, so an hour-long job's log would show nothing
+/// moving: a plain line with the bar's counts goes there every
+/// [`LOG_EVERY_S`] instead. This says when.
+#[derive(Default)]
+pub struct LogClock(Mutex<Option<std::time::Instant>>);
+
+impl LogClock {
+    /// Starts the interval again (a stage begins).
+    pub fn restart(&self) {
+        *self.0.lock().expect("log clock") = Some(std::time::Instant::now());
+    }
+
+    /// Whether a plain line is due now (never on a terminal); if so, the
+    /// interval starts again.
+    pub fn due(&self) -> bool {
+        use std::io::IsTerminal;
+        if std::io::stderr().is_terminal() {
+            return false;
+        }
+        let every_s = std::env::var("EYEREPLAY_LOG_EVERY_S")
+            .ok()
+            .and_then(|v| v.trim().parse::<u64>().ok())
+            .filter(|s| *s >= 1)
+            .unwrap_or(LOG_EVERY_S);
+        let mut last = self.0.lock().expect("log clock");
+        let now = std::time::Instant::now();
+        match *last {
+            Some(t) if now.duration_since(t).as_secs() < every_s => false,
+            Some(_) => {
+                *last = Some(now);
+                true
+            }
+            None => {
+                *last = Some(now);
+                false
+            }
+        }
+    }
+}
+
+/// The plain line of `bar`: `label: 200/400 frames (50.0 %), 70 frames/s,
+/// ETA 3 seconds; its message`.
+pub fn log_line(label: &str, bar: &ProgressBar) {
+    let (pos, len) = (bar.position(), bar.length().unwrap_or(0));
+    let share = if len > 0 {
+        format!(" ({:.1} %)", 100.0 * pos as f64 / len as f64)
+    } else {
+        String::new()
+    };
+    let msg = bar.message();
+    eprintln!(
+        "{label}: {pos}/{len} frames{share}, {:.1} frames/s, ETA {}{}{msg}",
+        bar.per_sec(),
+        indicatif::HumanDuration(bar.eta()),
+        if msg.is_empty() { "" } else { "; " },
+    );
 }
 
 impl Progress for Bars {
@@ -47,12 +114,21 @@ impl Progress for Bars {
         let bar = ProgressBar::new(total);
         bar.set_style(ProgressStyle::with_template(template).expect("static template"));
         *self.bar.lock().expect("progress lock") = Some(bar);
+        self.logged.restart();
+        *self.stage.lock().expect("progress lock") = match stage {
+            Stage::Extract => "extract",
+            Stage::Render => "render",
+        };
     }
     fn add_total(&self, units: u64) {
         self.with_bar(|b| b.inc_length(units));
     }
     fn advance(&self, units: u64) {
         self.with_bar(|b| b.inc(units));
+        if self.logged.due() {
+            let stage = *self.stage.lock().expect("progress lock");
+            self.with_bar(|b| log_line(stage, b));
+        }
     }
     fn status(&self, text: &str) {
         self.with_bar(|b| b.set_message(text.to_string()));
