@@ -147,6 +147,98 @@ impl EncoderSettings {
     }
 }
 
+impl EncoderSettings {
+    /// ffmpeg's arguments for the encoder: codec, preset, rate control,
+    /// tune, `x264_params`, threads.
+    fn x264_args(&self) -> Vec<String> {
+        let mut a: Vec<String> = ["-c:v", "libx264", "-preset", &self.preset]
+            .map(String::from)
+            .to_vec();
+        match (self.codec, self.bitrate_kbps) {
+            (Codec::H264, Some(k)) => a.extend([
+                "-b:v".into(),
+                format!("{k}k"),
+                "-maxrate".into(),
+                format!("{k}k"),
+                "-bufsize".into(),
+                format!("{}k", 2 * k),
+            ]),
+            (Codec::H264, None) => a.extend(["-crf".into(), self.crf.to_string()]),
+            (Codec::Lossless, _) => a.extend(["-qp".into(), "0".into()]),
+        }
+        if let Some(t) = self.tune.as_deref().filter(|t| !t.is_empty()) {
+            a.extend(["-tune".into(), t.into()]);
+        }
+        if let Some(p) = self.x264_params.as_deref().filter(|p| !p.is_empty()) {
+            a.extend(["-x264-params".into(), p.into()]);
+        }
+        if let Some(t) = self.threads {
+            a.extend(["-threads".into(), t.to_string()]);
+        }
+        a
+    }
+
+    /// Encodes one black 64x64 frame with these settings and nothing
+    /// written, before a job's sessions start: x264 only warns of a key it
+    /// does not know in `x264_params` and then encodes without it (a typo
+    /// would be a setting silently not applied), and it refuses some values
+    /// only when it opens, after a session's first frames are drawn. Either
+    /// is one line here. Some tens of ms, once per job.
+    pub fn check_with_ffmpeg(&self) -> Result<(), RenderError> {
+        self.validate()?;
+        let mut cmd = Command::new(&self.ffmpeg);
+        cmd.args(["-nostdin", "-hide_banner", "-loglevel", "warning"])
+            .args(["-f", "rawvideo", "-pix_fmt", "yuv420p", "-s", "64x64"])
+            .args(["-r", "25", "-i", "pipe:0"])
+            .args(self.x264_args())
+            .args(["-f", "null", "-"])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped());
+        let mut child = cmd.spawn().map_err(|e| spawn_error(&self.ffmpeg, e))?;
+        if let Some(mut stdin) = child.stdin.take() {
+            // Black in limited range: Y 16, Cb and Cr 128. A write error
+            // means ffmpeg already quit; its status and stderr say why.
+            let frame: Vec<u8> = std::iter::repeat_n(16u8, 64 * 64)
+                .chain(std::iter::repeat_n(128u8, 64 * 64 / 2))
+                .collect();
+            let _ = stdin.write_all(&frame);
+        }
+        let out = child
+            .wait_with_output()
+            .map_err(|e| spawn_error(&self.ffmpeg, e))?;
+        let log = String::from_utf8_lossy(&out.stderr);
+        let params = self.x264_params.as_deref().unwrap_or("");
+        if let Some(l) = log.lines().find(|l| l.contains("Error parsing option")) {
+            let what = l.split("Error parsing option").nth(1).unwrap_or("").trim();
+            return Err(RenderError::Params(format!(
+                "x264_params '{params}': x264 does not take option {}",
+                what.trim_end_matches('.')
+            )));
+        }
+        if log.contains("Unknown encoder") {
+            return Err(RenderError::Ffmpeg {
+                path: self.ffmpeg.clone(),
+                message: "this ffmpeg has no libx264 encoder; install one that has (Debian's: apt-get install ffmpeg)".into(),
+            });
+        }
+        if !out.status.success() {
+            let why = log
+                .lines()
+                .find(|l| l.contains("[libx264"))
+                .or_else(|| log.lines().find(|l| !l.trim().is_empty()))
+                .unwrap_or("no message");
+            // "[libx264 @ 0x55...] qp not specified": the message alone.
+            let why = why.split_once("] ").map_or(why, |(_, m)| m).trim();
+            return Err(RenderError::Params(format!(
+                "x264 refuses these encoder settings (preset {}, x264_params '{params}'): {why}",
+                self.preset,
+            )));
+        }
+        Ok(())
+    }
+}
+
 /// A running ffmpeg child that accepts yuv420p frames.
 pub struct Encoder {
     child: Option<Child>,
@@ -205,35 +297,8 @@ impl Encoder {
             .args(["-f", "rawvideo", "-pix_fmt", "yuv420p"])
             .args(["-s", &format!("{width}x{height}")])
             .args(["-r", &fps_arg(fps)])
-            .args([
-                "-i",
-                "pipe:0",
-                "-c:v",
-                "libx264",
-                "-preset",
-                &settings.preset,
-            ]);
-        match (settings.codec, settings.bitrate_kbps) {
-            (Codec::H264, Some(k)) => cmd.args([
-                "-b:v",
-                &format!("{k}k"),
-                "-maxrate",
-                &format!("{k}k"),
-                "-bufsize",
-                &format!("{}k", 2 * k),
-            ]),
-            (Codec::H264, None) => cmd.args(["-crf", &settings.crf.to_string()]),
-            (Codec::Lossless, _) => cmd.args(["-qp", "0"]),
-        };
-        if let Some(t) = settings.tune.as_deref().filter(|t| !t.is_empty()) {
-            cmd.args(["-tune", t]);
-        }
-        if let Some(p) = settings.x264_params.as_deref().filter(|p| !p.is_empty()) {
-            cmd.args(["-x264-params", p]);
-        }
-        if let Some(t) = settings.threads {
-            cmd.args(["-threads", &t.to_string()]);
-        }
+            .args(["-i", "pipe:0"])
+            .args(settings.x264_args());
         cmd.args(["-pix_fmt", "yuv420p"])
             .args(["-color_primaries", "bt709", "-color_trc", "bt709"])
             .args(["-colorspace", "bt709", "-color_range", "tv"])

@@ -385,3 +385,49 @@ fn bad_input_gives_one_line_errors_and_no_files() {
     assert!(text.lines().nth(1).unwrap().starts_with("0,0.000,"));
     assert!(text.lines().nth(2).unwrap().contains(",720.000,"));
 }
+
+/// One frame through the encoder before a job's sessions start: x264 only
+/// warns of an `x264_params` key it does not know and encodes without it
+/// (`ffmpeg -loglevel warning` prints "Error parsing option 'foo = 1'."),
+/// and refuses a negative quantizer only when it opens; an ffmpeg built
+/// without libx264 says "Unknown encoder". Each is one line here.
+#[test]
+fn the_encoder_settings_are_tried_on_one_frame_first() {
+    let ok = EncoderSettings::default();
+    ok.check_with_ffmpeg().unwrap();
+    let err = |s: &EncoderSettings| s.check_with_ffmpeg().unwrap_err().to_string();
+    let mut typo = ok.clone();
+    typo.x264_params = Some("keyint=50:bframe=0".into());
+    let e = err(&typo);
+    assert!(
+        e.contains("x264_params 'keyint=50:bframe=0': x264 does not take option 'bframe = 0'"),
+        "{e}"
+    );
+    let mut refused = ok.clone();
+    refused.x264_params = Some("qp=-3".into());
+    let e = err(&refused);
+    assert!(
+        e.contains("x264 refuses these encoder settings") && e.ends_with("qp not specified"),
+        "{e}"
+    );
+    // A stand-in for an ffmpeg without libx264, printing what one prints.
+    let dir = tempfile::tempdir().unwrap();
+    let fake = dir.path().join("ffmpeg");
+    std::fs::write(
+        &fake,
+        "#!/bin/sh\ncat > /dev/null\necho \"Unknown encoder 'libx264'\" >&2\nexit 1\n",
+    )
+    .unwrap();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    let mut plain = ok.clone();
+    plain.ffmpeg = fake;
+    let e = err(&plain);
+    assert!(e.contains("has no libx264 encoder"), "{e}");
+    for e in [err(&typo), err(&refused), err(&plain)] {
+        assert!(!e.contains('\n'), "{e}");
+    }
+}

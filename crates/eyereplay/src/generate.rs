@@ -105,6 +105,14 @@ pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shar
         check_models()?;
     }
     check_ffmpeg(&params.encoder.ffmpeg)?;
+    // One frame through the encoder as configured: an x264_params key
+    // x264 does not know (it only warns, and encodes without it) or a
+    // value it refuses when it opens, named now rather than at the first
+    // session.
+    params
+        .encoder
+        .check_with_ffmpeg()
+        .map_err(|e| Error::input(config_path, format!("[render]: {e}")))?;
     let total: usize = config.classes.values().map(|c| c.sessions).sum();
     let sessions = shard.map_or(total, |s| s.count_of(total));
     let video_bytes = (sessions * config.session_frames) as u64

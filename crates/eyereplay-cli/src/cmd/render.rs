@@ -107,7 +107,9 @@ pub struct Args {
     /// x264 preset.
     #[arg(long, default_value = "veryfast")]
     pub preset: String,
-    /// Extra x264 options, as for ffmpeg's -x264-params ('' for none).
+    /// Extra x264 options, as for ffmpeg's -x264-params ('' for none);
+    /// tried on one frame before the drawing, so a key x264 does not know
+    /// is an error, not ignored.
     #[arg(long, default_value = eyereplay_render::DEFAULT_X264_PARAMS)]
     pub x264_params: String,
     /// Also write the identity and eye geometry as JSON here.
@@ -215,6 +217,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for path in outputs {
         eyereplay_core::check_writable(path)?;
     }
+    if args.png_frames.is_none() {
+        // An --x264-params key x264 does not know is only a warning of
+        // ffmpeg's, and a value it refuses fails after the drawing starts.
+        p.encoder.check_with_ffmpeg()?;
+    }
     let mut p = p;
     let probe = ResponseProbe::when(args.match_extractor, 1)?;
     if let Some(probe) = &probe {
@@ -282,6 +289,10 @@ fn run_dataset(dir: &std::path::Path, args: &Args) -> anyhow::Result<()> {
         eyereplay::check_settings(&settings, &|p: &std::path::Path| p.to_path_buf(), &cache)
             .map_err(in_meta)?;
     let params = eyereplay::render_params(&settings, &config).map_err(in_meta)?;
+    params
+        .encoder
+        .check_with_ffmpeg()
+        .map_err(|e| anyhow::anyhow!("{}: [render]: {e}", meta_path.display()))?;
     let bars = super::Bars::default();
     let backend = eyereplay::open_backend(dir, &settings, params, &cache, &bars)?;
     let summary = render_dataset(dir, backend.as_ref(), None, &bars)?;
