@@ -377,7 +377,7 @@ fn merge_refuses_damage_leaving_the_dataset_as_it_was(done: &Path, scratch: &Pat
         std::fs::write(p, kept).unwrap();
     };
     type Damage = fn(&Path, &dyn Fn(&Path, usize));
-    let cases: [(&str, Damage, &str); 5] = [
+    let cases: [(&str, Damage, &str); 6] = [
         (
             "a row of labels.csv lost",
             |d, keep| keep(&d.join("labels.csv"), 8),
@@ -414,6 +414,21 @@ fn merge_refuses_damage_leaving_the_dataset_as_it_was(done: &Path, scratch: &Pat
                 .unwrap();
             },
             "reading_0000_identity.json: is the identity of reading/reading_0001.csv, not of reading/reading_0000.csv",
+        ),
+        (
+            "a video of another size, as many frames",
+            |d, _| {
+                let mp4 = d.join("reading/reading_0003.mp4");
+                let small = d.join("small.mp4");
+                let status = Command::new("ffmpeg")
+                    .args(["-v", "error", "-i", mp4.to_str().unwrap()])
+                    .args(["-vf", "scale=160:90", small.to_str().unwrap()])
+                    .status()
+                    .unwrap();
+                assert!(status.success());
+                std::fs::rename(&small, &mp4).unwrap();
+            },
+            "reading_0003.mp4: is 160x90 where its identity file says 320x180",
         ),
     ];
     for (what, damage, says) in cases {

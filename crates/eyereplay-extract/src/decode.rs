@@ -373,6 +373,26 @@ fn open_file(path: &Path) -> Result<ff::format::context::Input> {
 /// process (whose dynamic linking of the libav* libraries alone cost
 /// about 0.15 CPU-s): a resumed or merged dataset checks every session's
 /// video this way.
+/// The stored width and height of a file's video stream, from the
+/// container's codec parameters (nothing decoded; rotation metadata not
+/// applied): what a finished session is checked against.
+pub fn video_stream_size(path: &Path) -> Result<(usize, usize)> {
+    let ictx = open_file(path)?;
+    let st =
+        ictx.streams()
+            .best(ff::media::Type::Video)
+            .ok_or_else(|| ExtractError::NoVideoStream {
+                path: path.to_path_buf(),
+            })?;
+    let open_err = |e: ff::Error| ExtractError::Open {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    let ctx = ff::codec::context::Context::from_parameters(st.parameters()).map_err(open_err)?;
+    let v = ctx.decoder().video().map_err(open_err)?;
+    Ok((v.width() as usize, v.height() as usize))
+}
+
 pub fn count_video_packets(path: &Path) -> Result<u64> {
     let mut ictx = open_file(path)?;
     let stream = ictx

@@ -49,7 +49,7 @@ mod tracker;
 
 pub use anchor::{anchor_to_head, HeadAnchor, MAX_ANCHOR_GAP_S};
 pub use compare::{compare, pearson, percentile, Agreement, Series};
-pub use decode::{count_video_packets, probe, Decoder, VideoInfo};
+pub use decode::{count_video_packets, probe, video_stream_size, Decoder, VideoInfo};
 pub use detect::{anchors, decode as decode_detections, weighted_nms, Detection};
 pub use error::{ExtractError, Result};
 pub use eyecrop::{

@@ -80,6 +80,18 @@ pub fn finalize(
                     format!("is the identity of {}, not of {}", id.file, j.paths.file),
                 ));
             }
+            // A video copied from another session of the same length
+            // passes the frame count; its size may not.
+            let (w, h) = eyereplay_extract::video_stream_size(&j.paths.mp4)?;
+            if (w, h) != (id.width, id.height) {
+                return Err(Error::input(
+                    &j.paths.mp4,
+                    format!(
+                        "is {w}x{h} where its identity file says {}x{} (another session's video?)",
+                        id.width, id.height
+                    ),
+                ));
+            }
             Ok(id)
         })
         .collect::<Result<Vec<_>>>()?;
