@@ -4,7 +4,14 @@ use anyhow::Result;
 use std::path::PathBuf;
 
 /// Finish a dataset rendered in shards: verify every session, write the final
-/// labels.csv and metadata.json, and the evaluation report.
+/// metadata.json and the evaluation report.
+///
+/// Checked first, and nothing written unless all of it holds: labels.csv
+/// lists the sessions metadata.json planned; each session's trajectory CSV
+/// and truth file have session_frames rows; its video has session_frames
+/// frames and the size its identity file records; the identity file is its
+/// own. Then metadata.json gets each session's identity, and the report
+/// (report/, replaced whole) is made unless --no-evaluate.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
 # after every 'generate --shard K/N' finished\n  \
