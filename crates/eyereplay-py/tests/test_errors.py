@@ -246,3 +246,23 @@ def test_a_video_cut_off_part_way_warns_with_its_name(tmp_path):
     pattern = r"cut\.mp4: the frames end at [0-9.]+ s of the 8\.[0-5] s"
     assert any(re.search(pattern, str(w.message)) for w in said), [str(w.message) for w in said]
     assert 0 < len(t["frame"]) < 8 * 24
+
+
+def test_frames_out_of_range_are_named_not_empty_or_shifted(tmp_path):
+    # The last generated dataset of the pipeline tests is not at hand here:
+    # decode_frames reads any video, franck.mp4 (4800 frames) will do.
+    from eyereplay.dataset import decode_frames
+
+    video = DATA / "franck.mp4"
+    assert decode_frames(video, 10, 2).shape == (2, 288, 360, 3)
+    for kw, want in [
+        (dict(start=-5, count=2), "start -5"),
+        (dict(start=0, count=-3), "count -3"),
+        (dict(start=1.5, count=2), "start 1.5"),
+        (dict(start=True, count=2), "start True"),
+    ]:
+        with pytest.raises(ValueError, match=want):
+            decode_frames(video, **kw)
+    with pytest.raises(eyereplay.VideoError, match="frame 99999 is past its last frame"):
+        decode_frames(video, 99999, 2)
+    assert decode_frames(video, 0, 0).shape[0] == 0

@@ -206,7 +206,15 @@ def load_dataset(dataset_dir: Union[str, "os.PathLike[str]"]) -> Dataset:
 
 
 def decode_frames(video: Path, start: int = 0, count: Optional[int] = None) -> np.ndarray:
-    """RGB frames of any video via the ffmpeg program: ``uint8 (n, h, w, 3)``."""
+    """RGB frames of any video via the ffmpeg program: ``uint8 (n, h, w, 3)``.
+    ``start`` and ``count`` are whole numbers, 0 or more; a ``start`` at or
+    past the last frame is a :class:`VideoError` (an empty array would pass
+    for a short read)."""
+    for name, value in (("start", start), ("count", count)):
+        if value is None and name == "count":
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+            raise ValueError(f"{name} {value!r}: expected a whole number, 0 or more")
     ffmpeg = shutil.which("ffmpeg")
     if ffmpeg is None:
         raise VideoError("ffmpeg not found on PATH (Debian: apt-get install ffmpeg)")
@@ -225,6 +233,8 @@ def decode_frames(video: Path, start: int = 0, count: Optional[int] = None) -> n
         msg = r.stderr.decode("utf-8", "replace").strip().splitlines()
         raise VideoError(f"{video}: ffmpeg failed: {msg[-1] if msg else r.returncode}")
     n = len(r.stdout) // (w * h * 3)
+    if n == 0 and start > 0 and count != 0:
+        raise VideoError(f"{video}: frame {start} is past its last frame")
     return np.frombuffer(r.stdout, dtype=np.uint8)[: n * w * h * 3].reshape(n, h, w, 3)
 
 
