@@ -31,6 +31,22 @@ pub struct Rendered {
     pub clamped_points: usize,
 }
 
+/// The files a session of `backend` writes besides `mp4`, `truth` and
+/// `identity_json`, one row per frame each: what each backend's
+/// [`SessionBackend::extra_outputs`] returns, and what `merge`, which
+/// opens no backend, checks.
+pub fn extra_outputs_of(
+    backend: &eyereplay_dataset::BackendSettings,
+    paths: &SessionPaths,
+) -> Vec<PathBuf> {
+    use eyereplay_dataset::BackendSettings as B;
+    match backend {
+        B::Face(_) => vec![paths.head_csv()],
+        B::Replay { .. } => vec![paths.carrier_csv()],
+        _ => Vec::new(),
+    }
+}
+
 /// A render backend: draws one session of a prepared dataset into its
 /// files. Implement [`render`](SessionBackend::render) (and
 /// [`extra_outputs`](SessionBackend::extra_outputs) when it writes more

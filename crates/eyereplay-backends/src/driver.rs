@@ -89,7 +89,12 @@ pub fn render_dataset(
                 }
                 let trajectory = eyereplay_core::read_session_csv(&job.paths.csv);
                 let complete = match &trajectory {
-                    Ok(t) => extra.iter().all(|p| p.exists()) && is_complete(&job, t.len()),
+                    // The backend's own files hold a row per frame, as
+                    // the truth file does: one cut short is redrawn.
+                    Ok(t) => {
+                        extra.iter().all(|p| csv_data_rows(p) == Some(t.len()))
+                            && is_complete(&job, t.len())
+                    }
                     Err(_) => false,
                 };
                 Ok((job, trajectory, extra, complete))

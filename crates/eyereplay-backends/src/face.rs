@@ -253,6 +253,7 @@ impl SessionBackend for FaceBackend {
         "face"
     }
 
+    // As `extra_outputs_of` lists them for `merge`.
     fn extra_outputs(&self, paths: &SessionPaths) -> Vec<PathBuf> {
         vec![paths.head_csv()]
     }

@@ -193,6 +193,7 @@ impl SessionBackend for ReplayBackend {
         "replay"
     }
 
+    // As `extra_outputs_of` lists them for `merge`.
     fn extra_outputs(&self, paths: &SessionPaths) -> Vec<PathBuf> {
         vec![paths.carrier_csv()]
     }

@@ -259,6 +259,25 @@ fn replay_dataset_follows_the_trajectory_keeps_the_carrier_and_is_deterministic(
         assert!(e.contains(says), "{e}");
     }
     assert_eq!(std::fs::read(a.join("labels.csv")).unwrap(), labels_before);
+    // A carrier CSV cut short: merge names it (it opens no backend, but
+    // knows each backend's own files), and so does evaluate-replay.
+    let carrier_csv = a.join("conversation/conversation_0000_carrier.csv");
+    let text = std::fs::read_to_string(&carrier_csv).unwrap();
+    let cut: String = text.lines().take(10).map(|l| format!("{l}\n")).collect();
+    std::fs::write(&carrier_csv, cut).unwrap();
+    let e = one_line_error(&eyereplay(&["merge", s(&a), "--no-evaluate"]));
+    assert!(
+        e.contains("conversation/conversation_0000_carrier.csv (9 rows)"),
+        "{e}"
+    );
+    let e = one_line_error(&eyereplay(&[
+        "evaluate-replay",
+        s(&a),
+        "--carrier",
+        s(&moved),
+    ]));
+    assert!(e.contains("conversation_0000_carrier.csv: 9 rows"), "{e}");
+    std::fs::write(&carrier_csv, text).unwrap();
     // A truth file cut short is named before any video is read.
     let truth = a.join("reading/reading_0000_truth.csv");
     let text = std::fs::read_to_string(&truth).unwrap();

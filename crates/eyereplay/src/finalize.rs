@@ -49,6 +49,7 @@ pub fn finalize(
         .collect();
     check_labels_against_plan(dir, &meta.dataset, &listed)?;
     check_trajectories(dir, &meta.dataset, &jobs)?;
+    check_backend_files(dir, &meta.dataset, &jobs)?;
     let missing = incomplete(dir, &meta.dataset)?;
     if !missing.is_empty() {
         let shown: Vec<&str> = missing
@@ -166,6 +167,42 @@ fn check_trajectories(dir: &Path, meta: &DatasetMetadata, jobs: &[SessionJob]) -
             "{} of {} session trajectories are not whole ({} rows each): {}{} (prepare the dataset again)",
             bad.len(),
             jobs.len(),
+            meta.session_frames,
+            shown.join(", "),
+            if bad.len() > shown.len() { ", ..." } else { "" }
+        ),
+    ))
+}
+
+/// The backend's own files of each session (the face mode's head CSV, the
+/// replay mode's carrier CSV: `extra_outputs_of`) are there with their
+/// `session_frames` rows.
+fn check_backend_files(dir: &Path, meta: &DatasetMetadata, jobs: &[SessionJob]) -> Result<()> {
+    let meta_path = dir.join(eyereplay_dataset::layout::METADATA_FILE);
+    let settings = eyereplay_dataset::RenderSettings::from_config(&meta.config, &meta_path)?;
+    let bad: Vec<String> = jobs
+        .par_iter()
+        .flat_map_iter(|j| eyereplay_backends::extra_outputs_of(&settings.backend, &j.paths))
+        .filter_map(|p| {
+            let why = match csv_data_rows(&p) {
+                None => "missing or unreadable".to_string(),
+                Some(rows) if rows == meta.session_frames => return None,
+                Some(rows) => format!("{rows} rows"),
+            };
+            let name = p.strip_prefix(dir).unwrap_or(&p).display().to_string();
+            Some(format!("{name} ({why})"))
+        })
+        .collect();
+    if bad.is_empty() {
+        return Ok(());
+    }
+    let shown: Vec<&str> = bad.iter().take(12).map(String::as_str).collect();
+    Err(Error::input(
+        dir,
+        format!(
+            "{} of the sessions' own files of the {} backend are not whole ({} rows each): {}{} (rerun the shard(s) that own them with the same command)",
+            bad.len(),
+            settings.backend.kind().name(),
             meta.session_frames,
             shown.join(", "),
             if bad.len() > shown.len() { ", ..." } else { "" }
