@@ -11,7 +11,7 @@ use eyereplay_dataset::{
 };
 use eyereplay_render::{list_sessions, SessionJob};
 use rayon::prelude::*;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Sessions of `dir` whose video, truth or identity file is missing or
 /// incomplete (labels.csv order).
@@ -146,32 +146,14 @@ pub fn check_labels_against_plan(
 /// Each session's trajectory CSV (what `labels.csv` points at) is there
 /// with its `session_frames` rows.
 fn check_trajectories(dir: &Path, meta: &DatasetMetadata, jobs: &[SessionJob]) -> Result<()> {
-    let bad: Vec<String> = jobs
-        .par_iter()
-        .filter_map(|j| {
-            let why = match csv_data_rows(&j.paths.csv) {
-                None => "missing or unreadable".to_string(),
-                Some(rows) if rows == meta.session_frames => return None,
-                Some(rows) => format!("{rows} rows"),
-            };
-            Some(format!("{} ({why})", j.paths.file))
-        })
-        .collect();
-    if bad.is_empty() {
-        return Ok(());
-    }
-    let shown: Vec<&str> = bad.iter().take(12).map(String::as_str).collect();
-    Err(Error::input(
+    let files: Vec<PathBuf> = jobs.iter().map(|j| j.paths.csv.clone()).collect();
+    check_rows(
         dir,
-        format!(
-            "{} of {} session trajectories are not whole ({} rows each): {}{} (prepare the dataset again)",
-            bad.len(),
-            jobs.len(),
-            meta.session_frames,
-            shown.join(", "),
-            if bad.len() > shown.len() { ", ..." } else { "" }
-        ),
-    ))
+        &files,
+        meta.session_frames,
+        &format!("of {} session trajectories", jobs.len()),
+        "prepare the dataset again",
+    )
 }
 
 /// The backend's own files of each session (the face mode's head CSV, the
@@ -180,16 +162,35 @@ fn check_trajectories(dir: &Path, meta: &DatasetMetadata, jobs: &[SessionJob]) -
 fn check_backend_files(dir: &Path, meta: &DatasetMetadata, jobs: &[SessionJob]) -> Result<()> {
     let meta_path = dir.join(eyereplay_dataset::layout::METADATA_FILE);
     let settings = eyereplay_dataset::RenderSettings::from_config(&meta.config, &meta_path)?;
-    let bad: Vec<String> = jobs
+    let files: Vec<PathBuf> = jobs
+        .iter()
+        .flat_map(|j| eyereplay_backends::extra_outputs_of(&settings.backend, &j.paths))
+        .collect();
+    check_rows(
+        dir,
+        &files,
+        meta.session_frames,
+        &format!(
+            "of the sessions' own files of the {} backend",
+            settings.backend.kind().name()
+        ),
+        "rerun the shard(s) that own them with the same command",
+    )
+}
+
+/// Every CSV of `files` has `rows` data rows, or one error listing (up to
+/// 12 of) those that do not, named relative to `dir`: "N {what} are not
+/// whole (R rows each): ... ({remedy})".
+fn check_rows(dir: &Path, files: &[PathBuf], rows: usize, what: &str, remedy: &str) -> Result<()> {
+    let bad: Vec<String> = files
         .par_iter()
-        .flat_map_iter(|j| eyereplay_backends::extra_outputs_of(&settings.backend, &j.paths))
         .filter_map(|p| {
-            let why = match csv_data_rows(&p) {
+            let why = match csv_data_rows(p) {
                 None => "missing or unreadable".to_string(),
-                Some(rows) if rows == meta.session_frames => return None,
-                Some(rows) => format!("{rows} rows"),
+                Some(n) if n == rows => return None,
+                Some(n) => format!("{n} rows"),
             };
-            let name = p.strip_prefix(dir).unwrap_or(&p).display().to_string();
+            let name = p.strip_prefix(dir).unwrap_or(p).display().to_string();
             Some(format!("{name} ({why})"))
         })
         .collect();
@@ -200,10 +201,8 @@ fn check_backend_files(dir: &Path, meta: &DatasetMetadata, jobs: &[SessionJob]) 
     Err(Error::input(
         dir,
         format!(
-            "{} of the sessions' own files of the {} backend are not whole ({} rows each): {}{} (rerun the shard(s) that own them with the same command)",
+            "{} {what} are not whole ({rows} rows each): {}{} ({remedy})",
             bad.len(),
-            settings.backend.kind().name(),
-            meta.session_frames,
             shown.join(", "),
             if bad.len() > shown.len() { ", ..." } else { "" }
         ),
