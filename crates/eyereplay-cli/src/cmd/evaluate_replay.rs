@@ -12,6 +12,13 @@ use std::path::{Path, PathBuf};
 /// and PSNR outside the eye regions against the decoded carrier frames
 /// (the rest of the picture untouched, up to encoding). Writes the numbers,
 /// per session too, as JSON with --json.
+///
+/// Checked before any session video is read back: labels.csv against the
+/// sessions metadata.json planned, every session's identity, truth and carrier
+/// files (a row per frame, carrier frames inside the carrier), each
+/// carrier found by its sha256, and --json (a .json name, not the
+/// dataset's metadata.json, writable). A session with no frame to compare
+/// is n/a, with a warning.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
 eyereplay generate --config examples/replay.toml --out out/replay\n  \
