@@ -31,18 +31,15 @@ pub struct Rendered {
     pub clamped_points: usize,
 }
 
-/// The files a session of `backend` writes besides `mp4`, `truth` and
-/// `identity_json`, one row per frame each: what each backend's
-/// [`SessionBackend::extra_outputs`] returns, and what `merge`, which
-/// opens no backend, checks.
-pub fn extra_outputs_of(
-    backend: &eyereplay_dataset::BackendSettings,
-    paths: &SessionPaths,
-) -> Vec<PathBuf> {
-    use eyereplay_dataset::BackendSettings as B;
+/// The files a session of the backend named `backend` (as
+/// `render.backend` spells it) writes besides `mp4`, `truth` and
+/// `identity_json`, one row per frame each: the face mode's head CSV, the
+/// replay mode's carrier CSV. What [`SessionBackend::extra_outputs`]
+/// returns, and what `merge`, which opens no backend, checks.
+pub fn extra_outputs_of(backend: &str, paths: &SessionPaths) -> Vec<PathBuf> {
     match backend {
-        B::Face(_) => vec![paths.head_csv()],
-        B::Replay { .. } => vec![paths.carrier_csv()],
+        "face" => vec![paths.head_csv()],
+        "replay" => vec![paths.carrier_csv()],
         _ => Vec::new(),
     }
 }
@@ -58,8 +55,8 @@ pub trait SessionBackend: Sync {
     fn name(&self) -> &'static str;
     /// Files of a session besides `mp4`, `truth` and `identity_json` (the
     /// face mode's head CSV, the replay mode's carrier CSV).
-    fn extra_outputs(&self, _paths: &SessionPaths) -> Vec<PathBuf> {
-        Vec::new()
+    fn extra_outputs(&self, paths: &SessionPaths) -> Vec<PathBuf> {
+        extra_outputs_of(self.name(), paths)
     }
     /// Sessions it can draw at once (each call to `render` on its own
     /// thread).

@@ -8,7 +8,7 @@ use crate::{BackendError as Error, Result};
 use eyereplay_core::profile::lap;
 use eyereplay_core::{CanvasPos, GazeClass, NormPos, Progress};
 use eyereplay_dataset::{
-    DatasetMetadata, FaceBackendSettings, HeadMotion, PoseRow, SessionIdentity, SessionPaths,
+    DatasetMetadata, FaceBackendSettings, HeadMotion, PoseRow, SessionIdentity,
 };
 use eyereplay_face::coordination::{CoordinationParams, HeadDynamics, Task, DEFAULT_SWAY_RMS};
 use eyereplay_face::webcam::{WebcamLook, WebcamRanges};
@@ -251,11 +251,6 @@ impl FaceBackend {
 impl SessionBackend for FaceBackend {
     fn name(&self) -> &'static str {
         "face"
-    }
-
-    // As `extra_outputs_of` lists them for `merge`.
-    fn extra_outputs(&self, paths: &SessionPaths) -> Vec<PathBuf> {
-        vec![paths.head_csv()]
     }
 
     fn parallel_sessions(&self) -> usize {

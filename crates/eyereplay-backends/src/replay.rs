@@ -5,7 +5,7 @@
 use crate::backend::{Rendered, Session, SessionBackend, SessionOutputs};
 use crate::{BackendError as Error, Result};
 use eyereplay_core::{ArtifactCache, ArtifactKey, Progress, Stage};
-use eyereplay_dataset::{SessionIdentity, SessionPaths};
+use eyereplay_dataset::SessionIdentity;
 use eyereplay_render::{EncoderSettings, GazeMapping, RenderParams};
 pub use eyereplay_replay::read_carrier_csv;
 use eyereplay_replay::{Calibration, Carrier, CarrierTrack, ReplayStats, Response};
@@ -191,11 +191,6 @@ impl ReplayBackend {
 impl SessionBackend for ReplayBackend {
     fn name(&self) -> &'static str {
         "replay"
-    }
-
-    // As `extra_outputs_of` lists them for `merge`.
-    fn extra_outputs(&self, paths: &SessionPaths) -> Vec<PathBuf> {
-        vec![paths.carrier_csv()]
     }
 
     fn render(&self, s: &Session, out: &SessionOutputs, _: &dyn Progress) -> Result<Rendered> {

@@ -164,7 +164,9 @@ fn check_backend_files(dir: &Path, meta: &DatasetMetadata, jobs: &[SessionJob]) 
     let settings = eyereplay_dataset::RenderSettings::from_config(&meta.config, &meta_path)?;
     let files: Vec<PathBuf> = jobs
         .iter()
-        .flat_map(|j| eyereplay_backends::extra_outputs_of(&settings.backend, &j.paths))
+        .flat_map(|j| {
+            eyereplay_backends::extra_outputs_of(settings.backend.kind().name(), &j.paths)
+        })
         .collect();
     check_rows(
         dir,
