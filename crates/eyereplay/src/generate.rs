@@ -2,7 +2,7 @@
 //! finalize and evaluate. Resumable and shardable.
 
 use crate::evaluate::EvaluateOptions;
-use crate::inputs::{check_ffmpeg, check_models, free_bytes, video_sources};
+use crate::inputs::{check_models, free_bytes, video_sources};
 use crate::{prepare_dataset, Error, Result};
 use eyereplay_backends::{render_params, render_sessions, RenderSummary};
 use eyereplay_core::{cache_dir, Progress, Shard};
@@ -104,15 +104,15 @@ pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shar
     if !video_sources(&config).is_empty() || probe {
         check_models()?;
     }
-    check_ffmpeg(&params.encoder.ffmpeg)?;
-    // One frame through the encoder as configured: an x264_params key
-    // x264 does not know (it only warns, and encodes without it) or a
-    // value it refuses when it opens, named now rather than at the first
-    // session.
-    params
-        .encoder
-        .check_with_ffmpeg()
-        .map_err(|e| Error::input(config_path, format!("[render]: {e}")))?;
+    // One frame through the encoder as configured: ffmpeg missing (said
+    // with how to install it), without libx264, or refusing the settings
+    // when it opens, named now rather than at the first session.
+    params.encoder.check_with_ffmpeg().map_err(|e| match e {
+        eyereplay_render::RenderError::Params(m) => {
+            Error::input(config_path, format!("[render]: {m}"))
+        }
+        e => e.into(),
+    })?;
     let total: usize = config.classes.values().map(|c| c.sessions).sum();
     let sessions = shard.map_or(total, |s| s.count_of(total));
     let video_bytes = (sessions * config.session_frames) as u64

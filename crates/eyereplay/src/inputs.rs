@@ -187,17 +187,6 @@ pub fn check_models() -> Result<()> {
     Ok(())
 }
 
-/// Fails with how to install ffmpeg when it cannot be run.
-pub fn check_ffmpeg(ffmpeg: &Path) -> Result<()> {
-    match std::process::Command::new(ffmpeg).arg("-version").output() {
-        Ok(o) if o.status.success() => Ok(()),
-        _ => Err(Error::input(
-            ffmpeg,
-            "cannot run ffmpeg; install it with 'apt-get install ffmpeg' (or scripts/setup.sh)",
-        )),
-    }
-}
-
 /// Free bytes on the file system holding `dir` (`df -Pk`), if it can tell.
 pub fn free_bytes(dir: &Path) -> Option<u64> {
     let o = std::process::Command::new("df")

@@ -75,7 +75,7 @@ pub use generate::{
     GenerateSummary, Job,
 };
 pub use inputs::{
-    check_ffmpeg, check_models, extract_cached, extract_cached_with, extract_videos_cached,
+    check_models, extract_cached, extract_cached_with, extract_videos_cached,
     extraction_cache_path, extraction_cache_path_for, free_bytes, model_digests, tool_info,
     video_extractions, video_sources, Extracted,
 };
