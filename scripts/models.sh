@@ -24,6 +24,9 @@ MP_SHA=05dc4a9e593655a79558d05d6227d31018c2537a4bd3362b51e230cf22aecfe3
 ORT_WHEEL=onnxruntime-1.22.1-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl
 ORT_SHA=f6effa1299ac549a05c784d50292e3378dbbf010346ded67400193b09ddc2f04
 ORT_LIB=libonnxruntime.so.1.22.1
+# The library as it is inside that wheel (also pinned in eyereplay-extract's
+# models.rs, which `eyereplay models check` verifies it against).
+ORT_LIB_SHA=ad9665887025474170d3e71cd28021e7e811c5bf201bc365f953e34a2c4989cc
 
 # name in the wheel -> sha256 of the .tflite
 declare -A TFLITE=(
@@ -103,11 +106,20 @@ for name in "${!TFLITE[@]}"; do
     say "extracted $name.tflite"
   fi
   onnx="$models/$name.onnx"
-  # Reconvert when the tflite or the converter changed since the last run.
+  # Reconvert when the tflite or the converter changed since the last run,
+  # or an output no longer has the sha256 its conversion recorded. The stamp
+  # `$onnx.src`: the source's and converter's sha256 on its first line, then
+  # `sha256 HEX FILE` for each file written (`eyereplay models check`
+  # verifies them: a converted network carries no pinned hash, since it is
+  # made here).
   eyes="${SPLIT_EYES[$name]:-}"
   stamp="$want $(sha "$converter")${eyes:+ split $eyes}"
-  if [[ -f "$onnx" && -f "$onnx.src" && "$(cat "$onnx.src")" == "$stamp" && ( -z "$eyes" || -f "$models/$eyes" ) ]]; then
-    say "have $name.onnx${eyes:+ and $eyes}"
+  outputs=("$name.onnx" ${eyes:+"$eyes"})
+  record() { for f in "${outputs[@]}"; do echo "sha256 $(sha "$models/$f") $f"; done; }
+  if [[ -f "$onnx.src" && "$(head -n1 "$onnx.src")" == "$stamp" ]] \
+    && ls "${outputs[@]/#/$models/}" >/dev/null 2>&1 \
+    && [[ "$(tail -n +2 "$onnx.src")" == "$(record)" ]]; then
+    say "have ${outputs[*]} (sha256 as converted)"
   else
     if [[ -n "$eyes" ]]; then
       "$venv/bin/python" "$converter" "$tfl" "$tmp/$name.onnx" --split-eyes "$tmp/$eyes"
@@ -116,8 +128,9 @@ for name in "${!TFLITE[@]}"; do
       "$venv/bin/python" "$converter" "$tfl" "$tmp/$name.onnx"
     fi
     mv "$tmp/$name.onnx" "$onnx"
-    echo "$stamp" >"$onnx.src"
-    say "converted $name.tflite -> $name.onnx${eyes:+ + $eyes}"
+    { echo "$stamp"; record; } >"$onnx.src.tmp"
+    mv "$onnx.src.tmp" "$onnx.src"
+    say "converted $name.tflite -> ${outputs[*]}"
   fi
 done
 
@@ -127,15 +140,16 @@ if [[ ! -f "$models/LICENSE-mediapipe" ]]; then
   say "wrote LICENSE-mediapipe (Apache-2.0, covers the models)"
 fi
 
-if [[ ! -f "$models/$ORT_LIB" ]]; then
+if ! have "$models/$ORT_LIB" "$ORT_LIB_SHA"; then
   unzip_to "$cache/pip/$ORT_WHEEL" "$tmp" "onnxruntime/capi/$ORT_LIB" "onnxruntime/LICENSE" \
     "onnxruntime/ThirdPartyNotices.txt"
+  [[ "$(sha "$tmp/$ORT_LIB")" == "$ORT_LIB_SHA" ]] || { echo "models: $ORT_LIB: unexpected sha256" >&2; exit 1; }
   mv "$tmp/$ORT_LIB" "$models/$ORT_LIB"
   mv "$tmp/LICENSE" "$models/LICENSE-onnxruntime"
   mv "$tmp/ThirdPartyNotices.txt" "$models/ThirdPartyNotices-onnxruntime.txt"
   say "extracted $ORT_LIB (MIT)"
 else
-  say "have $ORT_LIB"
+  say "have $ORT_LIB (sha256 ok)"
 fi
 
 say "ready in $models"

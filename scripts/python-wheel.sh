@@ -40,13 +40,16 @@ export FFMPEG_DIR="$(readlink -f "$cache/ffmpeg-static")"
 pkg="$root/crates/eyereplay-py/python/eyereplay"
 rm -rf "$pkg/models"
 mkdir -p "$pkg/models"
-# The .tflite sources too: `check_models` verifies their pinned sha256, and
+# The .tflite sources too: `check_models` verifies their pinned sha256 (and
+# each network against the sha256 its conversion recorded, the .src stamps), and
 # metadata.json lists every model file's sha256, so the package writes the
 # same provenance (and the same bytes) as the command line.
 for f in face_detection_short_range.onnx face_landmark.onnx iris_landmark.onnx \
     face_landmark_with_attention.onnx face_landmark_with_attention_eyes.onnx \
     face_detection_short_range.tflite face_landmark.tflite iris_landmark.tflite \
     face_landmark_with_attention.tflite \
+    face_detection_short_range.onnx.src face_landmark.onnx.src iris_landmark.onnx.src \
+    face_landmark_with_attention.onnx.src \
     libonnxruntime.so.1.22.1 LICENSE-mediapipe LICENSE-onnxruntime ThirdPartyNotices-onnxruntime.txt; do
   [[ -f "$cache/models/$f" ]] || { echo "python-wheel: $cache/models/$f missing: run scripts/setup.sh" >&2; exit 1; }
   cp "$cache/models/$f" "$pkg/models/$f"

@@ -266,3 +266,88 @@ fn a_log_shows_the_extraction_moving() {
     }
     assert!(!run(true).contains("frames/s"));
 }
+
+/// `models check` verifies every file it can: the `.tflite` sources and the
+/// ONNX Runtime library against their pinned sha256, and each converted
+/// network against the sha256 `scripts/models.sh` recorded when it made it.
+/// A network with one byte changed is refused by name before anything runs
+/// (it may well still run, with other weights), and so is a changed library
+/// and a damaged record. The folder is a copy: links to the real files, the
+/// damaged one copied.
+#[test]
+#[cfg_attr(not(has_models), ignore = "needs the models: run scripts/setup.sh")]
+fn models_check_refuses_a_network_changed_since_its_conversion() {
+    let real = root().join(".cache/models");
+    let check = |dir: &Path| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_eyereplay"))
+            .args(["models", "check", "--dir"])
+            .arg(dir)
+            .env_remove("EYEREPLAY_ORT_LIB")
+            .output()
+            .unwrap()
+    };
+    // A copy of the folder in which `damaged` is a real copy, changed by `f`.
+    let copy_with = |damaged: &str, f: &dyn Fn(&mut Vec<u8>)| {
+        let dir = tempfile::tempdir().unwrap();
+        for e in std::fs::read_dir(&real).unwrap() {
+            let p = e.unwrap().path();
+            let to = dir.path().join(p.file_name().unwrap());
+            if p.file_name().unwrap() == damaged {
+                let mut bytes = std::fs::read(&p).unwrap();
+                f(&mut bytes);
+                std::fs::write(&to, bytes).unwrap();
+            } else if std::fs::hard_link(&p, &to).is_err() {
+                std::fs::copy(&p, &to).unwrap();
+            }
+        }
+        dir
+    };
+    let said = ok(&check(&real));
+    for file in [
+        "iris_landmark.onnx",
+        "face_landmark_with_attention_eyes.onnx",
+    ] {
+        assert!(
+            said.contains(&format!("{file}: sha256 ")) && said.contains("(as converted, ok)"),
+            "{said}"
+        );
+    }
+    assert!(said.contains("libonnxruntime.so.1.22.1: sha256 "), "{said}");
+
+    // One byte in the middle of the iris network's weights.
+    let flip = |b: &mut Vec<u8>| {
+        let mid = b.len() / 2;
+        b[mid] ^= 0x01;
+    };
+    let dir = copy_with("iris_landmark.onnx", &flip);
+    let e = one_line_error(&check(dir.path()));
+    assert!(
+        e.contains("iris_landmark.onnx: sha256 ")
+            && e.contains("the sha256 recorded at its conversion is ")
+            && e.contains("scripts/setup.sh"),
+        "{e}"
+    );
+    // The eye model of the attention mesh, recorded in its face model's stamp.
+    let dir = copy_with("face_landmark_with_attention_eyes.onnx", &flip);
+    let e = one_line_error(&check(dir.path()));
+    assert!(
+        e.contains("face_landmark_with_attention_eyes.onnx: sha256 "),
+        "{e}"
+    );
+    // The library, against its pinned sha256.
+    let dir = copy_with("libonnxruntime.so.1.22.1", &flip);
+    let e = one_line_error(&check(dir.path()));
+    assert!(
+        e.contains("libonnxruntime.so.1.22.1: sha256 ") && e.contains("the pinned sha256 is "),
+        "{e}"
+    );
+    // A record that is not one names its file and line.
+    let dir = copy_with("iris_landmark.onnx.src", &|b| {
+        b.extend_from_slice(b"sha256 not-a-hash iris_landmark.onnx\n")
+    });
+    let e = one_line_error(&check(dir.path()));
+    assert!(
+        e.contains("iris_landmark.onnx.src: line 3: expected 'sha256 HEX FILE'"),
+        "{e}"
+    );
+}

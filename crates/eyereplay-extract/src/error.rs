@@ -21,9 +21,12 @@ pub enum ExtractError {
         "models not found in {dir}: missing {missing}; run scripts/setup.sh (or `cargo xtask models` in a checkout)"
     )]
     ModelsMissing { dir: PathBuf, missing: String },
-    #[error("{path}: sha256 {actual} does not match the pinned {expected}; run scripts/setup.sh (or `cargo xtask models`)")]
+    #[error("{path}: sha256 {actual}, where {against} is {expected}; run scripts/setup.sh (or `cargo xtask models`)")]
     ModelChecksum {
         path: PathBuf,
+        /// Whose hash `expected` is: "the pinned sha256" (a source file or
+        /// the runtime library) or the one the conversion recorded.
+        against: &'static str,
         expected: String,
         actual: String,
     },

@@ -36,6 +36,12 @@ pub const ATTENTION: &str = "face_landmark_with_attention.onnx";
 /// that map); the custom operators between them are [`crate::attention`].
 pub const ATTENTION_EYES: &str = "face_landmark_with_attention_eyes.onnx";
 pub const ORT_LIB: &str = "libonnxruntime.so.1.22.1";
+/// The pinned sha256 of [`ORT_LIB`] as shipped in the onnxruntime==1.22.1
+/// wheel (`scripts/models.sh` checks it when it unpacks the library).
+pub const ORT_LIB_SHA256: &str = "ad9665887025474170d3e71cd28021e7e811c5bf201bc365f953e34a2c4989cc";
+/// The networks `scripts/models.sh` converts, each checked against the
+/// sha256 the conversion recorded (see [`conversion_records`]).
+pub const NETWORKS: [&str; 5] = [DETECTOR, MESH, IRIS, ATTENTION, ATTENTION_EYES];
 
 /// The pinned sha256 of the `.tflite` files the ONNX files are made from
 /// (as shipped in the mediapipe==0.10.21 wheel).
@@ -153,11 +159,53 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
         if got != want {
             return Err(ExtractError::ModelChecksum {
                 path: p,
+                against: "the pinned sha256",
                 expected: want.into(),
                 actual: got,
             });
         }
         lines.push(format!("{file}: sha256 {got} (pinned, ok)"));
+    }
+    // The ONNX files are made on the user's machine, so no hash is pinned
+    // for them; the conversion records each output's, and a file changed
+    // since (a byte flipped that still runs) is caught here.
+    let records = conversion_records(dir)?;
+    for file in NETWORKS {
+        let p = dir.join(file);
+        let Some(want) = records.get(file) else {
+            lines.push(format!(
+                "{file}: no sha256 recorded at its conversion (made by an older scripts/models.sh; \
+                 run scripts/setup.sh to convert and record it)"
+            ));
+            continue;
+        };
+        let got = eyereplay_core::sha256_file(&p)?;
+        if &got != want {
+            return Err(ExtractError::ModelChecksum {
+                path: p,
+                against: "the sha256 recorded at its conversion",
+                expected: want.clone(),
+                actual: got,
+            });
+        }
+        lines.push(format!("{file}: sha256 {got} (as converted, ok)"));
+    }
+    // The pinned library, wherever it was found (the models folder or an
+    // installed package); one named by $EYEREPLAY_ORT_LIB is the user's.
+    let lib = runtime_library(dir);
+    if std::env::var_os("EYEREPLAY_ORT_LIB").is_none()
+        && lib.file_name() == Some(std::ffi::OsStr::new(ORT_LIB))
+    {
+        let got = eyereplay_core::sha256_file(&lib)?;
+        if got != ORT_LIB_SHA256 {
+            return Err(ExtractError::ModelChecksum {
+                path: lib,
+                against: "the pinned sha256",
+                expected: ORT_LIB_SHA256.into(),
+                actual: got,
+            });
+        }
+        lines.push(format!("{ORT_LIB}: sha256 {got} (pinned, ok)"));
     }
     init_runtime(dir)?;
     let mut m = Models::load(dir)?;
@@ -202,6 +250,41 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
         }
     ));
     Ok(lines)
+}
+
+/// The sha256 of each converted network as `scripts/models.sh` recorded
+/// it: the `.onnx.src` stamps in `dir`, whose first line names the source
+/// and converter and whose further lines read `sha256 HEX FILE`, one per
+/// file the conversion wrote. Keyed by file name.
+pub fn conversion_records(dir: &Path) -> Result<std::collections::BTreeMap<String, String>> {
+    let mut records = std::collections::BTreeMap::new();
+    for file in NETWORKS {
+        let stamp = dir.join(format!("{file}.src"));
+        let Ok(text) = std::fs::read_to_string(&stamp) else {
+            continue; // no stamp: the file is another conversion's output
+        };
+        for (i, line) in text.lines().enumerate().skip(1) {
+            let bad = || {
+                ExtractError::Runtime(format!(
+                    "{}: line {}: expected 'sha256 HEX FILE', found '{line}'; \
+                     run scripts/setup.sh to convert the models again",
+                    stamp.display(),
+                    i + 1
+                ))
+            };
+            let mut words = line.split_whitespace();
+            let (Some("sha256"), Some(hex), Some(name), None) =
+                (words.next(), words.next(), words.next(), words.next())
+            else {
+                return Err(bad());
+            };
+            if hex.len() != 64 || !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
+                return Err(bad());
+            }
+            records.insert(name.to_string(), hex.to_ascii_lowercase());
+        }
+    }
+    Ok(records)
 }
 
 /// The outcome of loading the runtime library: `Ok`, or an
