@@ -148,6 +148,7 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
         });
     }
     let mut lines = vec![];
+    const PINNED: &str = "the pinned sha256";
     for (file, want) in TFLITE_SHA256 {
         let p = dir.join(file);
         if !p.is_file() {
@@ -155,15 +156,7 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
             lines.push(format!("{file}: source not here (converted networks only)"));
             continue;
         }
-        let got = eyereplay_core::sha256_file(&p)?;
-        if got != want {
-            return Err(ExtractError::ModelChecksum {
-                path: p,
-                against: "the pinned sha256",
-                expected: want.into(),
-                actual: got,
-            });
-        }
+        let got = verify_sha256(&p, want, PINNED)?;
         lines.push(format!("{file}: sha256 {got} (pinned, ok)"));
     }
     // The ONNX files are made on the user's machine, so no hash is pinned
@@ -171,7 +164,6 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
     // since (a byte flipped that still runs) is caught here.
     let records = conversion_records(dir)?;
     for file in NETWORKS {
-        let p = dir.join(file);
         let Some(want) = records.get(file) else {
             lines.push(format!(
                 "{file}: no sha256 recorded at its conversion (made by an older scripts/models.sh; \
@@ -179,15 +171,11 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
             ));
             continue;
         };
-        let got = eyereplay_core::sha256_file(&p)?;
-        if &got != want {
-            return Err(ExtractError::ModelChecksum {
-                path: p,
-                against: "the sha256 recorded at its conversion",
-                expected: want.clone(),
-                actual: got,
-            });
-        }
+        let got = verify_sha256(
+            &dir.join(file),
+            want,
+            "the sha256 recorded at its conversion",
+        )?;
         lines.push(format!("{file}: sha256 {got} (as converted, ok)"));
     }
     // The pinned library, wherever it was found (the models folder or an
@@ -196,15 +184,7 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
     if std::env::var_os("EYEREPLAY_ORT_LIB").is_none()
         && lib.file_name() == Some(std::ffi::OsStr::new(ORT_LIB))
     {
-        let got = eyereplay_core::sha256_file(&lib)?;
-        if got != ORT_LIB_SHA256 {
-            return Err(ExtractError::ModelChecksum {
-                path: lib,
-                against: "the pinned sha256",
-                expected: ORT_LIB_SHA256.into(),
-                actual: got,
-            });
-        }
+        let got = verify_sha256(&lib, ORT_LIB_SHA256, PINNED)?;
         lines.push(format!("{ORT_LIB}: sha256 {got} (pinned, ok)"));
     }
     init_runtime(dir)?;
@@ -250,6 +230,21 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
         }
     ));
     Ok(lines)
+}
+
+/// `path`'s sha256 when it is `want`, else a [`ExtractError::ModelChecksum`]
+/// saying whose hash `want` is (`against`).
+fn verify_sha256(path: &Path, want: &str, against: &'static str) -> Result<String> {
+    let got = eyereplay_core::sha256_file(path)?;
+    if got != want {
+        return Err(ExtractError::ModelChecksum {
+            path: path.to_path_buf(),
+            against,
+            expected: want.into(),
+            actual: got,
+        });
+    }
+    Ok(got)
 }
 
 /// The sha256 of each converted network as `scripts/models.sh` recorded
