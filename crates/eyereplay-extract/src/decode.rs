@@ -65,12 +65,27 @@ impl Decoder {
     /// `pipe:N` (an inherited descriptor), or a network URL (`rtsp://`,
     /// `http://`...). Frames come out as they arrive.
     pub fn open_url(url: &str) -> Result<Decoder> {
+        Self::open_url_interruptible(url, || false)
+    }
+
+    /// [`Decoder::open_url`] with FFmpeg's interrupt callback: `interrupt`
+    /// is asked while the stream is opened and whenever a read waits (a
+    /// network protocol asks it every 100 ms or so; a pipe when a signal
+    /// cuts its read short), and `true` ends the wait. The stream then
+    /// ends as at its end of file: [`Decoder::frames`] returns the frames
+    /// it had. How a watch of a live stream stops on Ctrl-C, or gives up on
+    /// a stream that stalled.
+    pub fn open_url_interruptible(
+        url: &str,
+        interrupt: impl FnMut() -> bool + Send + 'static,
+    ) -> Result<Decoder> {
         init();
         let path = Path::new(url);
-        let ictx = ff::format::input(&path).map_err(|e| ExtractError::Open {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
+        let ictx =
+            ff::format::input_with_interrupt(&path, interrupt).map_err(|e| ExtractError::Open {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            })?;
         Self::from_input(path, ictx)
     }
 
@@ -236,7 +251,8 @@ impl Decoder {
                         self.errors += 1;
                     }
                 }
-                Err(ff::Error::Eof) => {
+                // The interrupt callback ended a wait: an end like EOF's.
+                Err(ff::Error::Eof | ff::Error::Exit) => {
                     eof = true;
                     let _ = self.decoder.send_eof();
                 }

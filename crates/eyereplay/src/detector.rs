@@ -20,10 +20,40 @@ pub const VIDEO_EXTENSIONS: [&str; 8] = ["mp4", "mov", "avi", "mkv", "webm", "m4
 /// gets `NaN` (no gaze) between them.
 const MAX_INTERP_GAP_S: f64 = 0.2;
 
+/// Whether `detect` reads `path` as a video: by its extension where it is
+/// one of [`VIDEO_EXTENSIONS`] (a video) or a table's (`.csv`, `.tsv`,
+/// `.txt`: not), else by its first bytes: a file that does not start as
+/// text is a video (an MPEG-TS `.ts`, a `.3gp`, a `.flv`, a name without
+/// an extension), where it used to be read as a CSV and fail with
+/// "stream did not contain valid UTF-8".
 pub fn is_video(path: &Path) -> bool {
-    path.extension()
+    let ext = path
+        .extension()
         .and_then(|e| e.to_str())
-        .is_some_and(|e| VIDEO_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some(e) if VIDEO_EXTENSIONS.contains(&e) => true,
+        Some("csv" | "tsv" | "txt") => false,
+        _ => !starts_as_text(path),
+    }
+}
+
+/// The first 1 KiB is UTF-8 (but for a character cut at its end) without
+/// NUL bytes; false for a file that cannot be read (the reader then says
+/// why).
+fn starts_as_text(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = Vec::with_capacity(1024);
+    let read = std::fs::File::open(path).and_then(|f| f.take(1024).read_to_end(&mut head));
+    if read.is_err() {
+        return false;
+    }
+    let text = match std::str::from_utf8(&head) {
+        Ok(_) => true,
+        // A multi-byte character cut by the 1 KiB limit.
+        Err(e) => e.error_len().is_none(),
+    };
+    text && !head.contains(&0)
 }
 
 /// What a track was made from.
@@ -747,6 +777,28 @@ fn file_label(path: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_video_is_told_by_its_extension_or_else_by_not_being_text() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = |name: &str, bytes: &[u8]| {
+            let p = dir.path().join(name);
+            std::fs::write(&p, bytes).unwrap();
+            p
+        };
+        // An MPEG-TS packet starts with the sync byte 0x47 and binary.
+        let ts = [0x47u8, 0x40, 0x00, 0x10, 0x00, 0x00, 0xb0, 0x0d, 0xff, 0xfe];
+        assert!(is_video(&file("call.ts", &ts)));
+        assert!(is_video(&file("call", &ts)));
+        assert!(is_video(&file("clip.MP4", b"frame,x,y\n")));
+        assert!(!is_video(&file("gaze.csv", &ts)));
+        assert!(!is_video(&file("gaze.dat", b"frame,x,y\n0,1.5,2.5\n")));
+        // Text whose 1 KiB cut falls inside a two-byte character.
+        let mut long = vec![b'a'; 1023];
+        long.extend("é,x\n".as_bytes());
+        assert!(!is_video(&file("notes", &long)));
+        assert!(is_video(&dir.path().join("missing.bin")));
+    }
 
     /// 65 s scored in back-to-back 10-s windows, of which 0-10, 30-40 and
     /// 40-50 s had a score, and 12-18 s that no window could score: the

@@ -21,6 +21,8 @@ use eyereplay_extract::{
 };
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Where live frames come from.
@@ -73,8 +75,34 @@ pub struct LiveWindow {
     pub lag_s: f64,
 }
 
+/// What ends a watch before its stream does.
+#[derive(Clone, Debug, Default)]
+pub struct Stop {
+    /// Set from elsewhere (the command's Ctrl-C handler, another thread)
+    /// to end the watch: the windows so far, and the whole stream's
+    /// result, still come. A read that waits for data is cut short (for a
+    /// pipe, by the signal that sets it).
+    pub requested: Arc<AtomicBool>,
+    /// A stream that gives no frame for this long is taken as ended, with
+    /// a warning. Network streams are watched for it; a pipe's read waits
+    /// until data or a signal comes. `None`: wait as long as it takes.
+    pub stall_s: Option<f64>,
+}
+
+/// Why a watch ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LiveEnd {
+    /// The stream's own end.
+    StreamEnded,
+    /// [`Stop::requested`] was set.
+    Stopped,
+    /// No frame for [`Stop::stall_s`].
+    Stalled,
+}
+
 /// What a watch ends with.
 pub struct LiveOutcome {
+    pub end: LiveEnd,
     /// The whole stream's detection, as `detect` gives it for a file (the
     /// segments from the complete track).
     pub detection: Option<Detection>,
@@ -136,11 +164,28 @@ fn window_track(rows: &[Row], threshold: f64, t0: f64, next: usize, frames: usiz
 }
 
 /// Opens `source`: standard input and URLs by the decoder itself; a camera
-/// through an ffmpeg child process whose output the decoder reads.
-fn open(source: &LiveSource, ffmpeg: &Path) -> Result<(Decoder, Option<std::process::Child>)> {
+/// through an ffmpeg child process whose output the decoder reads. Every
+/// wait for data asks `interrupt` whether to give up.
+fn open(
+    source: &LiveSource,
+    ffmpeg: &Path,
+    interrupt: impl FnMut() -> bool + Send + 'static,
+) -> Result<(Decoder, Option<std::process::Child>)> {
     match source {
-        LiveSource::Stdin => Ok((Decoder::open_url("pipe:0")?, None)),
-        LiveSource::Url(u) => Ok((Decoder::open_url(u)?, None)),
+        LiveSource::Stdin => Decoder::open_url_interruptible("pipe:0", interrupt)
+            .map(|d| (d, None))
+            .map_err(|e| match e {
+                // FFmpeg names standard input "pipe:0"; say what it was.
+                eyereplay_extract::ExtractError::Open { message, .. } => Error::input(
+                    "stdin",
+                    format!(
+                        "no video stream could be read from it ({message}); pipe one in, for \
+                         example: ffmpeg -re -i call.mp4 -f nut -c:v rawvideo -pix_fmt yuv420p -"
+                    ),
+                ),
+                e => e.into(),
+            }),
+        LiveSource::Url(u) => Ok((Decoder::open_url_interruptible(u, interrupt)?, None)),
         LiveSource::Camera(dev) => {
             use std::os::fd::AsRawFd;
             // Said here in one line, rather than by ffmpeg's own lines.
@@ -160,9 +205,10 @@ fn open(source: &LiveSource, ffmpeg: &Path) -> Result<(Decoder, Option<std::proc
                     Error::input(ffmpeg, format!("cannot run ffmpeg to open the camera: {e}"))
                 })?;
             let fd = child.stdout.as_ref().expect("piped above").as_raw_fd();
-            let dec = Decoder::open_url(&format!("pipe:{fd}")).map_err(|e| {
-                Error::input(dev, format!("camera gave no video through ffmpeg: {e}"))
-            })?;
+            let dec =
+                Decoder::open_url_interruptible(&format!("pipe:{fd}"), interrupt).map_err(|e| {
+                    Error::input(dev, format!("camera gave no video through ffmpeg: {e}"))
+                })?;
             Ok((dec, Some(child)))
         }
     }
@@ -223,19 +269,70 @@ impl WindowClock {
     }
 }
 
-/// Watches `source` until it ends, calling `on_window` for every window
-/// of the model's length, one second apart, as it closes; then scores the
-/// whole stream as [`detect_track`] scores a file (`model_path` names the
-/// model in that result).
+/// What a watch tells as it goes.
+pub trait LiveObserver {
+    /// A window closed.
+    fn window(&mut self, w: &LiveWindow);
+    /// Something the viewer should know that does not stop the watch (the
+    /// stream's clock went back, it stalled).
+    fn warning(&mut self, message: &str);
+}
+
+/// Watches `source` until it ends or `stop` ends it, telling `observer`
+/// every window of the model's length, one second apart, as it closes;
+/// then scores the whole stream as [`detect_track`] scores a file
+/// (`model_path` names the model in that result).
 pub fn watch(
     source: &LiveSource,
     model: &DetectorModel,
     model_path: &Path,
     ffmpeg: &Path,
-    on_window: &mut dyn FnMut(&LiveWindow),
+    stop: &Stop,
+    observer: &mut dyn LiveObserver,
 ) -> Result<LiveOutcome> {
     check_models()?;
-    let (mut decoder, child) = open(source, ffmpeg)?;
+    // When the last frame came, in ms after the source was opened; the
+    // interrupt callback compares it with the stall limit.
+    let opened = Instant::now();
+    let last_frame_ms = Arc::new(AtomicU64::new(0));
+    let stalled = Arc::new(AtomicBool::new(false));
+    let interrupt = {
+        let (requested, last, stalled) = (
+            stop.requested.clone(),
+            last_frame_ms.clone(),
+            stalled.clone(),
+        );
+        let stall_ms = stop.stall_s.map(|s| (s * 1000.0) as u64);
+        move || {
+            if requested.load(Ordering::Relaxed) {
+                return true;
+            }
+            let now = opened.elapsed().as_millis() as u64;
+            let quiet = now.saturating_sub(last.load(Ordering::Relaxed));
+            if stall_ms.is_some_and(|limit| quiet > limit) {
+                stalled.store(true, Ordering::Relaxed);
+                return true;
+            }
+            false
+        }
+    };
+    let opening = open(source, ffmpeg, interrupt);
+    if stop.requested.load(Ordering::Relaxed) || stalled.load(Ordering::Relaxed) {
+        if let Ok((_, Some(mut c))) = opening {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+        let why = if stalled.load(Ordering::Relaxed) {
+            format!(
+                "no video came for {:.0} s; gave up (--stall-timeout-s)",
+                stop.stall_s.unwrap_or(0.0)
+            )
+        } else {
+            "stopped before the stream's first frame".into()
+        };
+        return Err(Error::input(source.label(), why));
+    }
+    let (mut decoder, child) = opening?;
     let opts = ExtractOptions::default();
     let (w, h) = (decoder.info.width, decoder.info.height);
     let mut stream = FrameStream::new(&opts, w, h)?;
@@ -247,21 +344,29 @@ pub fn watch(
         blink_ratio: opts.blink_ratio,
     };
     let mut failure: Option<Error> = None;
+    let mut rebase = Rebase::default();
     let decoded = decoder.frames(|t, img| {
+        if stop.requested.load(Ordering::Relaxed) {
+            return Ok(ControlFlow::Break(()));
+        }
+        last_frame_ms.store(opened.elapsed().as_millis() as u64, Ordering::Relaxed);
+        let t = match rebase.time(t) {
+            Timed::At(t) => t,
+            Timed::Restarted(t, message) => {
+                observer.warning(&message);
+                t
+            }
+            Timed::Behind => return Ok(ControlFlow::Continue(())),
+        };
         match stream.push_image(img, t) {
             Ok(()) => {}
-            // A frame whose time does not follow the last (a restarted
-            // stream) is dropped; the watch goes on.
-            Err(eyereplay_extract::ExtractError::Frames(_)) => {
-                return Ok(ControlFlow::Continue(()))
-            }
             Err(e) => {
                 failure = Some(e.into());
                 return Ok(ControlFlow::Break(()));
             }
         }
         clock.t0.get_or_insert_with(|| (t, Instant::now()));
-        clock.close(stream.rows(), Some(t), model, on_window);
+        clock.close(stream.rows(), Some(t), model, &mut |w| observer.window(w));
         Ok(ControlFlow::Continue(()))
     });
     if let Some(mut c) = child {
@@ -272,14 +377,28 @@ pub fn watch(
     if let Some(e) = failure {
         return Err(e);
     }
+    let end = if stop.requested.load(Ordering::Relaxed) {
+        LiveEnd::Stopped
+    } else if stalled.load(Ordering::Relaxed) {
+        observer.warning(&format!(
+            "no frame for {:.0} s: the stream stalled, so the watch ends here (--stall-timeout-s)",
+            stop.stall_s.unwrap_or(0.0)
+        ));
+        LiveEnd::Stalled
+    } else {
+        LiveEnd::StreamEnded
+    };
     let frames = stream.frames();
     if frames == 0 {
         return Err(Error::input(
             source.label(),
-            "the stream ended before its first frame",
+            match end {
+                LiveEnd::StreamEnded => "the stream ended before its first frame",
+                _ => "stopped before the stream's first frame",
+            },
         ));
     }
-    clock.close(stream.rows(), None, model, on_window);
+    clock.close(stream.rows(), None, model, &mut |w| observer.window(w));
     let done = stream.finish()?;
     let track = rows_track(&done.rows);
     let gaze = track.xy.iter().filter(|p| p[0].is_finite()).count();
@@ -293,11 +412,79 @@ pub fn watch(
     // windows already said so as they closed.
     let detection = detect_track(&track, info, model, model_path).ok();
     Ok(LiveOutcome {
+        end,
         detection,
         track,
         frames,
         face_frames: done.face_frames,
     })
+}
+
+/// A stream's clock made to run forward. A camera, an encoder or a
+/// segmenter that restarts sends times that start again from zero (or
+/// jump back by more than [`Rebase::RESTART_S`]); the frames after it
+/// continue the clock from the last frame, one frame interval on, where
+/// the extractor would drop every one of them until the new times passed
+/// the old. A frame a moment behind the last (a repeated time) is dropped,
+/// as a file's would be.
+#[derive(Default)]
+struct Rebase {
+    /// Added to every incoming time since the last restart.
+    offset_s: f64,
+    /// The last time given out, and the last interval between frames.
+    last: Option<f64>,
+    interval_s: Option<f64>,
+}
+
+/// What to do with a frame, by its time.
+#[derive(Debug, PartialEq)]
+enum Timed {
+    /// Keep it at this time.
+    At(f64),
+    /// Keep it at this time, which continues the clock after a restart;
+    /// the warning says so.
+    Restarted(f64, String),
+    /// A moment behind the last frame: dropped.
+    Behind,
+}
+
+impl Rebase {
+    /// A jump back of more than this is a restart, not jitter.
+    const RESTART_S: f64 = 1.0;
+
+    fn time(&mut self, t_s: f64) -> Timed {
+        let t = t_s + self.offset_s;
+        let Some(last) = self.last else {
+            if !t.is_finite() {
+                return Timed::Behind;
+            }
+            self.last = Some(t);
+            return Timed::At(t);
+        };
+        let continued = last + self.interval_s.unwrap_or(1.0 / FPS);
+        if !t.is_finite() {
+            // No usable time: the next frame's place on the clock.
+            self.last = Some(continued);
+            return Timed::At(continued);
+        }
+        if t > last {
+            self.interval_s = Some((t - last).min(1.0));
+            self.last = Some(t);
+            return Timed::At(t);
+        }
+        if last - t <= Self::RESTART_S {
+            return Timed::Behind;
+        }
+        self.offset_s = continued - t_s;
+        self.last = Some(continued);
+        Timed::Restarted(
+            continued,
+            format!(
+                "the stream's clock went back from {last:.2} s to {t:.2} s (a restarted camera \
+                 or encoder?); its frames continue from {continued:.2} s"
+            ),
+        )
+    }
 }
 
 #[cfg(test)]
@@ -367,6 +554,40 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_restarted_clock_continues_and_a_repeated_time_is_dropped() {
+        let mut r = Rebase::default();
+        assert_eq!(r.time(5.0), Timed::At(5.0));
+        assert_eq!(r.time(5.04), Timed::At(5.04));
+        // A repeated time and a small step back: dropped, as a file's.
+        assert_eq!(r.time(5.04), Timed::Behind);
+        assert_eq!(r.time(4.5), Timed::Behind);
+        assert_eq!(r.time(5.08), Timed::At(5.08));
+        // The clock starts again at 0: the frame comes one interval
+        // (0.04 s) after the last, and so do the ones after it.
+        let Timed::Restarted(t, message) = r.time(0.0) else {
+            panic!("a restart")
+        };
+        assert!((t - 5.12).abs() < 1e-9, "{t}");
+        assert!(
+            message.contains("went back from 5.08 s to 0.00 s"),
+            "{message}"
+        );
+        let Timed::At(t) = r.time(0.04) else {
+            panic!("continued")
+        };
+        assert!((t - 5.16).abs() < 1e-9, "{t}");
+        // A time that is not a number takes the next frame's place.
+        let Timed::At(t) = r.time(f64::NAN) else {
+            panic!("placed")
+        };
+        assert!((t - 5.20).abs() < 1e-9, "{t}");
+        let Timed::At(t) = r.time(0.12) else {
+            panic!("continued")
+        };
+        assert!((t - 5.24).abs() < 1e-9, "{t}");
     }
 
     #[test]

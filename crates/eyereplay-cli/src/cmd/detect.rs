@@ -36,18 +36,26 @@ pub struct Args {
     /// input (NUT, Matroska, MPEG-TS). Prints each window's probability as
     /// it closes (one window a second), then the whole stream's segments;
     /// with --out, writes the JSON and the reviewer's page as for a file.
+    /// Ctrl-C ends the watch with the same result as the stream's end.
     #[arg(long, value_name = "SOURCE")]
     pub live: Option<String>,
     /// The ffmpeg program that opens a camera for --live.
     #[arg(long, value_name = "PATH", default_value = "ffmpeg")]
     pub ffmpeg: PathBuf,
+    /// With --live: a stream that gives no frame for this many seconds is
+    /// taken as ended (network streams; a pipe waits for data or Ctrl-C).
+    /// 0 waits as long as it takes.
+    #[arg(long, value_name = "S", default_value_t = 30.0, requires = "live")]
+    pub stall_timeout_s: f64,
     /// A model written by 'eyereplay train'.
     #[arg(long, value_name = "MODEL")]
     pub model: PathBuf,
-    /// Folder for the JSON and the plot (default: beside the input).
+    /// Folder for the JSON and the plot (default: beside the input; with
+    /// --live, none unless given).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// Also print the JSON to standard output.
+    /// Also print the JSON to standard output; everything else then goes
+    /// to standard error, so the output is the JSON alone.
     #[arg(long)]
     pub json: bool,
     /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
@@ -56,7 +64,7 @@ pub struct Args {
     /// Time the detector on the loaded track (windows, features, model;
     /// repeated for at least a second) and print its speed against real
     /// time (goal: at least 100x). Writes nothing.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "live")]
     pub bench: bool,
 }
 
@@ -71,6 +79,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "{}: --out takes a folder (the results are written into it), and this is a file",
             out.display()
         );
+        // Made and tried now: an hour of a live call must not end in a
+        // folder that cannot be written.
+        let probe = out.join(format!(".eyereplay-write-test-{}", std::process::id()));
+        std::fs::create_dir_all(out)
+            .and_then(|()| std::fs::write(&probe, b""))
+            .and_then(|()| std::fs::remove_file(&probe))
+            .map_err(|e| anyhow::anyhow!("{}: --out cannot be written: {e}", out.display()))?;
     }
     if let Some(source) = &args.live {
         return live(&args, source, &model);
@@ -94,7 +109,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let href = (d.input.kind == "video").then(|| relative_href(&input, &out_dir));
     let (text, [json_path, png_path, html_path]) =
         write_detection(&track, &d, &out_dir, &stem, href.as_deref())?;
-    print_detection(&d);
+    print_detection(&d, args.json);
     eprintln!(
         "wrote {}, {} and {}",
         json_path.display(),
@@ -132,46 +147,49 @@ fn write_detection(
 
 /// `detect --live SOURCE`: windows as they close, then the stream's result.
 fn live(args: &Args, source: &str, model: &DetectorModel) -> anyhow::Result<()> {
-    use std::io::Write;
+    use std::io::IsTerminal;
+    anyhow::ensure!(
+        !source.trim().is_empty(),
+        "--live takes a source: a camera (/dev/video0), a stream URL (rtsp://, http://) or - for standard input"
+    );
     let src = eyereplay::live::LiveSource::parse(source);
+    anyhow::ensure!(
+        src != eyereplay::live::LiveSource::Stdin || !std::io::stdin().is_terminal(),
+        "--live -: standard input is a terminal; pipe a video stream into it, for example: \
+         ffmpeg -re -i call.mp4 -f nut -c:v rawvideo -pix_fmt yuv420p - | eyereplay detect --live - --model M"
+    );
+    anyhow::ensure!(
+        args.stall_timeout_s.is_finite() && args.stall_timeout_s >= 0.0,
+        "--stall-timeout-s takes seconds, 0 or more (0: wait as long as it takes)"
+    );
+    let stop = eyereplay::live::Stop {
+        requested: Default::default(),
+        stall_s: (args.stall_timeout_s > 0.0).then_some(args.stall_timeout_s),
+    };
+    stop_on_signals(stop.requested.clone());
     eprintln!(
-        "watching {}: one {} s window a second, threshold {:.3} (Ctrl-C or the end of the stream stops)",
+        "watching {}: one {} s window a second, scored when {:.1} s of it have gaze, threshold {:.3} \
+         (Ctrl-C, or the end of the stream, ends the watch with its result)",
         src.label(),
         model.window_s,
+        model.window_s * (1.0 - eyereplay::detect::window::MAX_MISSING_FRACTION),
         model.threshold
     );
-    // The table's header with its first row, so that a source that never
-    // opens leaves stdout empty.
-    let mut header = true;
-    let mut on_window = |w: &eyereplay::live::LiveWindow| {
-        let mut out = std::io::stdout().lock();
-        if std::mem::take(&mut header) {
-            let _ = writeln!(
-                out,
-                "{:>8} {:>8}  {:>10}  {:>7}  {:>6}  {:>6}",
-                "start_s", "end_s", "P(reading)", "call", "gaze_s", "lag_s"
-            );
-        }
-        let p = w
-            .reading_probability
-            .map_or("no gaze".to_string(), |p| format!("{p:.3}"));
-        let _ = writeln!(
-            out,
-            "{:>8.1} {:>8.1}  {:>10}  {:>7}  {:>6.1}  {:>6.2}",
-            w.start_s,
-            w.end_s,
-            p,
-            if w.reading { "reading" } else { "-" },
-            w.gaze_s,
-            w.lag_s.max(0.0)
-        );
-        // Each line as it is decided, even into a pipe.
-        let _ = out.flush();
+    let mut table = LiveTable {
+        header: true,
+        to_stderr: args.json,
     };
-    let outcome = eyereplay::live::watch(&src, model, &args.model, &args.ffmpeg, &mut on_window)?;
+    let outcome =
+        eyereplay::live::watch(&src, model, &args.model, &args.ffmpeg, &stop, &mut table)?;
+    let ended = match outcome.end {
+        eyereplay::live::LiveEnd::StreamEnded => "the stream ended",
+        eyereplay::live::LiveEnd::Stopped => "stopped",
+        eyereplay::live::LiveEnd::Stalled => "the stream stalled",
+    };
     eprintln!(
-        "{} frames, face in {:.1} %",
+        "{ended}: {} frame{}, face in {:.1} %",
         outcome.frames,
+        if outcome.frames == 1 { "" } else { "s" },
         100.0 * outcome.face_frames as f64 / outcome.frames.max(1) as f64
     );
     let Some(d) = outcome.detection else {
@@ -180,22 +198,129 @@ fn live(args: &Args, source: &str, model: &DetectorModel) -> anyhow::Result<()> 
             src.label()
         );
     };
-    print_detection(&d);
-    if let Some(out_dir) = &args.out {
-        let (text, paths) = write_detection(&outcome.track, &d, out_dir, "live", None)?;
-        eprintln!(
-            "wrote {}",
-            paths
-                .iter()
-                .map(|p| p.display().to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
-        if args.json {
-            print!("{text}");
+    // The files first: a reader of standard output that has gone (`| head`)
+    // ends the program at the next line printed.
+    let text = match &args.out {
+        Some(out_dir) => {
+            let (text, paths) = write_detection(&outcome.track, &d, out_dir, "live", None)?;
+            eprintln!(
+                "wrote {}",
+                paths
+                    .iter()
+                    .map(|p| p.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+            text
         }
+        None => serde_json::to_string_pretty(&d)? + "\n",
+    };
+    print_detection(&d, args.json);
+    if args.json {
+        print!("{text}");
     }
     Ok(())
+}
+
+/// The live table: a line for each window as it closes, on standard
+/// output (standard error with --json); warnings on standard error.
+struct LiveTable {
+    /// The header goes with the first row, so that a source that never
+    /// opens leaves the output empty.
+    header: bool,
+    to_stderr: bool,
+}
+
+impl eyereplay::live::LiveObserver for LiveTable {
+    fn window(&mut self, w: &eyereplay::live::LiveWindow) {
+        use std::io::Write;
+        let mut line = String::new();
+        if std::mem::take(&mut self.header) {
+            line += &format!(
+                "{:>8} {:>8}  {:>10}  {:>7}  {:>6}  {:>6}\n",
+                "start_s", "end_s", "P(reading)", "call", "gaze_s", "lag_s"
+            );
+        }
+        // A window with some gaze, but less than a score needs, is not one
+        // without any.
+        let p = match w.reading_probability {
+            Some(p) => format!("{p:.3}"),
+            None if w.gaze_s > 0.0 => "too little".into(),
+            None => "no gaze".into(),
+        };
+        line += &format!(
+            "{:>8.1} {:>8.1}  {:>10}  {:>7}  {:>6.1}  {:>6.2}\n",
+            w.start_s,
+            w.end_s,
+            p,
+            if w.reading { "reading" } else { "-" },
+            w.gaze_s,
+            w.lag_s.max(0.0)
+        );
+        // Each line as it is decided, even into a pipe.
+        if self.to_stderr {
+            let _ = std::io::stderr().write_all(line.as_bytes());
+        } else {
+            let mut out = std::io::stdout().lock();
+            let _ = out.write_all(line.as_bytes());
+            let _ = out.flush();
+        }
+    }
+
+    fn warning(&mut self, message: &str) {
+        eprintln!("warning: {message}");
+    }
+}
+
+/// Ctrl-C (SIGINT) and SIGTERM set `flag`, which ends a live watch with
+/// what it has; another one a second or more later ends the program at
+/// once, as by default (one within the second is the same stop delivered
+/// twice: a wrapper such as `timeout` passes on the Ctrl-C its process
+/// group got too). The handler is installed without SA_RESTART, so a read
+/// that waits on a pipe returns (EINTR) and FFmpeg asks its interrupt
+/// callback, which reads the flag; a network read asks it on its own every
+/// 100 ms or so.
+fn stop_on_signals(flag: std::sync::Arc<std::sync::atomic::AtomicBool>) {
+    use std::sync::atomic::{AtomicI64, Ordering};
+    use std::sync::OnceLock;
+    static FLAG: OnceLock<std::sync::Arc<std::sync::atomic::AtomicBool>> = OnceLock::new();
+    // CLOCK_MONOTONIC milliseconds of the first signal.
+    static FIRST_MS: AtomicI64 = AtomicI64::new(0);
+    extern "C" fn on_signal(sig: libc::c_int) {
+        // Only async-signal-safe work here: atomics, clock_gettime, and on
+        // a later signal the default action restored and raised.
+        let Some(flag) = FLAG.get() else { return };
+        // SAFETY: clock_gettime is async-signal-safe; `now` is a valid out
+        // pointer.
+        let now_ms = unsafe {
+            let mut now: libc::timespec = std::mem::zeroed();
+            libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut now);
+            now.tv_sec as i64 * 1000 + now.tv_nsec as i64 / 1_000_000
+        };
+        if !flag.swap(true, Ordering::SeqCst) {
+            FIRST_MS.store(now_ms, Ordering::SeqCst);
+        } else if now_ms - FIRST_MS.load(Ordering::SeqCst) >= 1000 {
+            // SAFETY: signal and raise are async-signal-safe.
+            unsafe {
+                libc::signal(sig, libc::SIG_DFL);
+                libc::raise(sig);
+            }
+        }
+    }
+    if FLAG.set(flag).is_err() {
+        return; // installed already
+    }
+    for sig in [libc::SIGINT, libc::SIGTERM] {
+        // SAFETY: a zeroed sigaction is valid; the handler above only
+        // touches atomics and async-signal-safe calls.
+        unsafe {
+            let mut act: libc::sigaction = std::mem::zeroed();
+            act.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as usize;
+            act.sa_flags = 0;
+            libc::sigemptyset(&mut act.sa_mask);
+            libc::sigaction(sig, &act, std::ptr::null_mut());
+        }
+    }
 }
 
 /// `video` as a link from a page in `page_dir`: relative when both are
@@ -217,7 +342,17 @@ fn relative_href(video: &Path, page_dir: &Path) -> String {
     parts.join("/")
 }
 
-fn print_detection(d: &Detection) {
+/// The windows, segments and verdict; all on standard error when
+/// `all_to_stderr` (with --json, whose JSON is then standard output alone),
+/// else the verdict on standard output.
+fn print_detection(d: &Detection, all_to_stderr: bool) {
+    let verdict = |line: String| {
+        if all_to_stderr {
+            eprintln!("{line}");
+        } else {
+            println!("{line}");
+        }
+    };
     eprintln!(
         "{:>8} {:>8}  {:>9}  {:>7}",
         "start_s", "end_s", "P(reading)", "call"
@@ -251,7 +386,7 @@ fn print_detection(d: &Detection) {
         );
     }
     if let Some(c) = &d.clip {
-        println!(
+        verdict(format!(
             "{}: {} (a clip shorter than one {} s window: {:.1} s of gaze in {:.1}-{:.1} s scored, P(reading) {:.3}, {:.0} % interval {:.3}-{:.3}, threshold {:.3})",
             d.input.path,
             d.verdict,
@@ -264,7 +399,7 @@ fn print_detection(d: &Detection) {
             c.low,
             c.high,
             d.model.threshold
-        );
+        ));
         return;
     }
     // With segments, the recording's one verdict is its average: a long
@@ -282,7 +417,7 @@ fn print_detection(d: &Detection) {
             d.verdict
         )
     };
-    println!(
+    verdict(format!(
         "{}: {lead} (mean P(reading) {:.3} against threshold {:.3}; {} of {} windows of {} s called reading)",
         d.input.path,
         d.reading_probability,
@@ -290,7 +425,7 @@ fn print_detection(d: &Detection) {
         d.windows.iter().filter(|w| w.reading).count(),
         d.windows.len(),
         d.model.window_s
-    );
+    ));
 }
 
 fn bench(
