@@ -77,9 +77,19 @@ pub fn load_track(
     if !path.exists() {
         return Err(Error::input(path, "no such file"));
     }
+    // An extraction's frame times, to tell a stream too sparse to join.
+    let from_extraction = |csv: &Path| -> Result<Track> {
+        let samples = extract_csv_samples(csv)?;
+        let times: Vec<f64> = samples.iter().map(|s| s.t_s).collect();
+        if let Some(w) = sparse_frames_warning(&times) {
+            progress.warn(&format!("warning: {}: {w}", path.display()));
+        }
+        let refs: Vec<&Sample<NormPos>> = samples.iter().collect();
+        Ok(resample_samples(&refs))
+    };
     let (track, kind) = if is_video(path) {
         let csv = extract_cached(&[path.to_path_buf()], cache, progress)?.remove(0);
-        (extract_csv_track(&csv)?, "video")
+        (from_extraction(&csv)?, "video")
     } else {
         let head = std::fs::read_to_string(path)
             .map_err(|e| Error::io(path, e))?
@@ -89,7 +99,7 @@ pub fn load_track(
             .to_string();
         let cols: Vec<&str> = head.split(',').map(str::trim).collect();
         if cols.contains(&"nx") && cols.contains(&"time_s") {
-            (extract_csv_track(path)?, "extract")
+            (from_extraction(path)?, "extract")
         } else if cols.starts_with(&["frame", "x", "y"]) {
             (session_csv_track(path)?, "session")
         } else {
@@ -114,6 +124,13 @@ pub fn load_track(
 
 /// An `eyereplay extract` CSV, resampled to 25 fps on its timestamps.
 pub fn extract_csv_track(csv: &Path) -> Result<Track> {
+    let samples = extract_csv_samples(csv)?;
+    let refs: Vec<&Sample<NormPos>> = samples.iter().collect();
+    Ok(resample_samples(&refs))
+}
+
+/// Every row of an `eyereplay extract` CSV as a sample, in time order.
+fn extract_csv_samples(csv: &Path) -> Result<Vec<Sample<NormPos>>> {
     let spec = eyereplay_sources::SourceSpec::Extract {
         path: csv.to_path_buf(),
     };
@@ -123,8 +140,37 @@ pub fn extract_csv_track(csv: &Path) -> Result<Track> {
         ..Default::default()
     };
     let rec = eyereplay_sources::read_source(&spec, &opts)?.remove(0);
-    let samples: Vec<&Sample<NormPos>> = rec.segments.iter().flat_map(|s| s.samples()).collect();
-    Ok(resample_samples(&samples))
+    Ok(rec
+        .segments
+        .iter()
+        .flat_map(|s| s.samples())
+        .cloned()
+        .collect())
+}
+
+/// A warning for frames too far apart to be joined: where the median
+/// interval between frames is near or past `MAX_INTERP_GAP_S` (5 frames a
+/// second or fewer), most of the 25 fps track has no gaze, and the windows
+/// say "too little gaze" without saying why.
+pub fn sparse_frames_warning(times_s: &[f64]) -> Option<String> {
+    let mut gaps: Vec<f64> = times_s
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|g| g.is_finite() && *g > 0.0)
+        .collect();
+    if gaps.len() < 10 {
+        return None;
+    }
+    gaps.sort_by(f64::total_cmp);
+    let median = gaps[gaps.len() / 2];
+    (median > 0.9 * MAX_INTERP_GAP_S).then(|| {
+        format!(
+            "its frames come {:.1} a second; the detector joins frames at most {MAX_INTERP_GAP_S} s \
+             apart (over {:.0} a second), so much of it has no gaze to score",
+            1.0 / median,
+            1.0 / MAX_INTERP_GAP_S
+        )
+    })
 }
 
 /// Linear interpolation at 25 fps between neighbouring samples that both
@@ -777,6 +823,19 @@ fn file_label(path: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn frames_too_sparse_to_join_are_said_to_be() {
+        let at = |fps: f64| -> Vec<f64> { (0..50).map(|k| k as f64 / fps).collect() };
+        // 5 a second: 0.2 s apart, the most the track joins.
+        let w = sparse_frames_warning(&at(5.0)).unwrap();
+        assert!(w.contains("come 5.0 a second"), "{w}");
+        assert!(sparse_frames_warning(&at(2.0)).is_some());
+        assert!(sparse_frames_warning(&at(10.0)).is_none());
+        assert!(sparse_frames_warning(&at(25.0)).is_none());
+        // A few frames say nothing either way.
+        assert!(sparse_frames_warning(&at(1.0)[..5]).is_none());
+    }
 
     #[test]
     fn a_video_is_told_by_its_extension_or_else_by_not_being_text() {

@@ -269,6 +269,10 @@ impl WindowClock {
     }
 }
 
+/// Frames after which a watch says whether they come too far apart to be
+/// joined ([`crate::detector::sparse_frames_warning`]): 8 s at 5 a second.
+const SPARSE_CHECK_FRAMES: usize = 40;
+
 /// What a watch tells as it goes.
 pub trait LiveObserver {
     /// A window closed.
@@ -363,6 +367,13 @@ pub fn watch(
             Err(e) => {
                 failure = Some(e.into());
                 return Ok(ControlFlow::Break(()));
+            }
+        }
+        // Once there are enough frames to tell: too sparse to join?
+        if stream.frames() == SPARSE_CHECK_FRAMES {
+            let times: Vec<f64> = stream.rows().iter().map(|r| r.time_s).collect();
+            if let Some(w) = crate::detector::sparse_frames_warning(&times) {
+                observer.warning(&w);
             }
         }
         clock.t0.get_or_insert_with(|| (t, Instant::now()));
