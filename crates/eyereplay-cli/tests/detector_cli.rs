@@ -287,6 +287,24 @@ fn bad_inputs_fail_in_one_line() {
     assert!(!dir.path().join("short_detect.json").exists());
 }
 
+/// A 6-s model trained on the prepared trajectories (quick: no video), in
+/// `dir`; what the live tests score a real clip with.
+fn trained_on_trajectories_6s(dir: &Path) -> PathBuf {
+    let ds = prepared(dir);
+    let m = dir.join("m.json");
+    ok(&eyereplay(&[
+        "train",
+        s(&ds),
+        "--out",
+        s(&m),
+        "--input",
+        "trajectory",
+        "--window-s",
+        "6",
+    ]));
+    m
+}
+
 /// A watch is ended by Ctrl-C as by the stream's end: with its windows,
 /// the whole stream's result and the files of --out. Here the stream
 /// stalls (the pipe stays open, no more data), which before left the watch
@@ -302,18 +320,7 @@ fn bad_inputs_fail_in_one_line() {
 )]
 fn a_live_watch_ends_with_its_result_on_ctrl_c_and_a_restarted_clock_runs_on() {
     let dir = tempfile::tempdir().unwrap();
-    let ds = prepared(dir.path());
-    let m = dir.path().join("m.json");
-    ok(&eyereplay(&[
-        "train",
-        s(&ds),
-        "--out",
-        s(&m),
-        "--input",
-        "trajectory",
-        "--window-s",
-        "6",
-    ]));
+    let m = trained_on_trajectories_6s(dir.path());
     // Two 6-s pieces of a real webcam clip, each an MPEG-TS of its own
     // whose times start at zero.
     let mut stream = Vec::new();
@@ -561,18 +568,7 @@ fn live_from_standard_input_finds_what_the_file_gives() {
     // A real talking-face clip played into `detect --live -` as ffmpeg
     // writes a call's video to a pipe, against `detect` on the file.
     let dir = tempfile::tempdir().unwrap();
-    let ds = prepared(dir.path());
-    let m = dir.path().join("m.json");
-    ok(&eyereplay(&[
-        "train",
-        s(&ds),
-        "--out",
-        s(&m),
-        "--input",
-        "trajectory",
-        "--window-s",
-        "6",
-    ]));
+    let m = trained_on_trajectories_6s(dir.path());
     // The first 15 s of a real webcam clip, as a file of its own.
     let video = dir.path().join("clip.mp4");
     let made = std::process::Command::new("ffmpeg")
