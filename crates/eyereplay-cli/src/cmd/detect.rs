@@ -353,10 +353,15 @@ fn print_detection(d: &Detection, all_to_stderr: bool) {
             println!("{line}");
         }
     };
-    eprintln!(
-        "{:>8} {:>8}  {:>9}  {:>7}",
-        "start_s", "end_s", "P(reading)", "call"
-    );
+    // A clip shorter than one window has no windows and no segments: its
+    // one line below says what it is, where an empty table and "reading
+    // segments: none" above a verdict of "reading" read as a contradiction.
+    if d.clip.is_none() {
+        eprintln!(
+            "{:>8} {:>8}  {:>9}  {:>7}",
+            "start_s", "end_s", "P(reading)", "call"
+        );
+    }
     for w in &d.windows {
         eprintln!(
             "{:>8.1} {:>8.1}  {:>9.3}  {:>7}",
@@ -368,7 +373,9 @@ fn print_detection(d: &Detection, all_to_stderr: bool) {
     }
     let segs = &d.localization.segments;
     if segs.is_empty() {
-        eprintln!("reading segments: none");
+        if d.clip.is_none() {
+            eprintln!("reading segments: none");
+        }
     } else {
         let list: Vec<String> = segs
             .iter()
