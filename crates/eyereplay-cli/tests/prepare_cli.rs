@@ -115,6 +115,30 @@ fn prepare_writes_dataset_and_dry_run_writes_nothing() {
         .filter(|p| p.ends_with(".tmp"))
         .count();
     assert_eq!(tmp, 0);
+
+    // `evaluate` on it, then with a row of labels.csv repeated (it was
+    // evaluated twice, with other KS figures and no word), and with an
+    // infinite saccade threshold (written to metrics.json as null).
+    let out_s = out.to_str().unwrap();
+    let o = eyereplay(&["evaluate", out_s, "--no-visual"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let e = one_line_error(&eyereplay(&[
+        "evaluate",
+        out_s,
+        "--no-visual",
+        "--saccade-above",
+        "inf",
+    ]));
+    assert!(e.contains("both finite (got 5 and inf)"), "{e}");
+    let labels = out.join("labels.csv");
+    let text = std::fs::read_to_string(&labels).unwrap();
+    let row = text.lines().nth(1).unwrap().to_string();
+    std::fs::write(&labels, format!("{text}{row}\n")).unwrap();
+    let e = one_line_error(&eyereplay(&["evaluate", out_s, "--no-visual"]));
+    assert!(
+        e.contains("labels.csv: lists 8 sessions where metadata.json plans 7"),
+        "{e}"
+    );
 }
 
 fn walk(p: &Path) -> Vec<String> {

@@ -356,9 +356,22 @@ impl DatasetConfig {
                 ("mu_x", c.mu_x),
                 ("mu_y", c.mu_y),
             ] {
-                if v.is_none() {
+                let Some(v) = v else {
                     return Err(ConfigError::Invalid(format!(
                         "calibration.mode = \"manual\" needs calibration.{k}"
+                    )));
+                };
+                // What `evaluate` would refuse in metadata.json, refused
+                // here before a dataset is written: a zero scale puts every
+                // sample on one point.
+                if !v.is_finite() || (k.starts_with("s_") && v == 0.0) {
+                    return Err(ConfigError::Invalid(format!(
+                        "calibration.{k} must be a finite number{}, got {v}",
+                        if k.starts_with("s_") {
+                            " other than 0"
+                        } else {
+                            ""
+                        }
                     )));
                 }
             }

@@ -148,7 +148,8 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
         mut reports,
     } = resample_sources(cfg, inputs, &filtered, &calibrations)?;
     let global_mean = normalize(cfg, &mut frames, &mut reports);
-    let mut warnings = Vec::new();
+    check_finite(inputs, &frames, &calibrations)?;
+    let mut warnings = source_warnings(inputs, &filtered);
     let mut classes = Vec::new();
     for (class, cc) in &cfg.classes {
         let pool = concatenate(*class, inputs, &frames, &blink_flags, &times_s, &reading);
@@ -168,6 +169,71 @@ pub fn prepare(cfg: &DatasetConfig, inputs: &[SourceInput]) -> Result<Prepared, 
         classes,
         warnings,
     })
+}
+
+/// Every calibrated, normalized position is a number: a manual scale near
+/// the largest float (`s_x = 1e308`) overflowed and wrote `NaN` into the
+/// sessions, which `evaluate` then refused at the wrong line.
+fn check_finite(
+    inputs: &[SourceInput],
+    frames: &[Vec<CanvasPos>],
+    calibrations: &Calibrations,
+) -> Result<(), PrepareError> {
+    for ((input, f), c) in inputs.iter().zip(frames).zip(&calibrations.per_source) {
+        if f.iter()
+            .any(|p| !(p.x_px.is_finite() && p.y_px.is_finite()))
+        {
+            return Err(PrepareError::Source {
+                id: input.recording.id.clone(),
+                message: format!(
+                    "the calibration (s = ({:.4e}, {:.4e}) px per unit n) puts its gaze beyond any number; \
+                     check calibration.s_x and s_y",
+                    c.s_x, c.s_y
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// A sample whose normalized position lies this far outside 0..1 (a screen
+/// width or height beyond the screen) is not on the screen the source
+/// describes.
+const FAR_OFF_SCREEN_N: f64 = 1.0;
+
+/// Warnings for a source whose data look wrong though they read: mostly
+/// filled (invalid or blink samples replaced by the last valid one, so the
+/// class is a few held points), or mostly far off its screen (a wrong
+/// `screen_px` or unit: with the pooled calibration it also flattens every
+/// other source, whose range it sets).
+fn source_warnings(inputs: &[SourceInput], filtered: &[Filtered]) -> Vec<String> {
+    let mut out = Vec::new();
+    for (input, (segments, fill)) in inputs.iter().zip(filtered) {
+        let id = &input.recording.id;
+        let n: usize = segments.iter().map(|s| s.len()).sum();
+        if n > 0 && fill.invalid_or_blink * 2 > n {
+            out.push(format!(
+                "{id}: {:.2} % of its {n} samples were invalid or blinks and were filled with the last valid one",
+                100.0 * fill.invalid_or_blink as f64 / n as f64
+            ));
+        }
+        let far = |v: f64| !(-FAR_OFF_SCREEN_N..=1.0 + FAR_OFF_SCREEN_N).contains(&v);
+        let (mut off, mut max_n) = (0usize, 0.0f64);
+        for p in segments.iter().flat_map(|s| s.positions()) {
+            if far(p.nx) || far(p.ny) {
+                off += 1;
+                max_n = max_n.max(p.nx.abs()).max(p.ny.abs());
+            }
+        }
+        if n > 0 && off * 10 > n {
+            out.push(format!(
+                "{id}: {:.1} % of its gaze lies more than a screen away from the screen \
+                 (up to {max_n:.3e} screen widths or heights): a wrong screen_px, or another unit?",
+                100.0 * off as f64 / n as f64
+            ));
+        }
+    }
+    out
 }
 
 fn check_every_class_has_a_source(

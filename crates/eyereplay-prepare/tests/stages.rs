@@ -182,3 +182,78 @@ fn per_source_calibration_uses_every_sample() {
         c.s_x
     );
 }
+
+/// 200 samples at 25 Hz on a slow walk inside the screen.
+fn walk(n: usize) -> Vec<Sample<NormPos>> {
+    (0..n)
+        .map(|i| {
+            Sample::new(
+                i as f64 / 25.0,
+                NormPos {
+                    nx: 0.3 + 0.4 * ((i * 13) % n) as f64 / n as f64,
+                    ny: 0.4 + 0.2 * ((i * 7) % n) as f64 / n as f64,
+                },
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_scale_too_large_for_any_number_is_refused_not_written_as_nan() {
+    // s_x = 1e308 is finite, but the centred positions are not: the mean
+    // of numbers near the largest float overflows.
+    let big = MANUAL.replace("s_x = 1000.0", "s_x = 1e308");
+    let cfg = config(5, &big);
+    let Err(e) = run(&cfg, &[input(walk(200), 25.0, RecordingKind::EyeTracker)]) else {
+        panic!("refused")
+    };
+    let e = e.to_string();
+    assert!(
+        e.starts_with("hand.csv: the calibration (s = (1.0000e308, 1.0000e3) px per unit n)"),
+        "{e}"
+    );
+    // A zero scale is refused with the config, before anything is read.
+    let zero = MANUAL.replace("s_x = 1000.0", "s_x = 0.0");
+    let c = DatasetConfig::parse(&format!(
+        "session_frames = 5\n{zero}\n[classes.conversation]\nsessions = 1\nsources = [{{ format = \"extract\", path = \"unused.csv\" }}]\n"
+    ))
+    .unwrap();
+    let e = c.validate().unwrap_err().to_string();
+    assert_eq!(
+        e,
+        "calibration.s_x must be a finite number other than 0, got 0"
+    );
+}
+
+#[test]
+fn a_source_mostly_filled_or_off_its_screen_is_warned_of() {
+    let cfg = config(5, MANUAL);
+    // Clean: no warning.
+    let p = run(&cfg, &[input(walk(200), 25.0, RecordingKind::EyeTracker)]).unwrap();
+    assert!(p.warnings.is_empty(), "{:?}", p.warnings);
+    // 150 of 200 samples invalid: filled, and said to be (75.00 %).
+    let mut s = walk(200);
+    for x in &mut s[50..] {
+        x.valid = false;
+    }
+    let p = run(&cfg, &[input(s, 25.0, RecordingKind::EyeTracker)]).unwrap();
+    assert!(
+        p.warnings.iter().any(|w| w
+            == "hand.csv: 75.00 % of its 200 samples were invalid or blinks and were filled with the last valid one"),
+        "{:?}",
+        p.warnings
+    );
+    // Every sample a thousand screens to the right (a wrong screen_px).
+    let mut s = walk(200);
+    for x in &mut s {
+        x.pos.nx += 1000.0;
+    }
+    let p = run(&cfg, &[input(s, 25.0, RecordingKind::EyeTracker)]).unwrap();
+    assert!(
+        p.warnings
+            .iter()
+            .any(|w| w.starts_with("hand.csv: 100.0 % of its gaze lies more than a screen away")),
+        "{:?}",
+        p.warnings
+    );
+}

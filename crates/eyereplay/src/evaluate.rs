@@ -80,6 +80,7 @@ pub struct EvaluateOutcome {
 /// Measures a dataset's fidelity and writes its report.
 pub fn evaluate(dir: &Path, opts: &EvaluateOptions) -> Result<EvaluateOutcome> {
     check_options(opts)?;
+    check_labels(dir)?;
     let mut ev = evaluate_dataset(dir, &opts.config)?;
     let memo = ReadBackMemo::default();
     ev.visual = match &opts.visual {
@@ -105,14 +106,33 @@ pub fn evaluate(dir: &Path, opts: &EvaluateOptions) -> Result<EvaluateOutcome> {
     })
 }
 
+/// `labels.csv` lists the sessions `metadata.json` plans
+/// ([`crate::check_labels_against_plan`]): a row repeated was evaluated
+/// twice, with other KS figures and no word.
+fn check_labels(dir: &Path) -> Result<()> {
+    let meta = eyereplay_dataset::read_metadata(dir)?;
+    if meta.dataset.sessions.is_empty() {
+        return Ok(()); // nothing planned to compare with
+    }
+    let jobs = eyereplay_render::list_sessions(dir, meta.dataset.seed)?;
+    let listed: Vec<(&str, eyereplay_core::GazeClass)> = jobs
+        .iter()
+        .map(|j| (j.paths.file.as_str(), j.class))
+        .collect();
+    crate::check_labels_against_plan(dir, &meta.dataset, &listed)
+}
+
 fn check_options(o: &EvaluateOptions) -> Result<()> {
     let t = &o.config.thresholds;
     let bad = |m: String| Err(Error::Setting(m));
+    // Finite too: an infinite saccade threshold found no saccade at all and
+    // was written to metrics.json as null.
     if !(t.fixation_below_px_per_frame > 0.0
-        && t.saccade_above_px_per_frame >= t.fixation_below_px_per_frame)
+        && t.saccade_above_px_per_frame >= t.fixation_below_px_per_frame
+        && t.saccade_above_px_per_frame.is_finite())
     {
         return bad(format!(
-            "thresholds: need 0 < --fixation-below <= --saccade-above (got {} and {})",
+            "thresholds: need 0 < --fixation-below <= --saccade-above, both finite (got {} and {})",
             t.fixation_below_px_per_frame, t.saccade_above_px_per_frame
         ));
     }
