@@ -63,7 +63,13 @@ pub fn load_dataset(dir: &Path) -> Result<Dataset, EvalError> {
         if files.is_empty() {
             return Err(EvalError::dataset(
                 dir.join(eyereplay_dataset::layout::LABELS_FILE),
-                format!("class '{class}' has no sessions (empty class)"),
+                // As `generate` says it up front: each class is measured
+                // against its own pool, but the report and its detector
+                // checks are made for both.
+                format!(
+                    "class '{class}' has no sessions, and the evaluation needs both classes \
+                     (a dataset of one class can be rendered, not evaluated)"
+                ),
             ));
         }
         let mut sessions = Vec::with_capacity(files.len());
