@@ -63,19 +63,14 @@ impl Decoder {
     /// Opens a stream that is not a file: `pipe:0` (standard input, in any
     /// container FFmpeg reads from a pipe: NUT, Matroska, MPEG-TS),
     /// `pipe:N` (an inherited descriptor), or a network URL (`rtsp://`,
-    /// `http://`...). Frames come out as they arrive.
-    pub fn open_url(url: &str) -> Result<Decoder> {
-        Self::open_url_interruptible(url, || false)
-    }
-
-    /// [`Decoder::open_url`] with FFmpeg's interrupt callback: `interrupt`
-    /// is asked while the stream is opened and whenever a read waits (a
-    /// network protocol asks it every 100 ms or so; a pipe when a signal
-    /// cuts its read short), and `true` ends the wait. The stream then
-    /// ends as at its end of file: [`Decoder::frames`] returns the frames
-    /// it had. How a watch of a live stream stops on Ctrl-C, or gives up on
-    /// a stream that stalled.
-    pub fn open_url_interruptible(
+    /// `http://`...). Frames come out as they arrive. `interrupt` is FFmpeg's
+    /// interrupt callback: asked while the stream is opened and whenever a
+    /// read waits (a network protocol asks it every 100 ms or so; a pipe
+    /// when a signal cuts its read short), `true` ends the wait, and the
+    /// stream then ends as at its end of file ([`Decoder::frames`] returns
+    /// the frames it had). How a live watch stops on Ctrl-C, or gives up on
+    /// a stream that stalled; `|| false` waits as long as it takes.
+    pub fn open_url(
         url: &str,
         interrupt: impl FnMut() -> bool + Send + 'static,
     ) -> Result<Decoder> {

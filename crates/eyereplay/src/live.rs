@@ -172,7 +172,7 @@ fn open(
     interrupt: impl FnMut() -> bool + Send + 'static,
 ) -> Result<(Decoder, Option<std::process::Child>)> {
     match source {
-        LiveSource::Stdin => Decoder::open_url_interruptible("pipe:0", interrupt)
+        LiveSource::Stdin => Decoder::open_url("pipe:0", interrupt)
             .map(|d| (d, None))
             .map_err(|e| match e {
                 // FFmpeg names standard input "pipe:0"; say what it was.
@@ -185,7 +185,7 @@ fn open(
                 ),
                 e => e.into(),
             }),
-        LiveSource::Url(u) => Ok((Decoder::open_url_interruptible(u, interrupt)?, None)),
+        LiveSource::Url(u) => Ok((Decoder::open_url(u, interrupt)?, None)),
         LiveSource::Camera(dev) => {
             use std::os::fd::AsRawFd;
             // Said here in one line, rather than by ffmpeg's own lines.
@@ -205,10 +205,9 @@ fn open(
                     Error::input(ffmpeg, format!("cannot run ffmpeg to open the camera: {e}"))
                 })?;
             let fd = child.stdout.as_ref().expect("piped above").as_raw_fd();
-            let dec =
-                Decoder::open_url_interruptible(&format!("pipe:{fd}"), interrupt).map_err(|e| {
-                    Error::input(dev, format!("camera gave no video through ffmpeg: {e}"))
-                })?;
+            let dec = Decoder::open_url(&format!("pipe:{fd}"), interrupt).map_err(|e| {
+                Error::input(dev, format!("camera gave no video through ffmpeg: {e}"))
+            })?;
             Ok((dec, Some(child)))
         }
     }
