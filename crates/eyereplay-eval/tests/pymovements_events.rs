@@ -65,34 +65,43 @@ fn fixations_and_saccades_are_pymovements_ivt_runs_event_for_event() {
         assert_eq!(fixations.len(), want_fix.len(), "{name}: fixations");
         assert_eq!(saccades.len(), want_sac.len(), "{name}: saccades");
         let step = |w: &Value, k: &str| w[k].as_u64().unwrap() as usize;
-        for (got, want) in fixations.iter().zip(want_fix) {
-            let (k0, k1) = (step(want, "onset_step"), step(want, "offset_step"));
-            assert_eq!(
-                (got.onset_frame, got.offset_frame),
-                (k0, k1 + 1),
-                "{name}: fixation"
-            );
-            let d = want["dispersion_px"].as_f64().unwrap();
-            assert!(
-                close(got.dispersion_px, d),
-                "{name}: fixation at frame {k0}: dispersion {} px, pymovements {d}",
-                got.dispersion_px
-            );
-        }
-        for (got, want) in saccades.iter().zip(want_sac) {
-            let (k0, k1) = (step(want, "onset_step"), step(want, "offset_step"));
-            assert_eq!(
-                (got.onset_frame, got.offset_frame),
-                (k0, k1 + 1),
-                "{name}: saccade"
-            );
-            let peak = want["peak_velocity_px_per_s"].as_f64().unwrap() / fps;
-            assert!(
-                close(got.peak_speed_px_per_frame, peak),
-                "{name}: saccade at frame {k0}: peak {} px/frame, pymovements {peak}",
-                got.peak_speed_px_per_frame
-            );
-        }
+        // Each event: the same run of steps (its frames k0..k1 + 1), and the
+        // measure pymovements gives it, in eyereplay's unit.
+        let same_events = |kind: &str,
+                           got: &[&eyereplay_eval::Event],
+                           want: &[Value],
+                           (key, per): (&str, f64),
+                           ours: fn(&eyereplay_eval::Event) -> f64| {
+            for (got, want) in got.iter().zip(want) {
+                let (k0, k1) = (step(want, "onset_step"), step(want, "offset_step"));
+                assert_eq!(
+                    (got.onset_frame, got.offset_frame),
+                    (k0, k1 + 1),
+                    "{name}: {kind}"
+                );
+                let theirs = want[key].as_f64().unwrap() / per;
+                assert!(
+                    close(ours(got), theirs),
+                    "{name}: {kind} at frame {k0}: {key} {} (ours), pymovements {theirs}",
+                    ours(got)
+                );
+            }
+        };
+        same_events(
+            "fixation",
+            &fixations,
+            want_fix,
+            ("dispersion_px", 1.0),
+            |e| e.dispersion_px,
+        );
+        // pymovements' peak velocity is in px/s, ours in px/frame.
+        same_events(
+            "saccade",
+            &saccades,
+            want_sac,
+            ("peak_velocity_px_per_s", fps),
+            |e| e.peak_speed_px_per_frame,
+        );
         // The pooled samples the distributional table compares are the same
         // events: a fixation lasts its steps, one frame more than
         // pymovements' offset - onset (which counts from the first slow
