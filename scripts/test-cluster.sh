@@ -435,7 +435,8 @@ PYEOF
     "$bin" merge --no-evaluate "$out_c" >"$work/logs/merge-missing.log" 2>&1 || mrc=$?
     msg="$(cat "$work/logs/merge-missing.log")"
     unnamed=()
-    while IFS= read -r f; do [[ $msg == *"$f"* ]] || unnamed+=("$f"); done < <(head -n 12 "$work/removed.txt")
+    # Each named by its session (merge names the file at fault, its video).
+    while IFS= read -r f; do [[ $msg == *"${f%.csv}."* ]] || unnamed+=("$f"); done < <(head -n 12 "$work/removed.txt")
     if ((nmiss == 0)); then
       fail "merge refuses when a shard's sessions are missing" "shard 2 of 4 has no sessions in labels.csv (config too small)"
     elif [[ $mrc != 0 && ${#unnamed[@]} == 0 ]]; then

@@ -9,7 +9,7 @@ use crate::{BackendError, Result};
 use eyereplay_core::{Progress, Shard, Stage};
 use eyereplay_render::{list_sessions, SessionJob};
 use rayon::prelude::*;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// What a dataset render did.
@@ -27,10 +27,32 @@ pub struct RenderSummary {
 /// whose start alone cost about 0.15 CPU-s; a video that cannot be read
 /// is not complete, and its session is drawn again.
 pub fn is_complete(job: &SessionJob, frames: usize) -> bool {
+    why_incomplete(job, frames).is_none()
+}
+
+/// What keeps a session from being whole, naming the file: its video
+/// missing or of other than `frames` frames, its truth file short or
+/// missing, its identity file missing; `None` when it is whole.
+pub fn why_incomplete(job: &SessionJob, frames: usize) -> Option<(PathBuf, String)> {
     let p = &job.paths;
-    csv_data_rows(&p.truth) == Some(frames)
-        && p.identity_json.exists()
-        && eyereplay_extract::count_video_packets(&p.mp4).ok() == Some(frames as u64)
+    let video = match eyereplay_extract::count_video_packets(&p.mp4) {
+        _ if !p.mp4.exists() => Some("missing".to_string()),
+        Ok(n) if n == frames as u64 => None,
+        Ok(n) => Some(format!("{n} of {frames} frames")),
+        Err(_) => Some("not a readable video".to_string()),
+    };
+    if let Some(why) = video {
+        return Some((p.mp4.clone(), why));
+    }
+    match csv_data_rows(&p.truth) {
+        None => return Some((p.truth.clone(), "missing".into())),
+        Some(n) if n != frames => return Some((p.truth.clone(), format!("{n} of {frames} rows"))),
+        Some(_) => {}
+    }
+    if !p.identity_json.exists() {
+        return Some((p.identity_json.clone(), "missing".into()));
+    }
+    None
 }
 
 /// Data rows of a CSV with one header line (a last line without its
@@ -70,8 +92,9 @@ pub fn render_dataset(
     let meta = eyereplay_dataset::read_metadata(out)?.dataset;
     let mut summary = RenderSummary::default();
     let mut todo = Vec::new();
-    // A session whose trajectory cannot be read fails alone, after the
-    // others are rendered.
+    // Every trajectory is read before any session is drawn: one that
+    // cannot be read stops the job before hours of drawing, not after.
+    let mut unreadable = Vec::new();
     let mut failed = Vec::new();
     // Each session checked on its own (its files only), all of them at
     // once: a resumed run of thousands of sessions reads every finished
@@ -105,8 +128,8 @@ pub fn render_dataset(
         let trajectory = match trajectory {
             Ok(t) => t,
             Err(e) => {
-                progress.warn(&format!("error: {}: {e}", job.paths.file));
-                failed.push(format!("{}: {e}", job.paths.file));
+                // The error names the session's file.
+                unreadable.push(e.to_string());
                 continue;
             }
         };
@@ -115,6 +138,9 @@ pub fn render_dataset(
             continue;
         }
         todo.push((job, trajectory, extra));
+    }
+    if !unreadable.is_empty() {
+        return Err(BackendError::UnreadableSessions(unreadable));
     }
     let total_frames: usize = todo.iter().map(|(_, t, _)| t.len()).sum();
     progress.begin(Stage::Render, total_frames as u64);

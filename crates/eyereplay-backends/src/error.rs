@@ -27,6 +27,9 @@ pub enum BackendError {
     /// A `[render]` setting out of range or not available in this build.
     #[error("{0}")]
     Setting(String),
+    /// Some sessions' trajectories cannot be read: nothing was drawn.
+    #[error("{} session(s) cannot be read, so none was drawn: {}", .0.len(), .0.join("; "))]
+    UnreadableSessions(Vec<String>),
     /// Some sessions failed; the others were written. Rerun to retry.
     #[error("{} session(s) failed (rerun the same command to retry): {}", .0.len(), .0.join("; "))]
     SessionsFailed(Vec<String>),

@@ -29,7 +29,9 @@ pub mod replay;
 pub mod source_head;
 
 pub use backend::{extra_outputs_of, Rendered, Session, SessionBackend, SessionOutputs};
-pub use driver::{csv_data_rows, is_complete, render_dataset, shard_sessions, RenderSummary};
+pub use driver::{
+    csv_data_rows, is_complete, render_dataset, shard_sessions, why_incomplete, RenderSummary,
+};
 pub use error::{BackendError, Result};
 pub use probe::{measure_response, ResponseProbe};
 

@@ -134,7 +134,7 @@ fn a_shard_renders_its_sessions_only() {
 }
 
 #[test]
-fn a_bad_session_fails_alone_and_leaves_nothing() {
+fn an_unreadable_session_stops_the_job_before_any_drawing() {
     let dir = tempfile::tempdir().unwrap();
     make_dataset(dir.path());
     std::fs::write(
@@ -144,14 +144,16 @@ fn a_bad_session_fails_alone_and_leaves_nothing() {
     .unwrap();
     let b = backend(dir.path());
     let e = render_dataset(dir.path(), &b, None, &NoProgress).unwrap_err();
-    let BackendError::SessionsFailed(failed) = &e else {
+    let BackendError::UnreadableSessions(failed) = &e else {
         panic!("{e}")
     };
     assert_eq!(failed.len(), 1);
-    assert!(failed[0].contains("conversation_0000.csv"), "{failed:?}");
-    assert!(!e.to_string().contains('\n'), "{e}");
-    // The good session is whole; the bad one has no file at all.
-    assert!(dir.path().join("reading/reading_0000.mp4").is_file());
+    // Named once, with its line.
+    let said = e.to_string();
+    assert_eq!(said.matches("conversation_0000.csv").count(), 1, "{said}");
+    assert!(said.contains("line 2") && !said.contains('\n'), "{said}");
+    // Nothing was drawn: not the good session, not the bad one.
+    assert!(!dir.path().join("reading/reading_0000.mp4").exists());
     let c: Vec<_> = std::fs::read_dir(dir.path().join("conversation"))
         .unwrap()
         .flatten()

@@ -285,6 +285,59 @@ fn bad_inputs_fail_in_one_line() {
         "{e}"
     );
     assert!(!dir.path().join("short_detect.json").exists());
+    // A --rendered-from folder that is not there, refused before the
+    // protocol's recordings are read (it used to skip the condition with
+    // one line of output and exit 0).
+    let protocol = root().join("examples/detector/protocol_behaviour.toml");
+    let nowhere = dir.path().join("no-such-folder");
+    let e = one_line_error(&eyereplay(&[
+        "evaluate-localization",
+        "--spliced",
+        s(&protocol),
+        "--rendered-from",
+        s(&nowhere),
+        "--model",
+        s(&m),
+    ]));
+    assert!(
+        e.contains("no-such-folder: --rendered-from: no such folder"),
+        "{e}"
+    );
+}
+
+/// A still image with a face: the extraction reads one frame, and the
+/// error names the image and what it lacks, not the cache file the
+/// extraction went to.
+#[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models, has_ffmpeg)),
+    ignore = "needs .cache/data, the models and ffmpeg: run scripts/setup.sh"
+)]
+fn a_still_image_is_refused_by_its_own_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = trained_on_trajectories_6s(dir.path());
+    let still = dir.path().join("face.png");
+    let made = std::process::Command::new("ffmpeg")
+        .args(["-loglevel", "error", "-i"])
+        .arg(root().join(".cache/data/franck.mp4"))
+        .args(["-frames:v", "1"])
+        .arg(&still)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let cache = dir.path().join("cache");
+    let e = one_line_error(&eyereplay(&[
+        "detect",
+        s(&still),
+        "--model",
+        s(&m),
+        "--cache",
+        s(&cache),
+    ]));
+    assert!(
+        e.contains("face.png: gaze in fewer than 2 frames") && !e.contains("cache/"),
+        "{e}"
+    );
 }
 
 /// A 6-s model trained on the prepared trajectories (quick: no video), in

@@ -350,4 +350,16 @@ fn models_check_refuses_a_network_changed_since_its_conversion() {
         e.contains("iris_landmark.onnx.src: line 3: expected 'sha256 HEX FILE'"),
         "{e}"
     );
+    // No record at all (the stamp kept, its sha256 lines gone): a network
+    // that cannot be checked fails the check, where it used to pass.
+    let dir = copy_with("iris_landmark.onnx.src", &|b| {
+        let stamp = b.split(|&c| c == b'\n').next().unwrap_or_default().to_vec();
+        *b = stamp;
+        b.push(b'\n');
+    });
+    let e = one_line_error(&check(dir.path()));
+    assert!(
+        e.contains("iris_landmark.onnx: no sha256 was recorded at its conversion"),
+        "{e}"
+    );
 }

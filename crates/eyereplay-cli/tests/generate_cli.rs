@@ -262,7 +262,8 @@ fn generate_is_deterministic_resumable_and_shardable() {
     assert!(!o.status.success());
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(
-        e.contains("4 of 8 sessions are not rendered") && e.contains("reading/reading_0001.csv"),
+        e.contains("4 of 8 sessions are not rendered")
+            && e.contains("reading/reading_0001.mp4: missing"),
         "{e}"
     );
     ok(&generate(&s, &["--shard", "1/2"]));
@@ -402,7 +403,7 @@ fn merge_refuses_damage_leaving_the_dataset_as_it_was(done: &Path, scratch: &Pat
         (
             "a truth file cut short",
             |d, keep| keep(&d.join("conversation/conversation_0001_truth.csv"), 30),
-            "1 of 8 sessions are not rendered whole",
+            "1 of 8 sessions are not rendered whole: conversation/conversation_0001_truth.csv: 29 of 50 rows",
         ),
         (
             "another session's identity copied over",

@@ -247,6 +247,31 @@ fn mistakes_are_refused_up_front_in_one_line() {
     let e = one_line_error(&train(&[ds_s, ds_s]));
     assert!(e.contains("given twice"), "{e}");
     assert!(!m.exists());
+    // What the sessions' lengths and labels already tell, said before any
+    // reading: 4-s sessions hold no 10-s window; these sessions have no
+    // per-frame labels for --frame-labels.
+    let mut long = vec!["train", ds_s, "--input", "trajectory", "--out", m_s];
+    long.extend(["--window-s", "10"]);
+    let e = one_line_error(&eyereplay(&long));
+    assert!(
+        e.contains("the longest session is 4.0 s, shorter than a window (10 s"),
+        "{e}"
+    );
+    let labels = [
+        "train",
+        ds_s,
+        "--input",
+        "trajectory",
+        "--out",
+        m_s,
+        "--frame-labels",
+    ];
+    let e = one_line_error(&eyereplay(&labels));
+    assert!(
+        e.contains("no session CSV has a per-frame `reading` column"),
+        "{e}"
+    );
+    assert!(!m.exists());
     // A render whose truth file would land under a plain file: refused
     // before the probe and the drawing, naming that file; nothing written.
     let blocker = d.join("f");
@@ -272,4 +297,71 @@ fn mistakes_are_refused_up_front_in_one_line() {
         blocker.to_str().unwrap(),
     ]));
     assert!(e.contains("--out takes a folder"), "{e}");
+}
+
+/// `render` with a single trajectory: an output that is the input (or
+/// another output) is refused before anything is written; options of
+/// --bench or --dataset given without them are refused rather than
+/// ignored (clap counts their `requires` as met: the trajectory conflicts
+/// with both); a video not named .mp4 is refused; a killed render's
+/// temporary files beside the outputs are gone after the next one.
+#[test]
+fn render_refuses_what_it_would_overwrite_or_ignore_and_clears_leftovers() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let traj = d.join("t.csv");
+    let mut text = String::from("frame,x,y\n");
+    for i in 0..30 {
+        text.push_str(&format!("{i},{},{}\n", 600 + 4 * i, 360));
+    }
+    std::fs::write(&traj, &text).unwrap();
+    let t = traj.to_str().unwrap();
+    let small = ["--size", "320x240", "--match-extractor", "false"];
+    let render = |extra: &[&str]| {
+        let mut a = vec!["render", t];
+        a.extend_from_slice(&small);
+        a.extend_from_slice(extra);
+        eyereplay(&a)
+    };
+    for (extra, says) in [
+        (vec!["--out", t], "--out would overwrite the trajectory"),
+        (
+            vec!["--out", "x.mp4", "--truth", t],
+            "the truth file would overwrite the trajectory",
+        ),
+        (vec!["--face"], "--face is for --bench only"),
+        (vec!["--frames", "100"], "--frames is for --bench only"),
+        (vec!["--jobs", "2"], "--jobs is for --dataset only"),
+    ] {
+        let e = one_line_error(&render(&extra));
+        assert!(e.contains(says), "{extra:?}: {e}");
+    }
+    // The trajectory is untouched, nothing was written beside it.
+    assert_eq!(std::fs::read_to_string(&traj).unwrap(), text);
+    assert_eq!(std::fs::read_dir(d).unwrap().count(), 1);
+    let avi = d.join("v.avi");
+    let e = one_line_error(&render(&["--out", avi.to_str().unwrap()]));
+    assert!(e.contains("v.avi") && e.contains(".mp4"), "{e}");
+    let e = one_line_error(&eyereplay(&[
+        "render",
+        "--dataset",
+        d.to_str().unwrap(),
+        "--size",
+        "640x480",
+    ]));
+    assert!(e.contains("'--size <SIZE>'"), "{e}");
+    // A render killed mid-way left these (named as the encoder and the
+    // atomic writes name theirs); the next render of the same outputs
+    // clears them.
+    let video = d.join("v.mp4");
+    let leftovers = [d.join(".v.mp4.4242.part"), d.join(".v_truth.csv.4242.tmp")];
+    for p in &leftovers {
+        std::fs::write(p, b"half").unwrap();
+    }
+    let o = render(&["--out", video.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(video.is_file() && d.join("v_truth.csv").is_file());
+    for p in &leftovers {
+        assert!(!p.exists(), "{} left", p.display());
+    }
 }

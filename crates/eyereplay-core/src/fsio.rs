@@ -93,7 +93,16 @@ pub fn check_writable(path: &Path) -> Result<(), CoreError> {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    std::fs::create_dir_all(dir).map_err(|e| CoreError::io(path, e))?;
+    if let Err(e) = std::fs::create_dir_all(dir) {
+        // `a/m.json` where `a` is a file: "File exists" would not say so.
+        if let Some(file) = dir.ancestors().find(|a| a.is_file()) {
+            return Err(CoreError::invalid(
+                path,
+                format!("{} is a file, not a folder", file.display()),
+            ));
+        }
+        return Err(CoreError::io(path, e));
+    }
     tempfile::Builder::new()
         .prefix(".eyereplay-check.")
         .tempfile_in(dir)

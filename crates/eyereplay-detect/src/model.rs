@@ -242,7 +242,23 @@ impl DetectorModel {
     }
 
     pub fn load(path: &Path) -> Result<Self, DetectError> {
-        let text = std::fs::read_to_string(path).map_err(|e| DetectError::io(path, e))?;
+        let bytes = std::fs::read(path).map_err(|e| DetectError::io(path, e))?;
+        let Ok(text) = String::from_utf8(bytes) else {
+            return Err(DetectError::file(
+                path,
+                "not a detector model (not text; 'eyereplay train' writes one as JSON)",
+            ));
+        };
+        // Another JSON file (a dataset's metadata.json, a detection) is
+        // told apart from a damaged model by its missing `format` key.
+        if let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) {
+            if v.get("format").and_then(|f| f.as_str()) != Some(MODEL_FORMAT) {
+                return Err(DetectError::file(
+                    path,
+                    "not a detector model (a JSON file without its \"format\": \"eyereplay-detector\"; 'eyereplay train' writes one)",
+                ));
+            }
+        }
         let m: DetectorModel = serde_json::from_str(&text)
             .map_err(|e| DetectError::file(path, format!("not a detector model: {e}")))?;
         if m.format != MODEL_FORMAT {
@@ -260,18 +276,22 @@ impl DetectorModel {
                 ),
             ));
         }
-        let kind_ok = match m.kind.as_str() {
-            "bagged_trees" => m.forest.is_some(),
-            "logistic_regression" => m.forest.is_none(),
-            _ => false,
+        let kind_problem = match (m.kind.as_str(), m.forest.is_some()) {
+            ("bagged_trees", true) | ("logistic_regression", false) => None,
+            ("bagged_trees", false) => {
+                Some("a 'bagged_trees' model without its `forest`".to_string())
+            }
+            ("logistic_regression", true) => {
+                Some("a 'logistic_regression' model with a `forest`".to_string())
+            }
+            (k, _) => Some(format!(
+                "model kind '{k}' is not 'bagged_trees' or 'logistic_regression'"
+            )),
         };
-        if !kind_ok {
+        if let Some(problem) = kind_problem {
             return Err(DetectError::file(
                 path,
-                format!(
-                    "model kind '{}' is not 'bagged_trees' (with trees) or 'logistic_regression' (with weights)",
-                    m.kind
-                ),
+                format!("{problem}; train it again"),
             ));
         }
         if !(m.window_s.is_finite() && m.window_s >= MIN_WINDOW_S) {
@@ -434,9 +454,10 @@ pub fn train(
     let all: Vec<usize> = (0..examples.len()).collect();
     if count(&all, true) == 0 || count(&all, false) == 0 {
         return Err(DetectError::Train(format!(
-            "training needs windows of both classes; found {} reading and {} other (are the sessions at least {window_s} s long?)",
+            "training needs windows of both classes; found {} reading and {} other windows of {window_s} s with enough gaze (at most {:.0} % of a window's frames may be missing)",
             count(&all, true),
-            count(&all, false)
+            count(&all, false),
+            100.0 * crate::window::MAX_MISSING_FRACTION
         )));
     }
     // What the fit sees, and how its calibration and threshold are

@@ -99,16 +99,17 @@ pub fn default_models_dir() -> PathBuf {
     if let Some((dir, _)) = package_files() {
         return dir;
     }
-    if let Some(cache) = std::env::var_os("EYEREPLAY_CACHE").filter(|c| !c.is_empty()) {
-        let dir = PathBuf::from(cache).join("models");
-        if dir.join(DETECTOR).is_file() {
-            return dir;
-        }
+    let in_cache = std::env::var_os("EYEREPLAY_CACHE")
+        .filter(|c| !c.is_empty())
+        .map(|c| PathBuf::from(c).join("models"));
+    if let Some(dir) = in_cache.as_ref().filter(|d| d.join(DETECTOR).is_file()) {
+        return dir.clone();
     }
     if let Some(marker) = eyereplay_core::find_upwards(&Path::new(".cache/models").join(DETECTOR)) {
         return marker.parent().expect("a file has a folder").to_path_buf();
     }
-    PathBuf::from(".cache/models")
+    // Found nowhere: the error names the folder the user set, if any.
+    in_cache.unwrap_or_else(|| PathBuf::from(".cache/models"))
 }
 
 /// The ONNX Runtime library: `$EYEREPLAY_ORT_LIB` when set (for example
@@ -165,11 +166,9 @@ pub fn check(dir: &Path) -> Result<Vec<String>> {
     let records = conversion_records(dir)?;
     for file in NETWORKS {
         let Some(want) = records.get(file) else {
-            lines.push(format!(
-                "{file}: no sha256 recorded at its conversion (made by an older scripts/models.sh; \
-                 run scripts/setup.sh to convert and record it)"
-            ));
-            continue;
+            return Err(ExtractError::ModelUnverified {
+                path: dir.join(file),
+            });
         };
         let got = verify_sha256(
             &dir.join(file),

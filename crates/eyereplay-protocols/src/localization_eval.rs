@@ -6,7 +6,7 @@
 //! IoU 0.5, onset error, and the share of not-reading time called reading.
 
 use eyereplay::detector::window_label;
-use eyereplay::detector::{dataset_tracks, TrainInput};
+use eyereplay::detector::{dataset_sessions, session_tracks, TrainInput};
 use eyereplay::{Error, Result};
 use eyereplay_core::Progress;
 use eyereplay_detect::calibration::{expected_calibration_error, reliability, ReliabilityBin};
@@ -344,6 +344,9 @@ pub fn true_runs(flags: &[bool]) -> Vec<(f64, f64)> {
         .collect()
 }
 
+const NO_READING_COLUMN: &str =
+    "no session has a per-frame reading column (generate interview sessions: model = \"interview\")";
+
 /// Every session of the dataset in `dir` that has a `reading` column, read
 /// as `input` says (its trajectory, or read back from its video; short
 /// clips cut at places drawn with `seed`), localized by each method with the detector in
@@ -362,7 +365,27 @@ pub fn evaluate_localization(
     let mut tracks = Vec::new();
     let mut flags_all = Vec::new();
     let mut session_surface = Vec::new();
-    for t in dataset_tracks(&[dir.to_path_buf()], input, cache, progress)? {
+    // Before any extraction: sessions with labels, and long enough for
+    // one of the model's windows.
+    let sessions = dataset_sessions(&[dir.to_path_buf()], input)?;
+    if sessions.iter().all(|s| s.frame_reading.is_none()) {
+        return Err(Error::input(dir, NO_READING_COLUMN));
+    }
+    let longest_s = sessions
+        .iter()
+        .map(|s| s.track_frames as f64 / s.track_fps)
+        .fold(0.0, f64::max);
+    if longest_s < model.window_s {
+        return Err(Error::input(
+            model_path,
+            format!(
+                "its windows are {} s, longer than the longest session of {} ({longest_s:.1} s)",
+                model.window_s,
+                dir.display()
+            ),
+        ));
+    }
+    for t in session_tracks(sessions, input, cache, progress)? {
         let Some(mut flags) = t.frame_reading else {
             continue;
         };
@@ -375,10 +398,7 @@ pub fn evaluate_localization(
         flags_all.push(flags);
     }
     if tracks.is_empty() {
-        return Err(Error::input(
-            dir,
-            "no session has a per-frame reading column (generate interview sessions: model = \"interview\")",
-        ));
+        return Err(Error::input(dir, NO_READING_COLUMN));
     }
     let scores_of = |m: Method| -> Vec<SessionScore> {
         tracks

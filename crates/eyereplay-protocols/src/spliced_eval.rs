@@ -44,8 +44,6 @@ pub struct SpliceOptions {
     /// Length of a not-reading piece, drawn uniformly.
     pub other_s: (f64, f64),
     pub seed: u64,
-    /// White-noise levels k (times the x range) besides the clean streams.
-    pub noise_levels: Vec<f64>,
 }
 
 impl Default for SpliceOptions {
@@ -56,7 +54,6 @@ impl Default for SpliceOptions {
             reading_s: (20.0, 60.0),
             other_s: (30.0, 90.0),
             seed: 1,
-            noise_levels: vec![0.1, 0.2],
         }
     }
 }
@@ -297,7 +294,9 @@ pub fn evaluate_spliced(
     let plan = plan_streams(&readers, &others, opts);
     let clean_streams = build_streams(&plan, &clean);
     let mut sets: Vec<(String, Vec<LabeledStream>)> = vec![("clean".into(), clean_streams.clone())];
-    for &k in &opts.noise_levels {
+    // The protocol's white-noise levels k (times the x range), as
+    // evaluate-detector adds them; its 0 is the clean streams above.
+    for &k in p.noise_levels.iter().filter(|&&k| k > 0.0) {
         let noisy = clean_streams
             .iter()
             .enumerate()

@@ -64,23 +64,32 @@ enum Kind {
     Other,
 }
 
-fn kind_of(e: &Error) -> Kind {
+/// The models missing, damaged or unverifiable, or their runtime.
+fn is_model_error(x: &ex::ExtractError) -> bool {
     use ex::ExtractError as X;
+    matches!(
+        x,
+        X::ModelsMissing { .. }
+            | X::ModelChecksum { .. }
+            | X::ModelUnverified { .. }
+            | X::Runtime(_)
+    )
+}
+
+fn kind_of(e: &Error) -> Kind {
     match e {
         Error::Setting(_) | Error::Prepare(PrepareError::Config { .. }) => Kind::Config,
         Error::Prepare(_) | Error::Source(_) => Kind::Source,
-        Error::Extract(X::ModelsMissing { .. } | X::ModelChecksum { .. } | X::Runtime(_)) => {
-            Kind::Model
-        }
+        Error::Extract(x) if is_model_error(x) => Kind::Model,
         Error::Extract(_) | Error::Render(_) | Error::Face(_) | Error::Replay(_) => Kind::Video,
         Error::Backend(b) => {
             use eyereplay::backends::BackendError as B;
             match b {
                 B::Setting(_) => Kind::Config,
-                B::Extract(X::ModelsMissing { .. } | X::ModelChecksum { .. } | X::Runtime(_)) => {
-                    Kind::Model
+                B::Extract(x) if is_model_error(x) => Kind::Model,
+                B::Dataset(_) | B::Eval(_) | B::SessionsFailed(_) | B::UnreadableSessions(_) => {
+                    Kind::Dataset
                 }
-                B::Dataset(_) | B::Eval(_) | B::SessionsFailed(_) => Kind::Dataset,
                 B::Core(_) | B::Input { .. } => Kind::Other,
                 _ => Kind::Video,
             }

@@ -89,7 +89,24 @@ pub fn load_track(
     };
     let (track, kind) = if is_video(path) {
         let csv = extract_cached(&[path.to_path_buf()], cache, progress)?.remove(0);
-        (from_extraction(&csv)?, "video")
+        // The extraction read nothing usable: say so of the video, not of
+        // the cache file it went to (a still image, a face never found
+        // with open eyes).
+        let track = match extract_csv_samples(&csv) {
+            Ok(s) if s.len() >= 2 => from_extraction(&csv)?,
+            Ok(_) | Err(Error::Source(eyereplay_sources::SourceError::File { .. })) => {
+                return Err(Error::input(
+                    path,
+                    format!(
+                        "gaze in fewer than 2 frames (a still image, or no face with open eyes found); \
+                         a detection needs at least {} s of it",
+                        eyereplay_detect::clip::MIN_CLIP_S
+                    ),
+                ))
+            }
+            Err(e) => return Err(e),
+        };
+        (track, "video")
     } else {
         let head = std::fs::read_to_string(path)
             .map_err(|e| Error::io(path, e))?
@@ -353,20 +370,45 @@ pub fn window_label(frame_reading: &[bool], start: usize, frames: usize) -> Opti
     }
 }
 
-/// The tracks of every session of `datasets`, read as `input` says.
-/// Checks every dataset (labels.csv, the videos) before extracting any.
-pub fn dataset_tracks(
-    datasets: &[PathBuf],
-    input: TrainInput,
-    cache: &Path,
-    progress: &dyn Progress,
-) -> Result<Vec<LabeledTrack>> {
+/// One session of a dataset, checked and not yet read: what
+/// [`dataset_sessions`] finds before any extraction.
+#[derive(Clone, Debug)]
+pub struct SessionEntry {
+    /// `DATASET#reading/reading_0003.csv`.
+    pub id: String,
+    pub reading: bool,
+    pub sources: Vec<String>,
+    /// The file `input` reads (video, session CSV or truth CSV).
+    pub file: PathBuf,
+    /// The session CSV's per-frame `reading` column, when it has one.
+    pub frame_reading: Option<Vec<bool>>,
+    /// Frames of the session CSV: what its video and truth file must hold.
+    pub frames: usize,
+    /// The session's length in frames of the track `input` gives (25 fps
+    /// for a video read back, the CSV's own frames otherwise).
+    pub track_frames: usize,
+    /// Frames per second of that track.
+    pub track_fps: f64,
+}
+
+/// Every session of `datasets` (labels.csv, the file `input` reads, the
+/// session CSV's frames and per-frame labels), checked before any is read.
+pub fn dataset_sessions(datasets: &[PathBuf], input: TrainInput) -> Result<Vec<SessionEntry>> {
     let mut sessions = Vec::new();
     for dir in datasets {
         let labels = eyereplay_dataset::read_labels(dir)?;
         if labels.is_empty() {
             return Err(Error::input(dir.join("labels.csv"), "no sessions"));
         }
+        // A video is read back at the detector's 25 fps on its timestamps;
+        // the CSVs are frame by frame.
+        let fps = eyereplay_dataset::read_metadata(dir)
+            .map(|m| m.dataset.fps)
+            .unwrap_or(FPS);
+        let (scale, track_fps) = match input {
+            TrainInput::Extracted if fps > 0.0 => (FPS / fps, FPS),
+            _ => (1.0, fps),
+        };
         for row in &labels {
             let paths = eyereplay_dataset::SessionPaths::new(dir, &row.file)
                 .map_err(|e| Error::input(dir.join("labels.csv"), e.to_string()))?;
@@ -378,16 +420,46 @@ pub fn dataset_tracks(
                 ));
             }
             let frame_reading = eyereplay_dataset::read_reading_column(&paths.csv)?;
-            sessions.push((
-                format!("{}#{}", dir.display(), row.file),
-                row.label() == 1,
-                row.sources.clone(),
+            let frames = eyereplay_core::read_session_csv(&paths.csv)?.len();
+            sessions.push(SessionEntry {
+                id: format!("{}#{}", dir.display(), row.file),
+                reading: row.label() == 1,
+                sources: row.sources.clone(),
                 file,
                 frame_reading,
-            ));
+                frames,
+                track_frames: (frames as f64 * scale).round() as usize,
+                track_fps,
+            });
         }
     }
-    let files: Vec<PathBuf> = sessions.iter().map(|s| s.3.clone()).collect();
+    Ok(sessions)
+}
+
+/// The tracks of every session of `datasets`, read as `input` says.
+/// Checks every dataset (labels.csv, the videos) before extracting any.
+pub fn dataset_tracks(
+    datasets: &[PathBuf],
+    input: TrainInput,
+    cache: &Path,
+    progress: &dyn Progress,
+) -> Result<Vec<LabeledTrack>> {
+    session_tracks(dataset_sessions(datasets, input)?, input, cache, progress)
+}
+
+/// A video or truth file this many frames (or 1 %) short of its session
+/// is cut short: a render killed mid-way, a copy that stopped.
+const SHORT_FRAMES: usize = 2;
+
+/// The tracks of checked sessions, read as `input` says; a video or truth
+/// file shorter than its session is an error naming it.
+pub fn session_tracks(
+    sessions: Vec<SessionEntry>,
+    input: TrainInput,
+    cache: &Path,
+    progress: &dyn Progress,
+) -> Result<Vec<LabeledTrack>> {
+    let files: Vec<PathBuf> = sessions.iter().map(|s| s.file.clone()).collect();
     let tracks = match input {
         TrainInput::Extracted => video_tracks(&files, cache, progress)?,
         TrainInput::Trajectory => files
@@ -399,19 +471,83 @@ pub fn dataset_tracks(
             .map(|f| truth_csv_track(f))
             .collect::<Result<_>>()?,
     };
+    for (s, t) in sessions.iter().zip(&tracks) {
+        let slack = SHORT_FRAMES.max(s.track_frames / 100);
+        if t.len() + slack < s.track_frames {
+            return Err(Error::input(
+                &s.file,
+                format!(
+                    "{:.1} s where its session has {:.1} s: cut short? (render it again)",
+                    t.len() as f64 / s.track_fps,
+                    s.track_frames as f64 / s.track_fps
+                ),
+            ));
+        }
+    }
     Ok(sessions
         .into_iter()
         .zip(tracks)
-        .map(
-            |((id, reading, sources, _, frame_reading), track)| LabeledTrack {
-                id,
-                reading,
-                sources,
-                track,
-                frame_reading,
-            },
-        )
+        .map(|(s, track)| LabeledTrack {
+            id: s.id,
+            reading: s.reading,
+            sources: s.sources,
+            track,
+            frame_reading: s.frame_reading,
+        })
         .collect())
+}
+
+/// Before any extraction: training needs windows of both classes, which
+/// the sessions' lengths and labels already tell.
+fn check_trainable(sessions: &[SessionEntry], opts: &TrainDetectorOptions) -> Result<()> {
+    if opts.frame_labels && sessions.iter().all(|s| s.frame_reading.is_none()) {
+        return Err(Error::Setting(
+            "--frame-labels: no session CSV has a per-frame `reading` column (interview \
+             sessions have one); train without it to label windows by class"
+                .into(),
+        ));
+    }
+    let spec = WindowSpec::half_overlap(opts.window_s);
+    let (mut reading, mut other) = (0usize, 0usize);
+    for s in sessions {
+        let mut start = 0;
+        while start + spec.frames <= s.frames {
+            let label = match (&s.frame_reading, opts.frame_labels) {
+                (Some(f), true) => window_label(f, start, spec.frames),
+                _ => Some(s.reading),
+            };
+            match label {
+                Some(true) => reading += 1,
+                Some(false) => other += 1,
+                None => {}
+            }
+            start += spec.step.max(1);
+        }
+    }
+    if reading > 0 && other > 0 {
+        return Ok(());
+    }
+    let longest_s = sessions.iter().map(|s| s.frames).max().unwrap_or(0) as f64 / FPS;
+    let why = if longest_s < opts.window_s {
+        format!(
+            "the longest session is {longest_s:.1} s, shorter than a window ({} s; --window-s)",
+            opts.window_s
+        )
+    } else if opts.frame_labels {
+        format!(
+            "by the per-frame `reading` labels, {reading} windows of {} s are reading and {other} are not",
+            opts.window_s
+        )
+    } else {
+        let n_reading = sessions.iter().filter(|s| s.reading).count();
+        format!(
+            "{n_reading} of the {} sessions are labeled reading in labels.csv",
+            sessions.len()
+        )
+    };
+    Err(Error::Setting(format!(
+        "training needs windows of both classes (reading and other): {why}"
+    )))
 }
 
 /// A rendered video whose face is found in fewer frames than this share is
@@ -550,7 +686,7 @@ pub fn train_detector(
 ) -> Result<DetectorModel> {
     if !(opts.window_s >= eyereplay_detect::MIN_WINDOW_S && opts.window_s.is_finite()) {
         return Err(Error::Setting(format!(
-            "--window-s must be at least {} s, got {}",
+            "--window-s must be a finite number of seconds, at least {}, got {}",
             eyereplay_detect::MIN_WINDOW_S,
             opts.window_s
         )));
@@ -569,7 +705,9 @@ pub fn train_detector(
             ));
         }
     }
-    let tracks = dataset_tracks(datasets, opts.input, &opts.cache, progress)?;
+    let sessions = dataset_sessions(datasets, opts.input)?;
+    check_trainable(&sessions, opts)?;
+    let tracks = session_tracks(sessions, opts.input, &opts.cache, progress)?;
     let examples = if opts.frame_labels {
         frame_labeled_examples(&tracks, opts.window_s)
     } else {
@@ -998,11 +1136,23 @@ mod tests {
                 ..Default::default()
             })
             .collect();
-        eyereplay_dataset::write_truth_csv(
-            &data.join("conversation/conversation_0000_truth.csv"),
-            &rows,
+        // A truth file cut short (a render killed, a copy that stopped)
+        // is named, with both lengths, not read as a shorter session.
+        let truth = data.join("conversation/conversation_0000_truth.csv");
+        eyereplay_dataset::write_truth_csv(&truth, &rows[..0]).unwrap();
+        let short = dataset_tracks(
+            std::slice::from_ref(&data),
+            TrainInput::Drawn,
+            &cache,
+            &eyereplay_core::NoProgress,
         )
-        .unwrap();
+        .unwrap_err()
+        .to_string();
+        assert!(
+            short.contains("conversation_0000_truth.csv: 0.0 s where its session has 0.1 s"),
+            "{short}"
+        );
+        eyereplay_dataset::write_truth_csv(&truth, &rows).unwrap();
         let t = dataset_tracks(
             &[data],
             TrainInput::Drawn,

@@ -4,7 +4,7 @@
 
 use crate::evaluate::{evaluate, EvaluateOptions, EvaluateOutcome};
 use crate::{Error, Result};
-use eyereplay_backends::{csv_data_rows, is_complete};
+use eyereplay_backends::{csv_data_rows, is_complete, why_incomplete};
 use eyereplay_core::GazeClass;
 use eyereplay_dataset::{
     read_metadata, write_metadata, DatasetMetadata, Metadata, RenderMetadata, SessionIdentity,
@@ -49,26 +49,37 @@ pub fn finalize(
         .collect();
     check_labels_against_plan(dir, &meta.dataset, &listed)?;
     check_trajectories(dir, &meta.dataset, &jobs)?;
-    check_backend_files(dir, &meta.dataset, &jobs)?;
-    let missing = incomplete(dir, &meta.dataset)?;
+    // Each session's own files (video, truth, identity) before the
+    // backend's extra ones: a session not drawn lacks them all, and its
+    // video is the one to name.
+    let frames = meta.dataset.session_frames;
+    let missing: Vec<(PathBuf, String)> = jobs
+        .par_iter()
+        .filter_map(|j| why_incomplete(j, frames))
+        .collect();
     if !missing.is_empty() {
-        let shown: Vec<&str> = missing
+        let shown: Vec<String> = missing
             .iter()
             .take(12)
-            .map(|j| j.paths.file.as_str())
+            .map(|(path, why)| {
+                format!(
+                    "{}: {why}",
+                    path.strip_prefix(dir).unwrap_or(path).display()
+                )
+            })
             .collect();
         return Err(Error::input(
             dir,
             format!(
-                "{} of {} sessions are not rendered whole (a video of other than session_frames = {} frames, its truth file short or missing, or its identity file missing): {}{} (rerun the shard(s) that own them with the same command)",
+                "{} of {} sessions are not rendered whole: {}{} (rerun the shard(s) that own them with the same command)",
                 missing.len(),
                 jobs.len(),
-                meta.dataset.session_frames,
-                shown.join(", "),
-                if missing.len() > shown.len() { ", ..." } else { "" }
+                shown.join("; "),
+                if missing.len() > shown.len() { "; ..." } else { "" }
             ),
         ));
     }
+    check_backend_files(dir, &meta.dataset, &jobs)?;
     let sessions = jobs
         .iter()
         .map(|j| {

@@ -91,7 +91,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return live(&args, source, &model);
     }
     let input = args.input.clone().expect("clap requires it");
-    let cache = eyereplay::cache_dir(args.cache.as_deref());
+    let cache = super::cache_dir(args.cache.as_deref())?;
     let (track, info) = load_track(&input, &cache, &Bars::default())?;
     if args.bench {
         return bench(&track, info, &model, &args.model);

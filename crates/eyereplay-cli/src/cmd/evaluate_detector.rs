@@ -35,7 +35,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let cache = eyereplay::cache_dir(args.cache.as_deref());
+    let cache = super::cache_dir(args.cache.as_deref())?;
     let ev = evaluate_detector(
         &args.protocol,
         &args.out,

@@ -79,6 +79,10 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    // The JSON is written last: a path it cannot go to is found first.
+    if let Some(path) = &args.json {
+        eyereplay_core::check_writable(path)?;
+    }
     if let Some(protocol) = &args.spliced {
         return run_spliced(&args, protocol);
     }
@@ -94,7 +98,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     let dataset = args.dataset.as_deref().expect("clap requires it");
-    let cache = eyereplay::cache_dir(args.cache.as_deref());
+    let cache = super::cache_dir(args.cache.as_deref())?;
     let ev = evaluate_localization(
         dataset,
         &args.model,
@@ -159,7 +163,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn run_spliced(args: &Args, protocol: &std::path::Path) -> anyhow::Result<()> {
-    let cache = eyereplay::cache_dir(args.cache.as_deref());
+    if let Some(dir) = &args.rendered_from {
+        anyhow::ensure!(
+            dir.is_dir(),
+            "{}: --rendered-from: no such folder (it is the --out of 'eyereplay evaluate-detector PROTOCOL')",
+            dir.display()
+        );
+    }
+    let cache = super::cache_dir(args.cache.as_deref())?;
     let opts = SpliceOptions {
         streams: args
             .streams

@@ -132,7 +132,7 @@ pub fn run(args: Args) -> Result<()> {
         job.check_evaluable()?;
     }
     if args.dry_run || args.profile {
-        let cache = eyereplay::cache_dir(args.cache.as_deref());
+        let cache = super::cache_dir(args.cache.as_deref())?;
         let bars = super::Bars::default();
         eprintln!(
             "measuring {} of {} in a scratch folder ...",
@@ -171,7 +171,7 @@ pub fn run(args: Args) -> Result<()> {
     let opts = GenerateOptions {
         out: out.clone(),
         shard,
-        cache: Some(eyereplay::cache_dir(args.cache.as_deref())),
+        cache: Some(super::cache_dir(args.cache.as_deref())?),
         evaluate: (!args.no_evaluate).then(|| eyereplay::EvaluateOptions {
             read_back_all: args.read_back_all,
             read_back_per_class: args.read_back,

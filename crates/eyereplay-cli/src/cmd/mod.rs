@@ -216,3 +216,16 @@ pub mod values {
         }
     }
 }
+
+/// The cache folder (`--cache`, `$EYEREPLAY_CACHE`, ...), refused up front
+/// when a file stands at its path: otherwise the first extraction fails
+/// minutes in, naming a path inside it.
+pub fn cache_dir(flag: Option<&std::path::Path>) -> anyhow::Result<std::path::PathBuf> {
+    let dir = eyereplay::cache_dir(flag);
+    anyhow::ensure!(
+        !dir.exists() || dir.is_dir(),
+        "{}: the cache (--cache or $EYEREPLAY_CACHE) is a file, not a folder",
+        dir.display()
+    );
+    Ok(dir)
+}

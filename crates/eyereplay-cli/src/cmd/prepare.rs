@@ -44,7 +44,7 @@ pub fn run(args: Args) -> Result<()> {
     // The `[render]` table is rendered later, from metadata.json: checked
     // now, so that a typo in it does not wait for the render.
     eyereplay::render_table(&cfg, &args.config)?;
-    let cache = eyereplay::cache_dir(args.cache.as_deref());
+    let cache = super::cache_dir(args.cache.as_deref())?;
     let bars = super::Bars::default();
     let Some(out) = args.out.filter(|_| !args.dry_run) else {
         let prepared = eyereplay::prepare_only(&cfg, &cache, &bars)?;

@@ -45,7 +45,11 @@ pub struct Args {
     /// 'eyereplay prepare', with the backend and settings of the `[render]`
     /// table its metadata.json records (the same driver as 'eyereplay
     /// generate'; relative paths in it are taken from the current folder).
-    #[arg(long, value_name = "DIR", conflicts_with = "bench")]
+    #[arg(long, value_name = "DIR", conflicts_with_all = [
+        "bench", "out", "truth", "png_frames", "seed", "gain", "viewing_distance_mm",
+        "calibration", "size", "fps", "natural_blinks", "match_extractor", "lossless",
+        "crf", "preset", "x264_params", "identity_out",
+    ])]
     pub dataset: Option<PathBuf>,
     /// With --dataset: sessions rendered at once, instead of the table's
     /// `jobs` (eyes and browser backends).
@@ -54,18 +58,18 @@ pub struct Args {
     /// Print render-only, encode-only and end-to-end speed, measured in one run.
     #[arg(long)]
     pub bench: bool,
-    /// Frames for --bench.
-    #[arg(long, default_value_t = 750)]
-    pub frames: usize,
+    /// Frames for --bench (default 750; at least 25).
+    #[arg(long, value_name = "N")]
+    pub frames: Option<usize>,
     /// With --bench: the full-face webcam mode (render.backend = "face":
     /// the first bundled photo, webcam look, head motion) instead of the
     /// close-up eyes.
-    #[arg(long, requires = "bench", conflicts_with = "replay")]
+    #[arg(long, conflicts_with = "replay")]
     pub face: bool,
     /// With --bench: the real-face replay mode (render.backend = "replay")
     /// on this carrier video, at its own size (decode, redraw, encode). The
     /// carrier's one-time measurement (cached) is not timed.
-    #[arg(long, requires = "bench", value_name = "VIDEO")]
+    #[arg(long, value_name = "VIDEO")]
     pub replay: Option<PathBuf>,
     /// Identity seed (face, iris, lighting, camera); 0 is the reference face.
     /// With --dataset, each session's identity comes from the dataset's own
@@ -180,19 +184,50 @@ fn params(args: &Args) -> anyhow::Result<RenderParams> {
     Ok(p)
 }
 
+/// What clap does not say: a `requires` whose target conflicts with an
+/// argument given (the trajectory conflicts with --bench and --dataset)
+/// counts as met, so a bench-only or dataset-only option given with a
+/// trajectory would be ignored without a word.
+fn check_bench_only(args: &Args) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        args.jobs.is_none() || args.dataset.is_some(),
+        "--jobs is for --dataset only (sessions rendered at once)"
+    );
+    if args.bench {
+        return Ok(());
+    }
+    let given = [
+        ("--face", args.face),
+        ("--replay", args.replay.is_some()),
+        ("--frames", args.frames.is_some()),
+    ];
+    if let Some((flag, _)) = given.iter().find(|(_, on)| *on) {
+        let hint = if *flag == "--frames" {
+            ""
+        } else {
+            "; to draw sessions in that mode, set render.backend in the dataset's config and run \
+             'eyereplay render --dataset DIR'"
+        };
+        anyhow::bail!("{flag} is for --bench only (a speed measurement){hint}");
+    }
+    Ok(())
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
+    check_bench_only(&args)?;
     if let Some(dir) = &args.dataset {
         return run_dataset(dir, &args);
     }
     let p = params(&args)?;
     if args.bench {
-        anyhow::ensure!(args.frames >= 25, "--frames must be at least 25");
+        let frames = args.frames.unwrap_or(750);
+        anyhow::ensure!(frames >= 25, "--frames must be at least 25, got {frames}");
         let report = if args.face {
-            face::bench(p.width, p.height, args.frames)?
+            face::bench(p.width, p.height, frames)?
         } else if let Some(video) = &args.replay {
-            replay::bench(video, args.frames, &p.encoder, &eyereplay::NoProgress)?
+            replay::bench(video, frames, &p.encoder, &eyereplay::NoProgress)?
         } else {
-            run_bench(&p, args.frames)?
+            run_bench(&p, frames)?
         };
         println!("{report}");
         return Ok(());
@@ -208,6 +243,44 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .truth
         .clone()
         .unwrap_or_else(|| eyereplay_dataset::SessionPaths::beside_video(&out).truth);
+    // No output may be the input or another output: the rename at the end
+    // would replace the trajectory (or the video) without a word.
+    let named = [
+        ("the trajectory", Some(traj_path)),
+        ("--out", args.png_frames.is_none().then_some(&out)),
+        ("the truth file", Some(&truth)),
+        ("--identity-out", args.identity_out.as_ref()),
+    ];
+    for (i, (a, pa)) in named.iter().enumerate() {
+        for (b, pb) in &named[i + 1..] {
+            if let (Some(pa), Some(pb)) = (pa, pb) {
+                anyhow::ensure!(
+                    !same_file(pa, pb),
+                    "{}: {b} would overwrite {a}; give another path",
+                    pb.display()
+                );
+            }
+        }
+    }
+    // The video is H.264 in an MP4 container whatever the name says.
+    if args.png_frames.is_none() {
+        anyhow::ensure!(
+            out.extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("mp4")),
+            "{}: the video is written as MP4; name it .mp4",
+            out.display()
+        );
+    }
+    // A render killed before its rename (Ctrl-C, kill) left its temporary
+    // files beside the outputs; this one replaces them.
+    for target in [Some(&out), Some(&truth), args.identity_out.as_ref()]
+        .into_iter()
+        .flatten()
+    {
+        for stale in eyereplay_core::stale_temp_files(target) {
+            let _ = std::fs::remove_file(&stale);
+        }
+    }
     // Every output can be written, before the probe and the drawing.
     let mut outputs = vec![&truth];
     if args.png_frames.is_none() {
@@ -264,6 +337,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         truth.display()
     );
     Ok(())
+}
+
+/// Whether two paths name one file: an existing file reached both ways
+/// (links, `./`, `..`), or, for one not there yet, the same name in the
+/// same folder.
+fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    fn resolved(p: &std::path::Path) -> Option<PathBuf> {
+        if let Ok(full) = p.canonicalize() {
+            return Some(full);
+        }
+        let parent = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => std::path::Path::new("."),
+        };
+        Some(parent.canonicalize().ok()?.join(p.file_name()?))
+    }
+    a == b || matches!((resolved(a), resolved(b)), (Some(x), Some(y)) if x == y)
 }
 
 /// `--dataset`: every unfinished session of a prepared dataset with the

@@ -60,9 +60,11 @@ pub struct Args {
     pub alpha: f64,
     /// Also train on this many copies of each session with white noise
     /// (levels drawn up to 0.3 x the session's x range): robust to heavy
-    /// jitter, less accurate on clean video (docs/DETECTOR.md).
-    #[arg(long, default_value_t = 0, value_name = "N")]
-    pub noise_copies: usize,
+    /// jitter, less accurate on clean video (docs/DETECTOR.md). At most 100:
+    /// each copy adds as many windows as the sessions themselves give.
+    #[arg(long, default_value_t = 0, value_name = "N",
+          value_parser = clap::value_parser!(u16).range(0..=100))]
+    pub noise_copies: u16,
     /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
@@ -110,16 +112,21 @@ impl From<InputArg> for TrainInput {
     }
 }
 
+/// Training windows of a class below which `train` warns.
+const FEW_WINDOWS: usize = 20;
+
 pub fn run(args: Args) -> anyhow::Result<()> {
     if !(args.max_fpr > 0.0 && args.max_fpr < 1.0) {
         anyhow::bail!(
-            "--max-fpr must be a share between 0 and 1, got {}",
+            "--max-fpr must be a share above 0 and below 1 (e.g. 0.05), got {}",
             args.max_fpr
         );
     }
     if !(args.alpha >= 0.0 && args.alpha.is_finite()) {
         anyhow::bail!("--alpha must be a number >= 0, got {}", args.alpha);
     }
+    // The model is written last: a path it cannot go to is found first.
+    eyereplay_core::check_writable(&args.out)?;
     let opts = TrainDetectorOptions {
         window_s: args.window_s,
         input: args.input.into(),
@@ -127,11 +134,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             classifier: args.classifier.into(),
             alpha: args.alpha,
             seed: args.seed,
-            noise_copies: args.noise_copies,
+            noise_copies: usize::from(args.noise_copies),
             max_fpr: args.max_fpr,
             ..TrainOptions::default()
         },
-        cache: eyereplay::cache_dir(args.cache.as_deref()),
+        cache: super::cache_dir(args.cache.as_deref())?,
         frame_labels: args.frame_labels,
     };
     let started = std::time::Instant::now();
@@ -149,6 +156,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .map_or("n/a (too few sessions)".into(), |a| format!("{a:.3}")),
         model.threshold
     );
+    // A handful of windows trains a model that only seems to work: its
+    // validation AUROC rests on a few sessions.
+    let fewest = t.train_windows_reading.min(t.train_windows_other);
+    if fewest < FEW_WINDOWS {
+        eprintln!(
+            "warning: only {fewest} training windows of one class (fewer than {FEW_WINDOWS}): \
+             the model and its AUROC are unreliable; more or longer sessions, or a shorter \
+             --window-s, give more"
+        );
+    }
     println!(
         "wrote {} in {:.1} s",
         args.out.display(),
