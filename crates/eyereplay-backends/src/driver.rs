@@ -35,11 +35,14 @@ pub fn is_complete(job: &SessionJob, frames: usize) -> bool {
 /// missing, its identity file missing; `None` when it is whole.
 pub fn why_incomplete(job: &SessionJob, frames: usize) -> Option<(PathBuf, String)> {
     let p = &job.paths;
-    let video = match eyereplay_extract::count_video_packets(&p.mp4) {
-        _ if !p.mp4.exists() => Some("missing".to_string()),
-        Ok(n) if n == frames as u64 => None,
-        Ok(n) => Some(format!("{n} of {frames} frames")),
-        Err(_) => Some("not a readable video".to_string()),
+    let video = if p.mp4.exists() {
+        match eyereplay_extract::count_video_packets(&p.mp4) {
+            Ok(n) if n == frames as u64 => None,
+            Ok(n) => Some(format!("{n} of {frames} frames")),
+            Err(_) => Some("not a readable video".to_string()),
+        }
+    } else {
+        Some("missing".to_string())
     };
     if let Some(why) = video {
         return Some((p.mp4.clone(), why));
@@ -80,6 +83,14 @@ pub fn shard_sessions(out: &Path, seed: u64, shard: Option<Shard>) -> Result<Vec
     })
 }
 
+/// A session to draw, its files read.
+struct Todo {
+    job: SessionJob,
+    trajectory: Vec<eyereplay_core::CanvasPos>,
+    blinks: Option<Vec<bool>>,
+    extra: Vec<PathBuf>,
+}
+
 /// Renders the unfinished sessions of the dataset in `out` (this shard's
 /// only) with `backend`; fails listing the sessions that failed after the
 /// others are written.
@@ -110,11 +121,19 @@ pub fn render_dataset(
                 for p in SessionOutputs::leftovers(&job.paths, &extra) {
                     std::fs::remove_file(&p).map_err(|e| BackendError::io(&p, e))?;
                 }
-                let trajectory = eyereplay_core::read_session_csv(&job.paths.csv);
+                // The trajectory and its blink column, each error naming
+                // the session's file.
+                let trajectory = eyereplay_core::read_session_csv(&job.paths.csv)
+                    .map_err(|e| e.to_string())
+                    .and_then(|t| {
+                        eyereplay_dataset::read_blink_column(&job.paths.csv)
+                            .map(|blinks| (t, blinks))
+                            .map_err(|e| e.to_string())
+                    });
                 let complete = match &trajectory {
                     // The backend's own files hold a row per frame, as
                     // the truth file does: one cut short is redrawn.
-                    Ok(t) => {
+                    Ok((t, _)) => {
                         extra.iter().all(|p| csv_data_rows(p) == Some(t.len()))
                             && is_complete(&job, t.len())
                     }
@@ -125,11 +144,10 @@ pub fn render_dataset(
             .collect();
     for item in checked {
         let (job, trajectory, extra, complete) = item?;
-        let trajectory = match trajectory {
-            Ok(t) => t,
+        let (trajectory, blinks) = match trajectory {
+            Ok(read) => read,
             Err(e) => {
-                // The error names the session's file.
-                unreadable.push(e.to_string());
+                unreadable.push(e);
                 continue;
             }
         };
@@ -137,24 +155,29 @@ pub fn render_dataset(
             summary.skipped += 1;
             continue;
         }
-        todo.push((job, trajectory, extra));
+        todo.push(Todo {
+            job,
+            trajectory,
+            blinks,
+            extra,
+        });
     }
     if !unreadable.is_empty() {
         return Err(BackendError::UnreadableSessions(unreadable));
     }
-    let total_frames: usize = todo.iter().map(|(_, t, _)| t.len()).sum();
+    let total_frames: usize = todo.iter().map(|t| t.trajectory.len()).sum();
     progress.begin(Stage::Render, total_frames as u64);
     let sessions = todo.len();
     let done = AtomicUsize::new(0);
-    let draw = |(job, trajectory, extra): &(SessionJob, Vec<_>, Vec<_>)| -> Result<Rendered> {
+    let draw = |t: &Todo| -> Result<Rendered> {
         let session = Session {
-            job,
-            trajectory: trajectory.clone(),
-            blinks: eyereplay_dataset::read_blink_column(&job.paths.csv)?,
+            job: &t.job,
+            trajectory: t.trajectory.clone(),
+            blinks: t.blinks.clone(),
             dataset_seed: meta.seed,
             fps: meta.fps,
         };
-        let outputs = SessionOutputs::new(&job.paths, extra);
+        let outputs = SessionOutputs::new(&t.job.paths, &t.extra);
         match backend.render(&session, &outputs, progress) {
             Ok(r) => outputs.commit().map(|()| r),
             Err(e) => {
@@ -163,13 +186,13 @@ pub fn render_dataset(
             }
         }
     };
-    let run_one = |item: &(SessionJob, Vec<_>, Vec<_>)| {
+    let run_one = |item: &Todo| {
         let r = draw(item);
         let n = done.fetch_add(1, Ordering::Relaxed) + 1;
         progress.status(&format!("{n}/{sessions} sessions"));
-        progress.advance(item.1.len() as u64);
+        progress.advance(item.trajectory.len() as u64);
         if let Err(e) = &r {
-            progress.warn(&format!("error: {}: {e}", item.0.paths.file));
+            progress.warn(&format!("error: {}: {e}", item.job.paths.file));
         }
         r
     };
@@ -184,7 +207,7 @@ pub fn render_dataset(
         pool.install(|| todo.par_iter().map(run_one).collect())
     };
     progress.end(Stage::Render);
-    for ((job, _, _), r) in todo.iter().zip(results) {
+    for (Todo { job, .. }, r) in todo.iter().zip(results) {
         match r {
             Ok(r) => {
                 summary.rendered += 1;

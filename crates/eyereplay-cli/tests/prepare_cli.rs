@@ -364,4 +364,15 @@ fn render_refuses_what_it_would_overwrite_or_ignore_and_clears_leftovers() {
     for p in &leftovers {
         assert!(!p.exists(), "{} left", p.display());
     }
+    // The same with a bare file name (its folder is "", the current one).
+    let bare = d.join(".w.mp4.4242.part");
+    std::fs::write(&bare, b"half").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_eyereplay"))
+        .current_dir(d)
+        .args(["render", "t.csv", "--out", "w.mp4"])
+        .args(small)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(d.join("w.mp4").is_file() && !bare.exists());
 }

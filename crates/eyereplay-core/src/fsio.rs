@@ -116,6 +116,12 @@ pub fn stale_temp_files(target: &Path) -> Vec<std::path::PathBuf> {
     let (Some(dir), Some(name)) = (target.parent(), target.file_name()) else {
         return Vec::new();
     };
+    // `s.mp4`'s folder is "", which read_dir cannot open.
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
     let prefix = format!(".{}.", name.to_string_lossy());
     let Ok(rd) = std::fs::read_dir(dir) else {
         return Vec::new();

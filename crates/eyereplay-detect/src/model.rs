@@ -252,21 +252,27 @@ impl DetectorModel {
         // Another JSON file (a dataset's metadata.json, a detection) is
         // told apart from a damaged model by its missing `format` key.
         if let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) {
-            if v.get("format").and_then(|f| f.as_str()) != Some(MODEL_FORMAT) {
-                return Err(DetectError::file(
-                    path,
-                    "not a detector model (a JSON file without its \"format\": \"eyereplay-detector\"; 'eyereplay train' writes one)",
-                ));
+            match v.get("format") {
+                Some(f) if f.as_str() == Some(MODEL_FORMAT) => {}
+                Some(f) => {
+                    return Err(DetectError::file(
+                        path,
+                        format!("not a detector model (format {f}, not \"{MODEL_FORMAT}\")"),
+                    ))
+                }
+                None => {
+                    return Err(DetectError::file(
+                        path,
+                        format!(
+                            "not a detector model (a JSON file without \"format\": \"{MODEL_FORMAT}\"; \
+                             'eyereplay train' writes one)"
+                        ),
+                    ))
+                }
             }
         }
         let m: DetectorModel = serde_json::from_str(&text)
             .map_err(|e| DetectError::file(path, format!("not a detector model: {e}")))?;
-        if m.format != MODEL_FORMAT {
-            return Err(DetectError::file(
-                path,
-                format!("not a detector model (format '{}')", m.format),
-            ));
-        }
         if m.version != MODEL_VERSION {
             return Err(DetectError::file(
                 path,
@@ -789,9 +795,17 @@ mod tests {
         std::fs::write(&p, "{\"a\": 1}").unwrap();
         let e = DetectorModel::load(&p).unwrap_err().to_string();
         assert!(
-            e.contains("m.json") && e.contains("not a detector model"),
+            e.contains("m.json") && e.contains("not a detector model (a JSON file without"),
             "{e}"
         );
+        // Another format's JSON, and a file that is not text (a PNG's
+        // first bytes): each said to be no model, with why.
+        std::fs::write(&p, "{\"format\": \"eyereplay-dataset\"}").unwrap();
+        let e = DetectorModel::load(&p).unwrap_err().to_string();
+        assert!(e.contains("(format \"eyereplay-dataset\", not"), "{e}");
+        std::fs::write(&p, b"\x89PNG\r\n\x1a\n\xff\xfe").unwrap();
+        let e = DetectorModel::load(&p).unwrap_err().to_string();
+        assert!(e.contains("not a detector model (not text"), "{e}");
     }
 
     /// A model file edited by hand into values no training writes is
@@ -808,7 +822,11 @@ mod tests {
             ("threshold", serde_json::json!(-0.1), "threshold"),
             ("kind", serde_json::json!("svm"), "'svm'"),
             // Weights but no trees: not what a forest's file holds.
-            ("kind", serde_json::json!("bagged_trees"), "'bagged_trees'"),
+            (
+                "kind",
+                serde_json::json!("bagged_trees"),
+                "a 'bagged_trees' model without its `forest`; train it again",
+            ),
         ] {
             let mut v = serde_json::to_value(&m).unwrap();
             v[field] = value;

@@ -365,16 +365,14 @@ pub fn evaluate_localization(
     let mut tracks = Vec::new();
     let mut flags_all = Vec::new();
     let mut session_surface = Vec::new();
-    // Before any extraction: sessions with labels, and long enough for
-    // one of the model's windows.
-    let sessions = dataset_sessions(&[dir.to_path_buf()], input)?;
-    if sessions.iter().all(|s| s.frame_reading.is_none()) {
+    // Before any extraction: the sessions with per-frame labels (the ones
+    // scored; the others are not read), long enough for one window.
+    let mut sessions = dataset_sessions(&[dir.to_path_buf()], input)?;
+    sessions.retain(|s| s.frame_reading.is_some());
+    if sessions.is_empty() {
         return Err(Error::input(dir, NO_READING_COLUMN));
     }
-    let longest_s = sessions
-        .iter()
-        .map(|s| s.track_frames as f64 / s.track_fps)
-        .fold(0.0, f64::max);
+    let longest_s = sessions.iter().map(|s| s.duration_s()).fold(0.0, f64::max);
     if longest_s < model.window_s {
         return Err(Error::input(
             model_path,
@@ -396,9 +394,6 @@ pub fn evaluate_localization(
         track.xy.truncate(flags.len());
         tracks.push(track);
         flags_all.push(flags);
-    }
-    if tracks.is_empty() {
-        return Err(Error::input(dir, NO_READING_COLUMN));
     }
     let scores_of = |m: Method| -> Vec<SessionScore> {
         tracks

@@ -786,7 +786,7 @@ fn dataset_index<'py>(
 #[pyo3(signature = (dir=None))]
 fn check_models(py: Python<'_>, dir: Option<PathBuf>) -> PyResult<Vec<String>> {
     let dir = dir.unwrap_or_else(ex::default_models_dir);
-    py.allow_threads(|| ex::check_models(&dir))
+    py.allow_threads(|| ex::check_models_strict(&dir))
         .map_err(|e| py_err(Error::from(e)))
 }
 

@@ -32,6 +32,7 @@ use std::path::{Path, PathBuf};
 pub use error::SourceError;
 pub use fixations::SaccadeModel;
 pub use screen::{EyeGains, ViewingGeometry};
+pub use series::NO_GAZE_SEGMENT;
 
 /// Unit of a time column. Named explicitly because eye-tracking tools switch
 /// silently between milliseconds, seconds and sample counts.

@@ -93,6 +93,9 @@ fn fmt_t(t: f64) -> String {
         .to_string()
 }
 
+/// What a source with fewer than 2 gaze samples in any segment is told.
+pub const NO_GAZE_SEGMENT: &str = "no segment with at least 2 gaze samples";
+
 /// Assembles a [`Recording`] from segments, with the median rate measured.
 pub(crate) fn recording(
     path: &Path,
@@ -102,10 +105,7 @@ pub(crate) fn recording(
     px_per_deg: Option<f64>,
 ) -> Result<Recording, SourceError> {
     if segments.is_empty() {
-        return Err(SourceError::file(
-            path,
-            "no segment with at least 2 gaze samples",
-        ));
+        return Err(SourceError::file(path, NO_GAZE_SEGMENT));
     }
     let mut dts: Vec<f64> = segments
         .iter()

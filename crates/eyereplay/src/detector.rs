@@ -78,23 +78,24 @@ pub fn load_track(
         return Err(Error::input(path, "no such file"));
     }
     // An extraction's frame times, to tell a stream too sparse to join.
-    let from_extraction = |csv: &Path| -> Result<Track> {
-        let samples = extract_csv_samples(csv)?;
+    let from_samples = |samples: Vec<Sample<NormPos>>| -> Track {
         let times: Vec<f64> = samples.iter().map(|s| s.t_s).collect();
         if let Some(w) = sparse_frames_warning(&times) {
             progress.warn(&format!("warning: {}: {w}", path.display()));
         }
         let refs: Vec<&Sample<NormPos>> = samples.iter().collect();
-        Ok(resample_samples(&refs))
+        resample_samples(&refs)
     };
     let (track, kind) = if is_video(path) {
         let csv = extract_cached(&[path.to_path_buf()], cache, progress)?.remove(0);
-        // The extraction read nothing usable: say so of the video, not of
-        // the cache file it went to (a still image, a face never found
-        // with open eyes).
-        let track = match extract_csv_samples(&csv) {
-            Ok(s) if s.len() >= 2 => from_extraction(&csv)?,
-            Ok(_) | Err(Error::Source(eyereplay_sources::SourceError::File { .. })) => {
+        // The extraction read too little gaze to make a track of: say so
+        // of the video, not of the cache file it went to (a still image,
+        // a face never found with open eyes). Other errors, a damaged
+        // cache file among them, name that file.
+        let samples = match extract_csv_samples(&csv) {
+            Err(Error::Source(eyereplay_sources::SourceError::File { message, .. }))
+                if message == eyereplay_sources::NO_GAZE_SEGMENT =>
+            {
                 return Err(Error::input(
                     path,
                     format!(
@@ -102,11 +103,11 @@ pub fn load_track(
                          a detection needs at least {} s of it",
                         eyereplay_detect::clip::MIN_CLIP_S
                     ),
-                ))
+                ));
             }
-            Err(e) => return Err(e),
+            r => r?,
         };
-        (track, "video")
+        (from_samples(samples), "video")
     } else {
         let head = std::fs::read_to_string(path)
             .map_err(|e| Error::io(path, e))?
@@ -116,7 +117,7 @@ pub fn load_track(
             .to_string();
         let cols: Vec<&str> = head.split(',').map(str::trim).collect();
         if cols.contains(&"nx") && cols.contains(&"time_s") {
-            (from_extraction(path)?, "extract")
+            (from_samples(extract_csv_samples(path)?), "extract")
         } else if cols.starts_with(&["frame", "x", "y"]) {
             (session_csv_track(path)?, "session")
         } else {
@@ -382,13 +383,16 @@ pub struct SessionEntry {
     pub file: PathBuf,
     /// The session CSV's per-frame `reading` column, when it has one.
     pub frame_reading: Option<Vec<bool>>,
-    /// Frames of the session CSV: what its video and truth file must hold.
+    /// Frames of the session CSV: what its video and truth file hold.
     pub frames: usize,
-    /// The session's length in frames of the track `input` gives (25 fps
-    /// for a video read back, the CSV's own frames otherwise).
-    pub track_frames: usize,
-    /// Frames per second of that track.
-    pub track_fps: f64,
+    /// The dataset's frame rate (metadata.json; 25 where it has none).
+    pub fps: f64,
+}
+
+impl SessionEntry {
+    pub fn duration_s(&self) -> f64 {
+        self.frames as f64 / self.fps
+    }
 }
 
 /// Every session of `datasets` (labels.csv, the file `input` reads, the
@@ -400,15 +404,11 @@ pub fn dataset_sessions(datasets: &[PathBuf], input: TrainInput) -> Result<Vec<S
         if labels.is_empty() {
             return Err(Error::input(dir.join("labels.csv"), "no sessions"));
         }
-        // A video is read back at the detector's 25 fps on its timestamps;
-        // the CSVs are frame by frame.
         let fps = eyereplay_dataset::read_metadata(dir)
             .map(|m| m.dataset.fps)
+            .ok()
+            .filter(|f| *f > 0.0)
             .unwrap_or(FPS);
-        let (scale, track_fps) = match input {
-            TrainInput::Extracted if fps > 0.0 => (FPS / fps, FPS),
-            _ => (1.0, fps),
-        };
         for row in &labels {
             let paths = eyereplay_dataset::SessionPaths::new(dir, &row.file)
                 .map_err(|e| Error::input(dir.join("labels.csv"), e.to_string()))?;
@@ -421,6 +421,29 @@ pub fn dataset_sessions(datasets: &[PathBuf], input: TrainInput) -> Result<Vec<S
             }
             let frame_reading = eyereplay_dataset::read_reading_column(&paths.csv)?;
             let frames = eyereplay_core::read_session_csv(&paths.csv)?.len();
+            // A video or truth file cut short (a render killed mid-way, a
+            // copy that stopped) would be read as a shorter session; its
+            // frames are counted as `merge` counts them, without decoding.
+            let held = match input {
+                TrainInput::Extracted => eyereplay_extract::count_video_packets(&file)
+                    .ok()
+                    .map(|n| n as usize),
+                TrainInput::Drawn => eyereplay_backends::csv_data_rows(&file),
+                TrainInput::Trajectory => None,
+            };
+            if let Some(n) = held.filter(|&n| n < frames) {
+                let unit = if input == TrainInput::Drawn {
+                    "rows"
+                } else {
+                    "frames"
+                };
+                return Err(Error::input(
+                    &file,
+                    format!(
+                        "{n} {unit} where its session has {frames}: cut short? (render it again)"
+                    ),
+                ));
+            }
             sessions.push(SessionEntry {
                 id: format!("{}#{}", dir.display(), row.file),
                 reading: row.label() == 1,
@@ -428,8 +451,7 @@ pub fn dataset_sessions(datasets: &[PathBuf], input: TrainInput) -> Result<Vec<S
                 file,
                 frame_reading,
                 frames,
-                track_frames: (frames as f64 * scale).round() as usize,
-                track_fps,
+                fps,
             });
         }
     }
@@ -447,12 +469,8 @@ pub fn dataset_tracks(
     session_tracks(dataset_sessions(datasets, input)?, input, cache, progress)
 }
 
-/// A video or truth file this many frames (or 1 %) short of its session
-/// is cut short: a render killed mid-way, a copy that stopped.
-const SHORT_FRAMES: usize = 2;
-
-/// The tracks of checked sessions, read as `input` says; a video or truth
-/// file shorter than its session is an error naming it.
+/// The tracks of checked sessions ([`dataset_sessions`]), read as `input`
+/// says.
 pub fn session_tracks(
     sessions: Vec<SessionEntry>,
     input: TrainInput,
@@ -471,19 +489,6 @@ pub fn session_tracks(
             .map(|f| truth_csv_track(f))
             .collect::<Result<_>>()?,
     };
-    for (s, t) in sessions.iter().zip(&tracks) {
-        let slack = SHORT_FRAMES.max(s.track_frames / 100);
-        if t.len() + slack < s.track_frames {
-            return Err(Error::input(
-                &s.file,
-                format!(
-                    "{:.1} s where its session has {:.1} s: cut short? (render it again)",
-                    t.len() as f64 / s.track_fps,
-                    s.track_frames as f64 / s.track_fps
-                ),
-            ));
-        }
-    }
     Ok(sessions
         .into_iter()
         .zip(tracks)
@@ -497,8 +502,10 @@ pub fn session_tracks(
         .collect())
 }
 
-/// Before any extraction: training needs windows of both classes, which
-/// the sessions' lengths and labels already tell.
+/// Before any extraction: what the sessions' lengths and labels already
+/// tell. It refuses only what no extraction can change (no session as
+/// long as a window, one class only), so a dataset it lets through may
+/// still lack windows with enough gaze, which training then says.
 fn check_trainable(sessions: &[SessionEntry], opts: &TrainDetectorOptions) -> Result<()> {
     if opts.frame_labels && sessions.iter().all(|s| s.frame_reading.is_none()) {
         return Err(Error::Setting(
@@ -507,47 +514,48 @@ fn check_trainable(sessions: &[SessionEntry], opts: &TrainDetectorOptions) -> Re
                 .into(),
         ));
     }
-    let spec = WindowSpec::half_overlap(opts.window_s);
-    let (mut reading, mut other) = (0usize, 0usize);
-    for s in sessions {
-        let mut start = 0;
-        while start + spec.frames <= s.frames {
-            let label = match (&s.frame_reading, opts.frame_labels) {
-                (Some(f), true) => window_label(f, start, spec.frames),
-                _ => Some(s.reading),
-            };
-            match label {
-                Some(true) => reading += 1,
-                Some(false) => other += 1,
-                None => {}
-            }
-            start += spec.step.max(1);
-        }
-    }
-    if reading > 0 && other > 0 {
-        return Ok(());
-    }
-    let longest_s = sessions.iter().map(|s| s.frames).max().unwrap_or(0) as f64 / FPS;
-    let why = if longest_s < opts.window_s {
-        format!(
+    let why = |why: String| {
+        Error::Setting(format!(
+            "training needs windows of both classes (reading and other): {why}"
+        ))
+    };
+    let longest_s = sessions
+        .iter()
+        .map(SessionEntry::duration_s)
+        .fold(0.0, f64::max);
+    if longest_s < opts.window_s {
+        return Err(why(format!(
             "the longest session is {longest_s:.1} s, shorter than a window ({} s; --window-s)",
             opts.window_s
-        )
-    } else if opts.frame_labels {
-        format!(
-            "by the per-frame `reading` labels, {reading} windows of {} s are reading and {other} are not",
-            opts.window_s
-        )
-    } else {
-        let n_reading = sessions.iter().filter(|s| s.reading).count();
-        format!(
-            "{n_reading} of the {} sessions are labeled reading in labels.csv",
-            sessions.len()
-        )
+        )));
+    }
+    // Each session's labels: its frames' where --frame-labels reads them,
+    // its class's otherwise.
+    let has = |reading: bool| {
+        sessions
+            .iter()
+            .any(|s| match (&s.frame_reading, opts.frame_labels) {
+                (Some(f), true) => f.contains(&reading),
+                _ => s.reading == reading,
+            })
     };
-    Err(Error::Setting(format!(
-        "training needs windows of both classes (reading and other): {why}"
-    )))
+    if !(has(true) && has(false)) {
+        let missing = if has(true) {
+            "other (not reading)"
+        } else {
+            "reading"
+        };
+        let whose = if opts.frame_labels {
+            "labels.csv or the sessions' per-frame `reading` columns"
+        } else {
+            "labels.csv"
+        };
+        return Err(why(format!(
+            "no session of the {} is labeled {missing} in {whose}",
+            sessions.len()
+        )));
+    }
+    Ok(())
 }
 
 /// A rendered video whose face is found in fewer frames than this share is
@@ -1138,8 +1146,9 @@ mod tests {
             .collect();
         // A truth file cut short (a render killed, a copy that stopped)
         // is named, with both lengths, not read as a shorter session.
+        // One row short is short.
         let truth = data.join("conversation/conversation_0000_truth.csv");
-        eyereplay_dataset::write_truth_csv(&truth, &rows[..0]).unwrap();
+        eyereplay_dataset::write_truth_csv(&truth, &rows[..2]).unwrap();
         let short = dataset_tracks(
             std::slice::from_ref(&data),
             TrainInput::Drawn,
@@ -1149,7 +1158,9 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(
-            short.contains("conversation_0000_truth.csv: 0.0 s where its session has 0.1 s"),
+            short.contains(
+                "conversation_0000_truth.csv: 2 rows where its session has 3: cut short?"
+            ),
             "{short}"
         );
         eyereplay_dataset::write_truth_csv(&truth, &rows).unwrap();

@@ -56,7 +56,7 @@ pub struct Args {
     #[arg(long)]
     pub jobs: Option<usize>,
     /// Print render-only, encode-only and end-to-end speed, measured in one run.
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["out", "truth", "png_frames", "identity_out"])]
     pub bench: bool,
     /// Frames for --bench (default 750; at least 25).
     #[arg(long, value_name = "N")]
@@ -273,7 +273,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     // A render killed before its rename (Ctrl-C, kill) left its temporary
     // files beside the outputs; this one replaces them.
-    for target in [Some(&out), Some(&truth), args.identity_out.as_ref()]
+    let video = args.png_frames.is_none().then_some(&out);
+    for target in [video, Some(&truth), args.identity_out.as_ref()]
         .into_iter()
         .flatten()
     {
@@ -367,7 +368,7 @@ fn run_dataset(dir: &std::path::Path, args: &Args) -> anyhow::Result<()> {
     if let Some(jobs) = args.jobs {
         settings.jobs = jobs;
     }
-    let cache = eyereplay::cache_dir(None);
+    let cache = super::cache_dir(None)?;
     // A setting's error names the file that holds the `[render]` table.
     let in_meta = |e: eyereplay::backends::BackendError| match e {
         eyereplay::backends::BackendError::Setting(m) => {
