@@ -110,6 +110,23 @@ pub fn check_writable(path: &Path) -> Result<(), CoreError> {
         .map_err(|e| CoreError::io(path, std::io::Error::from(e.kind())))
 }
 
+/// Whether two paths name one file: an existing file reached both ways
+/// (links, `./`, `..`), or, for one not there yet, the same name in the
+/// same folder.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    fn resolved(p: &Path) -> Option<std::path::PathBuf> {
+        if let Ok(full) = p.canonicalize() {
+            return Some(full);
+        }
+        let parent = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        Some(parent.canonicalize().ok()?.join(p.file_name()?))
+    }
+    a == b || matches!((resolved(a), resolved(b)), (Some(x), Some(y)) if x == y)
+}
+
 /// Leftover temporary files of `target` in its folder (from a process that
 /// was killed while writing it): `.NAME.*.tmp` and `.NAME.*.part`.
 pub fn stale_temp_files(target: &Path) -> Vec<std::path::PathBuf> {
@@ -177,6 +194,22 @@ pub fn find_upwards(rel: &Path) -> Option<std::path::PathBuf> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn one_file_is_told_by_any_of_its_paths() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        std::fs::create_dir(d.join("sub")).unwrap();
+        std::fs::write(d.join("a.csv"), b"x").unwrap();
+        std::os::unix::fs::symlink(d.join("a.csv"), d.join("link.csv")).unwrap();
+        let a = d.join("a.csv");
+        assert!(same_file(&a, &d.join("sub/../a.csv")));
+        assert!(same_file(&a, &d.join("link.csv")));
+        // Not there yet: the same name in the same folder.
+        assert!(same_file(&d.join("new.mp4"), &d.join("sub/../new.mp4")));
+        assert!(!same_file(&a, &d.join("new.mp4")));
+        assert!(!same_file(&d.join("sub/new.mp4"), &d.join("new.mp4")));
+    }
 
     #[test]
     fn writability_is_checked_without_leaving_a_file() {

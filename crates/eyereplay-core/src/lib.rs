@@ -28,8 +28,8 @@ pub use calibration::Calibration;
 pub use class::GazeClass;
 pub use error::CoreError;
 pub use fsio::{
-    atomic_write, atomic_write_with, check_writable, find_upwards, read_json_cache, sha256_file,
-    sha256_hex, stale_temp_files, write_json,
+    atomic_write, atomic_write_with, check_writable, find_upwards, read_json_cache, same_file,
+    sha256_file, sha256_hex, stale_temp_files, write_json,
 };
 pub use hash::{mix64, splitmix64, SPLITMIX_GOLDEN};
 pub use image::RgbImage;

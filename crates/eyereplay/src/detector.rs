@@ -420,7 +420,9 @@ pub fn dataset_sessions(datasets: &[PathBuf], input: TrainInput) -> Result<Vec<S
                 ));
             }
             let frame_reading = eyereplay_dataset::read_reading_column(&paths.csv)?;
-            let frames = eyereplay_core::read_session_csv(&paths.csv)?.len();
+            // Its rows, counted (the reading column above has parsed it).
+            let frames = eyereplay_backends::csv_data_rows(&paths.csv)
+                .ok_or_else(|| Error::input(&paths.csv, "cannot be read"))?;
             // A video or truth file cut short (a render killed mid-way, a
             // copy that stopped) would be read as a shorter session; its
             // frames are counted as `merge` counts them, without decoding.
@@ -702,11 +704,10 @@ pub fn train_detector(
     // The same folder twice would put each session on both sides of the
     // validation split, and its AUROC would not be of unseen sessions.
     for (i, d) in datasets.iter().enumerate() {
-        let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
-            (Ok(a), Ok(b)) => a == b,
-            _ => a == b,
-        };
-        if datasets[..i].iter().any(|e| same(e, d)) {
+        if datasets[..i]
+            .iter()
+            .any(|e| eyereplay_core::same_file(e, d))
+        {
             return Err(Error::input(
                 d,
                 "given twice: each dataset may be trained on once",

@@ -255,7 +255,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         for (b, pb) in &named[i + 1..] {
             if let (Some(pa), Some(pb)) = (pa, pb) {
                 anyhow::ensure!(
-                    !same_file(pa, pb),
+                    !eyereplay_core::same_file(pa, pb),
                     "{}: {b} would overwrite {a}; give another path",
                     pb.display()
                 );
@@ -338,23 +338,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         truth.display()
     );
     Ok(())
-}
-
-/// Whether two paths name one file: an existing file reached both ways
-/// (links, `./`, `..`), or, for one not there yet, the same name in the
-/// same folder.
-fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
-    fn resolved(p: &std::path::Path) -> Option<PathBuf> {
-        if let Ok(full) = p.canonicalize() {
-            return Some(full);
-        }
-        let parent = match p.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => std::path::Path::new("."),
-        };
-        Some(parent.canonicalize().ok()?.join(p.file_name()?))
-    }
-    a == b || matches!((resolved(a), resolved(b)), (Some(x), Some(y)) if x == y)
 }
 
 /// `--dataset`: every unfinished session of a prepared dataset with the
