@@ -55,20 +55,23 @@ pub fn render_params(settings: &RenderSettings, cfg: &DatasetConfig) -> Result<R
     p.natural_blinks = settings.natural_blinks;
     p.encoder.preset = settings.preset.clone();
     p.encoder.crf = settings.crf;
+    // The frame rate is the dataset's (top level), not the [render] table's.
+    if !(cfg.fps.is_finite() && cfg.fps > 0.0 && cfg.fps <= 1000.0) {
+        return Err(BackendError::Setting(format!(
+            "fps = {}: the dataset's frame rate must be above 0 and at most 1000",
+            cfg.fps
+        )));
+    }
+    check_ranges(settings)?;
     p.validate()
         .map_err(|e| BackendError::Setting(format!("[render]: {e}")))?;
     Ok(p)
 }
 
-/// Checks the backend's own settings before any work starts, with the
-/// paths in them resolved by `resolve` (against the config's folder):
-/// the browser found, photos fitted, carriers measured (cached in
-/// `cache`). Returns the settings with those paths resolved.
-pub fn check_settings(
-    settings: &RenderSettings,
-    resolve: &dyn Fn(&Path) -> std::path::PathBuf,
-    cache: &Path,
-) -> Result<RenderSettings> {
+/// The [render] table's numbers with fixed ranges, checked by
+/// [`render_params`] (so `prepare` refuses them too) and again by
+/// [`check_settings`].
+fn check_ranges(settings: &RenderSettings) -> Result<()> {
     let views = settings
         .backend
         .extractor()
@@ -88,6 +91,19 @@ pub fn check_settings(
             )));
         }
     }
+    Ok(())
+}
+
+/// Checks the backend's own settings before any work starts, with the
+/// paths in them resolved by `resolve` (against the config's folder):
+/// the browser found, photos fitted, carriers measured (cached in
+/// `cache`). Returns the settings with those paths resolved.
+pub fn check_settings(
+    settings: &RenderSettings,
+    resolve: &dyn Fn(&Path) -> std::path::PathBuf,
+    cache: &Path,
+) -> Result<RenderSettings> {
+    check_ranges(settings)?;
     let mut checked = settings.clone();
     match &mut checked.backend {
         BackendSettings::Eyes { .. } => {}

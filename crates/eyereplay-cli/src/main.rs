@@ -87,6 +87,10 @@ fn main() -> std::process::ExitCode {
         }
     };
     init_tracing(cli.verbose);
+    if let Some(bad) = cmd::log_every_s_problem() {
+        eprintln!("error: {bad}");
+        return std::process::ExitCode::from(2);
+    }
     let result = match cli.command {
         Command::Prepare(a) => cmd::prepare::run(a),
         Command::Evaluate(a) => cmd::evaluate::run(a),
@@ -160,6 +164,8 @@ fn init_tracing(verbose: u8) {
         .with_writer(std::io::stderr)
         .with_target(false)
         .without_time()
+        // Colour codes only where a terminal shows them, not in a log file.
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
 }
 

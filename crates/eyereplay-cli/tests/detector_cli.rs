@@ -517,6 +517,22 @@ fn the_protocol_refuses_unknown_names_and_a_test_recording_it_trains_on() {
         e.contains("train_a_") && e.contains("'onestop_l37' is also a training source"),
         "{e}"
     );
+    // Two folds of one name shared their models' folder.
+    let e = one_line_error(&run(
+        "twice.toml",
+        text.replacen("name = \"B\"", "name = \"A\"", 1),
+    ));
+    assert!(e.contains("fold 'A' is named twice"), "{e}");
+    // A recording of another format than it says was found only after the
+    // training data was drawn and half the recordings rendered.
+    let e = one_line_error(&run(
+        "format.toml",
+        text.replacen("detector/onestop_l37_1129.csv", "syelink/both_eyes.asc", 1),
+    ));
+    assert!(
+        e.contains("both_eyes.asc: recording 'onestop_l37': missing column"),
+        "{e}"
+    );
     assert!(!dir.path().join("o").exists());
 }
 

@@ -265,6 +265,40 @@ fn a_log_shows_the_extraction_moving() {
         );
     }
     assert!(!run(true).contains("frames/s"));
+
+    // A value that is not a whole number of seconds was ignored.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_eyereplay"))
+        .args(["extract", s(&franck()), "--out"])
+        .arg(dir.path().join("g.csv"))
+        .env("EYEREPLAY_LOG_EVERY_S", "abc")
+        .output()
+        .unwrap();
+    let e = one_line_error(&o);
+    assert!(e.contains("EYEREPLAY_LOG_EVERY_S=abc"), "{e}");
+    assert!(!dir.path().join("g.csv").exists());
+    // -v tells what the extraction does (it said nothing more before), in
+    // plain text where stderr is a file (colour codes were written there).
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_eyereplay"))
+        .args([
+            "-v",
+            "extract",
+            s(&franck()),
+            "--max-seconds",
+            "2",
+            "--quiet",
+            "--out",
+        ])
+        .arg(dir.path().join("v.csv"))
+        .env_remove("RUST_LOG")
+        .output()
+        .unwrap();
+    let log = ok(&o);
+    let log = format!("{log}{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        log.contains("extracting 1 video(s)") && log.contains("franck.mp4: h264 360x288"),
+        "{log}"
+    );
+    assert!(!log.contains('\x1b'), "{log}");
 }
 
 /// `models check` verifies every file it can: the `.tflite` sources and the
@@ -362,4 +396,53 @@ fn models_check_refuses_a_network_changed_since_its_conversion() {
         e.contains("iris_landmark.onnx: no sha256 was recorded at its conversion"),
         "{e}"
     );
+}
+
+#[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models)),
+    ignore = "needs .cache/data and the models: run scripts/setup.sh"
+)]
+fn a_batch_is_checked_whole_before_its_first_video_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("csv");
+    // A missing last video stopped the batch after the first was read,
+    // leaving its CSV behind.
+    let missing = dir.path().join("nothere.mp4");
+    let e = one_line_error(&eyereplay(&[
+        "extract",
+        s(&franck()),
+        s(&missing),
+        "--out",
+        s(&out),
+        "--quiet",
+    ]));
+    assert!(
+        e.contains("nothere.mp4") && e.contains("no such file"),
+        "{e}"
+    );
+    assert!(!out.join("franck.csv").exists());
+    // An eye-tracker export given as a video: FFmpeg plays text files as
+    // ANSI art, which was decoded for minutes and then had no face.
+    let text = dir.path().join("gaze.asc");
+    std::fs::write(&text, "MSG 1000 start\n1001 512.0 384.0 900.0\n").unwrap();
+    let e = one_line_error(&extract_run_on(&text, &dir.path().join("t.csv"), &[]));
+    assert!(
+        e.contains("gaze.asc") && e.contains("a text file, not a video"),
+        "{e}"
+    );
+    // Two videos of one name would write one CSV, the second over the first.
+    let other = dir.path().join("sub/franck.mp4");
+    std::fs::create_dir_all(other.parent().unwrap()).unwrap();
+    std::fs::copy(franck(), &other).unwrap();
+    let e = one_line_error(&eyereplay(&[
+        "extract",
+        s(&franck()),
+        s(&other),
+        "--out",
+        s(&out),
+        "--quiet",
+    ]));
+    assert!(e.contains("would both be written to"), "{e}");
+    assert!(!out.join("franck.csv").exists());
 }

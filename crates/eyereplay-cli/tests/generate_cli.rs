@@ -454,6 +454,27 @@ fn merge_refuses_damage_leaving_the_dataset_as_it_was(done: &Path, scratch: &Pat
             "{what}: metadata.json rewritten"
         );
     }
+    // `evaluate` scored a video cut short on the frames it had, with no word.
+    let _ = std::fs::remove_dir_all(scratch);
+    for f in walk_files(done) {
+        let to = scratch.join(f.strip_prefix(done).unwrap());
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::copy(&f, &to).unwrap();
+    }
+    // Its bytes cut in half, as an interrupted copy leaves it: the
+    // container still says 50 frames (its index comes first).
+    let mp4 = scratch.join("reading/reading_0000.mp4");
+    let bytes = std::fs::read(&mp4).unwrap();
+    std::fs::write(&mp4, &bytes[..bytes.len() / 2]).unwrap();
+    let o = eyereplay(&["evaluate", scratch.to_str().unwrap()]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success()
+            && e.contains("reading_0000.mp4: ")
+            && e.contains(" video frames, but its trajectory has 50: cut short or replaced?")
+            && e.trim_end().lines().count() == 1,
+        "{e}"
+    );
 }
 
 fn walk_files(dir: &Path) -> Vec<PathBuf> {
@@ -595,5 +616,36 @@ fn bad_inputs_stop_before_work() {
     );
     assert_eq!(e.trim_end().lines().count(), 1, "{e}");
     assert!(!out.join("metadata.json").exists());
-    assert!(!out.join("metadata.json").exists());
+
+    // A folder of the user's own files is not taken for a dataset (writing
+    // one there removed their session-named files and replaced
+    // labels.csv); nor is a file.
+    let tiny = root().join("examples/tiny.toml");
+    let mine = dir.path().join("mine");
+    std::fs::create_dir_all(mine.join("reading")).unwrap();
+    std::fs::write(mine.join("reading/reading_0009.csv"), "mine").unwrap();
+    std::fs::write(mine.join("notes.txt"), "mine").unwrap();
+    for (target, says) in [
+        (
+            &mine,
+            "holds files that are not part of an eyereplay dataset (notes.txt)",
+        ),
+        (&not_a_photo, "is a file, not a folder"),
+    ] {
+        let o = eyereplay(&[
+            "generate",
+            "--config",
+            tiny.to_str().unwrap(),
+            "--out",
+            target.to_str().unwrap(),
+        ]);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && e.contains(says), "{e}");
+        assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    }
+    assert_eq!(
+        std::fs::read_to_string(mine.join("reading/reading_0009.csv")).unwrap(),
+        "mine"
+    );
+    assert_eq!(std::fs::read_dir(&mine).unwrap().count(), 2);
 }

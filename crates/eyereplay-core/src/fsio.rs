@@ -86,7 +86,9 @@ pub fn atomic_write_with(
 /// and a temporary file is made there and removed. A folder at `path`
 /// itself is an error.
 pub fn check_writable(path: &Path) -> Result<(), CoreError> {
-    if path.is_dir() {
+    // `out.json/` names a folder, though its last component reads as a
+    // file name: the write would fail after the work.
+    if path.is_dir() || path.as_os_str().as_encoded_bytes().ends_with(b"/") {
         return Err(CoreError::invalid(path, "is a folder; give a file name"));
     }
     let dir = match path.parent() {
@@ -228,6 +230,10 @@ mod tests {
         let inside = dir.path().join("f/out.csv");
         let e = check_writable(&inside).unwrap_err().to_string();
         assert!(e.contains("f/out.csv"), "{e}");
+        // A name with a trailing slash is a folder's, whatever it reads as.
+        let slash = std::path::PathBuf::from(format!("{}/new.json/", dir.path().display()));
+        let e = check_writable(&slash).unwrap_err().to_string();
+        assert!(e.contains("is a folder; give a file name"), "{e}");
     }
 
     #[test]

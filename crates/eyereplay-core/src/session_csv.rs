@@ -122,6 +122,10 @@ pub fn push_fixed3(out: &mut Vec<u8>, v: f64) {
     out.push(b'0' + (f % 10) as u8);
 }
 
+/// The largest canvas coordinate a session CSV may hold, in px: far off
+/// any canvas (1280x720 by default), far from overflowing a speed.
+pub const MAX_CANVAS_COORD_PX: f64 = 1e6;
+
 /// Reads a `frame,x,y` session CSV, checking that frames count up from 0 and
 /// that every coordinate is a finite number.
 pub fn read_session_csv(path: &Path) -> Result<Vec<CanvasPos>, CoreError> {
@@ -160,6 +164,19 @@ pub fn read_session_csv(path: &Path) -> Result<Vec<CanvasPos>, CoreError> {
                 path: path.into(),
                 line,
                 message: "x and y must be finite numbers".into(),
+            });
+        }
+        // Finite but absurd (1e308): speeds and plot axes overflowed to
+        // infinity, and the report's log axis looped for ever.
+        if row.x.abs() > MAX_CANVAS_COORD_PX || row.y.abs() > MAX_CANVAS_COORD_PX {
+            return Err(CoreError::Parse {
+                path: path.into(),
+                line,
+                message: format!(
+                    "{} = {:e} px is not a canvas position (at most {MAX_CANVAS_COORD_PX:e} either way)",
+                    if row.x.abs() > MAX_CANVAS_COORD_PX { "x" } else { "y" },
+                    if row.x.abs() > MAX_CANVAS_COORD_PX { row.x } else { row.y },
+                ),
             });
         }
         out.push(CanvasPos {
@@ -248,5 +265,15 @@ mod tests {
         std::fs::write(&p, "frame,x,y\n0,1,2\n1,abc,3\n").unwrap();
         let e = read_session_csv(&p).unwrap_err().to_string();
         assert!(e.contains("line 3") && e.contains("s.csv"), "{e}");
+
+        // Finite but far off any canvas: refused with its line.
+        std::fs::write(&p, "frame,x,y\n0,1,2\n1,1e308,3\n").unwrap();
+        let e = read_session_csv(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("line 3") && e.contains("not a canvas position"),
+            "{e}"
+        );
+        std::fs::write(&p, "frame,x,y\n0,-2000,5000\n").unwrap();
+        assert_eq!(read_session_csv(&p).unwrap()[0].x_px, -2000.0);
     }
 }

@@ -15,6 +15,15 @@ pub struct Shard {
     pub count: usize,
 }
 
+/// A shard error of values that came from the environment, saying which
+/// variables gave them (no `--shard` was given to look for).
+fn from_env(e: Error, source: &str) -> Error {
+    match e {
+        Error::Setting(m) => Error::Setting(format!("{m}, from {source}")),
+        other => other,
+    }
+}
+
 impl Shard {
     pub fn new(index: usize, count: usize) -> Result<Self> {
         if count == 0 {
@@ -72,7 +81,9 @@ impl Shard {
         };
         if let Some(k) = num("SLURM_ARRAY_TASK_ID")? {
             if let Some(n) = shards {
-                return Shard::new(k, n).map(Some);
+                return Shard::new(k, n).map(Some).map_err(|e| {
+                    from_env(e, "SLURM_ARRAY_TASK_ID and --shards (or EYEREPLAY_SHARDS)")
+                });
             }
             let n = num("SLURM_ARRAY_TASK_COUNT")?.ok_or_else(|| {
                 Error::Setting(
@@ -94,13 +105,21 @@ impl Shard {
                 })?,
                 n,
             )
-            .map(Some);
+            .map(Some)
+            .map_err(|e| {
+                from_env(
+                    e,
+                    "SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_MIN and SLURM_ARRAY_TASK_COUNT",
+                )
+            });
         }
         if let Some(k) = num("JOB_COMPLETION_INDEX")? {
             let n = shards.ok_or_else(|| {
                 Error::Setting("JOB_COMPLETION_INDEX is set: give the shard count with --shards N or EYEREPLAY_SHARDS".into())
             })?;
-            return Shard::new(k, n).map(Some);
+            return Shard::new(k, n).map(Some).map_err(|e| {
+                from_env(e, "JOB_COMPLETION_INDEX and --shards (or EYEREPLAY_SHARDS)")
+            });
         }
         match shards {
             Some(n) => Err(Error::Setting(format!(
@@ -203,6 +222,22 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("--shards"));
+        // An index past the count names the variables it came from.
+        let past = env(&[
+            ("SLURM_ARRAY_TASK_ID", "3"),
+            ("SLURM_ARRAY_TASK_COUNT", "2"),
+        ]);
+        let e = Shard::resolve_with(None, None, past)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("out of range for 2 shards") && e.contains("from SLURM_ARRAY_TASK_ID"),
+            "{e}"
+        );
+        let e = Shard::resolve_with(None, Some(4), &k8s)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("from JOB_COMPLETION_INDEX"), "{e}");
         // The flag wins over the environment.
         let both = env(&[
             ("SLURM_ARRAY_TASK_ID", "1"),

@@ -191,3 +191,91 @@ mod tests {
         assert_eq!(session_index(GazeClass::Reading, "reading_+001.csv"), None);
     }
 }
+
+/// The names a dataset folder holds at its top level before its
+/// `metadata.json` is written (a run stopped part way): the class
+/// folders, the pools, the labels, the report and `generate`'s `run.log`.
+const OWN_TOP_LEVEL: &[&str] = &[
+    "reading",
+    "conversation",
+    "pool",
+    LABELS_FILE,
+    METADATA_FILE,
+    REPORT_DIR,
+    "run.log",
+];
+
+/// Checks, before any work, that `out` may receive a dataset: it does not
+/// exist yet, is empty, holds a dataset (its `metadata.json`), or holds
+/// only what a stopped run of eyereplay leaves. A folder of anything else
+/// is refused, since writing the dataset removes session files beyond the
+/// new count and replaces `labels.csv` and the report.
+pub fn check_output_folder(out: &Path) -> Result<(), DatasetError> {
+    if out.is_file() {
+        return Err(DatasetError::Invalid {
+            path: out.into(),
+            message: "is a file, not a folder; give a folder for the dataset".into(),
+        });
+    }
+    if !out.is_dir() || out.join(METADATA_FILE).is_file() {
+        return Ok(());
+    }
+    let entries = std::fs::read_dir(out).map_err(|e| DatasetError::Io {
+        path: out.into(),
+        source: e,
+    })?;
+    // Hidden names: temporary files of an interrupted write, and what a
+    // file manager leaves.
+    let mut foreign: Vec<String> = entries
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.starts_with('.') && !OWN_TOP_LEVEL.contains(&n.as_str()))
+        .collect();
+    if foreign.is_empty() {
+        return Ok(());
+    }
+    foreign.sort();
+    let more = foreign.len() - foreign.len().min(3);
+    foreign.truncate(3);
+    Err(DatasetError::Invalid {
+        path: out.into(),
+        message: format!(
+            "holds files that are not part of an eyereplay dataset ({}{}) and no {METADATA_FILE}; give a new or empty folder",
+            foreign.join(", "),
+            if more > 0 { format!(" and {more} more") } else { String::new() }
+        ),
+    })
+}
+
+#[cfg(test)]
+mod output_folder_tests {
+    use super::*;
+
+    #[test]
+    fn only_new_empty_or_dataset_folders_receive_a_dataset() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("ds");
+        check_output_folder(&out).unwrap(); // not there yet
+        std::fs::create_dir(&out).unwrap();
+        check_output_folder(&out).unwrap(); // empty
+                                            // What a run stopped before metadata.json leaves.
+        std::fs::create_dir(out.join("reading")).unwrap();
+        std::fs::write(out.join("run.log"), "run 1\n").unwrap();
+        std::fs::write(out.join(".labels.csv.123.tmp"), "").unwrap();
+        check_output_folder(&out).unwrap();
+        // A folder of the user's own files.
+        std::fs::write(out.join("notes.txt"), "mine").unwrap();
+        let e = check_output_folder(&out).unwrap_err().to_string();
+        assert!(
+            e.contains("notes.txt") && e.contains("new or empty folder"),
+            "{e}"
+        );
+        // ... unless it is a dataset already.
+        std::fs::write(out.join(METADATA_FILE), "{}").unwrap();
+        check_output_folder(&out).unwrap();
+        let file = dir.path().join("f.txt");
+        std::fs::write(&file, "x").unwrap();
+        let e = check_output_folder(&file).unwrap_err().to_string();
+        assert!(e.contains("is a file, not a folder"), "{e}");
+    }
+}

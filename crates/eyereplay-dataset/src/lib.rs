@@ -36,7 +36,9 @@ mod write;
 pub use error::DatasetError;
 pub use identity::{EyeGeometry, SessionIdentity, Side};
 pub use labels::{read_labels, session_paths_of, write_labels, LabelRow, LABELS_HEADER};
-pub use layout::{pool_file, pool_head_file, session_file, session_index, SessionPaths};
+pub use layout::{
+    check_output_folder, pool_file, pool_head_file, session_file, session_index, SessionPaths,
+};
 pub use metadata::{
     metadata_bytes, parse_metadata, read_metadata, write_metadata, ClassMetadata, DatasetMetadata,
     FileDigest, Metadata, RenderMetadata, SessionEntry, ToolInfo, FORMAT_VERSION,

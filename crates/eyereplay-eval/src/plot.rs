@@ -390,6 +390,8 @@ fn draw_main_sequence<DB: DrawingBackend>(
                 .zip(&m.saccade_peak_speed_px_per_frame)
                 .filter(|(a, p)| **a > 0.0 && **p > 0.0)
                 .map(|(a, p)| (*a, p * fps))
+                // A log axis over an infinite range never ends its ticks.
+                .filter(|(a, v)| a.is_finite() && v.is_finite() && *a < 1e100 && *v < 1e100)
                 .collect()
         };
         let (sp, gp) = (thin(&pts(&c.source), 3000), thin(&pts(&c.generated), 3000));

@@ -371,19 +371,22 @@ fn open_file(path: &Path) -> Result<ff::format::context::Input> {
             },
         });
     }
-    ff::format::input(&path).map_err(|e| ExtractError::Open {
+    let input = ff::format::input(&path).map_err(|e| ExtractError::Open {
         path: path.to_path_buf(),
         message: e.to_string(),
-    })
+    })?;
+    // FFmpeg's "tty" demuxer plays any text file (.txt, .asc, .nfo, ...)
+    // as ANSI art, a "video" of its lines: an eye-tracker export given as
+    // a video would otherwise be decoded for minutes and then have no face.
+    if input.format().name() == "tty" {
+        return Err(ExtractError::Open {
+            path: path.to_path_buf(),
+            message: "a text file, not a video".into(),
+        });
+    }
+    Ok(input)
 }
 
-/// The packets of a file's video stream, counted by demuxing it without
-/// decoding: for the H.264 MP4s eyereplay writes, one packet a frame. It
-/// reads the whole file, so a cut-off one counts fewer. What `ffprobe
-/// -count_packets` reports as `nb_read_packets`, without starting a
-/// process (whose dynamic linking of the libav* libraries alone cost
-/// about 0.15 CPU-s): a resumed or merged dataset checks every session's
-/// video this way.
 /// The stored width and height of a file's video stream, from the
 /// container's codec parameters (nothing decoded; rotation metadata not
 /// applied): what a finished session is checked against.
@@ -404,6 +407,13 @@ pub fn video_stream_size(path: &Path) -> Result<(usize, usize)> {
     Ok((v.width() as usize, v.height() as usize))
 }
 
+/// The packets of a file's video stream, counted by demuxing it without
+/// decoding: for the H.264 MP4s eyereplay writes, one packet a frame. It
+/// reads the whole file, so a cut-off one counts fewer. What `ffprobe
+/// -count_packets` reports as `nb_read_packets`, without starting a
+/// process (whose dynamic linking of the libav* libraries alone cost
+/// about 0.15 CPU-s): a resumed or merged dataset checks every session's
+/// video this way.
 pub fn count_video_packets(path: &Path) -> Result<u64> {
     let mut ictx = open_file(path)?;
     let stream = ictx

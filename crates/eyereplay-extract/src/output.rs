@@ -249,7 +249,7 @@ pub fn output_csv_paths(
             out.display()
         )));
     }
-    Ok(videos
+    let paths: Vec<std::path::PathBuf> = videos
         .iter()
         .map(|video| {
             if single_file {
@@ -261,7 +261,20 @@ pub fn output_csv_paths(
                 .unwrap_or_else(|| "video".into());
             out.join(format!("{stem}.csv"))
         })
-        .collect())
+        .collect();
+    // `a/clip.mp4 b/clip.mov` (or one video given twice) would be written
+    // to one CSV, the second over the first.
+    for (j, p) in paths.iter().enumerate() {
+        if let Some(i) = paths[..j].iter().position(|q| q == p) {
+            return Err(ExtractError::Output(format!(
+                "{} and {} would both be written to {}; extract them into separate folders (or give each video once)",
+                videos[i].display(),
+                videos[j].display(),
+                p.display()
+            )));
+        }
+    }
+    Ok(paths)
 }
 
 /// Writes the CSV atomically: readers see the old file or the whole new one,
@@ -293,6 +306,22 @@ mod tests {
             blink: false,
             head: Vec::new(),
         }
+    }
+
+    #[test]
+    fn two_videos_of_one_name_are_refused_before_either_is_read() {
+        let v = |p: &str| std::path::PathBuf::from(p);
+        let e = output_csv_paths(Path::new("x"), &[v("a/clip.mp4"), v("b/clip.mov")])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("a/clip.mp4 and b/clip.mov would both be written to x/clip.csv"),
+            "{e}"
+        );
+        let same = output_csv_paths(Path::new("x"), &[v("a.mp4"), v("b.mp4"), v("a.mp4")]);
+        assert!(same.is_err());
+        let ok = output_csv_paths(Path::new("x"), &[v("a/one.mp4"), v("a/two.mp4")]).unwrap();
+        assert_eq!(ok, [v("x/one.csv"), v("x/two.csv")]);
     }
 
     #[test]

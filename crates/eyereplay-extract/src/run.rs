@@ -225,6 +225,13 @@ pub fn extract_many(
             })
             .collect();
     }
+    tracing::info!(
+        "extracting {} video(s): {} worker(s), {} landmarks, models in {}",
+        paths.len(),
+        workers,
+        opts.landmarks.name(),
+        opts.models_dir.display()
+    );
     let mut infos: Vec<Option<Result<VideoInfo>>> = paths
         .iter()
         .map(|p| Some(crate::decode::probe(p)))
@@ -235,7 +242,21 @@ pub fn extract_many(
         let Some(Ok(info)) = info else { continue };
         let plan = keyframe_plan(&paths[v], info, plan_segments(info, opts.max_duration_s));
         seg_counts[v] = plan.len();
+        tracing::info!(
+            "{}: {} {}x{}, {} fps, about {} frames, {} segment(s)",
+            paths[v].display(),
+            info.codec,
+            info.width,
+            info.height,
+            info.avg_fps.map_or("unknown".into(), |f| format!("{f:.2}")),
+            info.frames_estimate.map_or("?".into(), |n| n.to_string()),
+            plan.len()
+        );
         for (s, (t0, t1, seek_s)) in plan.into_iter().enumerate() {
+            tracing::debug!(
+                "{}: segment {s}: from {t0:?} s to {t1:?} s, decoding from {seek_s:?} s",
+                paths[v].display()
+            );
             jobs.push_back(Job {
                 video: v,
                 segment: s,

@@ -204,13 +204,45 @@ impl Protocol {
                 ));
             }
         }
+        let mut templates = Vec::new();
         for (m, spec) in &self.modes {
             let f = self.resolve(&spec.render);
             if !f.is_file() {
                 return Err(Error::input(f, format!("modes.{m}.render: no such config")));
             }
+            // Its [render] table too: a bad one stopped the run only when
+            // the real recordings' turn came, after the training data.
+            let cfg = DatasetConfig::load(&f)?;
+            eyereplay::render_table(&cfg, &f)?;
+            templates.push(cfg);
         }
+        // Every eye-tracker recording parses as its format says, read as
+        // the first mode reads it (a wrong `format` was found only after
+        // the training data was drawn and half the recordings rendered).
+        if let Some(cfg) = templates.first() {
+            for r in self.recording.iter().filter(|r| !r.is_webcam()) {
+                let mut source = r.source.clone();
+                *source.path_mut() = self.resolve(r.source.path());
+                eyereplay_sources::read_source(&source, &cfg.read).map_err(|e| {
+                    Error::input(
+                        source.path(),
+                        format!(
+                            "recording '{}': {}",
+                            r.name,
+                            strip_path(&e.to_string(), source.path())
+                        ),
+                    )
+                })?;
+            }
+        }
+        let mut folds = std::collections::BTreeSet::new();
         for fold in &self.fold {
+            if !folds.insert(fold.name.as_str()) {
+                return bad(format!(
+                    "fold '{}' is named twice (each fold's models and results are kept under its name)",
+                    fold.name
+                ));
+            }
             for t in &fold.test {
                 if !names.contains(t.as_str()) {
                     return bad(format!(
@@ -228,6 +260,9 @@ impl Protocol {
                 }
                 let cfg_path = self.resolve(cfg);
                 let config = DatasetConfig::load(&cfg_path)?;
+                // Each fold's [render] table before the first fold's
+                // training data is drawn.
+                eyereplay::render_table(&config, &cfg_path)?;
                 let train_files: Vec<PathBuf> =
                     config.source_paths().iter().map(|p| canonical(p)).collect();
                 for t in &fold.test {
@@ -971,4 +1006,13 @@ fn condition_result(
         roc_rule,
         roc_ceiling,
     }
+}
+
+/// An error's message without the file name it starts with (the caller
+/// names the file once).
+fn strip_path(message: &str, path: &Path) -> String {
+    message
+        .strip_prefix(&format!("{}: ", path.display()))
+        .unwrap_or(message)
+        .to_string()
 }

@@ -531,6 +531,12 @@ fn read_back(
     } else {
         None
     };
+    // A dataset's session video (its identity file beside it) has one
+    // packet a frame: a video cut short, or another's copied over it, was
+    // scored on the frames it had, with no word.
+    if identity.is_some() {
+        check_frame_count(video, n)?;
+    }
     // The crops per eye the session was matched to (absent: one).
     let views = match identity.as_ref().and_then(|i| i.extractor_iris_views) {
         None => 1,
@@ -664,16 +670,19 @@ fn detection_rate(n: &[[f64; 2]]) -> f64 {
 }
 
 /// A video whose frame count differs from its trajectory is bad input.
+/// Its frames are counted in the file (demuxed, not decoded): the count
+/// the container states survives a file cut short, which was then scored
+/// on the frames it had.
 fn check_frame_count(video: &Path, trajectory_frames: usize) -> Result<()> {
-    let info = eyereplay_extract::probe(video)
+    let frames = eyereplay_extract::count_video_packets(video)
         .map_err(|e| Error::input(video, format!("reading the video: {e}")))?;
-    if let Some(f) = info.frames_estimate {
-        if f as usize != trajectory_frames {
-            return Err(Error::input(
-                video,
-                format!("{f} video frames, but its trajectory has {trajectory_frames}"),
-            ));
-        }
+    if frames != trajectory_frames as u64 {
+        return Err(Error::input(
+            video,
+            format!(
+                "{frames} video frames, but its trajectory has {trajectory_frames}: cut short or replaced? (render it again: 'eyereplay generate' with this --out redraws it)"
+            ),
+        ));
     }
     Ok(())
 }

@@ -181,6 +181,7 @@ pub fn generate(
     if opts.evaluate.is_some() && job.shard.is_none() {
         job.check_evaluable()?;
     }
+    eyereplay_dataset::check_output_folder(out)?;
     std::fs::create_dir_all(out).map_err(|e| Error::input(out, format!("cannot create: {e}")))?;
     if let Some(free) = free_bytes(out) {
         if free < job.video_bytes {
@@ -323,6 +324,7 @@ impl RunLog {
     }
 
     fn stage(&mut self, name: &str, seconds: f64) {
+        tracing::info!("{name}: {seconds:.2} s");
         // Timing is informative only: a full disk must not fail the job here.
         let _ = writeln!(self.file, "  {name}: {seconds:.2} s");
     }

@@ -141,7 +141,9 @@ pub fn extract_cached_with(
             return Err(Error::input(v, "no such video"));
         }
         let csv = extraction_cache_path_for(v, model, cache)?;
-        if !csv.is_file() && !todo.iter().any(|(_, c)| *c == csv) {
+        if csv.is_file() {
+            tracing::info!("{}: extraction cached as {}", v.display(), csv.display());
+        } else if !todo.iter().any(|(_, c)| *c == csv) {
             todo.push((v.clone(), csv.clone()));
         }
         csvs.push(csv);

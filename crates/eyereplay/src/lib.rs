@@ -138,6 +138,7 @@ pub fn prepare_dataset(
     cache: &Path,
     progress: &dyn Progress,
 ) -> Result<PreparedDataset> {
+    eyereplay_dataset::check_output_folder(out)?;
     let prepared = prepare_only(config, cache, progress)?;
     remove_stale_sessions(out, &prepared).map_err(|e| Error::io(out, e))?;
     let tool = tool_info(config)?;

@@ -67,7 +67,12 @@ pub struct Args {
     pub read_back_all: bool,
     /// Without --read-back-all: read back the first N sessions of each
     /// class whole, for that table (0: no table).
-    #[arg(long, default_value_t = 1, value_name = "N")]
+    #[arg(
+        long,
+        default_value_t = 1,
+        value_name = "N",
+        conflicts_with = "read_back_all"
+    )]
     pub read_back: usize,
 }
 

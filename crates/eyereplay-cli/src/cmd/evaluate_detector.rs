@@ -35,6 +35,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    super::check_folder_arg(&args.out, "--out")?;
     let cache = super::cache_dir(args.cache.as_deref())?;
     let ev = evaluate_detector(
         &args.protocol,

@@ -213,8 +213,16 @@ pub fn run(a: Args) -> Result<()> {
     for csv in &csv_paths {
         eyereplay_core::check_writable(csv)?;
     }
+    if let Some(dir) = &a.preview {
+        super::check_folder_arg(dir, "--preview")?;
+    }
     if a.compare.is_some() && a.videos.len() != 1 {
         bail!("--compare takes exactly one video");
+    }
+    // Every video opens (a missing, damaged or text file), before the
+    // first one is read: a batch should not stop at its last video.
+    for v in &a.videos {
+        ex::probe(v)?;
     }
     let landmarks = ex::landmarks_for_real_video(
         a.landmarks.map(LandmarksArg::model),

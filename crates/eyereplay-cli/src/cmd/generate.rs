@@ -91,7 +91,7 @@ pub struct Args {
         long,
         default_value_t = 1,
         value_name = "N",
-        conflicts_with = "no_evaluate"
+        conflicts_with_all = ["no_evaluate", "read_back_all"]
     )]
     pub read_back: usize,
     /// Folder for cached extractions (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).

@@ -42,6 +42,35 @@ impl Bars {
 /// `EYEREPLAY_LOG_EVERY_S` (a whole number, at least 1) overrides it.
 pub const LOG_EVERY_S: u64 = 30;
 
+/// A folder argument that names a file ("File exists" from the OS, after
+/// the work, said nothing of which path or why).
+pub fn check_folder_arg(dir: &std::path::Path, flag: &str) -> anyhow::Result<()> {
+    match dir.ancestors().find(|a| a.is_file()) {
+        Some(file) if file == dir => {
+            anyhow::bail!("{}: a file; {flag} takes a folder", dir.display())
+        }
+        Some(file) => anyhow::bail!(
+            "{}: {} is a file, not a folder ({flag})",
+            dir.display(),
+            file.display()
+        ),
+        None => Ok(()),
+    }
+}
+
+/// What is wrong with `EYEREPLAY_LOG_EVERY_S`, if set to anything but a
+/// whole number of seconds >= 1 (it was ignored, and a log then showed
+/// lines every 30 s with no word why).
+pub fn log_every_s_problem() -> Option<String> {
+    let v = std::env::var("EYEREPLAY_LOG_EVERY_S").ok()?;
+    match v.trim().parse::<u64>() {
+        Ok(s) if s >= 1 => None,
+        _ => Some(format!(
+            "EYEREPLAY_LOG_EVERY_S={v}: the seconds between progress lines in a log, a whole number of at least 1 (unset it for {LOG_EVERY_S})"
+        )),
+    }
+}
+
 /// Where stderr is not a terminal (a Slurm log, `nohup`, a pipe)
 /// indicatif draws nothing, so an hour-long job's log would show nothing
 /// moving: a plain line with the bar's counts goes there every
@@ -62,6 +91,7 @@ impl LogClock {
         if std::io::stderr().is_terminal() {
             return false;
         }
+        // A bad value was refused at start (`log_every_s_problem`).
         let every_s = std::env::var("EYEREPLAY_LOG_EVERY_S")
             .ok()
             .and_then(|v| v.trim().parse::<u64>().ok())
