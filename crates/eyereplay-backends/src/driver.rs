@@ -55,6 +55,12 @@ pub fn why_incomplete(job: &SessionJob, frames: usize) -> Option<(PathBuf, Strin
     if !p.identity_json.exists() {
         return Some((p.identity_json.clone(), "missing".into()));
     }
+    // Damaged (a copy cut short, a hand edit): drawn again on resume, as
+    // a video cut short is; it was found only after the other sessions'
+    // drawing, by what reads it.
+    if eyereplay_dataset::SessionIdentity::read(&p.identity_json).is_err() {
+        return Some((p.identity_json.clone(), "not readable".into()));
+    }
     None
 }
 

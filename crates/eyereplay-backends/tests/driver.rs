@@ -116,6 +116,15 @@ fn renders_every_session_then_skips_complete_ones() {
     assert!(!r.join(".reading_0000_truth.csv.x1y2.tmp").exists());
     assert!(!r.join(".staged.reading_0000.mp4").exists());
     assert!(r.join(".reading_0009.mp4.1.part").exists());
+
+    // A damaged identity file (a copy cut short) is drawn again too; it
+    // was found only after the other sessions were drawn, by what read it.
+    let id = r.join("reading_0000_identity.json");
+    let good = std::fs::read(&id).unwrap();
+    std::fs::write(&id, b"{").unwrap();
+    let s = render_dataset(dir.path(), &b, None, &NoProgress).unwrap();
+    assert_eq!((s.rendered, s.skipped), (1, 1));
+    assert_eq!(std::fs::read(&id).unwrap(), good);
 }
 
 #[test]

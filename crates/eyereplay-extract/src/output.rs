@@ -112,12 +112,32 @@ impl Row {
     pub fn aperture(&self) -> Option<f64> {
         self.eyes.map(|e| (e[0].aperture + e[1].aperture) / 2.0)
     }
-    /// Gaze usable: a face, eyes open, finite values.
+    /// Gaze usable: a face, eyes open, finite values, the face upright
+    /// enough for them ([`Row::upright`]).
     pub fn valid(&self) -> bool {
         !self.blink
+            && self.upright()
             && self
                 .mean_n()
                 .is_some_and(|(x, y)| x.is_finite() && y.is_finite())
+    }
+
+    /// Each eye's corners lie closer to the image's horizontal than to its
+    /// vertical. `nx` and `ny` are measured along the image's axes (the
+    /// paper's and MediaPipe's definition), so a face turned past 45 deg
+    /// in the picture (someone lying down, or a video whose rotation
+    /// metadata is wrong) reads its iris far outside the eye: such rows
+    /// are not valid. True without a face.
+    pub fn upright(&self) -> bool {
+        self.eyes.is_none_or(|eyes| {
+            eyes.iter().all(|e| {
+                let (dx, dy) = (
+                    e.corner_right.x - e.corner_left.x,
+                    e.corner_right.y - e.corner_left.y,
+                );
+                dy.abs() <= dx.abs()
+            })
+        })
     }
 }
 
@@ -306,6 +326,33 @@ mod tests {
             blink: false,
             head: Vec::new(),
         }
+    }
+
+    #[test]
+    fn a_face_turned_past_45_degrees_in_the_picture_is_not_valid() {
+        // Corners 20 px apart: at 30 deg of roll the eye still lies along
+        // the image's x axis more than its y; at 60 deg, and sideways, the
+        // iris would read outside the eye.
+        let at = |deg: f64| {
+            let mut r = row(0, Some(0.3));
+            let (c, s) = (deg.to_radians().cos() as f32, deg.to_radians().sin() as f32);
+            for e in r.eyes.as_mut().unwrap() {
+                e.corner_left = Pt { x: 100.0, y: 100.0 };
+                e.corner_right = Pt {
+                    x: 100.0 + 20.0 * c,
+                    y: 100.0 + 20.0 * s,
+                };
+            }
+            r
+        };
+        for deg in [0.0, 30.0, -30.0, 44.0] {
+            assert!(at(deg).upright() && at(deg).valid(), "{deg}");
+        }
+        for deg in [60.0, 90.0, -90.0] {
+            assert!(!at(deg).upright() && !at(deg).valid(), "{deg}");
+        }
+        // No face: nothing to turn (and not valid for want of a face).
+        assert!(row(0, None).upright() && !row(0, None).valid());
     }
 
     #[test]

@@ -243,7 +243,7 @@ pub fn extract_many(
         let plan = keyframe_plan(&paths[v], info, plan_segments(info, opts.max_duration_s));
         seg_counts[v] = plan.len();
         tracing::info!(
-            "{}: {} {}x{}, {} fps, about {} frames, {} segment(s)",
+            "{}: {} {}x{}, {} fps, about {} frames in the file, {} segment(s)",
             paths[v].display(),
             info.codec,
             info.width,
@@ -378,6 +378,12 @@ fn finish_video(
         warnings.push(format!("{decode_errors} corrupt packets or frames skipped"));
     }
     warnings.extend(ended_early(&info, &rows, opts.max_duration_s));
+    let rolled = rows.iter().filter(|r| !r.upright()).count();
+    if rolled > 0 {
+        warnings.push(format!(
+            "{rolled} frames with the face turned past 45 deg in the picture are not valid (nx and ny are measured along the image's axes); is the video's rotation right?"
+        ));
+    }
     Ok(Extraction {
         path: path.to_path_buf(),
         warnings,
