@@ -433,12 +433,7 @@ fn merge_refuses_damage_leaving_the_dataset_as_it_was(done: &Path, scratch: &Pat
         ),
     ];
     for (what, damage, says) in cases {
-        let _ = std::fs::remove_dir_all(scratch);
-        for f in walk_files(done) {
-            let to = scratch.join(f.strip_prefix(done).unwrap());
-            std::fs::create_dir_all(to.parent().unwrap()).unwrap();
-            std::fs::copy(&f, &to).unwrap();
-        }
+        fresh_copy(done, scratch);
         damage(scratch, &keep_lines);
         let before = std::fs::read(scratch.join("metadata.json")).unwrap();
         let o = eyereplay(&["merge", scratch.to_str().unwrap(), "--no-evaluate"]);
@@ -455,12 +450,7 @@ fn merge_refuses_damage_leaving_the_dataset_as_it_was(done: &Path, scratch: &Pat
         );
     }
     // `evaluate` scored a video cut short on the frames it had, with no word.
-    let _ = std::fs::remove_dir_all(scratch);
-    for f in walk_files(done) {
-        let to = scratch.join(f.strip_prefix(done).unwrap());
-        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
-        std::fs::copy(&f, &to).unwrap();
-    }
+    fresh_copy(done, scratch);
     // Its bytes cut in half, as an interrupted copy leaves it: the
     // container still says 50 frames (its index comes first).
     let mp4 = scratch.join("reading/reading_0000.mp4");
@@ -475,6 +465,16 @@ fn merge_refuses_damage_leaving_the_dataset_as_it_was(done: &Path, scratch: &Pat
             && e.trim_end().lines().count() == 1,
         "{e}"
     );
+}
+
+/// `to` made a copy of the dataset `from` (whatever was there removed).
+fn fresh_copy(from: &Path, to: &Path) {
+    let _ = std::fs::remove_dir_all(to);
+    for f in walk_files(from) {
+        let dest = to.join(f.strip_prefix(from).unwrap());
+        std::fs::create_dir_all(dest.parent().unwrap()).unwrap();
+        std::fs::copy(&f, &dest).unwrap();
+    }
 }
 
 fn walk_files(dir: &Path) -> Vec<PathBuf> {
