@@ -485,8 +485,32 @@ pub fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
     let mut out = format!("{}{}", pos.unwrap_or_default(), msg.trim());
     if let Some(s) = suggestion(&msg) {
         out.push_str(&format!(" (did you mean '{s}'?)"));
+    } else if msg.contains("missing field `format`") {
+        // A source's `format` picks its kind, so serde sees a misspelt
+        // `format` as the tag missing, not as an unknown key: find it in
+        // the source's own text.
+        let region = e
+            .span()
+            .and_then(|span| text.get(span.start.min(text.len())..span.end.min(text.len())))
+            .unwrap_or("");
+        match misspelt_format_key(region) {
+            Some(key) => out.push_str(&format!(" (is '{key}' meant to be 'format'?)")),
+            None => out.push_str(" (every source names its kind: format = \"video\", \"eyelink\", \"fixations\", ...)"),
+        }
     }
     out
+}
+
+/// A key of the inline table `region` (`{ formt = "eyelink", path = ... }`)
+/// within two edits of `format` but not it.
+fn misspelt_format_key(region: &str) -> Option<&str> {
+    region
+        .split(['{', ',', '\n'])
+        .filter_map(|part| part.split_once('=').map(|(k, _)| k.trim()))
+        .find(|k| {
+            let d = strsim::damerau_levenshtein(k, "format");
+            (1..=2).contains(&d)
+        })
 }
 
 /// For serde's "unknown field `x`, expected one of `a`, `b`" (and "unknown
@@ -552,6 +576,17 @@ mod tests {
         .to_string();
         assert!(e.contains("did you mean 'eyelink'"), "{e}");
         assert!(!e.contains('\n'));
+        // A misspelt tag reads as the tag missing: the key is named.
+        let e = DatasetConfig::parse(
+            "[classes.reading]\nsources = [{ formt = \"eyelink\", path = \"a\" }]\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("is 'formt' meant to be 'format'?"), "{e}");
+        let e = DatasetConfig::parse("[classes.reading]\nsources = [{ path = \"a\" }]\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("every source names its kind"), "{e}");
     }
 
     #[test]
