@@ -47,16 +47,57 @@ impl DatasetError {
     }
 }
 
-/// Reads a whole text file; a missing file says what folder was expected.
+/// Reads a whole text file; a missing file says what folder was expected,
+/// or, inside a dataset (a `metadata.json` in its folder or the one above),
+/// that a session's file is missing and how it is drawn again.
 pub(crate) fn read_text(path: &std::path::Path) -> Result<String, DatasetError> {
     std::fs::read_to_string(path).map_err(|e| {
         if e.kind() == std::io::ErrorKind::NotFound {
-            DatasetError::invalid(
-                path,
-                "not found (is this a dataset folder written by 'eyereplay prepare' or 'generate'?)",
-            )
+            DatasetError::invalid(path, missing_file_hint(path))
         } else {
             DatasetError::io(path, e)
         }
     })
+}
+
+fn missing_file_hint(path: &std::path::Path) -> &'static str {
+    // A session's file: in a class folder of a folder with metadata.json.
+    let class_dir = path.parent();
+    let session_file = class_dir
+        .and_then(|d| d.file_name())
+        .is_some_and(|n| ["reading", "conversation"].iter().any(|c| n == *c))
+        && class_dir
+            .and_then(|d| d.parent())
+            .is_some_and(|d| d.join(crate::layout::METADATA_FILE).is_file());
+    if session_file {
+        "not found: a session of this dataset is not rendered whole ('eyereplay generate' with the same --out, or 'eyereplay render --dataset', draws what is missing)"
+    } else {
+        "not found (is this a dataset folder written by 'eyereplay prepare' or 'generate'?)"
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_missing_file_is_told_by_where_it_is_missing() {
+        let dir = tempfile::tempdir().unwrap();
+        let e = read_text(&dir.path().join("metadata.json"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("is this a dataset folder"), "{e}");
+        std::fs::write(dir.path().join("metadata.json"), "{}").unwrap();
+        // The dataset's own files keep the first hint.
+        let e = read_text(&dir.path().join("labels.csv"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("is this a dataset folder"), "{e}");
+        let id = dir.path().join("reading/reading_0000_identity.json");
+        let e = read_text(&id).unwrap_err().to_string();
+        assert!(
+            e.contains("is not rendered whole") && e.contains("reading_0000_identity.json"),
+            "{e}"
+        );
+    }
 }
