@@ -450,7 +450,15 @@ fn merge_refuses_damage_leaving_the_dataset_as_it_was(done: &Path, scratch: &Pat
         );
     }
     // `evaluate` scored a video cut short on the frames it had, with no word.
+    // A whole one read back over fewer seconds than its session is fine
+    // (each session is 2 s; the visual section reads 1).
     fresh_copy(done, scratch);
+    ok(&eyereplay(&[
+        "evaluate",
+        scratch.to_str().unwrap(),
+        "--visual-seconds",
+        "1",
+    ]));
     // Its bytes cut in half, as an interrupted copy leaves it: the
     // container still says 50 frames (its index comes first).
     let mp4 = scratch.join("reading/reading_0000.mp4");

@@ -168,14 +168,15 @@ pub fn read_session_csv(path: &Path) -> Result<Vec<CanvasPos>, CoreError> {
         }
         // Finite but absurd (1e308): speeds and plot axes overflowed to
         // infinity, and the report's log axis looped for ever.
-        if row.x.abs() > MAX_CANVAS_COORD_PX || row.y.abs() > MAX_CANVAS_COORD_PX {
+        if let Some((name, v)) = [("x", row.x), ("y", row.y)]
+            .into_iter()
+            .find(|(_, v)| v.abs() > MAX_CANVAS_COORD_PX)
+        {
             return Err(CoreError::Parse {
                 path: path.into(),
                 line,
                 message: format!(
-                    "{} = {:e} px is not a canvas position (at most {MAX_CANVAS_COORD_PX:e} either way)",
-                    if row.x.abs() > MAX_CANVAS_COORD_PX { "x" } else { "y" },
-                    if row.x.abs() > MAX_CANVAS_COORD_PX { row.x } else { row.y },
+                    "{name} = {v:e} px is not a canvas position (at most {MAX_CANVAS_COORD_PX:e} either way)"
                 ),
             });
         }

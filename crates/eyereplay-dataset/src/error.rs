@@ -61,11 +61,12 @@ pub(crate) fn read_text(path: &std::path::Path) -> Result<String, DatasetError> 
 }
 
 fn missing_file_hint(path: &std::path::Path) -> &'static str {
+    use eyereplay_core::GazeClass;
     // A session's file: in a class folder of a folder with metadata.json.
     let class_dir = path.parent();
     let session_file = class_dir
         .and_then(|d| d.file_name())
-        .is_some_and(|n| ["reading", "conversation"].iter().any(|c| n == *c))
+        .is_some_and(|n| GazeClass::ALL.iter().any(|c| n == c.name()))
         && class_dir
             .and_then(|d| d.parent())
             .is_some_and(|d| d.join(crate::layout::METADATA_FILE).is_file());

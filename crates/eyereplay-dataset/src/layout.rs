@@ -11,6 +11,7 @@
 //!   <class>/<class>_NNNN_truth.csv        the renderer's per-frame ground truth
 //!   <class>/<class>_NNNN_identity.json    the rendered identity and eye geometry
 //!   report/index.html, report/metrics.json
+//!   run.log                               `generate`'s per-stage timings
 //! ```
 
 use crate::DatasetError;
@@ -20,6 +21,10 @@ use std::path::{Path, PathBuf};
 pub const LABELS_FILE: &str = "labels.csv";
 pub const METADATA_FILE: &str = "metadata.json";
 pub const REPORT_DIR: &str = "report";
+/// The folder of the class pools (`pool/<class>.csv`).
+pub const POOL_DIR: &str = "pool";
+/// `generate`'s per-stage timings, appended by every run and shard.
+pub const RUN_LOG_FILE: &str = "run.log";
 
 /// `<class>/<class>_NNNN.csv`, relative to the dataset folder.
 pub fn session_file(class: GazeClass, index: usize) -> String {
@@ -40,14 +45,14 @@ pub fn session_index(class: GazeClass, file_name: &str) -> Option<usize> {
 
 /// `pool/<class>.csv`, relative to the dataset folder.
 pub fn pool_file(class: GazeClass) -> String {
-    format!("pool/{}.csv", class.name())
+    format!("{POOL_DIR}/{}.csv", class.name())
 }
 
 /// `pool/<class>_head.csv`, relative to the dataset folder: the head pose
 /// of each pool frame's source (full-face mode with `head_motion =
 /// "source"`).
 pub fn pool_head_file(class: GazeClass) -> String {
-    format!("pool/{}_head.csv", class.name())
+    format!("{POOL_DIR}/{}_head.csv", class.name())
 }
 
 /// The files of one session, from its CSV path relative to the dataset
@@ -192,18 +197,20 @@ mod tests {
     }
 }
 
-/// The names a dataset folder holds at its top level before its
-/// `metadata.json` is written (a run stopped part way): the class
-/// folders, the pools, the labels, the report and `generate`'s `run.log`.
-const OWN_TOP_LEVEL: &[&str] = &[
-    "reading",
-    "conversation",
-    "pool",
-    LABELS_FILE,
-    METADATA_FILE,
-    REPORT_DIR,
-    "run.log",
-];
+/// Whether `name` is one a dataset folder holds at its top level before
+/// its `metadata.json` is written (a run stopped part way): a class
+/// folder, the pools, the labels, the report or `generate`'s `run.log`.
+fn own_top_level(name: &str) -> bool {
+    GazeClass::ALL.iter().any(|c| c.name() == name)
+        || [
+            POOL_DIR,
+            LABELS_FILE,
+            METADATA_FILE,
+            REPORT_DIR,
+            RUN_LOG_FILE,
+        ]
+        .contains(&name)
+}
 
 /// Checks, before any work, that `out` may receive a dataset: it does not
 /// exist yet, is empty, holds a dataset (its `metadata.json`), or holds
@@ -212,24 +219,21 @@ const OWN_TOP_LEVEL: &[&str] = &[
 /// new count and replaces `labels.csv` and the report.
 pub fn check_output_folder(out: &Path) -> Result<(), DatasetError> {
     if out.is_file() {
-        return Err(DatasetError::Invalid {
-            path: out.into(),
-            message: "is a file, not a folder; give a folder for the dataset".into(),
-        });
+        return Err(DatasetError::invalid(
+            out,
+            "is a file, not a folder; give a folder for the dataset",
+        ));
     }
     if !out.is_dir() || out.join(METADATA_FILE).is_file() {
         return Ok(());
     }
-    let entries = std::fs::read_dir(out).map_err(|e| DatasetError::Io {
-        path: out.into(),
-        source: e,
-    })?;
+    let entries = std::fs::read_dir(out).map_err(|e| DatasetError::io(out, e))?;
     // Hidden names: temporary files of an interrupted write, and what a
     // file manager leaves.
     let mut foreign: Vec<String> = entries
         .flatten()
         .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| !n.starts_with('.') && !OWN_TOP_LEVEL.contains(&n.as_str()))
+        .filter(|n| !n.starts_with('.') && !own_top_level(n))
         .collect();
     if foreign.is_empty() {
         return Ok(());
@@ -237,14 +241,14 @@ pub fn check_output_folder(out: &Path) -> Result<(), DatasetError> {
     foreign.sort();
     let more = foreign.len() - foreign.len().min(3);
     foreign.truncate(3);
-    Err(DatasetError::Invalid {
-        path: out.into(),
-        message: format!(
+    Err(DatasetError::invalid(
+        out,
+        format!(
             "holds files that are not part of an eyereplay dataset ({}{}) and no {METADATA_FILE}; give a new or empty folder",
             foreign.join(", "),
             if more > 0 { format!(" and {more} more") } else { String::new() }
         ),
-    })
+    ))
 }
 
 #[cfg(test)]
@@ -255,12 +259,13 @@ mod output_folder_tests {
     fn only_new_empty_or_dataset_folders_receive_a_dataset() {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("ds");
-        check_output_folder(&out).unwrap(); // not there yet
+        // Not there yet, then empty.
+        check_output_folder(&out).unwrap();
         std::fs::create_dir(&out).unwrap();
-        check_output_folder(&out).unwrap(); // empty
-                                            // What a run stopped before metadata.json leaves.
+        check_output_folder(&out).unwrap();
+        // What a run stopped before metadata.json leaves.
         std::fs::create_dir(out.join("reading")).unwrap();
-        std::fs::write(out.join("run.log"), "run 1\n").unwrap();
+        std::fs::write(out.join(RUN_LOG_FILE), "run 1\n").unwrap();
         std::fs::write(out.join(".labels.csv.123.tmp"), "").unwrap();
         check_output_folder(&out).unwrap();
         // A folder of the user's own files.

@@ -190,10 +190,7 @@ impl Protocol {
             if r.is_webcam() {
                 eyereplay::extract::probe(&file).map_err(|e| {
                     // The extractor's message names the file too.
-                    let e = e.to_string();
-                    let why = e
-                        .strip_prefix(&format!("{}: ", file.display()))
-                        .unwrap_or(&e);
+                    let why = strip_path(&e.to_string(), &file);
                     Error::input(&file, format!("recording '{}': {why}", r.name))
                 })?;
             }

@@ -503,6 +503,7 @@ fn render_truth(
 pub fn read_back_session(dir: &Path, video: &Path, frames: usize, fps: f64) -> Result<usize> {
     let models = eyereplay_extract::default_models_dir();
     eyereplay_extract::check_models(&models)?;
+    check_frame_count(video, frames)?;
     let geometry = SessionPaths::beside_video(video).identity_json;
     match read_back(dir, video, &models, frames, fps, &geometry)? {
         Ok(r) => Ok(r.n.iter().filter(|p| p[0].is_finite()).count()),
@@ -531,12 +532,6 @@ fn read_back(
     } else {
         None
     };
-    // A dataset's session video (its identity file beside it) has one
-    // packet a frame: a video cut short, or another's copied over it, was
-    // scored on the frames it had, with no word.
-    if identity.is_some() {
-        check_frame_count(video, n)?;
-    }
     // The crops per eye the session was matched to (absent: one).
     let views = match identity.as_ref().and_then(|i| i.extractor_iris_views) {
         None => 1,

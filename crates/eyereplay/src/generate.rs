@@ -302,7 +302,7 @@ struct RunLog {
 
 impl RunLog {
     fn open(out: &Path) -> Result<Self> {
-        let path = out.join("run.log");
+        let path = out.join(eyereplay_dataset::layout::RUN_LOG_FILE);
         let mut file = std::fs::OpenOptions::new()
             .create(true)
             .append(true)
