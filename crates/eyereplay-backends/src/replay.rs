@@ -43,13 +43,17 @@ pub fn carrier_videos(carriers: &[PathBuf], resolve: impl Fn(&Path) -> PathBuf) 
 }
 
 /// The cache key of a carrier's measured geometry: the video's sha256,
-/// the tool version, the track format and the extractor's rows revision
-/// (the geometry is measured with its networks).
+/// the tool version, the track format, the extractor's rows revision and
+/// the networks in use (the geometry is measured with them).
 pub fn track_cache_key(video: &Path) -> Result<ArtifactKey> {
     Ok(ArtifactKey::of_file("replay", video, "json")?
         .version("v", eyereplay_core::TOOL_VERSION)
         .version("t", eyereplay_replay::TRACK_FORMAT_VERSION)
-        .version("r", eyereplay_extract::ROWS_REVISION))
+        .version("r", eyereplay_extract::ROWS_REVISION)
+        .version(
+            "n",
+            eyereplay_extract::networks_fingerprint(&eyereplay_extract::default_models_dir())?,
+        ))
 }
 
 /// A carrier's geometry from the cache, or measured now (and cached).
@@ -243,20 +247,17 @@ impl SessionBackend for ReplayBackend {
 }
 
 /// The replay mode's speed bench (`eyereplay render --bench --replay
-/// VIDEO`): the carrier measured (cached) and prepared, then `frames`
+/// VIDEO`): the carrier measured (cached in `cache`) and prepared, then `frames`
 /// output frames of a reading trajectory at 25 fps: draw only, encode
 /// only and end to end, in one run.
 pub fn bench(
     video: &Path,
     frames: usize,
     encoder: &EncoderSettings,
+    cache: &Path,
     progress: &dyn Progress,
 ) -> Result<eyereplay_render::BenchReport> {
-    let carriers = prepare_carriers(
-        &[video.to_path_buf()],
-        &eyereplay_core::cache_dir(None),
-        progress,
-    )?;
+    let carriers = prepare_carriers(&[video.to_path_buf()], cache, progress)?;
     let canvas = eyereplay_core::Canvas::default();
     let mapping = GazeMapping::new(canvas);
     let traj = eyereplay_render::reading_trajectory(

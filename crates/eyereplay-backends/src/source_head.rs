@@ -30,13 +30,17 @@ use std::path::Path;
 const HEAD_CACHE_VERSION: u32 = 1;
 
 /// The cache key of a video's per-frame head poses: the video, the
-/// solve's version, the extractor's rows revision (the poses come from its
-/// face mesh) and the field of view assumed.
-fn cache_key(sha256: &str) -> ArtifactKey {
-    ArtifactKey::new("head", sha256, "json")
+/// solve's version, the extractor's rows revision and networks (the poses
+/// come from its face mesh) and the field of view assumed.
+fn cache_key(sha256: &str) -> Result<ArtifactKey> {
+    Ok(ArtifactKey::new("head", sha256, "json")
         .version("v", HEAD_CACHE_VERSION)
         .version("r", eyereplay_extract::ROWS_REVISION)
-        .version("vfov", SOURCE_VFOV_DEG)
+        .version(
+            "n",
+            eyereplay_extract::networks_fingerprint(&eyereplay_extract::default_models_dir())?,
+        )
+        .version("vfov", SOURCE_VFOV_DEG))
 }
 
 /// A video's raw per-frame head poses, from the cache or solved now (and
@@ -50,7 +54,7 @@ fn video_poses(
     progress: &dyn Progress,
 ) -> Result<Vec<(f64, Option<HeadPose>)>> {
     ArtifactCache::new(cache).get_or_make(
-        &cache_key(sha256),
+        &cache_key(sha256)?,
         |file| Ok(eyereplay_core::read_json_cache(file, "head pose cache")?),
         || {
             progress.info(&format!(
@@ -94,11 +98,12 @@ fn source_tracks(
     }
     let mesh = CanonicalMesh::load(&default_faces_dir().join(MESH_FILE))?;
     // A progress bar only when some video is not cached yet.
-    let solving = videos.iter().any(|s| {
-        !ArtifactCache::new(cache)
-            .path(&cache_key(&s.sha256))
-            .is_file()
-    });
+    let mut solving = false;
+    for s in &videos {
+        solving |= !ArtifactCache::new(cache)
+            .path(&cache_key(&s.sha256)?)
+            .is_file();
+    }
     if solving {
         progress.begin(Stage::Extract, 0);
     }

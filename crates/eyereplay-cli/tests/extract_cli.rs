@@ -200,6 +200,42 @@ fn a_video_cut_off_part_way_is_read_as_far_as_it_goes_and_said_to_be() {
     );
 }
 
+/// A face so small that its rows are mostly noise is found in every
+/// frame and its rows look valid: the summary says so. `franck.mp4`'s
+/// eyes are about 25 px wide; scaled to 60x48 they are about 4 px
+/// (docs/EXTRACTION.md, "Small faces": r_y 0.27 against MediaPipe).
+#[test]
+#[cfg_attr(
+    not(all(has_sample_data, has_models, has_ffmpeg)),
+    ignore = "needs .cache/data, the models and ffmpeg: run scripts/setup.sh"
+)]
+fn a_face_too_small_to_read_is_warned_of() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = dir.path().join("small.mp4");
+    let status = std::process::Command::new("ffmpeg")
+        .args(["-v", "error", "-i", s(&franck()), "-t", "4"])
+        .args(["-vf", "scale=60:48", "-c:v", "libx264", "-crf", "18", "-an"])
+        .arg(&small)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let said = ok(&extract_run_on(&small, &dir.path().join("small.csv"), &[]));
+    let line = said
+        .lines()
+        .find(|l| l.contains("px wide (median, corner to corner)"))
+        .unwrap_or_else(|| panic!("no small-eyes warning in:\n{said}"));
+    let width_px: f64 = line
+        .split("the eyes are ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    // A sixth of 25.5 px, give or take the networks' reading of so few pixels.
+    assert!((2.5..7.0).contains(&width_px), "{line}");
+    // The rows are written all the same.
+    assert!(dir.path().join("small.csv").is_file());
+}
+
 /// `scripts/models.sh` puts the models in `$EYEREPLAY_CACHE/models` when
 /// that is set: the binary finds them there from any folder, where it
 /// used to look only for `.cache/models` up from the current folder and

@@ -63,15 +63,25 @@ fn replay_dataset_follows_the_trajectory_keeps_the_carrier_and_is_deterministic(
     ]);
     let cfg = config(dir.path(), &clip);
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
-    for out in [&a, &b] {
-        ok(&eyereplay(&[
-            "generate",
-            "--config",
-            s(&cfg),
-            "--out",
-            s(out),
-        ]));
+    // The second run measures the carrier afresh into a cache of its own.
+    let own_cache = dir.path().join("own-cache");
+    for (out, cache) in [(&a, None), (&b, Some(&own_cache))] {
+        let mut args = vec!["generate", "--config", s(&cfg), "--out", s(out)];
+        if let Some(c) = cache {
+            args.extend(["--cache", s(c)]);
+        }
+        ok(&eyereplay(&args));
     }
+    // The carrier's geometry went where --cache said, keyed by the
+    // networks that measured it.
+    // (Beside it, the carrier's response probe: `.cN.calibration.json`.)
+    let tracks: Vec<String> = std::fs::read_dir(own_cache.join("replay"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.ends_with(".calibration.json"))
+        .collect();
+    assert_eq!(tracks.len(), 1, "{tracks:?}");
+    assert!(tracks[0].contains("-n"), "{tracks:?}");
     // Same seed, same bytes: every CSV and the identity files.
     for stem in ["reading/reading_0000", "conversation/conversation_0001"] {
         for suffix in [".csv", "_truth.csv", "_carrier.csv", "_identity.json"] {
@@ -101,7 +111,16 @@ fn replay_dataset_follows_the_trajectory_keeps_the_carrier_and_is_deterministic(
     // Read back: the trajectory, not the carrier's own gaze; the rest of
     // the frame is the carrier's up to encoding.
     let json = dir.path().join("eval.json");
-    let table = ok(&eyereplay(&["evaluate-replay", s(&a), "--json", s(&json)]));
+    let table = ok(&eyereplay(&[
+        "evaluate-replay",
+        s(&a),
+        "--json",
+        s(&json),
+        "--cache",
+        s(&own_cache),
+    ]));
+    // Its extractions of the dataset's videos went there too.
+    assert!(own_cache.join("extract").is_dir());
     assert!(table.contains("clip.mp4"), "{table}");
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     let both = v["groups"]

@@ -60,8 +60,9 @@ pub use geom::{Pt, Roi};
 pub use image::{Border, ImageView, Planes, Rotation, YuvMatrix};
 pub use models::{
     check as check_models, check_strict as check_models_strict, default_models_dir, init_runtime,
-    landmarks_for_real_video, missing_files, runtime_library, use_package_files, AttentionOut,
-    DetectorOutput, Device, FaceMeshOutput, IrisOutput, LandmarkModel, Models, IRIS_CPU_BATCH,
+    landmarks_for_real_video, missing_files, networks_fingerprint, runtime_library,
+    use_package_files, AttentionOut, DetectorOutput, Device, FaceMeshOutput, IrisOutput,
+    LandmarkModel, Models, IRIS_CPU_BATCH,
 };
 pub use output::{
     blink_threshold, flag_blinks, flag_blinks_below, output_csv_paths, save_csv, write_csv, EyeRow,

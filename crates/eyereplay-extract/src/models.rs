@@ -128,6 +128,38 @@ pub fn runtime_library(dir: &Path) -> PathBuf {
     }
 }
 
+/// A short digest of what an extraction's rows depend on outside the
+/// code: the sha256 of every network file in `dir` (or that it is
+/// absent) and the ONNX Runtime library's file name and size. Cached
+/// extractions, head poses and carrier tracks carry it in their keys, so
+/// rows made with other networks (`$EYEREPLAY_MODELS` pointed elsewhere, a
+/// new conversion, a GPU build of the runtime) are never taken for these.
+/// Hashed once per folder per process (about 10 MB).
+pub fn networks_fingerprint(dir: &Path) -> Result<String> {
+    static SEEN: std::sync::Mutex<Vec<(PathBuf, String)>> = std::sync::Mutex::new(Vec::new());
+    let mut seen = SEEN.lock().unwrap_or_else(|p| p.into_inner());
+    if let Some((_, f)) = seen.iter().find(|(d, _)| d == dir) {
+        return Ok(f.clone());
+    }
+    let mut record = String::new();
+    for name in NETWORKS {
+        let path = dir.join(name);
+        let digest = if path.is_file() {
+            eyereplay_core::sha256_file(&path)?
+        } else {
+            "absent".to_string()
+        };
+        record.push_str(&format!("{name} {digest}\n"));
+    }
+    let lib = runtime_library(dir);
+    let lib_bytes = std::fs::metadata(&lib).map(|m| m.len()).unwrap_or(0);
+    let lib_name = lib.file_name().unwrap_or_default().to_string_lossy();
+    record.push_str(&format!("{lib_name} {lib_bytes}\n"));
+    let fingerprint = eyereplay_core::sha256_hex(record.as_bytes())[..12].to_string();
+    seen.push((dir.to_path_buf(), fingerprint.clone()));
+    Ok(fingerprint)
+}
+
 /// Names of the files missing from `dir` (empty when all are there).
 pub fn missing_files(dir: &Path) -> Vec<&'static str> {
     let mut missing: Vec<&'static str> = [DETECTOR, MESH, IRIS, ATTENTION, ATTENTION_EYES]
@@ -854,5 +886,34 @@ mod tests {
         assert!(!e.contains('\n'), "{e}");
         let e = choose(Some(Attention), true, true).unwrap_err();
         assert!(e.starts_with("--iris-views applies"), "{e}");
+    }
+
+    #[test]
+    fn the_networks_fingerprint_follows_the_files_not_the_folder() {
+        use super::{networks_fingerprint, NETWORKS};
+        let root = tempfile::tempdir().unwrap();
+        let folder = |name: &str, last_byte: u8| {
+            let dir = root.path().join(name);
+            std::fs::create_dir(&dir).unwrap();
+            for (i, file) in NETWORKS.iter().enumerate() {
+                let mut bytes = vec![i as u8; 1000];
+                bytes.push(last_byte);
+                std::fs::write(dir.join(file), bytes).unwrap();
+            }
+            dir
+        };
+        let (a, same, other) = (folder("a", 0), folder("b", 0), folder("c", 1));
+        let empty = root.path().join("empty");
+        std::fs::create_dir(&empty).unwrap();
+        let fa = networks_fingerprint(&a).unwrap();
+        assert_eq!(fa.len(), 12);
+        assert!(fa.bytes().all(|b| b.is_ascii_hexdigit()), "{fa}");
+        // The same bytes in another folder: the same rows, so the same key.
+        assert_eq!(fa, networks_fingerprint(&same).unwrap());
+        // One byte of one network changed, or the networks absent: not.
+        assert_ne!(fa, networks_fingerprint(&other).unwrap());
+        assert_ne!(fa, networks_fingerprint(&empty).unwrap());
+        // Asked again, the answer stands (it is hashed once per folder).
+        assert_eq!(fa, networks_fingerprint(&a).unwrap());
     }
 }

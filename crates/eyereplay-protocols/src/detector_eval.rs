@@ -481,7 +481,7 @@ fn generate_into(
     cache: &Path,
     progress: &dyn Progress,
 ) -> Result<()> {
-    let job = plan_config(config, label, None)?;
+    let job = plan_config(config, label, None, cache)?;
     let opts = GenerateOptions {
         out: out.to_path_buf(),
         shard: None,

@@ -176,10 +176,12 @@ fn find_carrier(
 /// found by the sha256 its identity file records, among `carriers` (for
 /// clips elsewhere), the config's carriers (paths as written, from the
 /// current folder: metadata.json keeps them as the config had them) and
-/// the bundled ones.
+/// the bundled ones. Extractions and carrier measurements are cached in
+/// `cache`.
 pub fn evaluate_replay(
     dataset: &Path,
     carriers: &[PathBuf],
+    cache: &Path,
     progress: &dyn Progress,
 ) -> Result<ReplayEval> {
     let meta_path = dataset.join(eyereplay_dataset::layout::METADATA_FILE);
@@ -208,7 +210,6 @@ pub fn evaluate_replay(
     candidates.extend(eyereplay_backends::replay::carrier_videos(&[], |p| {
         p.to_path_buf()
     }));
-    let cache = eyereplay_core::cache_dir(None);
     let labels = eyereplay_dataset::read_labels(dataset)?;
     let listed: Vec<(&str, eyereplay_core::GazeClass)> =
         labels.iter().map(|l| (l.file.as_str(), l.class)).collect();
@@ -279,7 +280,7 @@ pub fn evaluate_replay(
                     ),
                 )
             })?;
-            let track = eyereplay_backends::replay::carrier_track(&video, &cache, progress)?;
+            let track = eyereplay_backends::replay::carrier_track(&video, cache, progress)?;
             let carrier = eyereplay_replay::Carrier::prepare(&video, track)?;
             prepared.insert(r.sha.clone(), carrier);
         }
@@ -314,7 +315,7 @@ pub fn evaluate_replay(
     }
 
     let videos: Vec<PathBuf> = paths.iter().map(|p| p.mp4.clone()).collect();
-    let csvs = eyereplay::extract_cached(&videos, &cache, progress)?;
+    let csvs = eyereplay::extract_cached(&videos, cache, progress)?;
     let mut groups: BTreeMap<(String, String), Frames> = BTreeMap::new();
     let mut sessions = vec![];
     for (((label, paths), read_csv), r) in labels.iter().zip(&paths).zip(&csvs).zip(&ready) {

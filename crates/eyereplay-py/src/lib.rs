@@ -666,13 +666,14 @@ fn generate<'py>(
     let (cfg, label) = load_config(config_path, config_toml, label, base_dir)?;
     let shard = eyereplay::Shard::resolve(shard.as_deref(), shards)
         .map_err(|e| raise(Kind::Config, e.to_string()))?;
+    let cache = cache_of(cache);
     let job = py
-        .allow_threads(|| eyereplay::plan_config(cfg, &label, shard))
+        .allow_threads(|| eyereplay::plan_config(cfg, &label, shard, &cache))
         .map_err(|e| plan_err(e, &label))?;
     let opts = eyereplay::GenerateOptions {
         out: out.clone(),
         shard,
-        cache: Some(cache_of(cache)),
+        cache: Some(cache),
         evaluate: evaluate.then(EvaluateOptions::default),
     };
     let progress = PyProgress(progress);

@@ -48,9 +48,10 @@ impl Job {
 
 /// Loads the config and checks every input before hours of work start:
 /// source files, render settings, models (with video sources, or for
-/// `render.match_extractor`), ffmpeg.
-pub fn plan(config_path: &Path, shard: Option<Shard>) -> Result<Job> {
-    plan_config(DatasetConfig::load(config_path)?, config_path, shard)
+/// `render.match_extractor`), ffmpeg. What the checks measure (a replay
+/// carrier's geometry) is cached in `cache`, where the run finds it.
+pub fn plan(config_path: &Path, shard: Option<Shard>, cache: &Path) -> Result<Job> {
+    plan_config(DatasetConfig::load(config_path)?, config_path, shard, cache)
 }
 
 /// The config's `[render]` table typed and its values checked (keys of
@@ -74,7 +75,12 @@ pub fn render_table(
 
 /// [`plan`] for a config already loaded (from text or built in code);
 /// `config_path` is the name errors give it.
-pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shard>) -> Result<Job> {
+pub fn plan_config(
+    config: DatasetConfig,
+    config_path: &Path,
+    shard: Option<Shard>,
+    cache: &Path,
+) -> Result<Job> {
     let (settings, params) = render_table(&config, config_path)?;
     eyereplay_prepare::check_source_files(&config)?;
     if let BackendSettings::Face(f) = &settings.backend {
@@ -87,15 +93,12 @@ pub fn plan_config(config: DatasetConfig, config_path: &Path, shard: Option<Shar
     }
     // The backend's own checks (photos fitted, carriers measured, the
     // browser found), its paths resolved against the config's folder.
-    let settings = eyereplay_backends::check_settings(
-        &settings,
-        &|p: &Path| config.resolve(p),
-        &cache_dir(None),
-    )
-    .map_err(|e| match e {
-        eyereplay_backends::BackendError::Setting(m) => Error::input(config_path, m),
-        e => e.into(),
-    })?;
+    let settings =
+        eyereplay_backends::check_settings(&settings, &|p: &Path| config.resolve(p), cache)
+            .map_err(|e| match e {
+                eyereplay_backends::BackendError::Setting(m) => Error::input(config_path, m),
+                e => e.into(),
+            })?;
     let probe = settings
         .backend
         .extractor()

@@ -97,9 +97,11 @@ pub fn extraction_cache_path(video: &Path, cache: &Path) -> Result<PathBuf> {
     extraction_cache_path_for(video, LandmarkModel::Cascade, cache)
 }
 
-/// The cache file of `video`'s extraction with `model`. The cascade's key is
-/// the one every earlier version wrote, so its cached extractions stay
-/// valid; the attention mesh's adds the model.
+/// The cache file of `video`'s extraction with `model`: by the video's
+/// content, the tool version, the rows revision, the network files and
+/// runtime in use ([`eyereplay_extract::networks_fingerprint`]; rows made
+/// with other networks are not these) and, for the attention mesh, the
+/// model's name.
 pub fn extraction_cache_path_for(
     video: &Path,
     model: LandmarkModel,
@@ -107,7 +109,11 @@ pub fn extraction_cache_path_for(
 ) -> Result<PathBuf> {
     let key = ArtifactKey::of_file("extract", video, "csv")?
         .version("v", eyereplay_core::TOOL_VERSION)
-        .version("r", eyereplay_extract::ROWS_REVISION);
+        .version("r", eyereplay_extract::ROWS_REVISION)
+        .version(
+            "n",
+            eyereplay_extract::networks_fingerprint(&eyereplay_extract::default_models_dir())?,
+        );
     let key = match model {
         LandmarkModel::Cascade => key,
         LandmarkModel::Attention => key.version("m", model.name()),
@@ -312,7 +318,7 @@ sources = [{ format = "video", path = "a.mp4", landmarks = "mesh" }]
     }
 
     #[test]
-    fn the_cascade_keeps_its_cache_file_and_the_attention_mesh_has_its_own() {
+    fn each_landmark_model_and_set_of_networks_has_its_own_cache_file() {
         let dir = tempfile::tempdir().unwrap();
         let video = dir.path().join("v.mp4");
         std::fs::write(&video, b"not really a video").unwrap();
@@ -322,11 +328,20 @@ sources = [{ format = "video", path = "a.mp4", landmarks = "mesh" }]
             extraction_cache_path_for(&video, LandmarkModel::Attention, &cache).unwrap();
         assert_eq!(cascade, extraction_cache_path(&video, &cache).unwrap());
         assert_ne!(cascade, attention);
-        // The cascade's key is the one earlier versions wrote: no model in it.
+        // The key holds the networks in use, so another models folder's rows
+        // are never taken for these.
+        let networks =
+            eyereplay_extract::networks_fingerprint(&eyereplay_extract::default_models_dir())
+                .unwrap();
         let key = ArtifactKey::of_file("extract", &video, "csv")
             .unwrap()
             .version("v", eyereplay_core::TOOL_VERSION)
-            .version("r", eyereplay_extract::ROWS_REVISION);
+            .version("r", eyereplay_extract::ROWS_REVISION)
+            .version("n", &networks);
         assert_eq!(cascade, ArtifactCache::new(&cache).path(&key));
+        assert_eq!(
+            attention,
+            ArtifactCache::new(&cache).path(&key.version("m", LandmarkModel::Attention.name()))
+        );
     }
 }

@@ -62,7 +62,7 @@ sessions = 1
 sources = [{ format = "csv", path = "talk.csv", time_unit = "ms", screen_px = [1920, 1080] }]
 "#;
     std::fs::write(d.join("dataset.toml"), cfg).unwrap();
-    let job = eyereplay::plan(&d.join("dataset.toml"), None).unwrap();
+    let job = eyereplay::plan(&d.join("dataset.toml"), None, &d.join("cache")).unwrap();
     let out = d.join("out");
     let opts = GenerateOptions {
         out: out.clone(),
@@ -122,7 +122,7 @@ fn an_unknown_browser_setting_is_refused_before_work_starts() {
         "[render]\nbackend = \"browser\"\n[render.browser]\nurll = \"x\"\n[classes.reading]\nsources = [{ format = \"extract\", path = \"a.csv\" }]\n",
     )
     .unwrap();
-    let e = eyereplay::plan(&p, None)
+    let e = eyereplay::plan(&p, None, &dir.path().join("cache"))
         .err()
         .expect("refused")
         .to_string();

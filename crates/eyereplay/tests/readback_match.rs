@@ -60,10 +60,11 @@ sources = [{{ format = "video", path = "{}" }}]
     ))
     .unwrap();
     config.base_dir = dir.to_path_buf();
-    let job = eyereplay::plan_config(config, &dir.join("dataset.toml"), None).unwrap();
+    let cache = eyereplay::cache_dir(Some(&root().join(".cache")));
+    let job = eyereplay::plan_config(config, &dir.join("dataset.toml"), None, &cache).unwrap();
     let opts = GenerateOptions {
         out: out.to_path_buf(),
-        cache: Some(eyereplay::cache_dir(Some(&root().join(".cache")))),
+        cache: Some(cache),
         evaluate: None,
         ..Default::default()
     };

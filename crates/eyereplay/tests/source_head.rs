@@ -66,11 +66,13 @@ sources = [{{ format = "video", path = "{}" }}]
     ))
     .unwrap();
     config.base_dir = dir.path().to_path_buf();
-    let job = eyereplay::plan_config(config, &dir.path().join("dataset.toml"), None).unwrap();
+    let cache = eyereplay::cache_dir(Some(&root().join(".cache")));
+    let job =
+        eyereplay::plan_config(config, &dir.path().join("dataset.toml"), None, &cache).unwrap();
     let out = dir.path().join("out");
     let opts = GenerateOptions {
         out: out.clone(),
-        cache: Some(eyereplay::cache_dir(Some(&root().join(".cache")))),
+        cache: Some(cache),
         evaluate: None,
         ..Default::default()
     };

@@ -33,13 +33,18 @@ pub struct Args {
     /// (found by the sha256 the sessions record); repeat for several.
     #[arg(long, value_name = "VIDEO")]
     pub carrier: Vec<PathBuf>,
+    /// Extraction and carrier cache (default: $EYEREPLAY_CACHE or
+    /// ~/.cache/eyereplay).
+    #[arg(long, value_name = "DIR")]
+    pub cache: Option<PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(path) = &args.json {
         check_json_target(path, &args.dataset)?;
     }
-    let ev = evaluate_replay(&args.dataset, &args.carrier, &Bars::default())?;
+    let cache = super::cache_dir(args.cache.as_deref())?;
+    let ev = evaluate_replay(&args.dataset, &args.carrier, &cache, &Bars::default())?;
     println!("{ev}");
     if let Some(path) = &args.json {
         let mut text = serde_json::to_string_pretty(&ev)?;

@@ -127,7 +127,12 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(seed) = args.seed {
         config.seed = seed;
     }
-    let job = eyereplay::plan_config(config, &config_path, shard)?;
+    let job = eyereplay::plan_config(
+        config,
+        &config_path,
+        shard,
+        &super::cache_dir(args.cache.as_deref())?,
+    )?;
     if args.dry_run && !args.no_evaluate && shard.is_none() {
         job.check_evaluable()?;
     }

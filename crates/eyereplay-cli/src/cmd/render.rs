@@ -71,6 +71,10 @@ pub struct Args {
     /// carrier's one-time measurement (cached) is not timed.
     #[arg(long, value_name = "VIDEO")]
     pub replay: Option<PathBuf>,
+    /// Cache of carrier measurements and head poses, for --dataset and
+    /// --bench --replay (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
+    #[arg(long, value_name = "DIR")]
+    pub cache: Option<PathBuf>,
     /// Identity seed (face, iris, lighting, camera); 0 is the reference face.
     /// With --dataset, each session's identity comes from the dataset's own
     /// seed (metadata.json), as `eyereplay generate` draws it.
@@ -225,7 +229,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let report = if args.face {
             face::bench(p.width, p.height, frames)?
         } else if let Some(video) = &args.replay {
-            replay::bench(video, frames, &p.encoder, &eyereplay::NoProgress)?
+            replay::bench(
+                video,
+                frames,
+                &p.encoder,
+                &super::cache_dir(args.cache.as_deref())?,
+                &eyereplay::NoProgress,
+            )?
         } else {
             run_bench(&p, frames)?
         };
@@ -351,7 +361,7 @@ fn run_dataset(dir: &std::path::Path, args: &Args) -> anyhow::Result<()> {
     if let Some(jobs) = args.jobs {
         settings.jobs = jobs;
     }
-    let cache = super::cache_dir(None)?;
+    let cache = super::cache_dir(args.cache.as_deref())?;
     // A setting's error names the file that holds the `[render]` table.
     let in_meta = |e: eyereplay::backends::BackendError| match e {
         eyereplay::backends::BackendError::Setting(m) => {
