@@ -97,6 +97,64 @@ struct Todo {
     extra: Vec<PathBuf>,
 }
 
+/// One render of a dataset's sessions (or of one shard's) at a time: a
+/// second run over the same folder would draw every session again and
+/// remove the first's half-written files under it. An exclusive lock on a
+/// hidden file of the dataset, per shard (shards of one dataset draw side
+/// by side), released when the run ends however it ends (the OS drops it
+/// with the process); the file is removed after a run.
+struct RenderLock {
+    file: std::fs::File,
+    path: std::path::PathBuf,
+}
+
+impl RenderLock {
+    fn take(out: &Path, shard: Option<Shard>) -> Result<RenderLock> {
+        let name = match shard {
+            Some(s) => format!(".eyereplay-render.{}-of-{}.lock", s.index + 1, s.count),
+            None => ".eyereplay-render.lock".to_string(),
+        };
+        let path = out.join(name);
+        let mut file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .read(true)
+            .write(true)
+            .open(&path)
+            .map_err(|e| BackendError::io(&path, e))?;
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) => {
+                let mut holder = String::new();
+                let _ = std::io::Read::read_to_string(&mut file, &mut holder);
+                return Err(BackendError::input(
+                    out,
+                    format!(
+                        "another eyereplay run is drawing this dataset{} ({}); wait for it to end, or stop it",
+                        shard.map_or(String::new(), |s| format!("'s shard {}/{}", s.index + 1, s.count)),
+                        holder.trim()
+                    ),
+                ));
+            }
+            Err(std::fs::TryLockError::Error(e)) => return Err(BackendError::io(&path, e)),
+        }
+        // Who holds it, for the message of a run that finds it held.
+        let me = format!("pid {}", std::process::id());
+        file.set_len(0)
+            .and_then(|()| std::io::Write::write_all(&mut file, me.as_bytes()))
+            .map_err(|e| BackendError::io(&path, e))?;
+        Ok(RenderLock { file, path })
+    }
+}
+
+impl Drop for RenderLock {
+    fn drop(&mut self) {
+        // Removed while still held, so no other run can be holding it.
+        let _ = std::fs::remove_file(&self.path);
+        let _ = self.file.unlock();
+    }
+}
+
 /// Renders the unfinished sessions of the dataset in `out` (this shard's
 /// only) with `backend`; fails listing the sessions that failed after the
 /// others are written.
@@ -107,6 +165,7 @@ pub fn render_dataset(
     progress: &dyn Progress,
 ) -> Result<RenderSummary> {
     let meta = eyereplay_dataset::read_metadata(out)?.dataset;
+    let _lock = RenderLock::take(out, shard)?;
     let mut summary = RenderSummary::default();
     let mut todo = Vec::new();
     // Every trajectory is read before any session is drawn: one that
@@ -131,6 +190,20 @@ pub fn render_dataset(
                 // the session's file.
                 let trajectory = eyereplay_core::read_session_csv(&job.paths.csv)
                     .map_err(|e| e.to_string())
+                    .and_then(|t| {
+                        // Every session has the plan's length (`merge`
+                        // refuses one that does not, after the drawing).
+                        if t.len() == meta.session_frames {
+                            Ok(t)
+                        } else {
+                            Err(format!(
+                                "{}: {} rows where the dataset's sessions have {} (metadata.json's session_frames): cut short or edited? (prepare the dataset again)",
+                                job.paths.csv.display(),
+                                t.len(),
+                                meta.session_frames
+                            ))
+                        }
+                    })
                     .and_then(|t| {
                         eyereplay_dataset::read_blink_column(&job.paths.csv)
                             .map(|blinks| (t, blinks))
@@ -202,7 +275,9 @@ pub fn render_dataset(
         }
         r
     };
-    let threads = backend.parallel_sessions().max(1);
+    // No more workers than sessions to draw: each is a thread with its own
+    // buffers (100,000 asked for built threads for minutes).
+    let threads = backend.parallel_sessions().clamp(1, todo.len().max(1));
     let results: Vec<Result<Rendered>> = if threads == 1 {
         todo.iter().map(run_one).collect()
     } else {

@@ -82,6 +82,13 @@ fn check_ranges(settings: &RenderSettings) -> Result<()> {
             eyereplay_extract::MAX_IRIS_VIEWS
         )));
     }
+    if settings.jobs > eyereplay_dataset::MAX_JOBS {
+        return Err(BackendError::Setting(format!(
+            "[render]: jobs {} must be at most {} (sessions drawn at once; 0: one per core)",
+            settings.jobs,
+            eyereplay_dataset::MAX_JOBS
+        )));
+    }
     if let BackendSettings::Face(f) = &settings.backend {
         let max = eyereplay_dataset::MAX_MATCH_READBACK_EVERY;
         if !(1..=max).contains(&f.match_readback_every) {

@@ -376,3 +376,238 @@ fn render_refuses_what_it_would_overwrite_or_ignore_and_clears_leftovers() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(d.join("w.mp4").is_file() && !bare.exists());
 }
+
+/// Found by trying `train`, `render`, `evaluate-localization`, `merge` and
+/// `detect` with a user's mistakes (30 Nov 2026, a third round): outputs
+/// that landed on the command's own inputs, a render that drew a session
+/// over its dataset's files, numbers that hung or crashed, and sessions
+/// cut short that were used as they were.
+#[test]
+fn outputs_never_land_on_inputs_and_cut_sessions_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    webcam_csv(&d.join("r.csv"), 600);
+    let source = "sources = [{ format = \"extract\", path = \"r.csv\" }]\n";
+    let cfg = d.join("ok.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "session_frames = 100\n[render]\nwidth = 160\nheight = 120\n\
+             [classes.reading]\nsessions = 2\n{source}\
+             [classes.conversation]\nsessions = 2\n{source}"
+        ),
+    )
+    .unwrap();
+    let ds = d.join("ds");
+    let o = prepare(&cfg, &ds);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let labels_before = std::fs::read(ds.join("labels.csv")).unwrap();
+    let meta_before = std::fs::read(ds.join("metadata.json")).unwrap();
+
+    // `train --out` over the dataset's own files: refused, files as they were.
+    for (out, says) in [
+        (
+            ds.join("labels.csv"),
+            "--out takes a file name ending in .json",
+        ),
+        (ds.join("metadata.json"), "is the dataset's own metadata"),
+        (
+            ds.join("reading/m.json"),
+            "inside the folders of the dataset",
+        ),
+    ] {
+        let e = one_line_error(&eyereplay(&[
+            "train",
+            &s(&ds),
+            "--input",
+            "trajectory",
+            "--window-s",
+            "2",
+            "--out",
+            &s(&out),
+        ]));
+        assert!(e.contains(says), "{}: {e}", out.display());
+    }
+    assert!(!ds.join("reading/m.json").exists());
+    // Beside labels.csv is fine (the help's own example).
+    let model = ds.join("model.json");
+    let o = eyereplay(&[
+        "train",
+        &s(&ds),
+        "--input",
+        "trajectory",
+        "--window-s",
+        "2",
+        "--out",
+        &s(&model),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The chance warning is given when, and only when, the held-out AUROC
+    // printed is under 0.6.
+    let (out, err) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    let auroc: Option<f64> = out
+        .split("AUROC ")
+        .nth(1)
+        .and_then(|r| r.split(',').next())
+        .and_then(|v| v.parse().ok());
+    assert_eq!(
+        err.contains("no better than chance"),
+        auroc.is_some_and(|a| a < 0.6),
+        "{out}{err}"
+    );
+    // `evaluate-localization --json` over the model it scores.
+    let e = one_line_error(&eyereplay(&[
+        "evaluate-localization",
+        &s(&ds),
+        "--model",
+        &s(&model),
+        "--json",
+        &s(&model),
+    ]));
+    assert!(e.contains("is an input of this command"), "{e}");
+    assert!(std::fs::read_to_string(&model)
+        .unwrap()
+        .contains("\"format\""));
+
+    // A session CSV rendered without --out would draw over its dataset's
+    // session video: refused. --png-frames keeps its truth with the frames.
+    let session = ds.join("reading/reading_0000.csv");
+    let e = one_line_error(&eyereplay(&[
+        "render",
+        &s(&session),
+        "--match-extractor",
+        "false",
+    ]));
+    assert!(e.contains("a session of the dataset"), "{e}");
+    let frames = d.join("frames");
+    let o = eyereplay(&[
+        "render",
+        &s(&session),
+        "--png-frames",
+        &s(&frames),
+        "--size",
+        "160x120",
+        "--match-extractor",
+        "false",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(frames.join("truth.csv").is_file());
+    assert!(!ds.join("reading/reading_0000_truth.csv").exists());
+    assert!(!ds.join("reading/reading_0000.mp4").exists());
+
+    // Numbers that hung (100,000 threads) or aborted (a 1.6 TB allocation).
+    for (args, says) in [
+        (
+            vec!["render", "--dataset", &s(&ds), "--jobs", "100000"],
+            "1..=256",
+        ),
+        (
+            vec!["render", "--dataset", &s(&ds), "--jobs", "0"],
+            "1..=256",
+        ),
+        (
+            vec!["render", "--bench", "--frames", "99999999999"],
+            "between 25 and 100000",
+        ),
+    ] {
+        let e = one_line_error(&eyereplay(&args));
+        assert!(e.contains(says), "{args:?}: {e}");
+    }
+    // A second render of the dataset while one holds it: refused at once
+    // (it would draw every session again and remove the first's
+    // half-written files). The lock is held here as a running render holds it.
+    let lock = std::fs::File::create(ds.join(".eyereplay-render.lock")).unwrap();
+    lock.try_lock().unwrap();
+    let e = one_line_error(&eyereplay(&["render", "--dataset", &s(&ds)]));
+    assert!(
+        e.contains("another eyereplay run is drawing this dataset"),
+        "{e}"
+    );
+    drop(lock);
+    // A file where the report folder goes: said before the evaluation.
+    std::fs::write(ds.join("report"), b"mine").unwrap();
+    let e = one_line_error(&eyereplay(&["evaluate", &s(&ds), "--no-visual"]));
+    assert!(
+        e.contains("a file where the dataset's report folder goes"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read(ds.join("report")).unwrap(), b"mine");
+    std::fs::remove_file(ds.join("report")).unwrap();
+    // A session CSV saved with a byte-order mark is read by `detect` as
+    // `render` reads it.
+    let bom = d.join("bom.csv");
+    let mut bytes = "\u{feff}".as_bytes().to_vec();
+    bytes.extend(std::fs::read(ds.join("reading/reading_0001.csv")).unwrap());
+    std::fs::write(&bom, bytes).unwrap();
+    let o = eyereplay(&[
+        "detect",
+        &s(&bom),
+        "--model",
+        &s(&model),
+        "--out",
+        &s(&d.join("det")),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // A folder given to `detect`.
+    let e = one_line_error(&eyereplay(&["detect", &s(d), "--model", &s(&model)]));
+    assert!(e.contains("a folder; give a video"), "{e}");
+    // A dataset given as a file, a models folder given as a file.
+    let e = one_line_error(&eyereplay(&["render", "--dataset", &s(&model)]));
+    assert!(e.contains("a file, not a dataset folder"), "{e}");
+    let e = one_line_error(&eyereplay(&["models", "check", "--dir", &s(&model)]));
+    assert!(e.contains("a file, not a models folder"), "{e}");
+
+    // A session cut short is refused by `render --dataset` and `train`
+    // before any work, not drawn or trained on as a shorter session.
+    let cut = ds.join("conversation/conversation_0001.csv");
+    let text = std::fs::read_to_string(&cut).unwrap();
+    let short: String = text.lines().take(41).map(|l| format!("{l}\n")).collect();
+    std::fs::write(&cut, short).unwrap();
+    let e = one_line_error(&eyereplay(&["render", "--dataset", &s(&ds)]));
+    assert!(
+        e.contains("conversation_0001.csv: 40 rows where the dataset's sessions have 100"),
+        "{e}"
+    );
+    assert!(
+        !ds.join("reading/reading_0000.mp4").exists(),
+        "drew a session"
+    );
+    let e = one_line_error(&eyereplay(&[
+        "train",
+        &s(&ds),
+        "--input",
+        "trajectory",
+        "--window-s",
+        "2",
+        "--out",
+        &s(&d.join("m2.json")),
+    ]));
+    assert!(
+        e.contains("40 rows where the dataset's sessions have 100"),
+        "{e}"
+    );
+    // A session video that is no video: named before any extraction (it
+    // used to be found after every other session was extracted).
+    std::fs::write(ds.join("reading/reading_0000.mp4"), b"garbage").unwrap();
+    let e = one_line_error(&eyereplay(&[
+        "train",
+        &s(&ds),
+        "--out",
+        &s(&d.join("m3.json")),
+    ]));
+    assert!(
+        e.contains("reading_0000.mp4") && e.contains("cannot open video"),
+        "{e}"
+    );
+    std::fs::remove_file(ds.join("reading/reading_0000.mp4")).unwrap();
+    // Nothing of the dataset's own was touched along the way.
+    assert_eq!(std::fs::read(ds.join("labels.csv")).unwrap(), labels_before);
+    assert_eq!(
+        std::fs::read(ds.join("metadata.json")).unwrap(),
+        meta_before
+    );
+}

@@ -38,3 +38,28 @@ impl CoreError {
         }
     }
 }
+
+/// A number as an error message shows it: plain where it is of a readable
+/// size, in exponent form where it is not (`1e308` was printed as 309
+/// digits).
+pub fn show_number(v: f64) -> String {
+    if v == 0.0 || (1e-4..1e9).contains(&v.abs()) || !v.is_finite() {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+#[cfg(test)]
+mod show_number_tests {
+    #[test]
+    fn numbers_are_shown_plain_or_with_an_exponent() {
+        use super::show_number;
+        assert_eq!(show_number(2.5), "2.5");
+        assert_eq!(show_number(-10.0), "-10");
+        assert_eq!(show_number(1e308), "1e308");
+        assert_eq!(show_number(-3e-7), "-3e-7");
+        assert_eq!(show_number(f64::NAN), "NaN");
+        assert_eq!(show_number(0.0), "0");
+    }
+}

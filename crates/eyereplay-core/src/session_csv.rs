@@ -211,6 +211,11 @@ fn csv_message(e: &csv::Error) -> String {
         csv::ErrorKind::UnequalLengths {
             expected_len, len, ..
         } => format!("has {len} fields, header has {expected_len}"),
+        // A video or an image given where a CSV goes.
+        csv::ErrorKind::Utf8 { .. } => {
+            "not text (a video or other binary file?); a session CSV has the header frame,x,y"
+                .to_string()
+        }
         _ => e.to_string(),
     }
 }

@@ -51,6 +51,14 @@ impl DatasetError {
 /// or, inside a dataset (a `metadata.json` in its folder or the one above),
 /// that a session's file is missing and how it is drawn again.
 pub(crate) fn read_text(path: &std::path::Path) -> Result<String, DatasetError> {
+    // A dataset file under a file given as the dataset folder: the OS says
+    // "Not a directory" of a path the user never typed.
+    if let Some(dir) = path.parent().filter(|d| d.is_file()) {
+        return Err(DatasetError::invalid(
+            dir,
+            "a file, not a dataset folder (one written by 'eyereplay prepare' or 'generate')",
+        ));
+    }
     std::fs::read_to_string(path).map_err(|e| {
         if e.kind() == std::io::ErrorKind::NotFound {
             DatasetError::invalid(path, missing_file_hint(path))
@@ -84,6 +92,16 @@ mod tests {
     #[test]
     fn a_missing_file_is_told_by_where_it_is_missing() {
         let dir = tempfile::tempdir().unwrap();
+        // A file given as the dataset folder is named as such.
+        let file = dir.path().join("m.json");
+        std::fs::write(&file, "{}").unwrap();
+        let e = read_text(&file.join("metadata.json"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with(&format!("{}: a file, not a dataset folder", file.display())),
+            "{e}"
+        );
         let e = read_text(&dir.path().join("metadata.json"))
             .unwrap_err()
             .to_string();

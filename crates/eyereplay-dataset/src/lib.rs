@@ -49,7 +49,7 @@ pub use pool::{
 };
 pub use render_settings::{
     BackendSettings, ExtractorMatchSettings, FaceBackendSettings, HeadMotion, RenderBackend,
-    RenderSettings, MAX_MATCH_READBACK_EVERY,
+    RenderSettings, MAX_JOBS, MAX_MATCH_READBACK_EVERY,
 };
 pub use session::{
     read_blink_column, read_reading_column, read_session_csv, session_calibrations,

@@ -78,6 +78,12 @@ pub enum BackendSettings {
 /// docs/PERFORMANCE.md); 10 bounds a typo, not a tested setting.
 pub const MAX_MATCH_READBACK_EVERY: usize = 10;
 
+/// The most sessions `render.jobs` (and `render --jobs`) may draw at once:
+/// each is a thread with its own frame buffers and encoder process, so
+/// past the cores they only share the CPU (a typo of 100,000 built
+/// threads for minutes).
+pub const MAX_JOBS: usize = 256;
+
 /// The full-face backend's keys.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FaceBackendSettings {

@@ -189,26 +189,44 @@ impl Forest {
     /// Whether every split names a feature and a node of its own tree (a
     /// model file edited by hand could name others).
     pub fn is_well_formed(&self) -> bool {
-        !self.trees.is_empty()
-            && self.trees.iter().all(|t| {
-                !t.nodes.is_empty()
-                    && t.nodes.iter().enumerate().all(|(i, n)| match *n {
-                        Node::Split {
-                            feature,
-                            left,
-                            right,
-                            threshold,
-                        } => {
-                            feature < FEATURE_COUNT
-                                && threshold.is_finite()
-                                && left > i
-                                && right > i
-                                && left < t.nodes.len()
-                                && right < t.nodes.len()
+        self.malformed().is_none()
+    }
+
+    /// What is wrong with a forest read from a file, if anything.
+    pub fn malformed(&self) -> Option<&'static str> {
+        if self.trees.is_empty() || self.trees.iter().any(|t| t.nodes.is_empty()) {
+            return Some("its forest has no trees, or a tree without nodes");
+        }
+        for t in &self.trees {
+            for (i, n) in t.nodes.iter().enumerate() {
+                match *n {
+                    Node::Split {
+                        feature,
+                        left,
+                        right,
+                        threshold,
+                    } => {
+                        if !(feature < FEATURE_COUNT
+                            && left > i
+                            && right > i
+                            && left < t.nodes.len()
+                            && right < t.nodes.len())
+                        {
+                            return Some("its trees name a feature or a node that is not there");
                         }
-                        Node::Leaf { reading_share } => (0.0..=1.0).contains(&reading_share),
-                    })
-            })
+                        if !threshold.is_finite() {
+                            return Some("a split of its trees has no finite threshold");
+                        }
+                    }
+                    Node::Leaf { reading_share } => {
+                        if !(0.0..=1.0).contains(&reading_share) {
+                            return Some("a leaf of its trees has a reading share outside 0 to 1");
+                        }
+                    }
+                }
+            }
+        }
+        None
     }
 }
 

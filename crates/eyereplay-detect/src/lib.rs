@@ -34,5 +34,7 @@ pub mod window;
 pub use error::DetectError;
 pub use features::{features, rule_score, FEATURE_COUNT, FEATURE_NAMES};
 pub use metrics::{auroc, pairwise_auroc, roc_curve, AurocCi, PairAuroc};
-pub use model::{train, Classifier, DetectorModel, Example, TrainOptions, MIN_WINDOW_S};
+pub use model::{
+    train, Classifier, DetectorModel, Example, TrainOptions, MAX_WINDOW_S, MIN_WINDOW_S,
+};
 pub use window::{windows, Track, Window, WindowSpec, FPS};

@@ -27,6 +27,9 @@ pub const MODEL_VERSION: u32 = 1;
 /// The shortest window a model may score: two seconds hold a few
 /// fixations and saccades, fewer give the features nothing to measure.
 pub const MIN_WINDOW_S: f64 = 2.0;
+/// The longest window: 10 minutes (the detector's are 6-30 s; an
+/// interview's answer is shorter than this).
+pub const MAX_WINDOW_S: f64 = 600.0;
 
 /// One training window: its features, its label, and the session it came
 /// from (validation is held out by session, never by window, since
@@ -271,6 +274,18 @@ impl DetectorModel {
                 }
             }
         }
+        // serde names the line and column of a value of the wrong type, not
+        // its field: the top-level numbers are named here.
+        if let Ok(serde_json::Value::Object(fields)) = serde_json::from_str(&text) {
+            for key in ["version", "window_s", "threshold"] {
+                if let Some(v) = fields.get(key).filter(|v| !v.is_number()) {
+                    return Err(DetectError::file(
+                        path,
+                        format!("{key} must be a number, got {v}; train it again"),
+                    ));
+                }
+            }
+        }
         let m: DetectorModel = serde_json::from_str(&text)
             .map_err(|e| DetectError::file(path, format!("not a detector model: {e}")))?;
         if m.version != MODEL_VERSION {
@@ -300,13 +315,37 @@ impl DetectorModel {
                 format!("{problem}; train it again"),
             ));
         }
-        if !(m.window_s.is_finite() && m.window_s >= MIN_WINDOW_S) {
+        if !(MIN_WINDOW_S..=MAX_WINDOW_S).contains(&m.window_s) {
             return Err(DetectError::file(
                 path,
                 format!(
-                    "window_s must be at least {MIN_WINDOW_S} s, got {}",
-                    m.window_s
+                    "window_s must be {MIN_WINDOW_S} to {MAX_WINDOW_S} s, got {}",
+                    eyereplay_core::show_number(m.window_s)
                 ),
+            ));
+        }
+        // Numbers that no training writes: each would turn every
+        // probability into 0 or 1, or NaN, without a word.
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite() && x.abs() <= 1e6);
+        let numbers_problem = if !finite(&m.mean) || !finite(&m.std) || !finite(&m.weights) {
+            Some("its feature means, spreads or weights are not finite numbers of a sane size")
+        } else if m.std.iter().any(|s| *s <= 0.0) {
+            Some("a feature's spread (std) is not above 0")
+        } else if !finite(&[m.intercept]) {
+            Some("its intercept is not a finite number of a sane size")
+        } else if m
+            .calibration
+            .as_ref()
+            .is_some_and(|c| !finite(&[c.slope, c.intercept]))
+        {
+            Some("its calibration's slope or intercept is not a finite number of a sane size")
+        } else {
+            None
+        };
+        if let Some(problem) = numbers_problem {
+            return Err(DetectError::file(
+                path,
+                format!("{problem}; train it again"),
             ));
         }
         if !(0.0..=1.0).contains(&m.threshold) {
@@ -319,10 +358,10 @@ impl DetectorModel {
             ));
         }
         let names: Vec<&str> = m.features.iter().map(String::as_str).collect();
-        if m.forest.as_ref().is_some_and(|f| !f.is_well_formed()) {
+        if let Some(problem) = m.forest.as_ref().and_then(|f| f.malformed()) {
             return Err(DetectError::file(
                 path,
-                "its trees name a feature or a node that is not there; train it again",
+                format!("{problem}; train it again"),
             ));
         }
         if names != FEATURE_NAMES
@@ -821,6 +860,34 @@ mod tests {
             ("threshold", serde_json::json!(7.0), "threshold"),
             ("threshold", serde_json::json!(-0.1), "threshold"),
             ("kind", serde_json::json!("svm"), "'svm'"),
+            // A window longer than any interview's answer, a field of no
+            // number (serde named only its column), and numbers that
+            // would pin every probability to 0 or 1.
+            (
+                "window_s",
+                serde_json::json!(1e308),
+                "window_s must be 2 to 600 s",
+            ),
+            (
+                "threshold",
+                serde_json::Value::Null,
+                "threshold must be a number, got null",
+            ),
+            (
+                "intercept",
+                serde_json::json!(1e300),
+                "its intercept is not a finite",
+            ),
+            (
+                "calibration",
+                serde_json::json!({"slope": 1e308, "intercept": 0.0}),
+                "calibration's slope",
+            ),
+            (
+                "std",
+                serde_json::json!(vec![0.0; crate::FEATURE_COUNT]),
+                "spread (std) is not above 0",
+            ),
             // Weights but no trees: not what a forest's file holds.
             (
                 "kind",
@@ -837,5 +904,35 @@ mod tests {
         }
         m.save(&p).unwrap();
         assert!(DetectorModel::load(&p).is_ok());
+        // A forest's leaf that is no share is told as such, not as a
+        // missing node.
+        let trees = train(
+            &examples(),
+            10.0,
+            TrainOptions::default(),
+            vec![],
+            "trajectory",
+        )
+        .unwrap();
+        let mut v = serde_json::to_value(&trees).unwrap();
+        let text = serde_json::to_string(&v).unwrap();
+        assert!(text.contains("reading_share"), "{}", &text[..200]);
+        fn first_leaf(v: &mut serde_json::Value) -> Option<&mut serde_json::Value> {
+            if v.get("reading_share").is_some() {
+                return v.get_mut("reading_share");
+            }
+            match v {
+                serde_json::Value::Object(o) => o.values_mut().find_map(first_leaf),
+                serde_json::Value::Array(a) => a.iter_mut().find_map(first_leaf),
+                _ => None,
+            }
+        }
+        *first_leaf(&mut v).unwrap() = serde_json::json!(5.0);
+        std::fs::write(&p, serde_json::to_string(&v).unwrap()).unwrap();
+        let e = DetectorModel::load(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("a leaf of its trees has a reading share outside 0 to 1"),
+            "{e}"
+        );
     }
 }

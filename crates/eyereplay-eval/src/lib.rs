@@ -35,4 +35,4 @@ pub use evaluation::{
 };
 pub use eyereplay_core::Calibration;
 pub use metrics_doc::metrics_json;
-pub use report::{html_escape, write_report};
+pub use report::{check_report_place, html_escape, write_report};

@@ -601,6 +601,7 @@ pub fn write_report(
     dataset_dir: &Path,
     ev: &Evaluation,
 ) -> Result<(ReportPaths, String), EvalError> {
+    check_report_place(dataset_dir)?;
     let final_dir = dataset_dir.join("report");
     // The report is made whole in a folder of its own and then swapped in:
     // an interrupted run leaves the old report or none, never a mix of
@@ -639,6 +640,20 @@ pub fn write_report(
     ))
 }
 
+/// The report can take its place in `dataset_dir`: no file is named
+/// `report` there (the swap would fail after the evaluation, and used to
+/// leave its temporary folder behind). Checked before the evaluation too.
+pub fn check_report_place(dataset_dir: &Path) -> Result<(), EvalError> {
+    let target = dataset_dir.join("report");
+    match std::fs::symlink_metadata(&target) {
+        Ok(m) if !m.is_dir() => Err(EvalError::dataset(
+            target,
+            "a file where the dataset's report folder goes; move it away",
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// Removes `.report.tmp*` and `.report.old*` folders a killed run left in
 /// `dataset_dir`.
 fn remove_report_leftovers(dataset_dir: &Path) -> Result<(), EvalError> {
@@ -651,7 +666,12 @@ fn remove_report_leftovers(dataset_dir: &Path) -> Result<(), EvalError> {
         let name = name.to_string_lossy();
         if name.starts_with(".report.tmp") || name.starts_with(".report.old") {
             let p = entry.path();
-            std::fs::remove_dir_all(&p).map_err(|e| EvalError::io(&p, e))?;
+            let removed = if p.is_dir() {
+                std::fs::remove_dir_all(&p)
+            } else {
+                std::fs::remove_file(&p)
+            };
+            removed.map_err(|e| EvalError::io(&p, e))?;
         }
     }
     Ok(())

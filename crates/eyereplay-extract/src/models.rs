@@ -187,6 +187,15 @@ pub fn check_strict(dir: &Path) -> Result<Vec<String>> {
 }
 
 fn check_with(dir: &Path, strict: bool) -> Result<Vec<String>> {
+    if dir.is_file() {
+        return Err(ExtractError::Io {
+            path: dir.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::NotADirectory,
+                "a file, not a models folder",
+            ),
+        });
+    }
     let missing = missing_files(dir);
     if !missing.is_empty() {
         return Err(ExtractError::ModelsMissing {
@@ -217,10 +226,19 @@ fn check_with(dir: &Path, strict: bool) -> Result<Vec<String>> {
                     path: dir.join(file),
                 });
             }
-            lines.push(format!(
+            let line = format!(
                 "{file}: no sha256 recorded at its conversion, so it is not checked (made by hand \
                  or by an older scripts/models.sh; run scripts/setup.sh to convert and record it)"
-            ));
+            );
+            // Every job runs it, and says so once a process.
+            static TOLD: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+            let path = dir.join(file);
+            let mut told = TOLD.lock().unwrap_or_else(|p| p.into_inner());
+            if !told.contains(&path) {
+                tracing::warn!("{}: {line}", dir.display());
+                told.push(path);
+            }
+            lines.push(line);
             continue;
         };
         let got = verify_sha256(

@@ -266,3 +266,33 @@ def test_frames_out_of_range_are_named_not_empty_or_shifted(tmp_path):
     with pytest.raises(eyereplay.VideoError, match="frame 99999 is past its last frame"):
         decode_frames(video, 99999, 2)
     assert decode_frames(video, 0, 0).shape[0] == 0
+
+
+def test_read_csv_of_a_binary_file_names_it_and_a_bom_is_no_column(tmp_path):
+    p = tmp_path / "clip.mp4"
+    p.write_bytes(b"\x00\x00\x00\x18ftypmp42\xff\xfe\x80" * 10)
+    with pytest.raises(ValueError) as e:
+        eyereplay.read_csv(p)
+    assert str(e.value).startswith(f"{p}: not text"), str(e.value)
+    q = tmp_path / "bom.csv"
+    q.write_text("\ufeffframe,x,y\n0,1.5,2\n", encoding="utf-8")
+    t = eyereplay.read_csv(q)
+    assert t.dtype.names == ("frame", "x", "y")
+    assert t["x"][0] == 1.5
+
+
+def test_config_is_not_a_class_to_make():
+    # A type alias of what config arguments take, not a constructor that
+    # fails with "Cannot instantiate typing.Union".
+    assert not hasattr(eyereplay, "Config")
+
+
+@pytest.mark.skipif(
+    "EYEREPLAY_ORT_LIB" in __import__("os").environ,
+    reason="a runtime library of the user's may have CUDA",
+)
+def test_cuda_asked_for_and_not_used_is_said():
+    # The pinned library is a CPU build: the networks run on the CPU, and
+    # the script is told, as the command tells its user on stderr.
+    with pytest.warns(eyereplay.EyereplayWarning, match="CUDA not used"):
+        eyereplay.extract(DATA / "franck.mp4", device="cuda", max_seconds=1, progress=False)

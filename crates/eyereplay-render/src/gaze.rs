@@ -25,6 +25,11 @@ use crate::error::RenderError;
 use eyereplay_core::{Canvas, CanvasPos, NormPos};
 use serde::{Deserialize, Serialize};
 
+/// The most the iris excursion may be amplified (`gain`): past a few times
+/// the eyes sit against their rotation limits, and a typo of 1e308 drew
+/// them pinned there without a word.
+pub const MAX_GAIN: f64 = 10.0;
+
 /// The `prepare` calibration (canvas = s * (n - 0.5) + mu), shared with
 /// the other stages.
 pub use eyereplay_core::Calibration;
@@ -277,10 +282,10 @@ impl GazeMapping {
         if !(c.mu_x.is_finite() && c.mu_y.is_finite()) {
             return Err(RenderError::Params("calibration mu must be finite".into()));
         }
-        if !(self.gain.is_finite() && self.gain > 0.0) {
+        if !(self.gain > 0.0 && self.gain <= MAX_GAIN) {
             return Err(RenderError::Params(format!(
-                "gain must be > 0, got {}",
-                self.gain
+                "gain must be above 0 and at most {MAX_GAIN}, got {}",
+                eyereplay_core::show_number(self.gain)
             )));
         }
         if !(self.viewing_distance_mm.is_finite() && self.viewing_distance_mm > 50.0) {

@@ -77,6 +77,12 @@ pub fn load_track(
     if !path.exists() {
         return Err(Error::input(path, "no such file"));
     }
+    if path.is_dir() {
+        return Err(Error::input(
+            path,
+            "a folder; give a video, an 'eyereplay extract' CSV or a session CSV",
+        ));
+    }
     // An extraction's frame times, to tell a stream too sparse to join.
     let from_samples = |samples: Vec<Sample<NormPos>>| -> Track {
         let times: Vec<f64> = samples.iter().map(|s| s.t_s).collect();
@@ -114,6 +120,8 @@ pub fn load_track(
             .lines()
             .next()
             .unwrap_or("")
+            // A byte-order mark (spreadsheets write one) is no column's.
+            .trim_start_matches('\u{feff}')
             .to_string();
         let cols: Vec<&str> = head.split(',').map(str::trim).collect();
         if cols.contains(&"nx") && cols.contains(&"time_s") {
@@ -193,23 +201,42 @@ pub fn sparse_frames_warning(times_s: &[f64]) -> Option<String> {
 
 /// Linear interpolation at 25 fps between neighbouring samples that both
 /// show gaze and are at most `MAX_INTERP_GAP_S` apart; `NaN` elsewhere.
+/// The last sample lasts one frame interval, as a video's last frame does
+/// ([`recording_end_s`]): 20 s of 24 fps video is 500 frames at 25 fps,
+/// not 499 (which cost such a clip its last 10-s window).
 pub fn resample_samples(samples: &[&Sample<NormPos>]) -> Track {
     let (Some(first), Some(last)) = (samples.first(), samples.last()) else {
         return Track::default();
     };
     let (t0, t1) = (first.t_s, last.t_s);
-    let n = ((t1 - t0) * FPS + 1e-6).floor() as usize + 1;
-    resample_grid(samples, t0, 0..n)
+    let end_s = recording_end_s(samples);
+    let through_last = ((t1 - t0) * FPS + 1e-6).floor() as usize + 1;
+    let before_end = ((end_s - t0) * FPS - 1e-6).ceil().max(0.0) as usize;
+    resample_grid(samples, t0, 0..through_last.max(before_end), end_s)
+}
+
+/// When a recording whose last samples are `samples`' ends: its last
+/// sample's time plus the interval before it (the frame interval of a
+/// video; at most `MAX_INTERP_GAP_S`, so a last sample after a gap lasts
+/// no longer than gaze is ever joined).
+pub fn recording_end_s(samples: &[&Sample<NormPos>]) -> f64 {
+    match samples {
+        [.., a, b] => b.t_s + (b.t_s - a.t_s).clamp(0.0, MAX_INTERP_GAP_S),
+        [b] => b.t_s,
+        [] => 0.0,
+    }
 }
 
 /// Frames `frames` of the 25 fps grid that starts at `t0`, as
 /// [`resample_samples`] makes them from `samples` (which must reach past
-/// the range's ends for its first and last frames to have gaze): the same
+/// the range's ends for its first and last frames to have gaze, or to the
+/// recording's end, `end_s`, which the last sample holds until): the same
 /// values for a frame whatever part of the recording `samples` holds.
 pub fn resample_grid(
     samples: &[&Sample<NormPos>],
     t0: f64,
     frames: std::ops::Range<usize>,
+    end_s: f64,
 ) -> Track {
     let mut xy = Vec::with_capacity(frames.len());
     let mut j = 0;
@@ -233,6 +260,9 @@ pub fn resample_grid(
                     a.pos.ny + f * (b.pos.ny - a.pos.ny),
                 ]
             })
+        } else if t < end_s - 1e-9 {
+            // After the last sample, within its frame: what the video shows.
+            a.is_gaze().then_some([a.pos.nx, a.pos.ny])
         } else {
             None
         };
@@ -404,9 +434,10 @@ pub fn dataset_sessions(datasets: &[PathBuf], input: TrainInput) -> Result<Vec<S
         if labels.is_empty() {
             return Err(Error::input(dir.join("labels.csv"), "no sessions"));
         }
-        let fps = eyereplay_dataset::read_metadata(dir)
+        let meta = eyereplay_dataset::read_metadata(dir).ok();
+        let fps = meta
+            .as_ref()
             .map(|m| m.dataset.fps)
-            .ok()
             .filter(|f| *f > 0.0)
             .unwrap_or(FPS);
         for row in &labels {
@@ -423,13 +454,30 @@ pub fn dataset_sessions(datasets: &[PathBuf], input: TrainInput) -> Result<Vec<S
             // Its rows, counted (the reading column above has parsed it).
             let frames = eyereplay_backends::csv_data_rows(&paths.csv)
                 .ok_or_else(|| Error::input(&paths.csv, "cannot be read"))?;
+            // Every session of a dataset has the plan's length: one with
+            // fewer rows was cut or edited, and would be read as a
+            // shorter session without a word.
+            if let Some(planned) = meta.as_ref().map(|m| m.dataset.session_frames) {
+                if frames != planned {
+                    return Err(Error::input(
+                        &paths.csv,
+                        format!(
+                            "{frames} rows where the dataset's sessions have {planned} \
+                             (metadata.json's session_frames): cut short or edited? \
+                             (prepare the dataset again)"
+                        ),
+                    ));
+                }
+            }
             // A video or truth file cut short (a render killed mid-way, a
             // copy that stopped) would be read as a shorter session; its
             // frames are counted as `merge` counts them, without decoding.
             let held = match input {
-                TrainInput::Extracted => eyereplay_extract::count_video_packets(&file)
-                    .ok()
-                    .map(|n| n as usize),
+                // A file that is no video is refused here, before the
+                // other sessions' extraction, not after it.
+                TrainInput::Extracted => {
+                    Some(eyereplay_extract::count_video_packets(&file)? as usize)
+                }
                 TrainInput::Drawn => eyereplay_backends::csv_data_rows(&file),
                 TrainInput::Trajectory => None,
             };
@@ -694,11 +742,12 @@ pub fn train_detector(
     opts: &TrainDetectorOptions,
     progress: &dyn Progress,
 ) -> Result<DetectorModel> {
-    if !(opts.window_s >= eyereplay_detect::MIN_WINDOW_S && opts.window_s.is_finite()) {
+    if !(eyereplay_detect::MIN_WINDOW_S..=eyereplay_detect::MAX_WINDOW_S).contains(&opts.window_s) {
         return Err(Error::Setting(format!(
-            "--window-s must be a finite number of seconds, at least {}, got {}",
+            "--window-s must be {} to {} seconds, got {}",
             eyereplay_detect::MIN_WINDOW_S,
-            opts.window_s
+            eyereplay_detect::MAX_WINDOW_S,
+            eyereplay_core::show_number(opts.window_s)
         )));
     }
     // The same folder twice would put each session on both sides of the
@@ -1214,5 +1263,35 @@ mod tests {
         assert!((t.xy[1][0] - 0.04).abs() < 1e-12); // between 1/30 and 2/30
         assert!(t.xy[3][0].is_nan()); // t = 0.12 lies between 0.1 (invalid) and 0.133
         assert!((t.xy[25][0] - 1.0).abs() < 1e-12);
+    }
+
+    /// 20 s of video at 24 fps (480 frames, the last at 19.958 s, lasting
+    /// to 20.0 s) is 500 frames at 25 fps, the last at 19.96 s showing the
+    /// video's last frame: two 10-s windows, as 20 s at 25 or 30 fps give.
+    #[test]
+    fn a_recording_lasts_to_the_end_of_its_last_frame() {
+        for (fps, frames) in [(24.0, 480), (25.0, 500), (30.0, 600), (29.97, 599)] {
+            let samples: Vec<Sample<NormPos>> = (0..frames)
+                .map(|i| s(i as f64 / fps, i as f64, true))
+                .collect();
+            let refs: Vec<&Sample<NormPos>> = samples.iter().collect();
+            let t = resample_samples(&refs);
+            // Frames at k / 25 s before the end, frames / fps s.
+            let expected = (frames as f64 / fps * FPS - 1e-6).ceil() as usize;
+            assert_eq!(t.len(), expected, "{fps} fps");
+            // The last frame shows the last sample, held, or lies between
+            // the last two.
+            let last = t.xy[t.len() - 1][0];
+            assert!(
+                last > (frames - 2) as f64 && last <= (frames - 1) as f64,
+                "{fps}: {last}"
+            );
+        }
+        // A last sample after a gap holds no longer than gaze is joined.
+        let gap = [s(0.0, 0.0, true), s(5.0, 1.0, true)];
+        let refs: Vec<&Sample<NormPos>> = gap.iter().collect();
+        assert!((recording_end_s(&refs) - (5.0 + MAX_INTERP_GAP_S)).abs() < 1e-12);
+        // One sample: one frame.
+        assert_eq!(resample_samples(&refs[..1]).len(), 1);
     }
 }

@@ -81,6 +81,7 @@ pub struct EvaluateOutcome {
 pub fn evaluate(dir: &Path, opts: &EvaluateOptions) -> Result<EvaluateOutcome> {
     check_options(opts)?;
     check_labels(dir)?;
+    eyereplay_eval::check_report_place(dir)?;
     let mut ev = evaluate_dataset(dir, &opts.config)?;
     let memo = ReadBackMemo::default();
     ev.visual = match &opts.visual {

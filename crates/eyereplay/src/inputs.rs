@@ -143,6 +143,9 @@ pub fn extract_cached_with(
     let mut csvs = Vec::with_capacity(videos.len());
     let mut todo: Vec<(PathBuf, PathBuf)> = Vec::new();
     for v in videos {
+        if v.is_dir() {
+            return Err(Error::input(v, "a folder, not a video"));
+        }
         if !v.is_file() {
             return Err(Error::input(v, "no such video"));
         }

@@ -11,7 +11,9 @@
 //! invented); a lost face leaves frames without gaze; a window with too
 //! little gaze is reported as such and the watch goes on.
 
-use crate::detector::{detect_track, resample_grid, resample_samples, Detection, TrackInfo};
+use crate::detector::{
+    detect_track, recording_end_s, resample_grid, resample_samples, Detection, TrackInfo,
+};
 use crate::inputs::check_models;
 use crate::{Error, Result};
 use eyereplay_core::{NormPos, Sample};
@@ -106,6 +108,9 @@ pub struct LiveOutcome {
     /// The whole stream's detection, as `detect` gives it for a file (the
     /// segments from the complete track).
     pub detection: Option<Detection>,
+    /// Why there is none (too little gaze: how much there was and how
+    /// much a score needs), as `detect` says it of a file.
+    pub unscored: Option<String>,
     pub track: Track,
     pub frames: usize,
     pub face_frames: usize,
@@ -143,11 +148,20 @@ fn rows_samples(rows: &[Row]) -> Vec<Sample<NormPos>> {
         .collect()
 }
 
+/// When the stream of `rows` ends so far, as [`rows_track`] reckons it
+/// (the last row lasts one frame interval).
+fn rows_end_s(rows: &[Row]) -> f64 {
+    let tail = rows_samples(&rows[rows.len().saturating_sub(2)..]);
+    let refs: Vec<&Sample<NormPos>> = tail.iter().collect();
+    recording_end_s(&refs)
+}
+
 /// Frames `next..next + frames` of the 25 fps track of `rows` (whose first
 /// row is at `t0`), blinks flagged against `threshold`, made from the rows
 /// around those frames alone: the same values as the whole track's, at a
 /// cost that does not grow with the stream.
 fn window_track(rows: &[Row], threshold: f64, t0: f64, next: usize, frames: usize) -> Track {
+    let end_s = rows_end_s(rows);
     let start_t = t0 + next as f64 / FPS;
     let end_t = t0 + (next + frames) as f64 / FPS;
     // Two rows either side: one for the interpolation at the window's
@@ -160,7 +174,7 @@ fn window_track(rows: &[Row], threshold: f64, t0: f64, next: usize, frames: usiz
     flag_blinks_below(&mut part, threshold);
     let samples = rows_samples(&part);
     let refs: Vec<&Sample<NormPos>> = samples.iter().collect();
-    resample_grid(&refs, t0, next..next + frames)
+    resample_grid(&refs, t0, next..next + frames, end_s)
 }
 
 /// Opens `source`: standard input and URLs by the decoder itself; a camera
@@ -240,8 +254,13 @@ impl WindowClock {
         let reached = now_s.map(|t| ((t - t0) * FPS + 1e-6).floor() as usize);
         let due = |next: usize| reached.is_none_or(|g| g >= next + self.window_frames);
         let last_t = rows.last().map_or(t0, |r| r.time_s);
-        let covered =
-            |next: usize| t0 + (next + self.window_frames - 1) as f64 / FPS <= last_t + 1e-9;
+        // At the stream's end its last row lasts one frame interval, as
+        // it does in the file's track ([`rows_track`]).
+        let end_s = rows_end_s(rows);
+        let covered = |next: usize| {
+            let last_frame_t = t0 + (next + self.window_frames - 1) as f64 / FPS;
+            last_frame_t <= last_t + 1e-9 || (now_s.is_none() && last_frame_t < end_s - 1e-9)
+        };
         if !due(self.next) || !covered(self.next) {
             return;
         }
@@ -420,10 +439,14 @@ pub fn watch(
     };
     // Too little gaze for any score is a result here, not an error: the
     // windows already said so as they closed.
-    let detection = detect_track(&track, info, model, model_path).ok();
+    let (detection, unscored) = match detect_track(&track, info, model, model_path) {
+        Ok(d) => (Some(d), None),
+        Err(e) => (None, Some(e.to_string())),
+    };
     Ok(LiveOutcome {
         end,
         detection,
+        unscored,
         track,
         frames,
         face_frames: done.face_frames,

@@ -91,12 +91,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return live(&args, source, &model);
     }
     let input = args.input.clone().expect("clap requires it");
-    let cache = super::cache_dir(args.cache.as_deref())?;
-    let (track, info) = load_track(&input, &cache, &Bars::default())?;
-    if args.bench {
-        return bench(&track, info, &model, &args.model);
-    }
-    let d = detect_track(&track, info, &model, &args.model)?;
     let out_dir = args.out.clone().unwrap_or_else(|| {
         input
             .parent()
@@ -106,6 +100,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let stem = input
         .file_stem()
         .map_or_else(|| "input".into(), |s| s.to_string_lossy().into_owned());
+    // The results beside the input (no --out) can be written, before the
+    // extraction: a read-only folder must not cost the whole video first.
+    if args.out.is_none() && !args.bench && input.is_file() {
+        for ext in ["json", "png", "html"] {
+            eyereplay_core::check_writable(&out_dir.join(format!("{stem}_detect.{ext}")))?;
+        }
+    }
+    let cache = super::cache_dir(args.cache.as_deref())?;
+    let (track, info) = load_track(&input, &cache, &Bars::default())?;
+    if args.bench {
+        return bench(&track, info, &model, &args.model);
+    }
+    let d = detect_track(&track, info, &model, &args.model)?;
     let href = (d.input.kind == "video").then(|| relative_href(&input, &out_dir));
     let (text, [json_path, png_path, html_path]) =
         write_detection(&track, &d, &out_dir, &stem, href.as_deref())?;
@@ -193,9 +200,14 @@ fn live(args: &Args, source: &str, model: &DetectorModel) -> anyhow::Result<()> 
         100.0 * outcome.face_frames as f64 / outcome.frames.max(1) as f64
     );
     let Some(d) = outcome.detection else {
+        let label = src.label();
+        let why = outcome
+            .unscored
+            .as_deref()
+            .unwrap_or("not enough gaze in it");
         anyhow::bail!(
-            "{}: not enough gaze in the whole stream to score it",
-            src.label()
+            "{label}: the whole stream cannot be scored: {}",
+            why.strip_prefix(&format!("{label}: ")).unwrap_or(why)
         );
     };
     // The files first: a reader of standard output that has gone (`| head`)

@@ -81,7 +81,18 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     // The JSON is written last: a path it cannot go to is found first.
     if let Some(path) = &args.json {
-        eyereplay_core::check_writable(path)?;
+        let datasets: Vec<&std::path::Path> = args
+            .dataset
+            .iter()
+            .chain(&args.rendered_from)
+            .map(|d| d.as_path())
+            .collect();
+        let inputs: Vec<&std::path::Path> = [Some(&args.model), args.spliced.as_ref()]
+            .into_iter()
+            .flatten()
+            .map(|p| p.as_path())
+            .collect();
+        super::check_json_out(path, "--json", &datasets, &inputs)?;
     }
     if let Some(protocol) = &args.spliced {
         return run_spliced(&args, protocol);
@@ -109,7 +120,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &Bars::default(),
     )?;
     println!(
-        "{} sessions ({}), {:.0} min, {} reading segments; model {}, segments cut at {:.3}",
+        "{} sessions ({}), {:.0} min, {} reading segments; model {}, segments cut where the per-frame probability reaches {:.3} (--threshold)",
         ev.sessions,
         ev.input,
         ev.seconds / 60.0,
@@ -195,7 +206,10 @@ fn run_spliced(args: &Args, protocol: &std::path::Path) -> anyhow::Result<()> {
         ev.readers.join(", "),
         ev.others.join(", ")
     );
-    println!("model {}, segments cut at {:.3}", ev.model, ev.threshold);
+    println!(
+        "model {}, segments cut where the per-frame probability reaches {:.3} (--threshold)",
+        ev.model, ev.threshold
+    );
     for c in &ev.conditions {
         print_methods(&c.condition, &c.methods);
     }
@@ -239,7 +253,7 @@ fn print_calibration(condition: &str, c: &WindowCalibration) {
         format!("{condition}: ")
     };
     println!(
-        "{label}{} + {} windows (reading + other): expected calibration error {:.3}; at the threshold {:.3}, {:.1} % of other windows called reading (chosen for {:.1} %), {:.1} % of reading windows found",
+        "{label}{} + {} windows (reading + other): expected calibration error {:.3}; at the model's window threshold {:.3} (what `detect` calls a reading window; segments are cut from the per-frame probability instead), {:.1} % of other windows called reading (chosen for {:.1} %), {:.1} % of reading windows found",
         c.windows_reading,
         c.windows_other,
         c.expected_calibration_error,

@@ -1,6 +1,6 @@
 use super::Bars;
 use eyereplay_protocols::evaluate_replay;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Checks a real-face replay dataset (render.backend = "replay").
 ///
@@ -41,7 +41,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(path) = &args.json {
-        check_json_target(path, &args.dataset)?;
+        super::check_json_out(path, "--json", &[&args.dataset], &[])?;
     }
     let cache = super::cache_dir(args.cache.as_deref())?;
     let ev = evaluate_replay(&args.dataset, &args.carrier, &cache, &Bars::default())?;
@@ -51,33 +51,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         text.push('\n');
         eyereplay_core::atomic_write(path, text.as_bytes())?;
     }
-    Ok(())
-}
-
-/// `--json`, checked before the extraction: a `.json` name (a slip of the
-/// keyboard must not write JSON over `labels.csv` or a session video),
-/// not the dataset's own `metadata.json`, and writable.
-fn check_json_target(path: &Path, dataset: &Path) -> anyhow::Result<()> {
-    if path.extension().and_then(|e| e.to_str()) != Some("json") {
-        anyhow::bail!(
-            "{}: --json takes a file name ending in .json",
-            path.display()
-        );
-    }
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let same_folder = match (parent.canonicalize(), dataset.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    };
-    if same_folder && path.file_name() == Some(std::ffi::OsStr::new("metadata.json")) {
-        anyhow::bail!(
-            "{}: is the dataset's own metadata; give --json another name",
-            path.display()
-        );
-    }
-    eyereplay_core::check_writable(path)?;
     Ok(())
 }

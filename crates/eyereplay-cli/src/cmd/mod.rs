@@ -58,6 +58,66 @@ pub fn check_folder_arg(dir: &std::path::Path, flag: &str) -> anyhow::Result<()>
     }
 }
 
+/// A JSON file a command writes (`--out` of `train`, `--json`), checked
+/// before the work: a `.json` name, so that a slip of the keyboard cannot
+/// write JSON over `labels.csv` or a session video; not one of the
+/// command's `inputs` (a model written over the model it scores); not a
+/// dataset's own `metadata.json` nor anything in a dataset's subfolders
+/// (class folders, `report`, `pool`: files of the dataset); and writable.
+/// A model beside a dataset's `labels.csv` is fine.
+pub fn check_json_out(
+    path: &std::path::Path,
+    flag: &str,
+    datasets: &[&std::path::Path],
+    inputs: &[&std::path::Path],
+) -> anyhow::Result<()> {
+    use std::path::Path;
+    if path.extension().and_then(|e| e.to_str()) != Some("json") {
+        anyhow::bail!(
+            "{}: {flag} takes a file name ending in .json",
+            path.display()
+        );
+    }
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    // Compared as the OS resolves them (`./d` and `d/../d` are `d`); a
+    // folder that does not exist yet holds no dataset.
+    if let (Ok(folder), Some(name)) = (parent.canonicalize(), path.file_name()) {
+        let target = folder.join(name);
+        for input in inputs {
+            if input.canonicalize().is_ok_and(|i| i == target) {
+                anyhow::bail!(
+                    "{}: is an input of this command ({}); give {flag} another file",
+                    path.display(),
+                    input.display()
+                );
+            }
+        }
+        for dataset in datasets {
+            let Ok(d) = dataset.canonicalize() else {
+                continue;
+            };
+            if folder == d && name == eyereplay_dataset::layout::METADATA_FILE {
+                anyhow::bail!(
+                    "{}: is the dataset's own metadata; give {flag} another name",
+                    path.display()
+                );
+            }
+            if folder != d && folder.starts_with(&d) {
+                anyhow::bail!(
+                    "{}: inside the folders of the dataset {} (its sessions and report); give {flag} a path outside them",
+                    path.display(),
+                    dataset.display()
+                );
+            }
+        }
+    }
+    eyereplay_core::check_writable(path)?;
+    Ok(())
+}
+
 /// What is wrong with `EYEREPLAY_LOG_EVERY_S`, if set to anything but a
 /// whole number of seconds >= 1 (it was ignored, and a log then showed
 /// lines every 30 s with no word why).

@@ -35,7 +35,8 @@ pub struct Args {
     /// Output MP4 (default: the trajectory's path with .mp4).
     #[arg(long, short)]
     pub out: Option<PathBuf>,
-    /// Ground-truth CSV (default: <out stem>_truth.csv beside the video).
+    /// Ground-truth CSV (default: <out stem>_truth.csv beside the video;
+    /// with --png-frames, truth.csv among the frames).
     #[arg(long)]
     pub truth: Option<PathBuf>,
     /// Write PNG frames into this folder instead of a video (lossless).
@@ -53,12 +54,12 @@ pub struct Args {
     pub dataset: Option<PathBuf>,
     /// With --dataset: sessions rendered at once, instead of the table's
     /// `jobs` (eyes and browser backends).
-    #[arg(long)]
-    pub jobs: Option<usize>,
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=eyereplay_dataset::MAX_JOBS as i64))]
+    pub jobs: Option<u16>,
     /// Print render-only, encode-only and end-to-end speed, measured in one run.
     #[arg(long, conflicts_with_all = ["out", "truth", "png_frames", "identity_out"])]
     pub bench: bool,
-    /// Frames for --bench (default 750; at least 25).
+    /// Frames for --bench (default 750; 25 to 100000).
     #[arg(long, value_name = "N")]
     pub frames: Option<usize>,
     /// With --bench: the full-face webcam mode (render.backend = "face":
@@ -91,8 +92,9 @@ pub struct Args {
     /// source's amplitude.
     #[arg(long, value_name = "METADATA_JSON")]
     pub calibration: Option<PathBuf>,
-    /// Video size WIDTHxHEIGHT (even numbers).
-    #[arg(long, default_value = "1280x720")]
+    /// Video size WIDTHxHEIGHT (even numbers). Not with --bench --replay,
+    /// which draws at the carrier's own size.
+    #[arg(long, default_value = "1280x720", conflicts_with = "replay")]
     pub size: String,
     /// Frame rate of the trajectory and video.
     #[arg(long)]
@@ -107,7 +109,7 @@ pub struct Args {
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set, value_name = "BOOL")]
     pub match_extractor: bool,
     /// Lossless H.264 (qp 0) instead of constant quality.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "crf")]
     pub lossless: bool,
     /// x264 constant rate factor (lower is better quality).
     #[arg(long, default_value_t = 18)]
@@ -217,6 +219,29 @@ fn check_bench_only(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The longest --bench: a speed settles within a few hundred frames, and
+/// its trajectory is held in memory (a typo of 10^11 frames asked for
+/// 1.6 TB and aborted).
+const MAX_BENCH_FRAMES: usize = 100_000;
+
+/// The dataset folder (one with `metadata.json` and `labels.csv`) that
+/// holds `path` directly or in one of its class folders.
+fn dataset_holding(path: &std::path::Path) -> Option<PathBuf> {
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => std::path::Path::new("."),
+    };
+    let folder = parent.canonicalize().ok()?;
+    folder
+        .ancestors()
+        .take(2)
+        .find(|d| {
+            d.join(eyereplay_dataset::layout::METADATA_FILE).is_file()
+                && d.join(eyereplay_dataset::layout::LABELS_FILE).is_file()
+        })
+        .map(|d| d.to_path_buf())
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
     check_bench_only(&args)?;
     if let Some(dir) = &args.dataset {
@@ -225,7 +250,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let p = params(&args)?;
     if args.bench {
         let frames = args.frames.unwrap_or(750);
-        anyhow::ensure!(frames >= 25, "--frames must be at least 25, got {frames}");
+        anyhow::ensure!(
+            (25..=MAX_BENCH_FRAMES).contains(&frames),
+            "--frames must be between 25 and {MAX_BENCH_FRAMES} (a speed measurement), got {frames}"
+        );
         let report = if args.face {
             face::bench(p.width, p.height, frames)?
         } else if let Some(video) = &args.replay {
@@ -249,10 +277,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| traj_path.with_extension("mp4"));
-    let truth = args
-        .truth
-        .clone()
-        .unwrap_or_else(|| eyereplay_dataset::SessionPaths::beside_video(&out).truth);
+    if let Some(dir) = &args.png_frames {
+        super::check_folder_arg(dir, "--png-frames")?;
+    }
+    // With --png-frames the truth goes with the frames, not beside the
+    // trajectory (where a dataset keeps its session's own truth).
+    let truth = match (&args.truth, &args.png_frames) {
+        (Some(t), _) => t.clone(),
+        (None, Some(dir)) => dir.join("truth.csv"),
+        (None, None) => eyereplay_dataset::SessionPaths::beside_video(&out).truth,
+    };
     // No output may be the input or another output: the rename at the end
     // would replace the trajectory (or the video) without a word.
     let named = [
@@ -268,6 +302,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     !eyereplay_core::same_file(pa, pb),
                     "{}: {b} would overwrite {a}; give another path",
                     pb.display()
+                );
+            }
+        }
+    }
+    // A dataset's session files are drawn by `render --dataset` with the
+    // dataset's identities. The default --out of a session CSV is its own
+    // video: drawn alone over it, with another identity, the session would
+    // pass `merge` with a truth that is not its video's, or fail it far
+    // from the cause. A path the user names is theirs to choose.
+    if args.out.is_none() && args.png_frames.is_none() {
+        for target in [&out, &truth] {
+            if let Some(dataset) = dataset_holding(target) {
+                anyhow::bail!(
+                    "{}: a session of the dataset {} (its sessions are drawn by 'eyereplay render --dataset {}'); give --out to draw it elsewhere",
+                    target.display(),
+                    dataset.display(),
+                    dataset.display()
                 );
             }
         }
@@ -359,7 +410,7 @@ fn run_dataset(dir: &std::path::Path, args: &Args) -> anyhow::Result<()> {
     let config = eyereplay_dataset::read_metadata(dir)?.dataset.config;
     let mut settings = eyereplay::RenderSettings::from_config(&config, &meta_path)?;
     if let Some(jobs) = args.jobs {
-        settings.jobs = jobs;
+        settings.jobs = jobs as usize;
     }
     let cache = super::cache_dir(args.cache.as_deref())?;
     // A setting's error names the file that holds the `[render]` table.

@@ -126,7 +126,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         anyhow::bail!("--alpha must be a number >= 0, got {}", args.alpha);
     }
     // The model is written last: a path it cannot go to is found first.
-    eyereplay_core::check_writable(&args.out)?;
+    let datasets: Vec<&std::path::Path> = args.datasets.iter().map(|d| d.as_path()).collect();
+    super::check_json_out(&args.out, "--out", &datasets, &[])?;
     let opts = TrainDetectorOptions {
         window_s: args.window_s,
         input: args.input.into(),
@@ -166,6 +167,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
              --window-s, give more"
         );
     }
+    // A model no better than chance on sessions it did not see is written
+    // (it is what the data gave), but not without a word: it would call
+    // everything one class.
+    if let Some(auroc) = t.validation_auroc.filter(|a| *a < CHANCE_AUROC) {
+        eprintln!(
+            "warning: the model separates reading from other windows of held-out sessions \
+             no better than chance (AUROC {auroc:.3}, below {CHANCE_AUROC}); it will call \
+             nearly everything one class (more sessions, or classes whose gaze differs, \
+             train a better one)"
+        );
+    }
     println!(
         "wrote {} in {:.1} s",
         args.out.display(),
@@ -173,3 +185,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     Ok(())
 }
+
+/// Below this validation AUROC a model is called no better than chance
+/// (0.5 is chance; the bundled detector's is about 0.9).
+const CHANCE_AUROC: f64 = 0.6;

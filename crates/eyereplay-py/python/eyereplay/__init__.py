@@ -88,12 +88,14 @@ __all__ = [
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
-Config = Union[PathLike, Mapping[str, Any], None]
+# A config argument: a TOML file's path, a dict of its tables, or None.
+# Private: a type alias, not a class to make instances of.
+_Config = Union[PathLike, Mapping[str, Any], None]
 
 _DICT_LABEL = "<config dict>"
 
 
-def _config_args(config: Config, base_dir: Optional[PathLike]) -> Tuple[Any, Any, str, Any]:
+def _config_args(config: _Config, base_dir: Optional[PathLike]) -> Tuple[Any, Any, str, Any]:
     """(path, toml text, label, base dir) for the native functions: a path
     is read by Rust; a dict becomes TOML text, parsed and validated by the
     same code and with the same messages as a config file."""
@@ -396,6 +398,15 @@ def extract_many(
         # read, and the user should know when that is not all of it.
         for w in r["warnings"]:
             warnings.warn(f"{video}: {w}", EyereplayWarning, stacklevel=3)
+        # The command says so on stderr; a script should hear it too.
+        if device == "cuda" and not r["on_cuda"]:
+            warnings.warn(
+                f"{video}: CUDA not used (the ONNX Runtime library has no CUDA provider, "
+                "or it did not start; EYEREPLAY_ORT_LIB names an onnxruntime-gpu build's); "
+                "the networks ran on the CPU",
+                EyereplayWarning,
+                stacklevel=3,
+            )
         t = parse_csv(r["csv"], video)
         tables.append(to_pandas(t) if pandas else t)
     return tables
@@ -414,7 +425,7 @@ EXTRACT_COLUMNS: Tuple[str, ...] = (
 
 
 def prepare(
-    config: Config,
+    config: _Config,
     out: Optional[PathLike],
     *,
     cache: Optional[PathLike] = None,
@@ -446,7 +457,7 @@ def prepare(
 
 
 def generate(
-    config: Config,
+    config: _Config,
     out: PathLike,
     *,
     shard: Union[str, Tuple[int, int], None] = None,

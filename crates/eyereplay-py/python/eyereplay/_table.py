@@ -40,8 +40,15 @@ def parse_csv(text: str, source: str = "<csv>") -> np.ndarray:
 
 def read_csv(path: Union[str, os.PathLike]) -> np.ndarray:
     """:func:`parse_csv` on a file."""
-    with open(path, encoding="utf-8") as f:
-        return parse_csv(f.read(), os.fspath(path))
+    # utf-8-sig: a byte-order mark (spreadsheets write one) is no column's.
+    with open(path, encoding="utf-8-sig") as f:
+        try:
+            text = f.read()
+        except UnicodeDecodeError:
+            raise ValueError(
+                f"{os.fspath(path)}: not text (a video or other binary file?); expected a CSV"
+            ) from None
+    return parse_csv(text, os.fspath(path))
 
 
 def to_pandas(table: np.ndarray):
