@@ -11,7 +11,7 @@ use std::path::Path;
 
 fn make_dataset(dir: &Path) {
     let sweep: Vec<CanvasPos> = reading_trajectory(20, 1280.0, 720.0);
-    let talk: Vec<CanvasPos> = conversation_trajectory(15, 1280.0, 720.0, 1);
+    let talk: Vec<CanvasPos> = conversation_trajectory(20, 1280.0, 720.0, 1);
     write_session_csv(&dir.join("reading/reading_0000.csv"), &sweep).unwrap();
     write_session_csv(&dir.join("conversation/conversation_0000.csv"), &talk).unwrap();
     std::fs::write(
@@ -27,7 +27,7 @@ fn make_dataset(dir: &Path) {
     };
     let classes = [
         (eyereplay_core::GazeClass::Reading, 1, 20),
-        (eyereplay_core::GazeClass::Conversation, 1, 15),
+        (eyereplay_core::GazeClass::Conversation, 1, 20),
     ];
     let meta = eyereplay_dataset::DatasetMetadata::assembled(
         25.0,
@@ -55,7 +55,7 @@ fn renders_every_session_then_skips_complete_ones() {
     make_dataset(dir.path());
     let b = backend(dir.path());
     let s = render_dataset(dir.path(), &b, None, &NoProgress).unwrap();
-    assert_eq!((s.rendered, s.skipped, s.frames), (2, 0, 35), "{s:?}");
+    assert_eq!((s.rendered, s.skipped, s.frames), (2, 0, 40), "{s:?}");
     let r = dir.path().join("reading");
     for f in [
         "reading_0000.mp4",
@@ -134,7 +134,7 @@ fn a_shard_renders_its_sessions_only() {
     let b = backend(dir.path());
     // Session 1 (labels.csv order) is conversation_0000.
     let s = render_dataset(dir.path(), &b, Some(Shard::new(1, 2).unwrap()), &NoProgress).unwrap();
-    assert_eq!((s.rendered, s.frames), (1, 15));
+    assert_eq!((s.rendered, s.frames), (1, 20));
     assert!(dir
         .path()
         .join("conversation/conversation_0000.mp4")
@@ -244,4 +244,29 @@ fn a_failed_session_is_rolled_back_for_any_backend() {
             .collect();
         assert!(left.is_empty(), "{left:?}");
     }
+}
+
+/// Every session of a dataset has `session_frames` rows (`merge` refuses
+/// one that has not): a session cut short is refused before any is
+/// drawn, naming its file and both lengths, not drawn as a shorter one.
+#[test]
+fn a_session_of_another_length_is_refused_before_any_is_drawn() {
+    let dir = tempfile::tempdir().unwrap();
+    make_dataset(dir.path());
+    let talk = conversation_trajectory(15, 1280.0, 720.0, 1);
+    write_session_csv(
+        &dir.path().join("conversation/conversation_0000.csv"),
+        &talk,
+    )
+    .unwrap();
+    let e = render_dataset(dir.path(), &backend(dir.path()), None, &NoProgress).unwrap_err();
+    assert!(matches!(e, BackendError::UnreadableSessions(_)), "{e}");
+    let e = e.to_string();
+    assert!(
+        e.contains("conversation_0000.csv: 15 rows where the dataset's sessions have 20"),
+        "{e}"
+    );
+    assert!(!dir.path().join("reading/reading_0000.mp4").exists());
+    // And no lock is left behind by the refused run.
+    assert!(!dir.path().join(".eyereplay-render.lock").exists());
 }
