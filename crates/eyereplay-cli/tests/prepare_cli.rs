@@ -404,6 +404,19 @@ fn outputs_never_land_on_inputs_and_cut_sessions_are_refused() {
     let s = |p: &Path| p.to_str().unwrap().to_string();
     let labels_before = std::fs::read(ds.join("labels.csv")).unwrap();
     let meta_before = std::fs::read(ds.join("metadata.json")).unwrap();
+    // `train DS --input trajectory --window-s 2 --out OUT`.
+    let train_to = |out: &Path| {
+        eyereplay(&[
+            "train",
+            &s(&ds),
+            "--input",
+            "trajectory",
+            "--window-s",
+            "2",
+            "--out",
+            &s(out),
+        ])
+    };
 
     // `train --out` over the dataset's own files: refused, files as they were.
     for (out, says) in [
@@ -417,31 +430,13 @@ fn outputs_never_land_on_inputs_and_cut_sessions_are_refused() {
             "inside the folders of the dataset",
         ),
     ] {
-        let e = one_line_error(&eyereplay(&[
-            "train",
-            &s(&ds),
-            "--input",
-            "trajectory",
-            "--window-s",
-            "2",
-            "--out",
-            &s(&out),
-        ]));
+        let e = one_line_error(&train_to(&out));
         assert!(e.contains(says), "{}: {e}", out.display());
     }
     assert!(!ds.join("reading/m.json").exists());
     // Beside labels.csv is fine (the help's own example).
     let model = ds.join("model.json");
-    let o = eyereplay(&[
-        "train",
-        &s(&ds),
-        "--input",
-        "trajectory",
-        "--window-s",
-        "2",
-        "--out",
-        &s(&model),
-    ]);
+    let o = train_to(&model);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // The chance warning is given when, and only when, the held-out AUROC
     // printed is under 0.6.
@@ -576,16 +571,7 @@ fn outputs_never_land_on_inputs_and_cut_sessions_are_refused() {
         !ds.join("reading/reading_0000.mp4").exists(),
         "drew a session"
     );
-    let e = one_line_error(&eyereplay(&[
-        "train",
-        &s(&ds),
-        "--input",
-        "trajectory",
-        "--window-s",
-        "2",
-        "--out",
-        &s(&d.join("m2.json")),
-    ]));
+    let e = one_line_error(&train_to(&d.join("m2.json")));
     assert!(
         e.contains("40 rows where the dataset's sessions have 100"),
         "{e}"
