@@ -104,8 +104,10 @@ struct Todo {
 /// by side), released when the run ends however it ends (the OS drops it
 /// with the process); the file is removed after a run.
 struct RenderLock {
-    file: std::fs::File,
-    path: std::path::PathBuf,
+    /// None where the folder cannot be written: a finished dataset on a
+    /// read-only disk is still checked, and one with sessions to draw
+    /// fails on its first file as before.
+    held: Option<(std::fs::File, std::path::PathBuf)>,
 }
 
 impl RenderLock {
@@ -115,13 +117,24 @@ impl RenderLock {
             None => ".eyereplay-render.lock".to_string(),
         };
         let path = out.join(name);
-        let mut file = std::fs::OpenOptions::new()
+        let opened = std::fs::OpenOptions::new()
             .create(true)
             .truncate(false)
             .read(true)
             .write(true)
-            .open(&path)
-            .map_err(|e| BackendError::io(&path, e))?;
+            .open(&path);
+        let mut file = match opened {
+            Ok(f) => f,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::PermissionDenied | std::io::ErrorKind::ReadOnlyFilesystem
+                ) =>
+            {
+                return Ok(RenderLock { held: None });
+            }
+            Err(e) => return Err(BackendError::io(&path, e)),
+        };
         match file.try_lock() {
             Ok(()) => {}
             Err(std::fs::TryLockError::WouldBlock) => {
@@ -143,15 +156,19 @@ impl RenderLock {
         file.set_len(0)
             .and_then(|()| std::io::Write::write_all(&mut file, me.as_bytes()))
             .map_err(|e| BackendError::io(&path, e))?;
-        Ok(RenderLock { file, path })
+        Ok(RenderLock {
+            held: Some((file, path)),
+        })
     }
 }
 
 impl Drop for RenderLock {
     fn drop(&mut self) {
-        // Removed while still held, so no other run can be holding it.
-        let _ = std::fs::remove_file(&self.path);
-        let _ = self.file.unlock();
+        if let Some((file, path)) = &self.held {
+            // Removed while still held, so no other run can be holding it.
+            let _ = std::fs::remove_file(path);
+            let _ = file.unlock();
+        }
     }
 }
 
