@@ -118,8 +118,9 @@ pub struct Args {
     #[arg(long, default_value = "veryfast")]
     pub preset: String,
     /// Extra x264 options, as for ffmpeg's -x264-params ('' for none);
-    /// tried on one frame before the drawing, so a key x264 does not know
-    /// is an error, not ignored.
+    /// tried on one frame before the drawing, so a key x264 does not know,
+    /// or a value it refuses, is an error, not ignored (a value x264 itself
+    /// clamps, such as a negative `bframes`, passes as x264 takes it).
     #[arg(long, default_value = eyereplay_render::DEFAULT_X264_PARAMS)]
     pub x264_params: String,
     /// Also write the identity and eye geometry as JSON here.
