@@ -208,18 +208,13 @@ pub fn render_dataset(
                 let trajectory = eyereplay_core::read_session_csv(&job.paths.csv)
                     .map_err(|e| e.to_string())
                     .and_then(|t| {
-                        // Every session has the plan's length (`merge`
-                        // refuses one that does not, after the drawing).
-                        if t.len() == meta.session_frames {
-                            Ok(t)
-                        } else {
-                            Err(format!(
-                                "{}: {} rows where the dataset's sessions have {} (metadata.json's session_frames): cut short or edited? (prepare the dataset again)",
-                                job.paths.csv.display(),
-                                t.len(),
-                                meta.session_frames
-                            ))
-                        }
+                        eyereplay_dataset::check_session_rows(
+                            &job.paths.csv,
+                            t.len(),
+                            meta.session_frames,
+                        )
+                        .map(|()| t)
+                        .map_err(|e| e.to_string())
                     })
                     .and_then(|t| {
                         eyereplay_dataset::read_blink_column(&job.paths.csv)

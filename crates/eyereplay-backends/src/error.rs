@@ -1,3 +1,4 @@
+use eyereplay_core::first_few;
 use std::path::PathBuf;
 
 /// Everything that can stop a dataset render, by layer; each message is one
@@ -28,26 +29,11 @@ pub enum BackendError {
     #[error("{0}")]
     Setting(String),
     /// Some sessions' trajectories cannot be read: nothing was drawn.
-    #[error("{} session(s) cannot be read, so none was drawn: {}", .0.len(), first_few(.0))]
+    #[error("{} session(s) cannot be read, so none was drawn: {}", .0.len(), first_few(.0, 3, "; "))]
     UnreadableSessions(Vec<String>),
     /// Some sessions failed; the others were written. Rerun to retry.
-    #[error("{} session(s) failed (rerun the same command to retry): {}", .0.len(), first_few(.0))]
+    #[error("{} session(s) failed (rerun the same command to retry): {}", .0.len(), first_few(.0, 3, "; "))]
     SessionsFailed(Vec<String>),
-}
-
-/// The first three of `errors` and how many more: one line, however many
-/// sessions a dataset has (a wrong `session_frames` named all 10,000).
-fn first_few(errors: &[String]) -> String {
-    let shown = errors
-        .iter()
-        .take(3)
-        .cloned()
-        .collect::<Vec<_>>()
-        .join("; ");
-    match errors.len() {
-        0..=3 => shown,
-        n => format!("{shown}; and {} more", n - 3),
-    }
 }
 
 impl BackendError {

@@ -46,14 +46,11 @@ pub fn carrier_videos(carriers: &[PathBuf], resolve: impl Fn(&Path) -> PathBuf) 
 /// the tool version, the track format, the extractor's rows revision and
 /// the networks in use (the geometry is measured with them).
 pub fn track_cache_key(video: &Path) -> Result<ArtifactKey> {
-    Ok(ArtifactKey::of_file("replay", video, "json")?
-        .version("v", eyereplay_core::TOOL_VERSION)
-        .version("t", eyereplay_replay::TRACK_FORMAT_VERSION)
-        .version("r", eyereplay_extract::ROWS_REVISION)
-        .version(
-            "n",
-            eyereplay_extract::networks_fingerprint(&eyereplay_extract::default_models_dir())?,
-        ))
+    Ok(eyereplay_extract::keyed_by_extractor(
+        ArtifactKey::of_file("replay", video, "json")?
+            .version("v", eyereplay_core::TOOL_VERSION)
+            .version("t", eyereplay_replay::TRACK_FORMAT_VERSION),
+    )?)
 }
 
 /// A carrier's geometry from the cache, or measured now (and cached).

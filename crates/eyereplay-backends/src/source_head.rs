@@ -33,14 +33,10 @@ const HEAD_CACHE_VERSION: u32 = 1;
 /// solve's version, the extractor's rows revision and networks (the poses
 /// come from its face mesh) and the field of view assumed.
 fn cache_key(sha256: &str) -> Result<ArtifactKey> {
-    Ok(ArtifactKey::new("head", sha256, "json")
-        .version("v", HEAD_CACHE_VERSION)
-        .version("r", eyereplay_extract::ROWS_REVISION)
-        .version(
-            "n",
-            eyereplay_extract::networks_fingerprint(&eyereplay_extract::default_models_dir())?,
-        )
-        .version("vfov", SOURCE_VFOV_DEG))
+    Ok(eyereplay_extract::keyed_by_extractor(
+        ArtifactKey::new("head", sha256, "json").version("v", HEAD_CACHE_VERSION),
+    )?
+    .version("vfov", SOURCE_VFOV_DEG))
 }
 
 /// A video's raw per-frame head poses, from the cache or solved now (and

@@ -39,6 +39,22 @@ impl CoreError {
     }
 }
 
+/// The first `shown` of `items` joined by `sep`, then how many more: a
+/// list in a one-line message, however many items there are (a wrong
+/// `session_frames` once named all 10,000 sessions).
+pub fn first_few(items: &[String], shown: usize, sep: &str) -> String {
+    let mut text = items
+        .iter()
+        .take(shown)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join(sep);
+    if items.len() > shown {
+        text.push_str(&format!("{sep}and {} more", items.len() - shown));
+    }
+    text
+}
+
 /// A number as an error message shows it: plain where it is of a readable
 /// size, in exponent form where it is not (`1e308` was printed as 309
 /// digits).
@@ -61,5 +77,14 @@ mod show_number_tests {
         assert_eq!(show_number(-3e-7), "-3e-7");
         assert_eq!(show_number(f64::NAN), "NaN");
         assert_eq!(show_number(0.0), "0");
+    }
+
+    #[test]
+    fn a_long_list_is_cut_to_its_first_few() {
+        use super::first_few;
+        let items: Vec<String> = (1..=5).map(|i| format!("s{i}")).collect();
+        assert_eq!(first_few(&items, 3, "; "), "s1; s2; s3; and 2 more");
+        assert_eq!(first_few(&items[..3], 3, ", "), "s1, s2, s3");
+        assert_eq!(first_few(&[], 3, ", "), "");
     }
 }

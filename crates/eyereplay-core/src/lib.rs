@@ -26,7 +26,7 @@ mod trajectory;
 pub use cache::{cache_dir, ArtifactCache, ArtifactKey};
 pub use calibration::Calibration;
 pub use class::GazeClass;
-pub use error::{show_number, CoreError};
+pub use error::{first_few, show_number, CoreError};
 pub use fsio::{
     atomic_write, atomic_write_with, check_writable, find_upwards, read_json_cache, same_file,
     sha256_file, sha256_hex, stale_temp_files, write_json,

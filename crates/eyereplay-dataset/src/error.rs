@@ -69,16 +69,7 @@ pub(crate) fn read_text(path: &std::path::Path) -> Result<String, DatasetError> 
 }
 
 fn missing_file_hint(path: &std::path::Path) -> &'static str {
-    use eyereplay_core::GazeClass;
-    // A session's file: in a class folder of a folder with metadata.json.
-    let class_dir = path.parent();
-    let session_file = class_dir
-        .and_then(|d| d.file_name())
-        .is_some_and(|n| GazeClass::ALL.iter().any(|c| n == c.name()))
-        && class_dir
-            .and_then(|d| d.parent())
-            .is_some_and(|d| d.join(crate::layout::METADATA_FILE).is_file());
-    if session_file {
+    if crate::layout::is_session_file(path) {
         "not found: a session of this dataset is not rendered whole ('eyereplay generate' with the same --out, or 'eyereplay render --dataset', draws what is missing)"
     } else {
         "not found (is this a dataset folder written by 'eyereplay prepare' or 'generate'?)"

@@ -197,6 +197,37 @@ mod tests {
     }
 }
 
+/// The dataset folder (the one with `metadata.json`) that holds `path`
+/// at its top level or in one of its class folders (resolved as the OS
+/// resolves it, where the folder exists); `None` outside any dataset.
+pub fn dataset_holding(path: &Path) -> Option<PathBuf> {
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let folder = parent
+        .canonicalize()
+        .unwrap_or_else(|_| parent.to_path_buf());
+    let in_class_folder = is_class_folder(&folder);
+    folder
+        .ancestors()
+        .take(if in_class_folder { 2 } else { 1 })
+        .find(|d| d.join(METADATA_FILE).is_file())
+        .map(Path::to_path_buf)
+}
+
+/// Whether `dir` is named as a class folder (`reading`, `conversation`).
+fn is_class_folder(dir: &Path) -> bool {
+    dir.file_name()
+        .is_some_and(|n| GazeClass::ALL.iter().any(|c| n == c.name()))
+}
+
+/// Whether `path` is a session's file (in a class folder of a dataset),
+/// not one of the dataset's own.
+pub fn is_session_file(path: &Path) -> bool {
+    path.parent().is_some_and(is_class_folder) && dataset_holding(path).is_some()
+}
+
 /// Whether `name` is one a dataset folder holds at its top level before
 /// its `metadata.json` is written (a run stopped part way): a class
 /// folder, the pools, the labels, the report or `generate`'s `run.log`.
@@ -239,14 +270,11 @@ pub fn check_output_folder(out: &Path) -> Result<(), DatasetError> {
         return Ok(());
     }
     foreign.sort();
-    let more = foreign.len() - foreign.len().min(3);
-    foreign.truncate(3);
     Err(DatasetError::invalid(
         out,
         format!(
-            "holds files that are not part of an eyereplay dataset ({}{}) and no {METADATA_FILE}; give a new or empty folder",
-            foreign.join(", "),
-            if more > 0 { format!(" and {more} more") } else { String::new() }
+            "holds files that are not part of an eyereplay dataset ({}) and no {METADATA_FILE}; give a new or empty folder",
+            eyereplay_core::first_few(&foreign, 3, ", ")
         ),
     ))
 }
@@ -282,5 +310,26 @@ mod output_folder_tests {
         std::fs::write(&file, "x").unwrap();
         let e = check_output_folder(&file).unwrap_err().to_string();
         assert!(e.contains("is a file, not a folder"), "{e}");
+    }
+
+    #[test]
+    fn a_file_is_placed_in_its_dataset_by_the_metadata_above_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let ds = dir.path().join("ds");
+        std::fs::create_dir_all(ds.join("reading")).unwrap();
+        std::fs::create_dir_all(ds.join("notes")).unwrap();
+        std::fs::write(ds.join(METADATA_FILE), "{}").unwrap();
+        let ds = ds.canonicalize().unwrap();
+        // Its session files (the class folder there or not) and its own.
+        let session = ds.join("reading/reading_0000.mp4");
+        assert_eq!(dataset_holding(&session), Some(ds.clone()));
+        assert!(is_session_file(&session));
+        let planned = ds.join("conversation/conversation_0000.csv");
+        assert_eq!(dataset_holding(&planned), Some(ds.clone()));
+        assert_eq!(dataset_holding(&ds.join(LABELS_FILE)), Some(ds.clone()));
+        assert!(!is_session_file(&ds.join(LABELS_FILE)));
+        // A folder of another name inside it, and a file beside it: not.
+        assert_eq!(dataset_holding(&ds.join("notes/a.mp4")), None);
+        assert_eq!(dataset_holding(&dir.path().join("x.mp4")), None);
     }
 }

@@ -52,8 +52,8 @@ pub use render_settings::{
     RenderSettings, MAX_JOBS, MAX_MATCH_READBACK_EVERY,
 };
 pub use session::{
-    read_blink_column, read_reading_column, read_session_csv, session_calibrations,
-    write_session_csv, write_session_csv_with_blinks,
+    check_session_rows, read_blink_column, read_reading_column, read_session_csv,
+    session_calibrations, write_session_csv, write_session_csv_with_blinks,
 };
 pub use truth::{
     read_head_yaw_csv, read_truth_csv, write_truth_csv, EyeTruthRow, TruthRow, TRUTH_HEADER,

@@ -11,6 +11,23 @@ use std::path::Path;
 
 pub use eyereplay_core::{read_session_csv, write_session_csv, write_session_csv_with_blinks};
 
+/// Every session of a dataset has the plan's length (`session_frames` in
+/// metadata.json): one of `rows` other rows was cut or edited, and would
+/// be drawn or read as a shorter session without a word (`merge` refuses
+/// it, after the work). `csv` names the session in the error.
+pub fn check_session_rows(csv: &Path, rows: usize, planned: usize) -> Result<(), DatasetError> {
+    if rows == planned {
+        return Ok(());
+    }
+    Err(DatasetError::invalid(
+        csv,
+        format!(
+            "{rows} rows where the dataset's sessions have {planned} (metadata.json's \
+             session_frames): cut short or edited? (prepare the dataset again)"
+        ),
+    ))
+}
+
 /// The optional `blink` column of a session CSV (`frame,x,y,blink`): `None`
 /// when the file has no such column. Accepts 0/1 and true/false in any
 /// case (as pandas and spreadsheets write them); an empty cell is 0.

@@ -94,3 +94,14 @@ pub use tracker::{Eye, EyeMeasure, Face, Tracker, IRIS_VIEW_SHIFT_PX, MAX_IRIS_V
 /// `franck.mp4`). 2: segments of about 15 s starting on keyframes,
 /// whatever the number of workers (1: one segment per worker).
 pub const ROWS_REVISION: u32 = 3;
+
+/// `key` with what an extraction's rows depend on besides the video and
+/// the tool: the rows revision and the networks in use
+/// ([`networks_fingerprint`] of [`default_models_dir`]). Every artifact
+/// made from extractor rows (cached extractions, head poses, carrier
+/// tracks) is keyed through it.
+pub fn keyed_by_extractor(key: eyereplay_core::ArtifactKey) -> Result<eyereplay_core::ArtifactKey> {
+    Ok(key
+        .version("r", ROWS_REVISION)
+        .version("n", networks_fingerprint(&default_models_dir())?))
+}

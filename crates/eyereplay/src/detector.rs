@@ -454,20 +454,12 @@ pub fn dataset_sessions(datasets: &[PathBuf], input: TrainInput) -> Result<Vec<S
             // Its rows, counted (the reading column above has parsed it).
             let frames = eyereplay_backends::csv_data_rows(&paths.csv)
                 .ok_or_else(|| Error::input(&paths.csv, "cannot be read"))?;
-            // Every session of a dataset has the plan's length: one with
-            // fewer rows was cut or edited, and would be read as a
-            // shorter session without a word.
-            if let Some(planned) = meta.as_ref().map(|m| m.dataset.session_frames) {
-                if frames != planned {
-                    return Err(Error::input(
-                        &paths.csv,
-                        format!(
-                            "{frames} rows where the dataset's sessions have {planned} \
-                             (metadata.json's session_frames): cut short or edited? \
-                             (prepare the dataset again)"
-                        ),
-                    ));
-                }
+            if let Some(m) = &meta {
+                eyereplay_dataset::check_session_rows(
+                    &paths.csv,
+                    frames,
+                    m.dataset.session_frames,
+                )?;
             }
             // A video or truth file cut short (a render killed mid-way, a
             // copy that stopped) would be read as a shorter session; its

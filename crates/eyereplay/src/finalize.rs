@@ -210,14 +210,12 @@ fn check_rows(dir: &Path, files: &[PathBuf], rows: usize, what: &str, remedy: &s
     if bad.is_empty() {
         return Ok(());
     }
-    let shown: Vec<&str> = bad.iter().take(12).map(String::as_str).collect();
     Err(Error::input(
         dir,
         format!(
-            "{} {what} are not whole ({rows} rows each): {}{} ({remedy})",
+            "{} {what} are not whole ({rows} rows each): {} ({remedy})",
             bad.len(),
-            shown.join(", "),
-            if bad.len() > shown.len() { ", ..." } else { "" }
+            eyereplay_core::first_few(&bad, 12, ", ")
         ),
     ))
 }

@@ -107,13 +107,9 @@ pub fn extraction_cache_path_for(
     model: LandmarkModel,
     cache: &Path,
 ) -> Result<PathBuf> {
-    let key = ArtifactKey::of_file("extract", video, "csv")?
-        .version("v", eyereplay_core::TOOL_VERSION)
-        .version("r", eyereplay_extract::ROWS_REVISION)
-        .version(
-            "n",
-            eyereplay_extract::networks_fingerprint(&eyereplay_extract::default_models_dir())?,
-        );
+    let key = eyereplay_extract::keyed_by_extractor(
+        ArtifactKey::of_file("extract", video, "csv")?.version("v", eyereplay_core::TOOL_VERSION),
+    )?;
     let key = match model {
         LandmarkModel::Cascade => key,
         LandmarkModel::Attention => key.version("m", model.name()),

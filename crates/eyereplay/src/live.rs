@@ -106,11 +106,10 @@ pub enum LiveEnd {
 pub struct LiveOutcome {
     pub end: LiveEnd,
     /// The whole stream's detection, as `detect` gives it for a file (the
-    /// segments from the complete track).
-    pub detection: Option<Detection>,
-    /// Why there is none (too little gaze: how much there was and how
-    /// much a score needs), as `detect` says it of a file.
-    pub unscored: Option<String>,
+    /// segments from the complete track); or why there is none (too little
+    /// gaze: how much there was and how much a score needs), as `detect`
+    /// says it of a file.
+    pub detection: std::result::Result<Detection, String>,
     pub track: Track,
     pub frames: usize,
     pub face_frames: usize,
@@ -439,14 +438,10 @@ pub fn watch(
     };
     // Too little gaze for any score is a result here, not an error: the
     // windows already said so as they closed.
-    let (detection, unscored) = match detect_track(&track, info, model, model_path) {
-        Ok(d) => (Some(d), None),
-        Err(e) => (None, Some(e.to_string())),
-    };
+    let detection = detect_track(&track, info, model, model_path).map_err(|e| e.to_string());
     Ok(LiveOutcome {
         end,
         detection,
-        unscored,
         track,
         frames,
         face_frames: done.face_frames,

@@ -199,16 +199,15 @@ fn live(args: &Args, source: &str, model: &DetectorModel) -> anyhow::Result<()> 
         if outcome.frames == 1 { "" } else { "s" },
         100.0 * outcome.face_frames as f64 / outcome.frames.max(1) as f64
     );
-    let Some(d) = outcome.detection else {
-        let label = src.label();
-        let why = outcome
-            .unscored
-            .as_deref()
-            .unwrap_or("not enough gaze in it");
-        anyhow::bail!(
-            "{label}: the whole stream cannot be scored: {}",
-            why.strip_prefix(&format!("{label}: ")).unwrap_or(why)
-        );
+    let d = match outcome.detection {
+        Ok(d) => d,
+        Err(why) => {
+            let label = src.label();
+            anyhow::bail!(
+                "{label}: the whole stream cannot be scored: {}",
+                why.strip_prefix(&format!("{label}: ")).unwrap_or(&why)
+            );
+        }
     };
     // The files first: a reader of standard output that has gone (`| head`)
     // ends the program at the next line printed.

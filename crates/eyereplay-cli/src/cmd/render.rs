@@ -225,24 +225,6 @@ fn check_bench_only(args: &Args) -> anyhow::Result<()> {
 /// 1.6 TB and aborted).
 const MAX_BENCH_FRAMES: usize = 100_000;
 
-/// The dataset folder (one with `metadata.json` and `labels.csv`) that
-/// holds `path` directly or in one of its class folders.
-fn dataset_holding(path: &std::path::Path) -> Option<PathBuf> {
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => std::path::Path::new("."),
-    };
-    let folder = parent.canonicalize().ok()?;
-    folder
-        .ancestors()
-        .take(2)
-        .find(|d| {
-            d.join(eyereplay_dataset::layout::METADATA_FILE).is_file()
-                && d.join(eyereplay_dataset::layout::LABELS_FILE).is_file()
-        })
-        .map(|d| d.to_path_buf())
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
     check_bench_only(&args)?;
     if let Some(dir) = &args.dataset {
@@ -314,7 +296,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // from the cause. A path the user names is theirs to choose.
     if args.out.is_none() && args.png_frames.is_none() {
         for target in [&out, &truth] {
-            if let Some(dataset) = dataset_holding(target) {
+            if let Some(dataset) = eyereplay_dataset::layout::dataset_holding(target) {
                 anyhow::bail!(
                     "{}: a session of the dataset {} (its sessions are drawn by 'eyereplay render --dataset {}'); give --out to draw it elsewhere",
                     target.display(),
