@@ -46,3 +46,17 @@ for f in p10.mp4 p422.mp4 p444.mp4 hevc.mp4 vp9.webm av1.mkv mjpeg.avi prores.mo
 done
 echo "gray, against the grayscale picture in 4:2:0:"
 python3 "$root/scripts/dev/rows_diff.py" "$dir/gray420.mp4.csv" "$dir/gray.mp4.csv"
+# Variable frame rate: of every ten frames the 4th to 6th dropped. Its rows
+# keep each frame's own time; compared with the H.264 copy's at the times
+# both have.
+enc -vf "select='not(between(mod(n\,10)\,3\,5))'" -fps_mode vfr -c:v libx264 -crf 18 "$dir/vfr.mkv"
+"$bin" extract "$dir/vfr.mkv" --out "$dir/vfr.mkv.csv" --quiet >/dev/null
+python3 - "$dir/h264.csv" "$dir/vfr.mkv.csv" <<'PY'
+import csv, sys
+base, vfr = ({round(float(r["time_s"]), 3): r for r in csv.DictReader(open(f))} for f in sys.argv[1:])
+d = sorted(abs(float(vfr[t]["nx"]) - float(base[t]["nx"]))
+           for t in vfr if t in base and vfr[t]["valid"] == "1" and base[t]["valid"] == "1")
+times = sorted(vfr)[:4]
+print(f"variable frame rate: {len(vfr)} rows, first times {times}; at the {len(d)} common "
+      f"valid times nx |d| median {d[len(d) // 2]:.1e}")
+PY
