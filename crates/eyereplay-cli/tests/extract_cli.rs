@@ -91,14 +91,7 @@ fn a_video_source_is_read_with_the_landmarks_it_names() {
     let dir = tempfile::tempdir().unwrap();
     // Four seconds of franck.mp4, its own frames (no re-encoding).
     let clip = dir.path().join("clip.mp4");
-    let status = std::process::Command::new("ffmpeg")
-        .args(["-nostdin", "-loglevel", "error", "-i"])
-        .arg(franck())
-        .args(["-t", "4", "-c", "copy", "-an"])
-        .arg(&clip)
-        .status()
-        .unwrap();
-    assert!(status.success());
+    ffmpeg(&["-i", s(&franck()), "-t", "4", "-c", "copy", "-an", s(&clip)]);
     let cfg = dir.path().join("c.toml");
     std::fs::write(
         &cfg,
@@ -155,12 +148,17 @@ fn a_video_source_is_read_with_the_landmarks_it_names() {
 fn a_video_cut_off_part_way_is_read_as_far_as_it_goes_and_said_to_be() {
     let dir = tempfile::tempdir().unwrap();
     let whole = dir.path().join("whole.mp4");
-    let status = std::process::Command::new("ffmpeg")
-        .args(["-v", "error", "-i", s(&franck()), "-t", "12", "-c", "copy"])
-        .args(["-movflags", "+faststart", s(&whole)])
-        .status()
-        .unwrap();
-    assert!(status.success());
+    ffmpeg(&[
+        "-i",
+        s(&franck()),
+        "-t",
+        "12",
+        "-c",
+        "copy",
+        "-movflags",
+        "+faststart",
+        s(&whole),
+    ]);
     let bytes = std::fs::read(&whole).unwrap();
     let cut = dir.path().join("cut.mp4");
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
@@ -212,13 +210,20 @@ fn a_video_cut_off_part_way_is_read_as_far_as_it_goes_and_said_to_be() {
 fn a_face_too_small_to_read_is_warned_of() {
     let dir = tempfile::tempdir().unwrap();
     let small = dir.path().join("small.mp4");
-    let status = std::process::Command::new("ffmpeg")
-        .args(["-v", "error", "-i", s(&franck()), "-t", "4"])
-        .args(["-vf", "scale=60:48", "-c:v", "libx264", "-crf", "18", "-an"])
-        .arg(&small)
-        .status()
-        .unwrap();
-    assert!(status.success());
+    ffmpeg(&[
+        "-i",
+        s(&franck()),
+        "-t",
+        "4",
+        "-vf",
+        "scale=60:48",
+        "-c:v",
+        "libx264",
+        "-crf",
+        "18",
+        "-an",
+        s(&small),
+    ]);
     let said = ok(&extract_run_on(&small, &dir.path().join("small.csv"), &[]));
     let line = said
         .lines()

@@ -5,19 +5,9 @@
 //! one-line refusals of a carrier without a face or with eyes too small.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 mod common;
-use common::{eyereplay, ok, one_line_error, root, s};
-
-fn ffmpeg(args: &[&str]) {
-    let o = Command::new("ffmpeg")
-        .args(["-v", "error", "-y"])
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-}
+use common::{eyereplay, ffmpeg, ok, one_line_error, root, s};
 
 /// A replay config over `carrier`: 2 + 2 sessions of 6 s from real
 /// recordings (OneStop reading fixations, EyeLink samples).
