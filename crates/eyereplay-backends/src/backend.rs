@@ -82,6 +82,8 @@ pub struct SessionOutputs {
     paths: SessionPaths,
     /// The backend's [`extra_outputs`](SessionBackend::extra_outputs).
     extra: Vec<PathBuf>,
+    /// The staged files, listed for the binary's Ctrl-C handler to remove.
+    _listed: Vec<eyereplay_core::inflight::InFlight>,
 }
 
 /// The staging name of `target`: hidden, with its extension kept (ffmpeg
@@ -93,10 +95,16 @@ fn staged(target: &Path) -> PathBuf {
 
 impl SessionOutputs {
     pub(crate) fn new(paths: &SessionPaths, extra: &[PathBuf]) -> SessionOutputs {
-        SessionOutputs {
+        let mut outputs = SessionOutputs {
             paths: paths.clone(),
             extra: extra.to_vec(),
-        }
+            _listed: Vec::new(),
+        };
+        outputs._listed = outputs
+            .finals()
+            .map(|f| eyereplay_core::inflight::InFlight::new(&staged(f)))
+            .collect();
+        outputs
     }
 
     /// The session's files in the order they are committed: the video

@@ -108,6 +108,8 @@ struct RenderLock {
     /// read-only disk is still checked, and one with sessions to draw
     /// fails on its first file as before.
     held: Option<(std::fs::File, std::path::PathBuf)>,
+    /// The lock file, for the binary's Ctrl-C handler to remove.
+    _listed: Option<eyereplay_core::inflight::InFlight>,
 }
 
 impl RenderLock {
@@ -131,7 +133,10 @@ impl RenderLock {
                     std::io::ErrorKind::PermissionDenied | std::io::ErrorKind::ReadOnlyFilesystem
                 ) =>
             {
-                return Ok(RenderLock { held: None });
+                return Ok(RenderLock {
+                    held: None,
+                    _listed: None,
+                });
             }
             Err(e) => return Err(BackendError::io(&path, e)),
         };
@@ -157,6 +162,7 @@ impl RenderLock {
             .and_then(|()| std::io::Write::write_all(&mut file, me.as_bytes()))
             .map_err(|e| BackendError::io(&path, e))?;
         Ok(RenderLock {
+            _listed: Some(eyereplay_core::inflight::InFlight::new(&path)),
             held: Some((file, path)),
         })
     }

@@ -446,6 +446,9 @@ fn render_matched_to_readback(
         path.with_file_name(format!(".first-pass.{name}"))
     };
     let temp = files.map(first_pass);
+    let _listed = temp
+        .each_ref()
+        .map(|f| eyereplay_core::inflight::InFlight::new(f));
     let remove_temp = || {
         for f in &temp {
             let _ = std::fs::remove_file(f);

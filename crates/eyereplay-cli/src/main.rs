@@ -87,6 +87,7 @@ fn main() -> std::process::ExitCode {
         }
     };
     init_tracing(cli.verbose);
+    remove_partial_files_when_stopped();
     if let Some(bad) = cmd::log_every_s_problem() {
         eprintln!("error: {bad}");
         return std::process::ExitCode::from(2);
@@ -112,6 +113,36 @@ fn main() -> std::process::ExitCode {
             eprintln!("error: {}", format_chain(&e));
             std::process::ExitCode::FAILURE
         }
+    }
+}
+
+/// Ctrl-C, or SIGTERM (a Slurm job's time limit, `kill`), ends the run
+/// at once as it would by default, but first removes the temporary files
+/// and folders being written (a video's `.NAME.PID.part`, a session's
+/// staged files, a report's folder): finished outputs stay, and nothing
+/// half-written is left beside them. Exit status 130, a shell's for
+/// Ctrl-C. `detect --live` replaces this with its own handler (a stop
+/// there ends the watch with its result).
+fn remove_partial_files_when_stopped() {
+    let installed = ctrlc::set_handler(|| {
+        let removed = eyereplay_core::inflight::remove_in_flight();
+        if removed.is_empty() {
+            eprintln!("stopped");
+        } else {
+            eprintln!(
+                "stopped: removed {} unfinished file(s), such as {}",
+                removed.len(),
+                removed[0].display()
+            );
+        }
+        let _ = std::io::Write::flush(&mut std::io::stdout());
+        // Not `exit`: its atexit work tears down ONNX Runtime's statics
+        // while its threads still run, and they print errors on the way.
+        // SAFETY: _exit ends the process without touching its state.
+        unsafe { libc::_exit(130) }
+    });
+    if let Err(e) = installed {
+        tracing::debug!("no Ctrl-C handler: {e}");
     }
 }
 

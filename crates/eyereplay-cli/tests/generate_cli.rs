@@ -378,7 +378,7 @@ fn merge_refuses_damage_leaving_the_dataset_as_it_was(done: &Path, scratch: &Pat
         std::fs::write(p, kept).unwrap();
     };
     type Damage = fn(&Path, &dyn Fn(&Path, usize));
-    let cases: [(&str, Damage, &str); 6] = [
+    let cases: [(&str, Damage, &str); 7] = [
         (
             "a row of labels.csv lost",
             |d, keep| keep(&d.join("labels.csv"), 8),
@@ -404,6 +404,19 @@ fn merge_refuses_damage_leaving_the_dataset_as_it_was(done: &Path, scratch: &Pat
             "a truth file cut short",
             |d, keep| keep(&d.join("conversation/conversation_0001_truth.csv"), 30),
             "1 of 8 sessions are not rendered whole: conversation/conversation_0001_truth.csv: 29 of 50 rows",
+        ),
+        (
+            "a truth value turned to NaN, the rows all there",
+            |d, _| {
+                let p = d.join("reading/reading_0001_truth.csv");
+                let text = std::fs::read_to_string(&p).unwrap();
+                let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+                let mut fields: Vec<&str> = lines[5].split(',').collect();
+                fields[11] = "NaN";
+                lines[5] = fields.join(",");
+                std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+            },
+            "reading_0001_truth.csv: line 6: column 12 is not a finite number",
         ),
         (
             "another session's identity copied over",

@@ -377,6 +377,59 @@ fn render_refuses_what_it_would_overwrite_or_ignore_and_clears_leftovers() {
     assert!(d.join("w.mp4").is_file() && !bare.exists());
 }
 
+/// Ctrl-C (SIGINT) or SIGTERM (a Slurm job's time limit) in the middle
+/// of a render ends it with status 130 and removes the video it was
+/// encoding (`.v.mp4.PID.part`): nothing unfinished is left beside the
+/// user's files, and the finished ones stay.
+#[test]
+fn a_stopped_render_leaves_no_unfinished_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let traj = d.join("t.csv");
+    // 200 s at 25 fps: seconds of work even at close-up speed.
+    let mut text = String::from("frame,x,y\n");
+    for i in 0..5000 {
+        let x = 640.0 + 300.0 * (i as f64 / 20.0).sin();
+        text.push_str(&format!("{i},{x:.3},360\n"));
+    }
+    std::fs::write(&traj, &text).unwrap();
+    let done = d.join("done.csv");
+    std::fs::write(&done, "kept").unwrap();
+    for (signal, name) in [(libc::SIGINT, "v.mp4"), (libc::SIGTERM, "w.mp4")] {
+        let child = Command::new(env!("CARGO_BIN_EXE_eyereplay"))
+            .args(["render", traj.to_str().unwrap(), "--out"])
+            .arg(d.join(name))
+            .args(["--size", "320x240", "--match-extractor", "false"])
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let part = format!(".{name}.{}.part", child.id());
+        let started = std::time::Instant::now();
+        while !d.join(&part).exists() {
+            assert!(started.elapsed().as_secs() < 60, "{part} never appeared");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        // Some frames into the encoding, as a user's Ctrl-C would be.
+        std::thread::sleep(std::time::Duration::from_millis(300));
+        // SAFETY: kill(2) on our own child's pid.
+        assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(130), "{err}");
+        assert!(
+            err.contains("stopped: removed 1 unfinished file(s)"),
+            "{err}"
+        );
+        let mut left: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["done.csv", "t.csv"], "{err}");
+    }
+    assert_eq!(std::fs::read_to_string(&done).unwrap(), "kept");
+}
+
 /// Found by trying `train`, `render`, `evaluate-localization`, `merge` and
 /// `detect` with a user's mistakes (30 Nov 2026, a third round): outputs
 /// that landed on the command's own inputs, a render that drew a session

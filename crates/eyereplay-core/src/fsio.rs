@@ -63,6 +63,8 @@ pub fn atomic_write_with(
         // tempfile's error names the random temporary file; the user
         // asked for `path`, so name that, with the OS's reason alone.
         .map_err(|e| CoreError::io(path, std::io::Error::from(e.kind())))?;
+    // Removed by the binary's Ctrl-C handler if the run stops here.
+    let _listed = crate::inflight::InFlight::new(tmp.path());
     // tempfile creates 0600; datasets are shared, so use what a plain
     // create would give (0666 less the usual umask 022).
     #[cfg(unix)]

@@ -15,6 +15,7 @@ mod error;
 mod fsio;
 mod hash;
 mod image;
+pub mod inflight;
 mod landmarks;
 mod position;
 pub mod profile;

@@ -609,6 +609,7 @@ pub fn write_report(
     // run are removed first.
     remove_report_leftovers(dataset_dir)?;
     let dir = dataset_dir.join(format!(".report.tmp{}", std::process::id()));
+    let _listed = eyereplay_core::inflight::InFlight::new(&dir);
     let figs = figures(ev)?;
     for f in &figs {
         atomic_write(&dir.join("figures").join(format!("{}.png", f.name)), &f.png)?;

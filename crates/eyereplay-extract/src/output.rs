@@ -263,6 +263,18 @@ pub fn output_csv_paths(
             out.display()
         )));
     }
+    // `--out rows.txt` (or .json, .tsv) would become a folder holding
+    // `<stem>.csv`: almost surely meant as a file. A folder whose name
+    // has a dot in it can be made first and then given.
+    if !single_file && !out.exists() {
+        if let Some(ext) = out.extension() {
+            return Err(ExtractError::Output(format!(
+                "--out {} names a .{} file; extraction writes CSV: give a .csv file (one video) or a folder (an existing one, or a name without an extension)",
+                out.display(),
+                ext.to_string_lossy()
+            )));
+        }
+    }
     if single_file && out.is_dir() {
         return Err(ExtractError::Output(format!(
             "--out {} is a folder named .csv; give a file name or another folder",
@@ -369,6 +381,28 @@ mod tests {
         assert!(same.is_err());
         let ok = output_csv_paths(Path::new("x"), &[v("a/one.mp4"), v("a/two.mp4")]).unwrap();
         assert_eq!(ok, [v("x/one.csv"), v("x/two.csv")]);
+    }
+
+    #[test]
+    fn an_output_named_as_another_kind_of_file_is_refused() {
+        let v = |p: &str| std::path::PathBuf::from(p);
+        let d = tempfile::tempdir().unwrap();
+        let txt = d.path().join("x/out.txt");
+        let e = output_csv_paths(&txt, &[v("a.mp4")])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("out.txt names a .txt file"), "{e}");
+        assert!(!d.path().join("x").exists(), "nothing made");
+        // A folder with a dot in its name is taken once it exists.
+        let dotted = d.path().join("run.v2");
+        std::fs::create_dir(&dotted).unwrap();
+        let ok = output_csv_paths(&dotted, &[v("a.mp4")]).unwrap();
+        assert_eq!(ok, [dotted.join("a.csv")]);
+        let plain = d.path().join("rows");
+        assert_eq!(
+            output_csv_paths(&plain, &[v("a.mp4")]).unwrap(),
+            [plain.join("a.csv")]
+        );
     }
 
     #[test]

@@ -247,6 +247,8 @@ pub struct Encoder {
     target: PathBuf,
     frame_bytes: usize,
     done: bool,
+    /// `tmp` listed for the binary's Ctrl-C handler to remove.
+    _listed: eyereplay_core::inflight::InFlight,
 }
 
 pub fn tmp_path_for(target: &Path) -> PathBuf {
@@ -292,6 +294,7 @@ impl Encoder {
         let tmp = tmp_path_for(target);
         // Check we can write there before starting a process.
         std::fs::File::create(&tmp).map_err(|e| RenderError::io(target, e))?;
+        let listed = eyereplay_core::inflight::InFlight::new(&tmp);
         let mut cmd = Command::new(&settings.ffmpeg);
         cmd.args(["-nostdin", "-hide_banner", "-loglevel", "error", "-y"])
             .args(["-f", "rawvideo", "-pix_fmt", "yuv420p"])
@@ -325,6 +328,7 @@ impl Encoder {
             target: target.to_path_buf(),
             frame_bytes: width * height * 3 / 2,
             done: false,
+            _listed: listed,
         })
     }
 

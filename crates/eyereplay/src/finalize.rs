@@ -80,6 +80,7 @@ pub fn finalize(
         ));
     }
     check_backend_files(dir, &meta.dataset, &jobs)?;
+    check_truth_values(&jobs)?;
     let sessions = jobs
         .iter()
         .map(|j| {
@@ -189,6 +190,22 @@ fn check_backend_files(dir: &Path, meta: &DatasetMetadata, jobs: &[SessionJob]) 
         ),
         "rerun the shard(s) that own them with the same command",
     )
+}
+
+/// Every truth file reads as numbers, finite ones: a damaged or edited
+/// one (a `NaN`, a word) passes the row count, and would be merged and
+/// then fail, or skew, the evaluation that reads it. The first bad file
+/// in the dataset's order is named, with its line.
+fn check_truth_values(jobs: &[SessionJob]) -> Result<()> {
+    let read: Vec<Result<()>> = jobs
+        .par_iter()
+        .map(|j| {
+            eyereplay_dataset::read_truth_csv(&j.paths.truth)
+                .map(drop)
+                .map_err(Into::into)
+        })
+        .collect();
+    read.into_iter().collect()
 }
 
 /// Every CSV of `files` has `rows` data rows, or one error listing (up to
