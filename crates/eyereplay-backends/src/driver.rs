@@ -274,6 +274,8 @@ pub fn render_dataset(
             dataset_seed: meta.seed,
             fps: meta.fps,
         };
+        // A stop asked for leaves the sessions not yet started alone.
+        eyereplay_core::cancel::check()?;
         let outputs = SessionOutputs::new(&t.job.paths, &t.extra);
         match backend.render(&session, &outputs, progress) {
             Ok(r) => outputs.commit().map(|()| r),
@@ -289,7 +291,10 @@ pub fn render_dataset(
         progress.status(&format!("{n}/{sessions} sessions"));
         progress.advance(item.trajectory.len() as u64);
         if let Err(e) = &r {
-            progress.warn(&format!("error: {}: {e}", item.job.paths.file));
+            // A stop asked for is not the session's fault.
+            if !eyereplay_core::cancel::requested() {
+                progress.warn(&format!("error: {}: {e}", item.job.paths.file));
+            }
         }
         r
     };

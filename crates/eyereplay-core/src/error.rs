@@ -22,6 +22,9 @@ pub enum CoreError {
     /// An option or setting out of range (one line naming it).
     #[error("{0}")]
     Setting(String),
+    /// The work was asked to stop ([`crate::cancel`]).
+    #[error("stopped on request")]
+    Stopped,
 }
 
 impl CoreError {

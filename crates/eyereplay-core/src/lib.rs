@@ -9,6 +9,7 @@
 
 mod cache;
 mod calibration;
+pub mod cancel;
 mod class;
 pub mod color;
 mod error;

@@ -214,6 +214,10 @@ impl Decoder {
             loop {
                 match self.decoder.receive_frame(&mut frame) {
                     Ok(()) => {
+                        // Every loop over a video's frames passes here:
+                        // the one place a stop asked for (the Python
+                        // package's Ctrl-C) is heard while reading.
+                        eyereplay_core::cancel::check()?;
                         let t = match frame.timestamp() {
                             Some(ts) if self.time_base > 0.0 => ts as f64 * self.time_base,
                             // No timestamp at all: continue from the last one.

@@ -188,6 +188,50 @@ impl ex::Progress for PyProgress {
     }
 }
 
+/// Runs `work` with the GIL released, as `allow_threads` does, but on a
+/// thread of its own while this one, the caller's, looks for Python's
+/// signals every 100 ms: Python runs its Ctrl-C handler (a terminal's
+/// Ctrl-C, a notebook's interrupt) only on the main thread, and only when
+/// that thread runs Python code, so a render or an extraction of minutes
+/// could not be interrupted at all. On a signal the work is asked to stop
+/// ([`eyereplay_core::cancel`]; it stops at its next frame, removing what
+/// it was writing), waited for, and the signal's exception
+/// (`KeyboardInterrupt`) is raised instead of its result.
+fn interruptible<T: Send>(py: Python<'_>, work: impl FnOnce() -> T + Send) -> PyResult<T> {
+    use std::sync::mpsc;
+    std::thread::scope(|scope| {
+        let (done_tx, mut done_rx) = mpsc::channel::<()>();
+        let worker = scope.spawn(move || {
+            let out = work();
+            let _ = done_tx.send(());
+            out
+        });
+        let finished = |worker: std::thread::ScopedJoinHandle<'_, T>| {
+            worker
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+        };
+        loop {
+            // The receiver goes into the GIL-free closure and comes back.
+            let (waited, rx) = py.allow_threads(move || {
+                let w = done_rx.recv_timeout(std::time::Duration::from_millis(100));
+                (w, done_rx)
+            });
+            done_rx = rx;
+            // A worker that panicked drops its sender: done, too.
+            if !matches!(waited, Err(mpsc::RecvTimeoutError::Timeout)) {
+                return Ok(finished(worker));
+            }
+            if let Err(signal) = py.check_signals() {
+                eyereplay_core::cancel::request();
+                let _ = py.allow_threads(|| worker.join());
+                eyereplay_core::cancel::clear();
+                return Err(signal);
+            }
+        }
+    })
+}
+
 /// A config from a TOML file, or from TOML text (a Python dict, converted
 /// by the Python side) that errors call `label`.
 fn load_config(
@@ -301,7 +345,7 @@ fn extract<'py>(
     };
     let progress = PyProgress(progress);
     Progress::begin(&progress, Stage::Extract, 0);
-    let results = py.allow_threads(|| ex::extract_many(&videos, &opts, &progress));
+    let results = interruptible(py, || ex::extract_many(&videos, &opts, &progress))?;
     Progress::end(&progress, Stage::Extract);
     let mut failed: Vec<(Kind, String)> = vec![];
     let out = PyList::empty(py);
@@ -534,15 +578,14 @@ fn detect(
     } else {
         Kind::Source
     };
-    let d = py
-        .allow_threads(|| -> Result<_, Error> {
-            let (track, info) = eyereplay::detector::load_track(&input, &cache, &progress)?;
-            eyereplay::detector::detect_track(&track, info, &m, &model)
-        })
-        .map_err(|e| match kind_of(&e) {
-            Kind::Model => py_err(e),
-            _ => raise(input_kind, e.to_string()),
-        })?;
+    let d = interruptible(py, || -> Result<_, Error> {
+        let (track, info) = eyereplay::detector::load_track(&input, &cache, &progress)?;
+        eyereplay::detector::detect_track(&track, info, &m, &model)
+    })?
+    .map_err(|e| match kind_of(&e) {
+        Kind::Model => py_err(e),
+        _ => raise(input_kind, e.to_string()),
+    })?;
     serde_json::to_string(&d).map_err(|e| EyereplayError::new_err(e.to_string()))
 }
 
@@ -586,13 +629,13 @@ fn prepare<'py>(
     let progress = PyProgress(progress);
     let d = PyDict::new(py);
     let prepared = match out.filter(|_| !dry_run) {
-        None => py
-            .allow_threads(|| eyereplay::prepare_only(&cfg, &cache, &progress))
+        None => interruptible(py, || eyereplay::prepare_only(&cfg, &cache, &progress))?
             .map_err(py_err)?,
         Some(out) => {
-            let ds = py
-                .allow_threads(|| eyereplay::prepare_dataset(&cfg, &out, &cache, &progress))
-                .map_err(py_err)?;
+            let ds = interruptible(py, || {
+                eyereplay::prepare_dataset(&cfg, &out, &cache, &progress)
+            })?
+            .map_err(py_err)?;
             d.set_item("out", &out)?;
             d.set_item("files", ds.files)?;
             d.set_item("bytes", ds.bytes)?;
@@ -667,8 +710,7 @@ fn generate<'py>(
     let shard = eyereplay::Shard::resolve(shard.as_deref(), shards)
         .map_err(|e| raise(Kind::Config, e.to_string()))?;
     let cache = cache_of(cache);
-    let job = py
-        .allow_threads(|| eyereplay::plan_config(cfg, &label, shard, &cache))
+    let job = interruptible(py, || eyereplay::plan_config(cfg, &label, shard, &cache))?
         .map_err(|e| plan_err(e, &label))?;
     let opts = eyereplay::GenerateOptions {
         out: out.clone(),
@@ -677,9 +719,8 @@ fn generate<'py>(
         evaluate: evaluate.then(EvaluateOptions::default),
     };
     let progress = PyProgress(progress);
-    let summary = py
-        .allow_threads(|| eyereplay::generate(&job, &opts, &progress))
-        .map_err(py_err)?;
+    let summary =
+        interruptible(py, || eyereplay::generate(&job, &opts, &progress))?.map_err(py_err)?;
     let d = PyDict::new(py);
     d.set_item("out", &out)?;
     d.set_item("rendered", summary.render.rendered)?;
@@ -728,9 +769,8 @@ fn evaluate<'py>(
         models,
         ..EvaluateOptions::default()
     };
-    let outcome = py
-        .allow_threads(|| eyereplay::evaluate(&dataset_dir, &opts))
-        .map_err(py_err)?;
+    let outcome =
+        interruptible(py, || eyereplay::evaluate(&dataset_dir, &opts))?.map_err(py_err)?;
     let d = PyDict::new(py);
     d.set_item("metrics_json", &outcome.metrics_json)?;
     d.set_item("metrics_path", &outcome.metrics_path)?;
@@ -743,9 +783,8 @@ fn evaluate<'py>(
 #[pyo3(signature = (dataset_dir, evaluate=true))]
 fn merge(py: Python<'_>, dataset_dir: PathBuf, evaluate: bool) -> PyResult<Option<PathBuf>> {
     let opts = evaluate.then(EvaluateOptions::default);
-    let outcome = py
-        .allow_threads(|| eyereplay::finalize(&dataset_dir, opts.as_ref()))
-        .map_err(py_err)?;
+    let outcome =
+        interruptible(py, || eyereplay::finalize(&dataset_dir, opts.as_ref()))?.map_err(py_err)?;
     Ok(outcome.map(|o| o.html))
 }
 

@@ -338,6 +338,9 @@ impl Encoder {
 
     /// Sends one yuv420p frame.
     pub fn write_frame(&mut self, yuv: &[u8]) -> Result<(), RenderError> {
+        // Every render path's frames pass here: the one place a stop
+        // asked for (the Python package's Ctrl-C) is heard.
+        eyereplay_core::cancel::check()?;
         debug_assert_eq!(yuv.len(), self.frame_bytes);
         let stdin = self.stdin.as_mut().expect("encoder already finished");
         if let Err(e) = stdin.write_all(yuv) {
