@@ -444,9 +444,15 @@ pub(crate) fn inside(poly: &[[f32; 2]], p: [f32; 2]) -> bool {
     c
 }
 
-/// Decodes the first frame of an image file with the extractor's decoder
-/// (FFmpeg: JPEG, PNG, WebP, ...), upright, as RGB.
+/// Decodes the first frame of an image file, upright, as RGB: a PNG with
+/// the `png` crate, anything else with the extractor's decoder (FFmpeg:
+/// JPEG, WebP, ...). PNG is decoded here because the Python wheel's FFmpeg
+/// is built without zlib (decoders for video only), and PNG is lossless:
+/// the bytes are the file's whatever decodes it.
 pub fn read_image(path: &Path) -> Result<RgbImage> {
+    if is_png(path) {
+        return read_png(path);
+    }
     let unreadable = |e: ExtractError| match e {
         ExtractError::Open { message, .. } | ExtractError::Decode { message, .. } => {
             FaceError::Unreadable {
@@ -477,6 +483,61 @@ pub fn read_image(path: &Path) -> Result<RgbImage> {
     out.ok_or_else(|| FaceError::Unreadable {
         path: path.to_path_buf(),
         message: "no picture in it".into(),
+    })
+}
+
+/// Whether `path` starts with PNG's signature.
+fn is_png(path: &Path) -> bool {
+    let mut head = [0u8; 8];
+    std::fs::File::open(path)
+        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
+        .is_ok_and(|()| head == *b"\x89PNG\r\n\x1a\n")
+}
+
+/// A PNG as 8-bit RGB, as FFmpeg converts it to rgb24 (a test compares
+/// the two in every layout): palettes expanded, 16-bit samples rounded to
+/// 8 bits, grey repeated over the three channels, alpha dropped.
+fn read_png(path: &Path) -> Result<RgbImage> {
+    let unreadable = |message: String| FaceError::Unreadable {
+        path: path.to_path_buf(),
+        message,
+    };
+    let file = std::fs::File::open(path).map_err(|e| unreadable(e.to_string()))?;
+    let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
+    decoder.set_transformations(png::Transformations::EXPAND);
+    let mut reader = decoder.read_info().map_err(|e| unreadable(e.to_string()))?;
+    let mut buf = vec![0u8; reader.output_buffer_size()];
+    let info = reader
+        .next_frame(&mut buf)
+        .map_err(|e| unreadable(e.to_string()))?;
+    let (w, h) = (info.width as usize, info.height as usize);
+    let channels = info.color_type.samples();
+    // Bytes a sample (16-bit samples are big-endian), and its 8-bit value:
+    // FFmpeg rounds a 16-bit one, (v + 128) >> 8.
+    let bytes = if info.bit_depth == png::BitDepth::Sixteen {
+        2
+    } else {
+        1
+    };
+    let sample = |b: &[u8]| -> u8 {
+        match bytes {
+            2 => ((u16::from_be_bytes([b[0], b[1]]) as u32 + 128) >> 8).min(255) as u8,
+            _ => b[0],
+        }
+    };
+    let mut data = Vec::with_capacity(w * h * 3);
+    for row in buf[..info.buffer_size()].chunks_exact(info.line_size) {
+        for px in row[..w * channels * bytes].chunks_exact(channels * bytes) {
+            match channels {
+                1 | 2 => data.extend_from_slice(&[sample(px); 3]),
+                _ => data.extend(px.chunks_exact(bytes).take(3).map(sample)),
+            }
+        }
+    }
+    Ok(RgbImage {
+        width: w,
+        height: h,
+        data,
     })
 }
 

@@ -251,3 +251,51 @@ fn photo_errors_are_one_line() {
     );
     assert!(!e.contains('\n'));
 }
+
+/// A PNG decodes to the bytes FFmpeg gives for it as rgb24 (the peer: the
+/// command-line tool's own decoder), in every layout a photo may have:
+/// RGB, RGBA (alpha dropped), grey, grey with alpha, a palette and 16 bits
+/// a channel. The photos are decoded without FFmpeg, which the Python
+/// wheel's build has no PNG decoder in (no zlib).
+#[test]
+fn a_png_decodes_as_ffmpeg_decodes_it_in_every_layout() {
+    let Some(src) = common::faces_file("astronaut.png") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let ffmpeg = |args: &[&str]| {
+        let o = std::process::Command::new("ffmpeg")
+            .args(["-nostdin", "-v", "error", "-y"])
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    for fmt in [
+        "rgb24", "rgba", "gray", "ya8", "pal8", "rgb48be", "rgba64be", "gray16be",
+    ] {
+        let png = dir.path().join(format!("{fmt}.png"));
+        let (s, p) = (src.to_str().unwrap(), png.to_str().unwrap());
+        // A corner of the photo keeps the test quick.
+        ffmpeg(&["-i", s, "-vf", "crop=96:64:200:180", "-pix_fmt", fmt, p]);
+        let raw = dir.path().join(format!("{fmt}.rgb"));
+        ffmpeg(&[
+            "-i",
+            p,
+            "-f",
+            "rawvideo",
+            "-pix_fmt",
+            "rgb24",
+            raw.to_str().unwrap(),
+        ]);
+        let want = std::fs::read(&raw).unwrap();
+        let got = read_image(&png).unwrap();
+        assert_eq!((got.width, got.height), (96, 64), "{fmt}");
+        assert!(got.data == want, "{fmt}: differs from FFmpeg's rgb24");
+    }
+    // Not a PNG past its signature: the file is named in the error.
+    let bad = dir.path().join("bad.png");
+    std::fs::write(&bad, b"\x89PNG\r\n\x1a\nnot a png at all").unwrap();
+    let e = read_image(&bad).unwrap_err().to_string();
+    assert!(e.contains("bad.png"), "{e}");
+}

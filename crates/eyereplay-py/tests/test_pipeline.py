@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import eyereplay
-from conftest import run_cli, small_config, to_toml
+from conftest import ROOT, run_cli, small_config, to_toml
 
 
 class Recorder:
@@ -240,3 +240,30 @@ def test_as_torch_windows(datasets, monkeypatch):
     assert np.array_equal(x, ds[0].frames(50, 10))
     with pytest.raises(ValueError):
         ds.as_torch(window=101)
+
+
+def test_the_face_backend_renders_what_the_cli_renders(tmp_path, cache_dir):
+    # Whole faces from the bundled photos, one of them a PNG: the wheel's
+    # FFmpeg has no PNG decoder, so the photos are decoded without it.
+    cfg = small_config(out_size=(320, 240))
+    cfg["session_frames"] = 50
+    cfg["render"]["backend"] = "face"
+    cfg["render"]["identities"] = [str(ROOT / ".cache" / "faces" / "astronaut.png")]
+    for c in cfg["classes"].values():
+        c["sessions"] = 1
+    toml_path = tmp_path / "face.toml"
+    toml_path.write_text(to_toml(cfg))
+    cli_out, py_out = tmp_path / "cli", tmp_path / "py"
+    r = run_cli(
+        "generate", "--config", toml_path, "--out", cli_out, "--cache", cache_dir, "--no-evaluate"
+    )
+    assert r.returncode == 0, r.stderr
+    summary = eyereplay.generate(cfg, py_out, cache=cache_dir, evaluate=False, progress=False)
+    assert summary["rendered"] == 2
+    csvs = [p for p in files_of(cli_out) if p.endswith((".csv", ".json"))]
+    assert any(p.endswith("_head.csv") for p in csvs), csvs
+    assert csvs == [p for p in files_of(py_out) if p.endswith((".csv", ".json"))]
+    for name in csvs:
+        if name == "metadata.json":
+            continue  # it records the config's own path, which differs
+        assert filecmp.cmp(cli_out / name, py_out / name, shallow=False), name
