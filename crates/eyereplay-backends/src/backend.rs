@@ -166,6 +166,12 @@ impl SessionOutputs {
     /// video is renamed last, so a session whose video is in place is
     /// whole.
     pub(crate) fn commit(self) -> Result<()> {
+        // A stop (Ctrl-C) finds the session's files all staged or all in
+        // place.
+        eyereplay_core::inflight::guarded(|| self.commit_unguarded())
+    }
+
+    fn commit_unguarded(self) -> Result<()> {
         if let Some(f) = self.finals().find(|f| !staged(f).is_file()) {
             let e = BackendError::input(staged(f), "the backend did not write this output");
             self.discard();

@@ -493,13 +493,17 @@ fn render_matched_to_readback(
             })?;
             return Ok((whole, record));
         }
-        // The first pass stands: it becomes the session.
-        for (from, to) in temp.iter().zip(files) {
-            if let Err(e) = std::fs::rename(from, to) {
-                remove_temp();
-                return Err(Error::io(to, e));
+        // The first pass stands: it becomes the session (all three files
+        // renamed, or none, as a stop finds them).
+        eyereplay_core::inflight::guarded(|| {
+            for (from, to) in temp.iter().zip(files) {
+                if let Err(e) = std::fs::rename(from, to) {
+                    remove_temp();
+                    return Err(Error::io(to, e));
+                }
             }
-        }
+            Ok(())
+        })?;
         return Ok((first, record));
     };
     remove_temp();

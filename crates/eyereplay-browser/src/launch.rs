@@ -112,6 +112,12 @@ pub struct Browser {
     child: Option<Child>,
     pgid: i32,
     profile: Option<tempfile::TempDir>,
+    /// The profile folder and the browser, listed for the binary's Ctrl-C
+    /// handler (the browser killed, then the folder removed).
+    _listed: (
+        eyereplay_core::inflight::InFlight,
+        eyereplay_core::inflight::ChildInFlight,
+    ),
     /// The DevTools browser endpoint (`ws://127.0.0.1:PORT/devtools/browser/ID`).
     pub ws_url: String,
     pub program: PathBuf,
@@ -170,6 +176,10 @@ impl Browser {
             }
         })?;
         let pgid = child.id() as i32;
+        let listed = (
+            eyereplay_core::inflight::InFlight::new(profile.path()),
+            eyereplay_core::inflight::ChildInFlight::new(child.id()),
+        );
         let stderr = child.stderr.take().expect("stderr is piped");
         let tail = Arc::new(Mutex::new(VecDeque::new()));
         let (tx, rx) = mpsc::channel();
@@ -208,6 +218,7 @@ impl Browser {
             child: Some(child),
             pgid,
             profile: Some(profile),
+            _listed: listed,
             ws_url: String::new(),
             program: program.into(),
             stderr_tail: tail,

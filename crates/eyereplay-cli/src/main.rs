@@ -68,6 +68,8 @@ fn quiet_when_stdout_is_gone() {
 }
 
 fn main() -> std::process::ExitCode {
+    // First: a stop in the first milliseconds ends the run as any other.
+    remove_partial_files_when_stopped();
     quiet_when_stdout_is_gone();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -87,7 +89,6 @@ fn main() -> std::process::ExitCode {
         }
     };
     init_tracing(cli.verbose);
-    remove_partial_files_when_stopped();
     if let Some(bad) = cmd::log_every_s_problem() {
         eprintln!("error: {bad}");
         return std::process::ExitCode::from(2);
@@ -106,6 +107,13 @@ fn main() -> std::process::ExitCode {
         Command::EvaluateReplay(a) => cmd::evaluate_replay::run(a),
         Command::EvaluateLocalization(a) => cmd::evaluate_localization::run(a),
     };
+    // A stop under way ends the process itself (status 130); what failed
+    // here may be its removal of files this run was writing.
+    if eyereplay_core::inflight::stopping() {
+        loop {
+            std::thread::park();
+        }
+    }
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
@@ -129,10 +137,16 @@ fn remove_partial_files_when_stopped() {
         if removed.is_empty() {
             eprintln!("stopped");
         } else {
+            // The example: the most recently listed that is not the
+            // render's lock (the file the user saw growing).
+            let example = removed
+                .iter()
+                .find(|p| p.extension().is_none_or(|e| e != "lock"))
+                .unwrap_or(&removed[0]);
             eprintln!(
                 "stopped: removed {} unfinished file(s), such as {}",
                 removed.len(),
-                removed[0].display()
+                example.display()
             );
         }
         let _ = std::io::Write::flush(&mut std::io::stdout());

@@ -670,3 +670,100 @@ fn bad_inputs_stop_before_work() {
     );
     assert_eq!(std::fs::read_dir(&mine).unwrap().count(), 2);
 }
+
+/// Starts `eyereplay ARGS` (environment `env` added), waits until a file
+/// or folder whose name starts with `prefix` appears in `watch`, sends
+/// `signal` to the process alone (not its group: FFmpeg must be stopped
+/// by eyereplay itself), and returns its output.
+fn stopped_when(
+    args: &[&str],
+    env: &[(&str, &Path)],
+    watch: &Path,
+    prefix: &str,
+    signal: libc::c_int,
+) -> Output {
+    let child = Command::new(env!("CARGO_BIN_EXE_eyereplay"))
+        .args(args)
+        .envs(env.iter().map(|(k, v)| (k, v.as_os_str())))
+        .current_dir(root())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    let appeared = || {
+        std::fs::read_dir(watch)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .any(|e| e.file_name().to_string_lossy().starts_with(prefix))
+    };
+    while !appeared() {
+        assert!(
+            started.elapsed().as_secs() < 120,
+            "{prefix}* never appeared in {}",
+            watch.display()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    // SAFETY: kill(2) on our own child's pid.
+    assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
+    child.wait_with_output().unwrap()
+}
+
+/// A stop at the worst moments leaves nothing behind and loses nothing:
+/// while the report is being written, the previous report stays whole
+/// (its swap is never cut between its two renames) and no `.report.*`
+/// folder is left; in `generate --profile`, the scratch dataset in the
+/// temporary folder is removed.
+#[test]
+fn a_stop_while_the_report_or_a_scratch_dataset_is_written_leaves_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("d");
+    ok(&generate(&d, &[]));
+    let before = hashes(&d.join("report"));
+    assert!(before.contains_key("metrics.json"), "{before:?}");
+    for signal in [libc::SIGINT, libc::SIGTERM] {
+        let o = stopped_when(
+            &["evaluate", d.to_str().unwrap()],
+            &[],
+            &d,
+            ".report.tmp",
+            signal,
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(130), "{err}");
+        assert_eq!(
+            err.lines().filter(|l| !l.trim().is_empty()).count(),
+            1,
+            "{err}"
+        );
+        let hidden: Vec<String> = std::fs::read_dir(&d)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with('.'))
+            .collect();
+        assert!(hidden.is_empty(), "{hidden:?}");
+        assert_eq!(hashes(&d.join("report")), before, "the old report changed");
+        assert!(d.join("report/index.html").is_file());
+    }
+    let tmp = dir.path().join("tmp");
+    std::fs::create_dir(&tmp).unwrap();
+    let cfg = tiny();
+    let o = stopped_when(
+        &["generate", "--config", &cfg, "--profile"],
+        &[("TMPDIR", &tmp)],
+        &tmp,
+        ".tmp",
+        libc::SIGINT,
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    let left: Vec<_> = std::fs::read_dir(&tmp)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    assert!(left.is_empty(), "{left:?} {err}");
+}

@@ -409,8 +409,13 @@ fn a_stopped_render_leaves_no_unfinished_file() {
             assert!(started.elapsed().as_secs() < 60, "{part} never appeared");
             std::thread::sleep(std::time::Duration::from_millis(20));
         }
-        // Some frames into the encoding, as a user's Ctrl-C would be.
-        std::thread::sleep(std::time::Duration::from_millis(300));
+        // SIGINT some frames into the encoding, as a user's Ctrl-C would
+        // be; SIGTERM at once, before FFmpeg has opened its output (it
+        // would make it again after the removal, were it not stopped
+        // first).
+        if signal == libc::SIGINT {
+            std::thread::sleep(std::time::Duration::from_millis(300));
+        }
         // SAFETY: kill(2) on our own child's pid.
         assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
         let o = child.wait_with_output().unwrap();

@@ -45,6 +45,14 @@ pub fn atomic_write_with(
     path: &Path,
     fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), CoreError> {
+    // Whole, so that a stop (Ctrl-C) finds the file written or not begun.
+    crate::inflight::guarded(|| atomic_write_unguarded(path, fill))
+}
+
+fn atomic_write_unguarded(
+    path: &Path,
+    fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<(), CoreError> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),

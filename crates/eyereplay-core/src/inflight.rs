@@ -3,16 +3,90 @@
 //! them on its way out instead of leaving `.NAME.PID.part` files beside
 //! the user's outputs until the next run of the same command finds them.
 //!
-//! The writers hold an [`InFlight`] guard while their temporary exists;
-//! the binary's signal handler (a normal thread, not the signal context)
-//! calls [`remove_in_flight`]. Outputs already renamed into place are
-//! never on the list, so an interrupted run keeps every finished file.
+//! The writers hold an [`InFlight`] guard while their temporary exists,
+//! and the owner of a child process that writes one (eyereplay-render's
+//! FFmpeg `Encoder`) a [`ChildInFlight`]; the binary's signal handler (a normal thread, not
+//! the signal context) calls [`remove_in_flight`]. Outputs already renamed
+//! into place are never on the list, so an interrupted run keeps every
+//! finished file.
+//!
+//! The handler runs while the other threads go on working, so the steps
+//! that create a temporary or rename one into place run inside
+//! [`guarded`]: a stop waits for the step in progress to end and lets no
+//! new one start. Without that, a stop between the two renames of a
+//! report's swap lost the old report, and a writer could make again a
+//! folder the handler had just removed.
 
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Mutex, RwLock};
 
 static IN_FLIGHT: Mutex<Vec<(u64, PathBuf)>> = Mutex::new(Vec::new());
+static CHILDREN: Mutex<Vec<(u64, u32)>> = Mutex::new(Vec::new());
 static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+/// Read-held by [`guarded`] steps; write-held, for good, by a stop.
+static GATE: RwLock<()> = RwLock::new(());
+static STOPPING: AtomicBool = AtomicBool::new(false);
+
+/// Runs `step`, a file operation that creates a listed temporary or
+/// renames one into place, so that a stop never falls in its middle: a
+/// stop waits for it to end, and once a stop has begun no step starts
+/// (it waits until the process ends). A step inside a step runs as part
+/// of the outer one (taking the gate again would wait on a stop that waits
+/// on the outer step).
+pub fn guarded<R>(step: impl FnOnce() -> R) -> R {
+    thread_local! {
+        static INSIDE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    }
+    if INSIDE.with(|i| i.get()) {
+        return step();
+    }
+    let _held = GATE.read().unwrap_or_else(|e| e.into_inner());
+    INSIDE.with(|i| i.set(true));
+    // Reset even if the step panics.
+    struct Leave;
+    impl Drop for Leave {
+        fn drop(&mut self) {
+            INSIDE.with(|i| i.set(false));
+        }
+    }
+    let _leave = Leave;
+    step()
+}
+
+/// Whether a stop has begun: the process is about to end, so a thread
+/// that finds its work failed should not report it (the failure may be
+/// the stop's removal of its files).
+pub fn stopping() -> bool {
+    STOPPING.load(Ordering::SeqCst)
+}
+
+/// A child process writing a listed temporary (FFmpeg encoding a video),
+/// listed for as long as the guard lives: a stop kills it before removing
+/// the files, so that it cannot make its output again after the removal
+/// (it opens its output some milliseconds after it starts).
+#[derive(Debug)]
+pub struct ChildInFlight {
+    id: u64,
+}
+
+impl ChildInFlight {
+    pub fn new(pid: u32) -> ChildInFlight {
+        let id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        children().push((id, pid));
+        ChildInFlight { id }
+    }
+}
+
+impl Drop for ChildInFlight {
+    fn drop(&mut self) {
+        children().retain(|(id, _)| *id != self.id);
+    }
+}
+
+fn children() -> std::sync::MutexGuard<'static, Vec<(u64, u32)>> {
+    CHILDREN.lock().unwrap_or_else(|e| e.into_inner())
+}
 
 /// A temporary file or folder listed as being written, for as long as the
 /// guard lives. Dropping it takes it off the list (the writer has renamed
@@ -25,7 +99,7 @@ pub struct InFlight {
 impl InFlight {
     /// Lists `path` (a file, or a folder removed with what it holds).
     pub fn new(path: &Path) -> InFlight {
-        let id = NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
         lock().push((id, path.to_path_buf()));
         InFlight { id }
     }
@@ -43,12 +117,26 @@ fn lock() -> std::sync::MutexGuard<'static, Vec<(u64, PathBuf)>> {
     IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Removes every listed temporary (files, and folders with their
-/// content) and empties the list; returns the paths removed. Called when
-/// the process is about to end on a signal: the writers are not told, so
-/// call it only on the way out.
+/// Begins a stop: waits for the [`guarded`] step in progress, keeps any
+/// other from starting, kills the listed child processes (and waits for
+/// them), then removes every listed temporary (files, and folders with
+/// their content); returns the paths removed, the most recently listed
+/// first. The process must end right after: the writers are not told,
+/// and their next guarded step never returns.
 pub fn remove_in_flight() -> Vec<PathBuf> {
-    remove_where(|_| true)
+    STOPPING.store(true, Ordering::SeqCst);
+    std::mem::forget(GATE.write().unwrap_or_else(|e| e.into_inner()));
+    for (_, pid) in children().drain(..) {
+        // SAFETY: kill and waitpid on a child of this process; the pid
+        // cannot have been reused, since nothing else reaps it.
+        unsafe {
+            libc::kill(pid as libc::pid_t, libc::SIGKILL);
+            libc::waitpid(pid as libc::pid_t, std::ptr::null_mut(), 0);
+        }
+    }
+    let mut removed = remove_where(|_| true);
+    removed.reverse();
+    removed
 }
 
 /// [`remove_in_flight`] for the listed paths `pick` selects.

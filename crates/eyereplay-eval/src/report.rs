@@ -682,12 +682,25 @@ fn remove_report_leftovers(dataset_dir: &Path) -> Result<(), EvalError> {
 /// is moved aside, the new one renamed in, the old one removed.
 fn swap_in(new: &Path, target: &Path) -> Result<(), EvalError> {
     let old = target.with_file_name(format!(".report.old{}", std::process::id()));
-    let had_old = match std::fs::rename(target, &old) {
-        Ok(()) => true,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => false,
-        Err(e) => return Err(EvalError::io(target, e)),
-    };
-    std::fs::rename(new, target).map_err(|e| EvalError::io(target, e))?;
+    // A stop (Ctrl-C) removes what is left of the old report once it is
+    // out of the way...
+    let _old_listed = eyereplay_core::inflight::InFlight::new(&old);
+    // ... and never falls between the two renames: it finds the old
+    // report in place, or the new one.
+    let had_old = eyereplay_core::inflight::guarded(|| {
+        let had_old = match std::fs::rename(target, &old) {
+            Ok(()) => true,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => false,
+            Err(e) => return Err(EvalError::io(target, e)),
+        };
+        if let Err(e) = std::fs::rename(new, target) {
+            if had_old {
+                let _ = std::fs::rename(&old, target);
+            }
+            return Err(EvalError::io(target, e));
+        }
+        Ok(had_old)
+    })?;
     if had_old {
         std::fs::remove_dir_all(&old).map_err(|e| EvalError::io(&old, e))?;
     }

@@ -189,6 +189,10 @@ pub struct BenchShape {
     pub fps: f64,
 }
 
+/// The most frame bytes a bench keeps in memory (4 GiB): the encode-only
+/// timing replays the drawn frames, so all of them are held at once.
+pub const MAX_KEPT_BYTES: usize = 4 << 30;
+
 /// The three measurements of a renderer's bench, in one run on the same
 /// frames: `render` draws every frame into the sink it is given (kept in
 /// memory; the copy is timed too, so render-only is slightly pessimistic),
@@ -208,8 +212,21 @@ pub fn time_bench<E: From<RenderError>>(
         height,
         fps,
     } = shape;
-    let dir = tempfile::tempdir().map_err(|e| RenderError::io(std::env::temp_dir(), e))?;
     let frame_bytes = width * height * 3 / 2;
+    if frames.saturating_mul(frame_bytes) > MAX_KEPT_BYTES {
+        return Err(RenderError::Params(format!(
+            "--frames {frames} at {width}x{height} would keep {:.1} GB of frames in memory (the encode-only timing replays them); at most {} frames at this size",
+            (frames * frame_bytes) as f64 / 1e9,
+            MAX_KEPT_BYTES / frame_bytes.max(1)
+        ))
+        .into());
+    }
+    // Listed, so that a stop (Ctrl-C) removes it too.
+    let (dir, _listed) = eyereplay_core::inflight::guarded(|| {
+        let d = tempfile::tempdir().map_err(|e| RenderError::io(std::env::temp_dir(), e))?;
+        let listed = eyereplay_core::inflight::InFlight::new(d.path());
+        Ok::<_, RenderError>((d, listed))
+    })?;
     let mut keep = Keep {
         frames: vec![1u8; frames * frame_bytes],
         frame_bytes,

@@ -249,6 +249,8 @@ pub struct Encoder {
     done: bool,
     /// `tmp` listed for the binary's Ctrl-C handler to remove.
     _listed: eyereplay_core::inflight::InFlight,
+    /// FFmpeg, listed for that handler to kill first.
+    _child_listed: eyereplay_core::inflight::ChildInFlight,
 }
 
 pub fn tmp_path_for(target: &Path) -> PathBuf {
@@ -275,6 +277,19 @@ pub fn spawn_error(program: &Path, e: std::io::Error) -> RenderError {
 
 impl Encoder {
     pub fn start(
+        target: &Path,
+        width: usize,
+        height: usize,
+        fps: f64,
+        settings: &EncoderSettings,
+    ) -> Result<Encoder, RenderError> {
+        // A stop (Ctrl-C) finds the encoder not begun, or begun and listed.
+        eyereplay_core::inflight::guarded(|| {
+            Self::start_unguarded(target, width, height, fps, settings)
+        })
+    }
+
+    fn start_unguarded(
         target: &Path,
         width: usize,
         height: usize,
@@ -317,6 +332,7 @@ impl Encoder {
                 return Err(spawn_error(&settings.ffmpeg, e));
             }
         };
+        let child_listed = eyereplay_core::inflight::ChildInFlight::new(child.id());
         let stdin = child.stdin.take();
         if let Some(pipe) = &stdin {
             grow_pipe(pipe, width * height * 3 / 2);
@@ -329,6 +345,7 @@ impl Encoder {
             frame_bytes: width * height * 3 / 2,
             done: false,
             _listed: listed,
+            _child_listed: child_listed,
         })
     }
 
@@ -370,7 +387,12 @@ impl Encoder {
     }
 
     /// Closes the input, waits for ffmpeg, and moves the file into place.
-    pub fn finish(mut self) -> Result<(), RenderError> {
+    pub fn finish(self) -> Result<(), RenderError> {
+        // A stop (Ctrl-C) waits for the file to be in place.
+        eyereplay_core::inflight::guarded(|| self.finish_unguarded())
+    }
+
+    fn finish_unguarded(mut self) -> Result<(), RenderError> {
         self.stdin.take();
         let child = self.child.take().expect("encoder already finished");
         let out = child.wait_with_output().map_err(|e| RenderError::Ffmpeg {
