@@ -21,8 +21,35 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, RwLock};
 
-static IN_FLIGHT: Mutex<Vec<(u64, PathBuf)>> = Mutex::new(Vec::new());
-static CHILDREN: Mutex<Vec<(u64, u32)>> = Mutex::new(Vec::new());
+/// Entries listed for as long as their guards live: temporaries being
+/// written (paths), or the child processes writing them (pids).
+struct List<T>(Mutex<Vec<(u64, T)>>);
+
+impl<T> List<T> {
+    const fn new() -> List<T> {
+        List(Mutex::new(Vec::new()))
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<(u64, T)>> {
+        // A writer that panicked while the list was locked leaves it as
+        // it was: still a list, still worth going through.
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Lists `item`; the id takes it off again.
+    fn add(&self, item: T) -> u64 {
+        let id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        self.lock().push((id, item));
+        id
+    }
+
+    fn remove(&self, id: u64) {
+        self.lock().retain(|(i, _)| *i != id);
+    }
+}
+
+static IN_FLIGHT: List<PathBuf> = List::new();
+static CHILDREN: List<u32> = List::new();
 static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 /// Read-held by [`guarded`] steps; write-held, for good, by a stop.
 static GATE: RwLock<()> = RwLock::new(());
@@ -72,20 +99,16 @@ pub struct ChildInFlight {
 
 impl ChildInFlight {
     pub fn new(pid: u32) -> ChildInFlight {
-        let id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
-        children().push((id, pid));
-        ChildInFlight { id }
+        ChildInFlight {
+            id: CHILDREN.add(pid),
+        }
     }
 }
 
 impl Drop for ChildInFlight {
     fn drop(&mut self) {
-        children().retain(|(id, _)| *id != self.id);
+        CHILDREN.remove(self.id);
     }
-}
-
-fn children() -> std::sync::MutexGuard<'static, Vec<(u64, u32)>> {
-    CHILDREN.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// A temporary file or folder listed as being written, for as long as the
@@ -99,22 +122,16 @@ pub struct InFlight {
 impl InFlight {
     /// Lists `path` (a file, or a folder removed with what it holds).
     pub fn new(path: &Path) -> InFlight {
-        let id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
-        lock().push((id, path.to_path_buf()));
-        InFlight { id }
+        InFlight {
+            id: IN_FLIGHT.add(path.to_path_buf()),
+        }
     }
 }
 
 impl Drop for InFlight {
     fn drop(&mut self) {
-        lock().retain(|(id, _)| *id != self.id);
+        IN_FLIGHT.remove(self.id);
     }
-}
-
-fn lock() -> std::sync::MutexGuard<'static, Vec<(u64, PathBuf)>> {
-    // A writer that panicked while the list was locked leaves it as it
-    // was: still a list of paths, still worth removing.
-    IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// Begins a stop: waits for the [`guarded`] step in progress, keeps any
@@ -126,7 +143,7 @@ fn lock() -> std::sync::MutexGuard<'static, Vec<(u64, PathBuf)>> {
 pub fn remove_in_flight() -> Vec<PathBuf> {
     STOPPING.store(true, Ordering::SeqCst);
     std::mem::forget(GATE.write().unwrap_or_else(|e| e.into_inner()));
-    for (_, pid) in children().drain(..) {
+    for (_, pid) in CHILDREN.lock().drain(..) {
         // SAFETY: kill and waitpid on a child of this process; the pid
         // cannot have been reused, since nothing else reaps it.
         unsafe {
@@ -142,7 +159,7 @@ pub fn remove_in_flight() -> Vec<PathBuf> {
 /// [`remove_in_flight`] for the listed paths `pick` selects.
 fn remove_where(pick: impl Fn(&Path) -> bool) -> Vec<PathBuf> {
     let listed: Vec<PathBuf> = {
-        let mut all = lock();
+        let mut all = IN_FLIGHT.lock();
         let (picked, kept): (Vec<_>, Vec<_>) = all.drain(..).partition(|(_, p)| pick(p));
         *all = kept;
         picked.into_iter().map(|(_, p)| p).collect()
@@ -184,6 +201,9 @@ mod tests {
         assert!(!removed.contains(&done));
         assert!(!part.exists() && !folder.exists());
         assert!(done.exists(), "a finished file is not touched");
-        assert!(!lock().iter().any(|(_, p)| p.starts_with(d.path())));
+        assert!(!IN_FLIGHT
+            .lock()
+            .iter()
+            .any(|(_, p)| p.starts_with(d.path())));
     }
 }
