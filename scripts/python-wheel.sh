@@ -55,6 +55,14 @@ for f in face_detection_short_range.onnx face_landmark.onnx iris_landmark.onnx \
   cp "$cache/models/$f" "$pkg/models/$f"
 done
 cp "$root/NOTICE" "$pkg/models/NOTICE"
+# The full-face mode's canonical mesh (MediaPipe's, Apache-2.0) and bundled
+# photos with their licenses (scripts/face-assets.sh; 1.3 MB), so whole
+# faces render from the wheel alone too.
+rm -rf "$pkg/faces"
+mkdir -p "$pkg/faces"
+[[ -f "$cache/faces/canonical_face_mesh.binarypb" ]] || { echo "python-wheel: $cache/faces missing: run scripts/setup.sh" >&2; exit 1; }
+cp "$cache/faces/"* "$pkg/faces/"
+cp "$root/NOTICE" "$pkg/faces/NOTICE"
 rm -f target/wheels/eyereplay-*.whl
 echo "python-wheel: maturin build --profile $profile"
 # manylinux_2_35: the extension links only glibc (2.35 or later: Ubuntu

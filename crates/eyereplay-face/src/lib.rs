@@ -58,8 +58,8 @@ pub mod webcam;
 
 pub use error::{FaceError, Result};
 pub use mesh::{
-    bundled_faces, default_faces_dir, lm, parse as parse_mesh, CanonicalMesh, BUNDLED_FACES,
-    INNER_LIPS, LEFT_EYE_CONTOUR, MESH_FILE, MESH_VERTICES, RIGHT_EYE_CONTOUR,
+    bundled_faces, default_faces_dir, lm, parse as parse_mesh, use_package_faces, CanonicalMesh,
+    BUNDLED_FACES, INNER_LIPS, LEFT_EYE_CONTOUR, MESH_FILE, MESH_VERTICES, RIGHT_EYE_CONTOUR,
 };
 pub use photo::{
     fit_shape, lids_without_the_photos_irises, read_image, PhotoEye, PhotoFitter, PhotoIdentity,

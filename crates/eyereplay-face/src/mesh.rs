@@ -73,11 +73,38 @@ pub struct CanonicalMesh {
     pub input_source: u32,
 }
 
-/// Where the setup script puts the mesh: `$EYEREPLAY_CACHE/faces` or the
-/// nearest `.cache/faces` above the current directory or the executable.
+/// An installed package's own copy of the mesh and the bundled photos
+/// (the Python wheel's `faces/`), set once at import.
+static PACKAGE_FACES: std::sync::RwLock<Option<PathBuf>> = std::sync::RwLock::new(None);
+
+/// Makes `dir`, an installed package's copy of the mesh and the bundled
+/// photos, where they are found when `$EYEREPLAY_CACHE` does not hold
+/// them: the Python package calls it at import, so the full-face mode
+/// works from the wheel alone.
+pub fn use_package_faces(dir: PathBuf) {
+    *PACKAGE_FACES.write().unwrap_or_else(|p| p.into_inner()) = Some(dir);
+}
+
+/// Where the mesh and the bundled photos are: `$EYEREPLAY_CACHE/faces`
+/// when it holds the mesh (where the setup script puts them with that
+/// variable set); else an installed package's own ([`use_package_faces`]);
+/// else `$EYEREPLAY_CACHE/faces` when that is set (an error then names the
+/// folder the user gave); else the nearest `.cache/faces` above the
+/// current directory or the executable.
 pub fn default_faces_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("EYEREPLAY_CACHE") {
-        return PathBuf::from(d).join("faces");
+    let cache = std::env::var_os("EYEREPLAY_CACHE").map(|d| PathBuf::from(d).join("faces"));
+    if let Some(d) = cache.as_ref().filter(|d| d.join(MESH_FILE).is_file()) {
+        return d.clone();
+    }
+    if let Some(d) = PACKAGE_FACES
+        .read()
+        .unwrap_or_else(|p| p.into_inner())
+        .clone()
+    {
+        return d;
+    }
+    if let Some(d) = cache {
+        return d;
     }
     if let Some(marker) = eyereplay_core::find_upwards(&Path::new(".cache/faces").join(MESH_FILE)) {
         return marker.parent().expect("a file has a folder").to_path_buf();

@@ -598,6 +598,14 @@ fn use_package_files(models_dir: PathBuf, runtime_library: Option<PathBuf>) {
     ex::use_package_files(models_dir, runtime_library);
 }
 
+/// Makes the face mesh and photos shipped inside the installed package
+/// the full-face mode's defaults (`$EYEREPLAY_CACHE/faces` still wins
+/// where it holds them): called once at import.
+#[pyfunction]
+fn use_package_faces(faces_dir: PathBuf) {
+    eyereplay_face::use_package_faces(faces_dir);
+}
+
 /// Where caches go: `$EYEREPLAY_CACHE`, else the user's cache folder
 /// (`$XDG_CACHE_HOME/eyereplay` or `~/.cache/eyereplay`).
 #[pyfunction]
@@ -873,6 +881,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(version, m)?)?;
     m.add_function(wrap_pyfunction!(detect, m)?)?;
     m.add_function(wrap_pyfunction!(use_package_files, m)?)?;
+    m.add_function(wrap_pyfunction!(use_package_faces, m)?)?;
     m.add_function(wrap_pyfunction!(cache_dir, m)?)?;
     m.add_class::<FrameExtractor>()?;
     Ok(())

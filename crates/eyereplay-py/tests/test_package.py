@@ -56,6 +56,14 @@ def test_the_package_ships_its_models_detector_and_notices():
         assert (m / f).is_file(), f
     assert "Apache" in (m / "LICENSE-mediapipe").read_text()
     assert eyereplay.DEFAULT_DETECTOR.is_file()
+    # The full-face mode's mesh and bundled photos, with their licenses.
+    f = eyereplay.PACKAGE_FACES
+    for name in ("canonical_face_mesh.binarypb", "astronaut.png", "grace_hopper.jpg",
+                 "giunchedi.jpg", "kphotoalbum_jesper.jpg", "psychopy_face.jpg",
+                 "psychopy_face01.jpg", "NOTICE", "LICENSE-face_mesh.txt",
+                 "LICENSE-kphotoalbum.txt", "LICENSE-psychopy.txt"):
+        assert (f / name).is_file(), name
+    assert "astronaut.png" in (f / "NOTICE").read_text()
     # The shipped networks run (one inference each), from this package.
     lines = eyereplay.check_models(m)
     assert sum("runs" in l for l in lines) >= 3, lines

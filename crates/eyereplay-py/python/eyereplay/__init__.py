@@ -60,6 +60,12 @@ if PACKAGE_MODELS.is_dir():
     _native.use_package_files(
         str(PACKAGE_MODELS), str(_ORT_LIB) if _ORT_LIB.is_file() else None
     )
+#: MediaPipe's canonical face mesh (Apache-2.0) and the bundled face
+#: photos (each with its license; ``NOTICE`` beside them): the full-face
+#: mode's identities when a config names none.
+PACKAGE_FACES = _PACKAGE_DIR / "faces"
+if PACKAGE_FACES.is_dir():
+    _native.use_package_faces(str(PACKAGE_FACES))
 
 __all__ = [
     "extract",

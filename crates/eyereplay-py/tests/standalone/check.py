@@ -2,7 +2,7 @@
 folder, in a fresh venv holding only numpy and the wheel, with HOME a fresh
 folder and no EYEREPLAY_* variable): extract a video and frames in memory,
 detect with the detector shipped inside the package, and generate a tiny
-dataset of generated people. Prints the import and first-extract times and
+dataset of generated people, as close-up eyes and as whole faces. Prints the import and first-extract times and
 fails on any difference from what a checkout gives."""
 
 import json
@@ -66,6 +66,11 @@ cfg = {
 g = eyereplay.generate(cfg, here / "data", progress=False)
 assert (here / "data" / "reading" / "reading_0000.mp4").is_file()
 assert (here / "data" / "report" / "index.html").is_file()
+# Whole faces too, from the photos and mesh shipped in the package.
+faces = dict(cfg, render={"backend": "face", "width": 320, "height": 240, "jobs": 1})
+gf = eyereplay.generate(faces, here / "faces", evaluate=False, progress=False)
+assert gf["rendered"] == 2, gf
+assert (here / "faces" / "reading" / "reading_0000_head.csv").is_file()
 # Caches went to the user's cache folder, never to this folder.
 assert not (here / ".cache").exists()
 print(json.dumps({
@@ -75,4 +80,5 @@ print(json.dumps({
     "verdict": d["verdict"],
     "frames_verdict": d2["verdict"],
     "rendered": g.get("rendered"),
+    "faces_rendered": gf.get("rendered"),
 }))
