@@ -107,11 +107,8 @@ pub fn run_bench(
     let page: Vec<[f64; 2]> = traj.iter().map(|p| settings.mapping.to_page(*p)).collect();
     let (w, h) = settings.video_size();
     // Listed, so that a stop (Ctrl-C) removes it too.
-    let (dir, _listed) = eyereplay_core::inflight::guarded(|| {
-        let d = tempfile::tempdir().map_err(|e| BrowserError::io(std::env::temp_dir(), e))?;
-        let listed = eyereplay_core::inflight::InFlight::new(d.path());
-        Ok::<_, BrowserError>((d, listed))
-    })?;
+    let dir = eyereplay_core::inflight::ListedTempDir::new()
+        .map_err(|e| BrowserError::io(std::env::temp_dir(), e))?;
 
     // 1. Browser alone.
     let t = Instant::now();

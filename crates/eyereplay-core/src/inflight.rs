@@ -111,6 +111,29 @@ impl Drop for ChildInFlight {
     }
 }
 
+/// A scratch folder (removed when dropped) listed, so that a stop removes
+/// it too; made inside a [`guarded`] step, so a stop never falls between
+/// its making and its listing.
+pub struct ListedTempDir {
+    dir: tempfile::TempDir,
+    _listed: InFlight,
+}
+
+impl ListedTempDir {
+    /// A new folder in the system's temporary folder.
+    pub fn new() -> std::io::Result<ListedTempDir> {
+        guarded(|| {
+            let dir = tempfile::tempdir()?;
+            let _listed = InFlight::new(dir.path());
+            Ok(ListedTempDir { dir, _listed })
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        self.dir.path()
+    }
+}
+
 /// A temporary file or folder listed as being written, for as long as the
 /// guard lives. Dropping it takes it off the list (the writer has renamed
 /// or removed it by then).
@@ -145,7 +168,8 @@ pub fn remove_in_flight() -> Vec<PathBuf> {
     std::mem::forget(GATE.write().unwrap_or_else(|e| e.into_inner()));
     for (_, pid) in CHILDREN.lock().drain(..) {
         // SAFETY: kill and waitpid on a child of this process; the pid
-        // cannot have been reused, since nothing else reaps it.
+        // cannot have been reused: its owner takes it off the list before
+        // it reaps it, and the list is emptied here.
         unsafe {
             libc::kill(pid as libc::pid_t, libc::SIGKILL);
             libc::waitpid(pid as libc::pid_t, std::ptr::null_mut(), 0);

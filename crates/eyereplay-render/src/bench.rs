@@ -222,11 +222,8 @@ pub fn time_bench<E: From<RenderError>>(
         .into());
     }
     // Listed, so that a stop (Ctrl-C) removes it too.
-    let (dir, _listed) = eyereplay_core::inflight::guarded(|| {
-        let d = tempfile::tempdir().map_err(|e| RenderError::io(std::env::temp_dir(), e))?;
-        let listed = eyereplay_core::inflight::InFlight::new(d.path());
-        Ok::<_, RenderError>((d, listed))
-    })?;
+    let dir = eyereplay_core::inflight::ListedTempDir::new()
+        .map_err(|e| RenderError::io(std::env::temp_dir(), e))?;
     let mut keep = Keep {
         frames: vec![1u8; frames * frame_bytes],
         frame_bytes,

@@ -249,8 +249,9 @@ pub struct Encoder {
     done: bool,
     /// `tmp` listed for the binary's Ctrl-C handler to remove.
     _listed: eyereplay_core::inflight::InFlight,
-    /// FFmpeg, listed for that handler to kill first.
-    _child_listed: eyereplay_core::inflight::ChildInFlight,
+    /// FFmpeg, listed for that handler to kill first; taken off the list
+    /// before anything reaps it (a reaped pid may be another process's).
+    child_listed: Option<eyereplay_core::inflight::ChildInFlight>,
 }
 
 pub fn tmp_path_for(target: &Path) -> PathBuf {
@@ -345,7 +346,7 @@ impl Encoder {
             frame_bytes: width * height * 3 / 2,
             done: false,
             _listed: listed,
-            _child_listed: child_listed,
+            child_listed: Some(child_listed),
         })
     }
 
@@ -374,7 +375,10 @@ impl Encoder {
     fn fail_message(&mut self) -> String {
         self.stdin.take();
         let mut msg = String::new();
-        if let Some(child) = self.child.take() {
+        if let Some(child) = {
+            self.child_listed.take();
+            self.child.take()
+        } {
             if let Ok(out) = child.wait_with_output() {
                 msg = String::from_utf8_lossy(&out.stderr)
                     .lines()
@@ -394,7 +398,11 @@ impl Encoder {
 
     fn finish_unguarded(mut self) -> Result<(), RenderError> {
         self.stdin.take();
-        let child = self.child.take().expect("encoder already finished");
+        let child = {
+            self.child_listed.take();
+            self.child.take()
+        }
+        .expect("encoder already finished");
         let out = child.wait_with_output().map_err(|e| RenderError::Ffmpeg {
             path: self.target.clone(),
             message: e.to_string(),
@@ -420,7 +428,10 @@ impl Drop for Encoder {
     fn drop(&mut self) {
         if !self.done {
             self.stdin.take();
-            if let Some(mut c) = self.child.take() {
+            if let Some(mut c) = {
+                self.child_listed.take();
+                self.child.take()
+            } {
                 let _ = c.kill();
                 let _ = c.wait();
             }

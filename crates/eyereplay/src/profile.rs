@@ -161,12 +161,9 @@ pub fn profile_session(
     cache: &Path,
     progress: &dyn Progress,
 ) -> Result<SessionProfile> {
-    // Listed, so that a stop (Ctrl-C) removes the scratch dataset too.
-    let (scratch, _listed) = eyereplay_core::inflight::guarded(|| {
-        let d = tempfile::tempdir().map_err(|e| Error::io(&std::env::temp_dir(), e))?;
-        let listed = eyereplay_core::inflight::InFlight::new(d.path());
-        Ok::<_, Error>((d, listed))
-    })?;
+    // Listed, so that a stop (Ctrl-C) removes it too.
+    let scratch = eyereplay_core::inflight::ListedTempDir::new()
+        .map_err(|e| Error::io(&std::env::temp_dir(), e))?;
     let out = scratch.path();
     let prepare = measured(PREPARE, || {
         prepare_dataset(&job.config, out, cache, progress)
