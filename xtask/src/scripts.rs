@@ -142,6 +142,11 @@ pub const SCRIPTS: &[Script] = &[
         path: "scripts/dev/wheel_features.py",
         about: "Dependencies the wheel would build with other features",
     },
+    Script {
+        name: "stop-races",
+        path: "scripts/dev/stop_races.py",
+        about: "Stops evaluate and generate at random moments, counts what each stop left",
+    },
 ];
 
 /// The script task called `name`.

@@ -291,8 +291,14 @@ pub fn render_dataset(
         progress.status(&format!("{n}/{sessions} sessions"));
         progress.advance(item.trajectory.len() as u64);
         if let Err(e) = &r {
-            // A stop asked for is not the session's fault.
-            if !eyereplay_core::cancel::requested() {
+            // A stop is not the session's fault. A terminal's Ctrl-C
+            // reaches FFmpeg too, whose exit can fail the session before
+            // the stop's handler has begun: a failure (rare) waits a
+            // moment for it before it is reported.
+            std::thread::sleep(std::time::Duration::from_millis(100));
+            let stopped =
+                eyereplay_core::cancel::requested() || eyereplay_core::inflight::stopping();
+            if !stopped {
                 progress.warn(&format!("error: {}: {e}", item.job.paths.file));
             }
         }

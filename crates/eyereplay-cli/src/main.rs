@@ -108,12 +108,10 @@ fn main() -> std::process::ExitCode {
         Command::EvaluateLocalization(a) => cmd::evaluate_localization::run(a),
     };
     // A stop under way ends the process itself (status 130); what failed
-    // here may be its removal of files this run was writing.
-    if eyereplay_core::inflight::stopping() {
-        loop {
-            std::thread::park();
-        }
-    }
+    // here may be its removal of files this run was writing. Otherwise
+    // the work is over: a stop from now on changes nothing, so it is
+    // ignored and the command ends with its own status and output.
+    cmd::work_done();
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
@@ -133,7 +131,10 @@ fn main() -> std::process::ExitCode {
 /// there ends the watch with its result).
 fn remove_partial_files_when_stopped() {
     let installed = ctrlc::set_handler(|| {
-        let removed = eyereplay_core::inflight::remove_in_flight();
+        let Some(removed) = eyereplay_core::inflight::remove_in_flight() else {
+            // The work had finished: every output is in place.
+            return;
+        };
         if removed.is_empty() {
             eprintln!("stopped");
         } else {

@@ -4,6 +4,9 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
+mod common;
+use common::{one_line_error, stopped_when};
+
 fn eyereplay(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_eyereplay"))
         .args(args)
@@ -42,14 +45,6 @@ fn dry_run<'a>(cfg: &'a Path, out: &'a Path) -> [&'a str; 6] {
         out.to_str().unwrap(),
         "--dry-run",
     ]
-}
-
-fn one_line_error(o: &Output) -> String {
-    assert!(!o.status.success());
-    let e = String::from_utf8_lossy(&o.stderr).to_string();
-    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
-    assert!(e.starts_with("error: "), "{e}");
-    e
 }
 
 /// Output into a pipe nobody reads any more (`| head -1` after its line):
@@ -229,6 +224,17 @@ fn mistakes_are_refused_up_front_in_one_line() {
     );
     let e = one_line_error(&eyereplay(&["evaluate", "x", "--d-max", "2"]));
     assert!(e.contains("--d-max"), "{e}");
+    // A bench that would keep more than 4 GiB of frames (it replays them
+    // to time the encoder alone): 2^32 / (1280 * 720 * 3 / 2) = 3106.9.
+    for mode in [&["--face"][..], &[]] {
+        let mut args = vec!["render", "--bench", "--frames", "20000"];
+        args.extend_from_slice(mode);
+        let e = one_line_error(&eyereplay(&args));
+        assert!(
+            e.contains("27.6 GB") && e.contains("at most 3106 frames"),
+            "{e}"
+        );
+    }
     // A dataset, then the same folder twice to `train`.
     let cfg = d.join("ok.toml");
     std::fs::write(&cfg, format!("session_frames = 100\n{classes}")).unwrap();
@@ -395,30 +401,28 @@ fn a_stopped_render_leaves_no_unfinished_file() {
     std::fs::write(&traj, &text).unwrap();
     let done = d.join("done.csv");
     std::fs::write(&done, "kept").unwrap();
-    for (signal, name) in [(libc::SIGINT, "v.mp4"), (libc::SIGTERM, "w.mp4")] {
-        let child = Command::new(env!("CARGO_BIN_EXE_eyereplay"))
-            .args(["render", traj.to_str().unwrap(), "--out"])
-            .arg(d.join(name))
-            .args(["--size", "320x240", "--match-extractor", "false"])
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap();
-        let part = format!(".{name}.{}.part", child.id());
-        let started = std::time::Instant::now();
-        while !d.join(&part).exists() {
-            assert!(started.elapsed().as_secs() < 60, "{part} never appeared");
-            std::thread::sleep(std::time::Duration::from_millis(20));
-        }
-        // SIGINT some frames into the encoding, as a user's Ctrl-C would
-        // be; SIGTERM at once, before FFmpeg has opened its output (it
-        // would make it again after the removal, were it not stopped
-        // first).
-        if signal == libc::SIGINT {
-            std::thread::sleep(std::time::Duration::from_millis(300));
-        }
-        // SAFETY: kill(2) on our own child's pid.
-        assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
-        let o = child.wait_with_output().unwrap();
+    // SIGINT some frames into the encoding, as a user's Ctrl-C would be;
+    // SIGTERM at once, before FFmpeg has opened its output (it would make
+    // it again after the removal, were it not stopped first).
+    let stops = [(libc::SIGINT, "v.mp4", 300), (libc::SIGTERM, "w.mp4", 0)];
+    for (signal, name, after_ms) in stops {
+        let o = stopped_when(
+            &[
+                "render",
+                traj.to_str().unwrap(),
+                "--out",
+                d.join(name).to_str().unwrap(),
+                "--size",
+                "320x240",
+                "--match-extractor",
+                "false",
+            ],
+            &[],
+            d,
+            &format!(".{name}."),
+            std::time::Duration::from_millis(after_ms),
+            signal,
+        );
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(130), "{err}");
         assert!(

@@ -18,7 +18,7 @@
 //! folder the handler had just removed.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::{Mutex, RwLock};
 
 /// Entries listed for as long as their guards live: temporaries being
@@ -53,7 +53,12 @@ static CHILDREN: List<u32> = List::new();
 static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 /// Read-held by [`guarded`] steps; write-held, for good, by a stop.
 static GATE: RwLock<()> = RwLock::new(());
-static STOPPING: AtomicBool = AtomicBool::new(false);
+/// The process's state: its work running, a stop under way, or the work
+/// finished (outputs in place, the process about to exit on its own).
+static STATE: AtomicU8 = AtomicU8::new(RUNNING);
+const RUNNING: u8 = 0;
+const STOPPING: u8 = 1;
+const FINISHED: u8 = 2;
 
 /// Runs `step`, a file operation that creates a listed temporary or
 /// renames one into place, so that a stop never falls in its middle: a
@@ -85,7 +90,18 @@ pub fn guarded<R>(step: impl FnOnce() -> R) -> R {
 /// that finds its work failed should not report it (the failure may be
 /// the stop's removal of its files).
 pub fn stopping() -> bool {
-    STOPPING.load(Ordering::SeqCst)
+    STATE.load(Ordering::SeqCst) == STOPPING
+}
+
+/// Marks the command's work finished, so that a stop arriving from now on
+/// is not reported as one: every output is in place and the process is
+/// about to exit with the work's own status. Returns false if a stop began
+/// first (the caller then leaves the exit to it).
+pub fn finish() -> bool {
+    match STATE.compare_exchange(RUNNING, FINISHED, Ordering::SeqCst, Ordering::SeqCst) {
+        Ok(_) => true,
+        Err(state) => state == FINISHED,
+    }
 }
 
 /// A child process writing a listed temporary (FFmpeg encoding a video),
@@ -162,9 +178,14 @@ impl Drop for InFlight {
 /// them), then removes every listed temporary (files, and folders with
 /// their content); returns the paths removed, the most recently listed
 /// first. The process must end right after: the writers are not told,
-/// and their next guarded step never returns.
-pub fn remove_in_flight() -> Vec<PathBuf> {
-    STOPPING.store(true, Ordering::SeqCst);
+/// and their next guarded step never returns. `None`, doing nothing, once
+/// the work has [`finish`]ed: the stop came too late to stop anything.
+pub fn remove_in_flight() -> Option<Vec<PathBuf>> {
+    if let Err(FINISHED) =
+        STATE.compare_exchange(RUNNING, STOPPING, Ordering::SeqCst, Ordering::SeqCst)
+    {
+        return None;
+    }
     std::mem::forget(GATE.write().unwrap_or_else(|e| e.into_inner()));
     for (_, pid) in CHILDREN.lock().drain(..) {
         // SAFETY: kill and waitpid on a child of this process; the pid
@@ -177,7 +198,7 @@ pub fn remove_in_flight() -> Vec<PathBuf> {
     }
     let mut removed = remove_where(|_| true);
     removed.reverse();
-    removed
+    Some(removed)
 }
 
 /// [`remove_in_flight`] for the listed paths `pick` selects.
@@ -229,5 +250,22 @@ mod tests {
             .lock()
             .iter()
             .any(|(_, p)| p.starts_with(d.path())));
+    }
+
+    #[test]
+    fn a_stop_after_the_work_finished_removes_nothing() {
+        let d = tempfile::tempdir().unwrap();
+        let listed = d.path().join(".late.csv.1.tmp");
+        std::fs::write(&listed, b"x").unwrap();
+        let _writing = InFlight::new(&listed);
+        assert!(finish(), "nothing had stopped the work");
+        assert!(finish(), "finishing twice is still finished");
+        assert_eq!(remove_in_flight(), None, "a late stop stops nothing");
+        assert!(!stopping());
+        assert!(listed.exists());
+        // And the other order: a stop that began first keeps the exit.
+        STATE.store(STOPPING, Ordering::SeqCst);
+        assert!(!finish());
+        STATE.store(RUNNING, Ordering::SeqCst);
     }
 }

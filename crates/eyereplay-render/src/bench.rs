@@ -193,6 +193,21 @@ pub struct BenchShape {
 /// timing replays the drawn frames, so all of them are held at once.
 pub const MAX_KEPT_BYTES: usize = 4 << 30;
 
+/// A bench of `frames` frames of `width`x`height` keeps at most
+/// [`MAX_KEPT_BYTES`] in memory; checked again by [`time_bench`], and by
+/// the command before any setup, so that a refusal comes at once.
+pub fn check_kept_frames(frames: usize, width: usize, height: usize) -> Result<(), RenderError> {
+    let frame_bytes = width * height * 3 / 2;
+    if frames.saturating_mul(frame_bytes) > MAX_KEPT_BYTES {
+        return Err(RenderError::Params(format!(
+            "--frames {frames} at {width}x{height} would keep {:.1} GB of frames in memory (the encode-only timing replays them); at most {} frames at this size",
+            frames.saturating_mul(frame_bytes) as f64 / 1e9,
+            MAX_KEPT_BYTES / frame_bytes.max(1)
+        )));
+    }
+    Ok(())
+}
+
 /// The three measurements of a renderer's bench, in one run on the same
 /// frames: `render` draws every frame into the sink it is given (kept in
 /// memory; the copy is timed too, so render-only is slightly pessimistic),
@@ -212,15 +227,8 @@ pub fn time_bench<E: From<RenderError>>(
         height,
         fps,
     } = shape;
+    check_kept_frames(frames, width, height)?;
     let frame_bytes = width * height * 3 / 2;
-    if frames.saturating_mul(frame_bytes) > MAX_KEPT_BYTES {
-        return Err(RenderError::Params(format!(
-            "--frames {frames} at {width}x{height} would keep {:.1} GB of frames in memory (the encode-only timing replays them); at most {} frames at this size",
-            (frames * frame_bytes) as f64 / 1e9,
-            MAX_KEPT_BYTES / frame_bytes.max(1)
-        ))
-        .into());
-    }
     // Listed, so that a stop (Ctrl-C) removes it too.
     let dir = eyereplay_core::inflight::ListedTempDir::new()
         .map_err(|e| RenderError::io(std::env::temp_dir(), e))?;

@@ -63,8 +63,8 @@ mod scene;
 mod session;
 
 pub use bench::{
-    conversation_trajectory, cpu_times, reading_trajectory, run_bench, time_bench, BenchReport,
-    BenchShape,
+    check_kept_frames, conversation_trajectory, cpu_times, reading_trajectory, run_bench,
+    time_bench, BenchReport, BenchShape,
 };
 pub use blink::{closure_at, closure_track};
 pub use dataset::{list_sessions, read_dataset_info, session_seed, DatasetInfo, SessionJob};

@@ -110,6 +110,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         read_back_per_class: args.read_back,
     };
     let outcome = eyereplay::evaluate(&args.dataset_dir, &opts)?;
+    super::work_done();
     print_outcome(&outcome, args.json);
     Ok(())
 }

@@ -154,6 +154,7 @@ pub fn run(args: Args) -> Result<()> {
             eyereplay::profile::Measure::AsTheJobRuns
         };
         let p = eyereplay::profile::profile_session(&job, what, &cache, &bars)?;
+        super::work_done();
         if let Some(path) = &args.profile_json {
             eyereplay_core::write_json(path, &p)?;
         }
@@ -185,6 +186,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     let bars = super::Bars::default();
     let summary = eyereplay::generate(&job, &opts, &bars)?;
+    super::work_done();
     let r = &summary.render;
     println!(
         "rendered {} sessions ({} frames), {} already complete and skipped",

@@ -27,7 +27,9 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let opts = (!args.no_evaluate).then(eyereplay::EvaluateOptions::default);
-    if let Some(ev) = eyereplay::finalize(&args.dir, opts.as_ref())? {
+    let outcome = eyereplay::finalize(&args.dir, opts.as_ref())?;
+    super::work_done();
+    if let Some(ev) = outcome {
         super::evaluate::print_outcome(&ev, false);
     }
     println!("merged {}", args.dir.display());

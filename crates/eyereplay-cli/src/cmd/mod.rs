@@ -42,6 +42,19 @@ impl Bars {
 /// `EYEREPLAY_LOG_EVERY_S` (a whole number, at least 1) overrides it.
 pub const LOG_EVERY_S: u64 = 30;
 
+/// The command's work is done and its outputs are in place: a stop from
+/// here on changes nothing, so it is ignored and the command prints its
+/// summary and ends with its own status. If a stop began first, this
+/// waits for it to end the process (status 130), so that no summary
+/// follows its line.
+pub fn work_done() {
+    if !eyereplay_core::inflight::finish() {
+        loop {
+            std::thread::park();
+        }
+    }
+}
+
 /// A folder argument that names a file ("File exists" from the OS, after
 /// the work, said nothing of which path or why).
 pub fn check_folder_arg(dir: &std::path::Path, flag: &str) -> anyhow::Result<()> {

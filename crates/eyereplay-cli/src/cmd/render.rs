@@ -238,6 +238,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             (25..=MAX_BENCH_FRAMES).contains(&frames),
             "--frames must be between 25 and {MAX_BENCH_FRAMES} (a speed measurement), got {frames}"
         );
+        if args.replay.is_none() {
+            // At once, not after the scene's setup (the replay mode's size
+            // is its carrier's, known once the carrier is measured).
+            eyereplay_render::check_kept_frames(frames, p.width, p.height)?;
+        }
         let report = if args.face {
             face::bench(p.width, p.height, frames)?
         } else if let Some(video) = &args.replay {
