@@ -1,14 +1,14 @@
 #!/usr/bin/env python3
 """Source head against rendered head (docs/img/head_strip.jpg).
 
-    scripts/dev/head_strip.py DATASET OUT.jpg [--session FILE] [--frames 4]
+    scripts/dev/head_strip.py DATASET OUT.jpg [--from CONFIG_DIR] [--session FILE] [--frames 4]
 
 For a full-face dataset made with `head_motion = "source"`: one session's
 frames where its head turns most (spread over the session), the source
 video's frame at the same moment above (found through pool/<class>.csv's
 source and source_t_s), the rendered frame below, each labelled with the
 head yaw of `_head.csv`. Source paths in metadata.json are relative to the
-config's folder: run from there, or give them absolute in the config.
+config's folder: give it with --from (e.g. `--from examples`), or run from there.
 Needs ffmpeg and Pillow (a developer tool, not part of the pipeline).
 """
 import argparse, csv, json, os, subprocess, tempfile
@@ -19,6 +19,9 @@ ap.add_argument("dataset"); ap.add_argument("out")
 ap.add_argument("--session", help="e.g. conversation/conversation_0001.csv (default: the "
                 "session whose head yaw spans most)")
 ap.add_argument("--frames", type=int, default=4)
+ap.add_argument("--from", dest="config_dir", default=".",
+                help="the folder of the dataset's config, where its relative source paths start "
+                "(default: the current folder)")
 a = ap.parse_args()
 
 meta = json.load(open(os.path.join(a.dataset, "metadata.json")))
@@ -61,7 +64,11 @@ cols = []
 for j in picks:
     row = pool[(s["pool_start"] + j) % T]
     src = meta["sources"][int(row["source"])]
-    before = grab(src["file"], t_s=float(row["source_t_s"]))
+    video = os.path.join(a.config_dir, src["file"])
+    if not os.path.exists(video):
+        raise SystemExit(f"error: {video}: source video not found (its path is relative to the "
+                         "config's folder: give that folder with --from)")
+    before = grab(video, t_s=float(row["source_t_s"]))
     after = grab(os.path.join(a.dataset, s["file"][:-4] + ".mp4"), n=j)
     fit = lambda im: im.resize((W, int(im.height * W / im.width)), Image.LANCZOS)
     cols.append((fit(before), fit(after), j, yaw[j], os.path.basename(src["file"])))

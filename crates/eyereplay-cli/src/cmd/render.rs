@@ -53,7 +53,8 @@ pub struct Args {
     ])]
     pub dataset: Option<PathBuf>,
     /// With --dataset: sessions rendered at once, instead of the table's
-    /// `jobs` (eyes and browser backends).
+    /// `jobs` (eyes, browser and face backends; the replay backend draws
+    /// one at a time).
     #[arg(long, value_parser = clap::value_parser!(u16).range(1..=eyereplay_dataset::MAX_JOBS as i64))]
     pub jobs: Option<u16>,
     /// Print render-only, encode-only and end-to-end speed, measured in one run.
