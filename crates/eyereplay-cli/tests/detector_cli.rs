@@ -225,6 +225,48 @@ fn train_is_deterministic_and_detect_scores_a_recording_and_its_mirror_alike() {
     assert_eq!(c["verdict"], want);
 }
 
+/// `detect` without `--model` uses the model the Python package ships,
+/// built in: the same detection, field for field, as that file given
+/// with `--model`, but for the model's name.
+#[test]
+fn without_a_model_detect_uses_the_shipped_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // 30 s of a reader's staircase: lines of forward steps and a return.
+    let mut text = String::from("frame,x,y\n");
+    for i in 0..750 {
+        let (line, step) = (i / 100, (i % 100) / 8);
+        let x = 300.0 + 55.0 * step as f64;
+        let y = 250.0 + 30.0 * (line % 6) as f64;
+        text.push_str(&format!("{i},{x:.1},{y:.1}\n"));
+    }
+    let clip = d.join("reader.csv");
+    std::fs::write(&clip, text).unwrap();
+    let shipped = root().join("crates/eyereplay-py/python/eyereplay/default_detector.json");
+    let (a, b) = (d.join("built_in"), d.join("file"));
+    ok(&eyereplay(&["detect", s(&clip), "--out", s(&a)]));
+    ok(&eyereplay(&[
+        "detect",
+        s(&clip),
+        "--model",
+        s(&shipped),
+        "--out",
+        s(&b),
+    ]));
+    let read = |dir: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(dir.join("reader_detect.json")).unwrap())
+            .unwrap()
+    };
+    let (mut ja, mut jb) = (read(&a), read(&b));
+    assert_eq!(ja["model"]["path"], "built-in default model");
+    assert_eq!(jb["model"]["path"], s(&shipped));
+    assert_eq!(ja["model"]["kind"], "bagged_trees");
+    ja["model"]["path"] = serde_json::Value::Null;
+    jb["model"]["path"] = serde_json::Value::Null;
+    assert_eq!(ja, jb);
+    assert_eq!(ja["windows"].as_array().unwrap().len(), 3);
+}
+
 #[test]
 #[cfg_attr(
     not(has_sample_data),

@@ -252,9 +252,16 @@ impl DetectorModel {
                 "not a detector model (not text; 'eyereplay train' writes one as JSON)",
             ));
         };
+        Self::parse(&text, path)
+    }
+
+    /// A model from the text of its JSON file, checked as [`Self::load`]
+    /// checks a file (errors name `path`): for a model built into a
+    /// program, such as the command's default.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, DetectError> {
         // Another JSON file (a dataset's metadata.json, a detection) is
         // told apart from a damaged model by its missing `format` key.
-        if let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) {
+        if let Ok(v) = serde_json::from_str::<serde_json::Value>(text) {
             match v.get("format") {
                 Some(f) if f.as_str() == Some(MODEL_FORMAT) => {}
                 Some(f) => {
@@ -276,7 +283,7 @@ impl DetectorModel {
         }
         // serde names the line and column of a value of the wrong type, not
         // its field: the top-level numbers are named here.
-        if let Ok(serde_json::Value::Object(fields)) = serde_json::from_str(&text) {
+        if let Ok(serde_json::Value::Object(fields)) = serde_json::from_str(text) {
             for key in ["version", "window_s", "threshold"] {
                 if let Some(v) = fields.get(key).filter(|v| !v.is_number()) {
                     return Err(DetectError::file(
@@ -286,7 +293,7 @@ impl DetectorModel {
                 }
             }
         }
-        let m: DetectorModel = serde_json::from_str(&text)
+        let m: DetectorModel = serde_json::from_str(text)
             .map_err(|e| DetectError::file(path, format!("not a detector model: {e}")))?;
         if m.version != MODEL_VERSION {
             return Err(DetectError::file(

@@ -3,6 +3,15 @@ use eyereplay::detect::DetectorModel;
 use eyereplay::detector::{detect_track, detection_figure, load_track, Detection};
 use std::path::{Path, PathBuf};
 
+/// The default model, built in: the file the Python package ships as
+/// `eyereplay.DEFAULT_DETECTOR` (`cargo xtask default-detector` trains it
+/// again and puts it there).
+const BUILT_IN_MODEL: &str =
+    include_str!("../../../eyereplay-py/python/eyereplay/default_detector.json");
+
+/// How a detection's `model.path` names the built-in model.
+const BUILT_IN_MODEL_NAME: &str = "built-in default model";
+
 /// Is the person in this video reading? Per-window probabilities and a verdict.
 ///
 /// INPUT is a video (the iris is extracted first, cached), an 'eyereplay
@@ -17,16 +26,15 @@ use std::path::{Path, PathBuf};
 /// the gaze track (OUT/<name>_detect.png).
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
-eyereplay detect interview.mp4 --model out/default/detector.json\n  \
+eyereplay detect interview.mp4                 # the built-in model\n  \
 eyereplay detect iris.csv --model m.json --out results/ --json\n  \
 # a camera\n  \
-eyereplay detect --live /dev/video0 --model m.json\n  \
+eyereplay detect --live /dev/video0\n  \
 eyereplay detect --live rtsp://camera.local/stream --model m.json\n  \
 # a call played at real speed through standard input\n  \
 ffmpeg -re -i call.mp4 -f nut -c:v rawvideo -pix_fmt yuv420p - | \\\n      \
-eyereplay detect --live - --model m.json\n\n\
-The bundled default's model: scripts/run.sh trains it into\n\
-out/default/detector.json.")]
+eyereplay detect --live -\n\n\
+Your own model: 'eyereplay train DATASET --out m.json' (docs/DETECTOR.md).")]
 pub struct Args {
     /// A video, an 'eyereplay extract' CSV, or a frame,x,y session CSV.
     #[arg(required_unless_present = "live", conflicts_with = "live")]
@@ -47,9 +55,12 @@ pub struct Args {
     /// 0 waits as long as it takes.
     #[arg(long, value_name = "S", default_value_t = 30.0, requires = "live")]
     pub stall_timeout_s: f64,
-    /// A model written by 'eyereplay train'.
+    /// A model written by 'eyereplay train' (default: the built-in one,
+    /// the model the Python package ships: bagged trees on 10-s windows,
+    /// trained on 32 generated people drawn as whole faces; the model
+    /// scripts/run.sh trains into out/default/detector.json).
     #[arg(long, value_name = "MODEL")]
-    pub model: PathBuf,
+    pub model: Option<PathBuf>,
     /// Folder for the JSON and the plot (default: beside the input; with
     /// --live, none unless given).
     #[arg(long, value_name = "DIR")]
@@ -70,7 +81,13 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     // The model first: a bad one stops before any extraction.
-    let model = DetectorModel::load(&args.model)?;
+    let (model, model_path) = match &args.model {
+        Some(path) => (DetectorModel::load(path)?, path.clone()),
+        None => {
+            let name = PathBuf::from(BUILT_IN_MODEL_NAME);
+            (DetectorModel::parse(BUILT_IN_MODEL, &name)?, name)
+        }
+    };
     // And the output folder: a file there would fail only after the
     // video is read.
     if let Some(out) = &args.out {
@@ -88,7 +105,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .map_err(|e| anyhow::anyhow!("{}: --out cannot be written: {e}", out.display()))?;
     }
     if let Some(source) = &args.live {
-        return live(&args, source, &model);
+        return live(&args, source, &model, &model_path);
     }
     let input = args.input.clone().expect("clap requires it");
     let out_dir = args.out.clone().unwrap_or_else(|| {
@@ -110,9 +127,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let cache = super::cache_dir(args.cache.as_deref())?;
     let (track, info) = load_track(&input, &cache, &Bars::default())?;
     if args.bench {
-        return bench(&track, info, &model, &args.model);
+        return bench(&track, info, &model, &model_path);
     }
-    let d = detect_track(&track, info, &model, &args.model)?;
+    let d = detect_track(&track, info, &model, &model_path)?;
     let href = (d.input.kind == "video").then(|| relative_href(&input, &out_dir));
     let (text, [json_path, png_path, html_path]) =
         write_detection(&track, &d, &out_dir, &stem, href.as_deref())?;
@@ -153,7 +170,7 @@ fn write_detection(
 }
 
 /// `detect --live SOURCE`: windows as they close, then the stream's result.
-fn live(args: &Args, source: &str, model: &DetectorModel) -> anyhow::Result<()> {
+fn live(args: &Args, source: &str, model: &DetectorModel, model_path: &Path) -> anyhow::Result<()> {
     use std::io::IsTerminal;
     anyhow::ensure!(
         !source.trim().is_empty(),
@@ -163,7 +180,7 @@ fn live(args: &Args, source: &str, model: &DetectorModel) -> anyhow::Result<()> 
     anyhow::ensure!(
         src != eyereplay::live::LiveSource::Stdin || !std::io::stdin().is_terminal(),
         "--live -: standard input is a terminal; pipe a video stream into it, for example: \
-         ffmpeg -re -i call.mp4 -f nut -c:v rawvideo -pix_fmt yuv420p - | eyereplay detect --live - --model M"
+         ffmpeg -re -i call.mp4 -f nut -c:v rawvideo -pix_fmt yuv420p - | eyereplay detect --live -"
     );
     anyhow::ensure!(
         args.stall_timeout_s.is_finite() && args.stall_timeout_s >= 0.0,
@@ -186,8 +203,7 @@ fn live(args: &Args, source: &str, model: &DetectorModel) -> anyhow::Result<()> 
         header: true,
         to_stderr: args.json,
     };
-    let outcome =
-        eyereplay::live::watch(&src, model, &args.model, &args.ffmpeg, &stop, &mut table)?;
+    let outcome = eyereplay::live::watch(&src, model, model_path, &args.ffmpeg, &stop, &mut table)?;
     let ended = match outcome.end {
         eyereplay::live::LiveEnd::StreamEnded => "the stream ended",
         eyereplay::live::LiveEnd::Stopped => "stopped",
