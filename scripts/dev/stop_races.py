@@ -84,26 +84,38 @@ def wait_for(p, pattern, limit_s=120):
     return p.poll() is None
 
 
+def stop_once(argv, env, pattern, max_delay_s, rng, send):
+    """Starts argv, waits for pattern, then up to max_delay_s more, and
+    stops it with send(pid); returns (status, stderr), or None if it ended
+    before pattern appeared."""
+    p = start(argv, env)
+    if not wait_for(p, pattern):
+        p.communicate()
+        return None
+    time.sleep(rng.uniform(0, max_delay_s))
+    send(p.pid)
+    _, err = p.communicate()
+    return p.returncode, err
+
+
 def report_race(args, env, base, work, rng):
     d = os.path.join(work, "report_race")
     shutil.copytree(base, d)
     want = hashes(os.path.join(d, "report"))
     counts, bad = collections.Counter(), []
     for i in range(args.tries):
-        p = start([args.bin, "evaluate", d], env)
-        if not wait_for(p, os.path.join(d, ".report.tmp*")):
-            p.communicate()
+        stopped = stop_once([args.bin, "evaluate", d], env, os.path.join(d, ".report.tmp*"), 0.03,
+                            rng, lambda pid: os.kill(pid, signal.SIGINT))
+        if stopped is None:
             counts["ended before the window"] += 1
             continue
-        time.sleep(rng.uniform(0, 0.03))
-        os.kill(p.pid, signal.SIGINT)
-        _, err = p.communicate()
+        status, err = stopped
         lines = err.strip().splitlines()
         left = hidden(d)
         whole = hashes(os.path.join(d, "report")) == want
-        if p.returncode == 130 and len(lines) == 1 and lines[0].startswith("stopped"):
+        if status == 130 and len(lines) == 1 and lines[0].startswith("stopped"):
             outcome = "stopped (130, its one line)"
-        elif p.returncode == 0 and lines and lines[-1].startswith("metrics: "):
+        elif status == 0 and lines and lines[-1].startswith("metrics: "):
             outcome = "finished (0, the summary): the stop came after the report was in place"
         else:
             outcome = "ANOMALY"
@@ -111,7 +123,7 @@ def report_race(args, env, base, work, rng):
             outcome = "ANOMALY"
         counts[outcome] += 1
         if outcome == "ANOMALY":
-            bad.append(f"report try {i}: status {p.returncode}, left {left}, report whole {whole}, stderr {lines[-3:]}")
+            bad.append(f"report try {i}: status {status}, left {left}, report whole {whole}, stderr {lines[-3:]}")
     return counts, bad
 
 
@@ -121,18 +133,17 @@ def staged_race(args, env, base, work, rng, cfg):
     counts, bad = collections.Counter(), []
     for i in range(args.tries):
         shutil.rmtree(o, ignore_errors=True)
-        p = start([args.bin, "generate", "--config", cfg, "--out", o, "--no-evaluate"], env)
         k = rng.randint(0, 3)
-        if not wait_for(p, os.path.join(o, "*", f".staged.*_000{k}*")):
-            p.communicate()
+        stopped = stop_once([args.bin, "generate", "--config", cfg, "--out", o, "--no-evaluate"], env,
+                            os.path.join(o, "*", f".staged.*_000{k}*"), 0.04, rng,
+                            lambda pid: os.killpg(pid, signal.SIGINT))
+        if stopped is None:
             counts["ended before the window"] += 1
             continue
-        time.sleep(rng.uniform(0, 0.04))
-        os.killpg(p.pid, signal.SIGINT)
-        _, err = p.communicate()
+        status, err = stopped
         lines = [l for l in err.strip().splitlines() if not l.startswith("warning:")]
         left = hidden(o)
-        ok = p.returncode == 130 and len(lines) == 1 and lines[0].startswith("stopped") and not left
+        ok = status == 130 and len(lines) == 1 and lines[0].startswith("stopped") and not left
         r = subprocess.run([args.bin, "generate", "--config", cfg, "--out", o, "--no-evaluate"],
                            cwd=ROOT, env=env, capture_output=True, text=True)
         same = r.returncode == 0 and hashes(o) == want
@@ -141,7 +152,7 @@ def staged_race(args, env, base, work, rng, cfg):
         else:
             counts["ANOMALY"] += 1
             diff = sorted(set(hashes(o).items()) ^ set(want.items()))[:4]
-            bad.append(f"staged try {i}: status {p.returncode}, left {left}, stderr {lines[-3:]}, resume {r.returncode}, differs {diff}")
+            bad.append(f"staged try {i}: status {status}, left {left}, stderr {lines[-3:]}, resume {r.returncode}, differs {diff}")
     return counts, bad
 
 
