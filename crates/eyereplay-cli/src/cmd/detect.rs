@@ -372,6 +372,17 @@ fn relative_href(video: &Path, page_dir: &Path) -> String {
 /// The windows, segments and verdict; all on standard error when
 /// `all_to_stderr` (with --json, whose JSON is then standard output alone),
 /// else the verdict on standard output.
+/// `m:ss` (`h:mm:ss` from an hour), as a video player shows a time.
+fn clock(t_s: f64) -> String {
+    let t = t_s.max(0.0).round() as u64;
+    let (h, m, s) = (t / 3600, t / 60 % 60, t % 60);
+    if h > 0 {
+        format!("{h}:{m:02}:{s:02}")
+    } else {
+        format!("{m}:{s:02}")
+    }
+}
+
 fn print_detection(d: &Detection, all_to_stderr: bool) {
     let verdict = |line: String| {
         if all_to_stderr {
@@ -404,9 +415,22 @@ fn print_detection(d: &Detection, all_to_stderr: bool) {
             eprintln!("reading segments: none");
         }
     } else {
+        // Minutes and seconds beside the seconds where a recording is long
+        // enough for them to help (a reviewer seeks a player by its clock).
+        let long = d.windows.last().is_some_and(|w| w.end_s >= 120.0);
         let list: Vec<String> = segs
             .iter()
-            .map(|g| format!("{:.1}-{:.1} s ({:.2})", g.start_s, g.end_s, g.confidence))
+            .map(|g| {
+                let clock = if long {
+                    format!(" [{}-{}]", clock(g.start_s), clock(g.end_s))
+                } else {
+                    String::new()
+                };
+                format!(
+                    "{:.1}-{:.1} s{clock} ({:.2})",
+                    g.start_s, g.end_s, g.confidence
+                )
+            })
             .collect();
         eprintln!("reading segments (confidence): {}", list.join(", "));
     }
@@ -484,4 +508,15 @@ fn bench(
         if ratio >= 100.0 { "met" } else { "NOT met" }
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_clock_reads_as_a_player_shows_it() {
+        assert_eq!(super::clock(0.0), "0:00");
+        assert_eq!(super::clock(754.4), "12:34");
+        assert_eq!(super::clock(59.6), "1:00");
+        assert_eq!(super::clock(3725.0), "1:02:05");
+    }
 }
