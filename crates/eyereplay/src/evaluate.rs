@@ -524,9 +524,11 @@ fn read_back(
     fps: f64,
     geometry: &Path,
 ) -> Result<std::result::Result<ReadBack, NotComputed>> {
-    // When the render's geometry is at hand, a 4-s trial decides first
-    // whether the detector sees a face at all, so a close-up does not cost
-    // a full detector pass.
+    // When the render says where it drew the eyes (a close-up, a browser
+    // page), a 4-s trial decides first whether the detector sees a face at
+    // all, so a close-up does not cost a full detector pass. A face or a
+    // replay session has no such fallback (its head moves), and the trial
+    // would only read its first 4 s twice.
     let trial = (4.0 * fps).round() as usize;
     let identity = if geometry.is_file() {
         Some(SessionIdentity::read(geometry)?)
@@ -552,7 +554,10 @@ fn read_back(
     } else {
         String::new()
     };
-    let detected = if identity.is_some() && n > trial {
+    let has_fallback = identity
+        .as_ref()
+        .is_some_and(|i| i.corner_pairs_px().is_some());
+    let detected = if has_fallback && n > trial {
         match extract_with_detector(video, models, trial, fps, views) {
             Ok(r) if rows_detection_rate(&r) < 0.5 => Ok(r),
             _ => extract_with_detector(video, models, n, fps, views),
