@@ -663,7 +663,7 @@ pub fn check(settings: &mut FaceBackendSettings, resolve: &dyn Fn(&Path) -> Path
         if !p.is_file() {
             return Err(Error::input(
                 p,
-                "identity photo not found (render.identities; the bundled ones come with scripts/setup.sh)",
+                "identity photo not found: set render.identities to face photos of your own (the bundled ones come with the Python package and with an eyereplay checkout's scripts/setup.sh)",
             ));
         }
     }

@@ -58,7 +58,7 @@ pub fn carrier_track(video: &Path, cache: &Path, progress: &dyn Progress) -> Res
     if !video.is_file() {
         return Err(Error::input(
             video,
-            "carrier video not found (render.carriers; the bundled ones come with scripts/setup.sh)",
+            "carrier video not found: set render.carriers to videos of faces of your own (the sample carriers come with an eyereplay checkout's scripts/setup.sh)",
         ));
     }
     let path = ArtifactCache::new(cache).path(&track_cache_key(video)?);

@@ -18,7 +18,7 @@ pub enum ExtractError {
     #[error("{path}: no face found in any of its {frames} frames")]
     NoFace { path: PathBuf, frames: usize },
     #[error(
-        "models not found in {dir}: missing {missing}; run scripts/setup.sh (or `cargo xtask models` in a checkout). The folder is $EYEREPLAY_MODELS, else $EYEREPLAY_CACHE/models, else .cache/models up from the current folder"
+        "models not found in {dir}: missing {missing}; run scripts/setup.sh (or `cargo xtask models`) in a checkout. The folder is $EYEREPLAY_MODELS, else the Python package's own models, else $EYEREPLAY_CACHE/models, else .cache/models up from the current folder"
     )]
     ModelsMissing { dir: PathBuf, missing: String },
     #[error("{path}: no sha256 was recorded at its conversion, so it cannot be checked (made by hand or by an older scripts/models.sh); run scripts/setup.sh (or `cargo xtask models`) to convert and record it")]

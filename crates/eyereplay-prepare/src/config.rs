@@ -475,12 +475,21 @@ impl DatasetConfig {
 /// Turns a toml/serde error into one line: `line L, column C: message`,
 /// plus `(did you mean 'x'?)` for unknown keys and variants.
 pub fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
-    let msg = e.message().replace('\n', " ");
+    let msg = plain_types(&e.message().replace('\n', " "));
     let pos = e.span().map(|span| {
         let before = &text[..span.start.min(text.len())];
         let line = before.matches('\n').count() + 1;
         let col = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
-        format!("line {line}, column {col}: ")
+        // serde names the value's type, not its key: the key is on the
+        // value's line (a dict given to the Python package has no lines
+        // of its own to look at).
+        let key = msg
+            .starts_with("invalid ")
+            .then(|| key_at(text, span.start))
+            .flatten()
+            .map(|k| format!("{k}: "))
+            .unwrap_or_default();
+        format!("line {line}, column {col}: {key}")
     });
     let mut out = format!("{}{}", pos.unwrap_or_default(), msg.trim());
     if let Some(s) = suggestion(&msg) {
@@ -497,6 +506,52 @@ pub fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
             Some(key) => out.push_str(&format!(" (is '{key}' meant to be 'format'?)")),
             None => out.push_str(" (every source names its kind: format = \"video\", \"eyelink\", \"fixations\", ...)"),
         }
+    }
+    out
+}
+
+/// The dotted key whose value starts at byte `start` of `text`: the
+/// `key = ` on its line, under the nearest `[table]` header above it.
+/// `None` inside an inline table or an array, where the line's key is not
+/// the value's.
+fn key_at(text: &str, start: usize) -> Option<String> {
+    let start = start.min(text.len());
+    let line_start = text[..start].rfind('\n').map_or(0, |i| i + 1);
+    let line = text[line_start..].split('\n').next()?;
+    let (key, value) = line.split_once('=')?;
+    let key = key.trim();
+    let simple = |c: char| c.is_ascii_alphanumeric() || "_-.\"".contains(c);
+    if key.is_empty() || !key.chars().all(simple) || value.trim_start().starts_with(['{', '[']) {
+        return None;
+    }
+    let header = text[..line_start].lines().rev().find_map(|l| {
+        let l = l.trim();
+        l.strip_prefix("[[")
+            .and_then(|r| r.strip_suffix("]]"))
+            .or_else(|| l.strip_prefix('[').and_then(|r| r.strip_suffix(']')))
+    });
+    Some(match header {
+        Some(h) => format!("{}.{key}", h.trim()),
+        None => key.to_string(),
+    })
+}
+
+/// serde's Rust type names ("expected usize") in words a config's author
+/// reads.
+fn plain_types(msg: &str) -> String {
+    let mut out = msg.to_string();
+    for (rust, words) in [
+        ("usize", "a whole number, 0 or more"),
+        ("u64", "a whole number, 0 or more"),
+        ("u32", "a whole number, 0 or more"),
+        ("u16", "a whole number, 0 or more"),
+        ("u8", "a whole number, 0 or more"),
+        ("i64", "a whole number"),
+        ("i32", "a whole number"),
+        ("f64", "a number"),
+        ("f32", "a number"),
+    ] {
+        out = out.replace(&format!("expected {rust}"), &format!("expected {words}"));
     }
     out
 }
@@ -533,6 +588,22 @@ fn suggestion(msg: &str) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_value_of_the_wrong_type_names_its_key_in_words() {
+        let err = |text: &str| DatasetConfig::parse(text).unwrap_err().to_string();
+        let classes = "[classes.reading]\nsources = [{ format = \"extract\", path = \"a.csv\" }]\n";
+        let e = err(&format!("session_frames = \"50\"\n{classes}"));
+        assert!(
+            e.contains("line 1, column 18: session_frames: invalid type: string \"50\", expected a whole number, 0 or more"),
+            "{e}"
+        );
+        let e = err(&format!("{classes}[smoothing]\nsigma_s = \"x\"\n"));
+        assert!(
+            e.contains("smoothing.sigma_s: invalid type: string \"x\", expected a number"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn paper_defaults() {

@@ -44,7 +44,7 @@ create_exception!(
     eyereplay,
     ModelError,
     EyereplayError,
-    "The face/iris models or the ONNX Runtime library are missing or do not match their pinned sha256 (run scripts/setup.sh or scripts/models.sh in an eyereplay checkout), or a detector model file is missing or not one this eyereplay reads."
+    "The face/iris models or the ONNX Runtime library are missing or do not match their pinned sha256 (the package ships them; $EYEREPLAY_MODELS or $EYEREPLAY_ORT_LIB may name others), or a detector model file is missing or not one this eyereplay reads."
 );
 create_exception!(
     eyereplay,

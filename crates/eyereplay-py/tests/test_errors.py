@@ -266,6 +266,11 @@ def test_frames_out_of_range_are_named_not_empty_or_shifted(tmp_path):
     with pytest.raises(eyereplay.VideoError, match="frame 99999 is past its last frame"):
         decode_frames(video, 99999, 2)
     assert decode_frames(video, 0, 0).shape[0] == 0
+    # A count that runs past the end (frames 4795-4799 are the last five)
+    # is named, not cut short: a batch would change shape downstream.
+    assert decode_frames(video, 4795, 5).shape[0] == 5
+    with pytest.raises(eyereplay.VideoError, match="ends 5 frames later"):
+        decode_frames(video, 4795, 20)
 
 
 def test_read_csv_of_a_binary_file_names_it_and_a_bom_is_no_column(tmp_path):
@@ -296,3 +301,98 @@ def test_cuda_asked_for_and_not_used_is_said():
     # the script is told, as the command tells its user on stderr.
     with pytest.warns(eyereplay.EyereplayWarning, match="CUDA not used"):
         eyereplay.extract(DATA / "franck.mp4", device="cuda", max_seconds=1, progress=False)
+
+
+def _cut_video(tmp_path):
+    """An 8-s clip of franck.mp4 cut off half-way through its bytes."""
+    import subprocess
+
+    whole = tmp_path / "whole.mp4"
+    subprocess.run(
+        ["ffmpeg", "-v", "error", "-i", str(DATA / "franck.mp4"), "-t", "8", "-c", "copy",
+         "-movflags", "+faststart", str(whole)],
+        check=True,
+    )
+    cut = tmp_path / "cut.mp4"
+    cut.write_bytes(whole.read_bytes()[: whole.stat().st_size // 2])
+    return cut
+
+
+def test_a_cut_off_video_warns_without_a_bar_and_from_the_cache(tmp_path):
+    # Found by a user's-eye audit (30 Nov 2026): with progress=False the
+    # warning was dropped, and a second call, its extraction cached, said
+    # nothing; prepare's summary listed none.
+    cut = _cut_video(tmp_path)
+    said_of = lambda ws: [str(w.message) for w in ws if "the frames end at" in str(w.message)]
+    for call in ("extracted", "cached"):
+        with pytest.warns(eyereplay.EyereplayWarning) as said:
+            eyereplay.detect(cut, progress=False, cache=tmp_path / "cache")
+        assert said_of(said) and "cut.mp4" in said_of(said)[0], (call, [str(w.message) for w in said])
+    cfg = small_config()
+    cfg["classes"]["conversation"]["sources"] = [{"format": "video", "path": str(cut)}]
+    with pytest.warns(eyereplay.EyereplayWarning):
+        summary = eyereplay.prepare(cfg, None, progress=False)
+    assert any("the frames end at" in w for w in summary["warnings"]), summary["warnings"]
+
+
+def test_frames_and_the_video_they_came_from_get_one_answer(tmp_path):
+    import subprocess
+
+    from eyereplay.dataset import decode_frames
+
+    # Lossless RGB, so that the frames in memory are the video's pixels.
+    clip = tmp_path / "clip.mkv"
+    subprocess.run(
+        ["ffmpeg", "-v", "error", "-i", str(DATA / "franck.mp4"), "-t", "12", "-c:v",
+         "libx264rgb", "-qp", "0", "-pix_fmt", "rgb24", str(clip)],
+        check=True,
+    )
+    frames = decode_frames(clip)
+    from_video = eyereplay.detect(clip, progress=False, cache=tmp_path / "cache")
+    from_frames = eyereplay.detect(frames, fps=25, progress=False)
+    assert from_frames["input"]["kind"] == "frames"
+    assert from_frames["reading_probability"] == from_video["reading_probability"]
+    assert list(from_frames["windows"]["reading_probability"]) == list(
+        from_video["windows"]["reading_probability"]
+    )
+
+
+def test_frames_refuse_what_does_not_apply_and_a_faceless_clip(tmp_path):
+    import numpy as np
+
+    f = np.zeros((5, 90, 160, 3), dtype=np.uint8)
+    with pytest.raises(eyereplay.VideoError, match="no face found in any of their 5 frames"):
+        eyereplay.extract(f, fps=25, progress=False)
+    (tmp_path / "d").mkdir()
+    for kw, want in [
+        (dict(max_seconds=1), "max_seconds applies to a video file"),
+        (dict(threads=2), "threads applies to video files"),
+        (dict(threads="x"), "threads 'x'"),
+        (dict(out=tmp_path / "d"), "name it with .csv"),
+        (dict(out=tmp_path / "f.txt"), "name it with .csv"),
+    ]:
+        with pytest.raises(eyereplay.ConfigError, match=want):
+            eyereplay.extract(f, fps=25, progress=False, **kw)
+
+
+def test_a_config_dict_takes_numpy_numbers_and_names_bad_values(tmp_path):
+    import numpy as np
+
+    cfg = small_config()
+    plain = eyereplay.prepare(cfg, None, progress=False)
+    cfg["seed"] = np.int64(7)
+    cfg["smoothing"]["sigma_s"] = np.float32(0.2).item()
+    assert eyereplay.prepare(cfg, None, progress=False)["classes"] == plain["classes"]
+    cfg = small_config()
+    cfg["smoothing"]["sigma_s"] = float("nan")
+    with pytest.raises(eyereplay.ConfigError, match=r"smoothing\.sigma_s: nan is not a finite number"):
+        eyereplay.prepare(cfg, None, progress=False)
+    cfg = small_config()
+    cfg["session_frames"] = "50"
+    with pytest.raises(eyereplay.ConfigError) as e:
+        eyereplay.prepare(cfg, None, progress=False)
+    assert "session_frames: invalid type" in str(e.value) and "a whole number" in str(e.value)
+    with pytest.raises(TypeError, match="dataset_dir: expected a folder path"):
+        eyereplay.load_dataset([tmp_path])
+    with pytest.raises(TypeError, match="video_or_frames: expected one path"):
+        eyereplay.detect([tmp_path / "a.mp4"])

@@ -148,6 +148,13 @@ pub fn extract_cached_with(
         let csv = extraction_cache_path_for(v, model, cache)?;
         if csv.is_file() {
             tracing::info!("{}: extraction cached as {}", v.display(), csv.display());
+            // What the extraction said of the video (cut short, small
+            // eyes) is said again: the video has not changed.
+            if let Ok(text) = std::fs::read_to_string(warnings_path(&csv)) {
+                for w in text.lines().filter(|l| !l.is_empty()) {
+                    progress.warn(&format!("warning: {}: {w}", v.display()));
+                }
+            }
         } else if !todo.iter().any(|(_, c)| *c == csv) {
             todo.push((v.clone(), csv.clone()));
         }
@@ -170,8 +177,13 @@ pub fn extract_cached_with(
     progress.end(Stage::Extract);
     for ((video, csv), r) in todo.iter().zip(results) {
         let ex = r?;
+        // Kept beside the rows, before them (rows in the cache mean their
+        // warnings are too), for later cache hits to say again.
+        if !ex.warnings.is_empty() {
+            let text: String = ex.warnings.iter().map(|w| format!("{w}\n")).collect();
+            eyereplay_core::atomic_write(&warnings_path(csv), text.as_bytes())?;
+        }
         eyereplay_extract::save_csv(csv, &ex.rows)?;
-        // Said when the extraction runs, not on later cache hits.
         for w in &ex.warnings {
             progress.warn(&format!("warning: {}: {w}", video.display()));
         }
@@ -185,6 +197,13 @@ pub fn extract_cached_with(
         ));
     }
     Ok(csvs)
+}
+
+/// The cached extraction `csv`'s warnings, one a line (absent: none).
+fn warnings_path(csv: &Path) -> PathBuf {
+    let mut name = csv.as_os_str().to_owned();
+    name.push(".warnings");
+    PathBuf::from(name)
 }
 
 /// Fails with the command that fetches the models when they are missing.

@@ -158,13 +158,58 @@ pub fn prepare_only(
     cache: &Path,
     progress: &dyn Progress,
 ) -> Result<Prepared> {
-    let extracted = extract_videos_cached(config, cache, progress)?;
+    let watched = KeepWarnings {
+        inner: progress,
+        kept: Default::default(),
+    };
+    let extracted = extract_videos_cached(config, cache, &watched)?;
     let inputs = eyereplay_prepare::load_sources(config, |v, l| extracted.csv_of(v, l))?;
-    let prepared = eyereplay_prepare::prepare(config, &inputs)?;
+    let mut prepared = eyereplay_prepare::prepare(config, &inputs)?;
     for w in &prepared.warnings {
         progress.warn(&format!("warning: {w}"));
     }
+    // The extraction's warnings (a video cut short) were shown as they
+    // came; the summary lists them too, for whoever reads it instead.
+    let kept = watched.kept.into_inner().unwrap_or_else(|e| e.into_inner());
+    prepared.warnings.extend(
+        kept.into_iter()
+            .map(|w| w.strip_prefix("warning: ").map(str::to_string).unwrap_or(w)),
+    );
     Ok(prepared)
+}
+
+/// Passes every event on to `inner`, keeping a copy of each warning.
+struct KeepWarnings<'a> {
+    inner: &'a dyn Progress,
+    kept: std::sync::Mutex<Vec<String>>,
+}
+
+impl Progress for KeepWarnings<'_> {
+    fn begin(&self, stage: Stage, total: u64) {
+        self.inner.begin(stage, total);
+    }
+    fn add_total(&self, units: u64) {
+        self.inner.add_total(units);
+    }
+    fn advance(&self, units: u64) {
+        self.inner.advance(units);
+    }
+    fn status(&self, text: &str) {
+        self.inner.status(text);
+    }
+    fn end(&self, stage: Stage) {
+        self.inner.end(stage);
+    }
+    fn info(&self, line: &str) {
+        self.inner.info(line);
+    }
+    fn warn(&self, line: &str) {
+        self.kept
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(line.to_string());
+        self.inner.warn(line);
+    }
 }
 
 /// Session CSVs left by an earlier run with more sessions would be mistaken

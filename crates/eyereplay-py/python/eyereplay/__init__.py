@@ -91,6 +91,10 @@ __all__ = [
     "ModelError",
     "DatasetError",
     "EyereplayWarning",
+    "EXTRACT_COLUMNS",
+    "DEFAULT_DETECTOR",
+    "PACKAGE_FACES",
+    "PACKAGE_MODELS",
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -114,8 +118,11 @@ def _config_args(config: _Config, base_dir: Optional[PathLike]) -> Tuple[Any, An
             )
         return str(found), None, "", None
     if isinstance(config, Mapping):
+        bad = _bad_number(config)
+        if bad is not None:
+            raise ConfigError(f"{_DICT_LABEL}: {bad[0]}: {bad[1]!r} is not a finite number")
         try:
-            text = json.dumps(config, default=os.fspath)
+            text = json.dumps(config, default=_json_value, allow_nan=False)
         except TypeError as e:
             raise ConfigError(f"{_DICT_LABEL}: {e}") from None
         toml = _native.json_to_toml(_DICT_LABEL, text)
@@ -125,6 +132,39 @@ def _config_args(config: _Config, base_dir: Optional[PathLike]) -> Tuple[Any, An
     raise ConfigError(
         f"config must be a TOML path or a dict, not {type(config).__name__}"
     )
+
+
+def _json_value(v: Any) -> Any:
+    """What json cannot write itself: paths, and numpy's scalars and
+    arrays (``np.int64(3)``, everywhere in ML code), as their Python values."""
+    if isinstance(v, os.PathLike):
+        return os.fspath(v)
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    raise TypeError(f"a {type(v).__name__} ({v!r:.40}) is not a config value "
+                    "(strings, numbers, booleans, lists and dicts are)")
+
+
+def _bad_number(d: Any, path: str = "") -> Optional[Tuple[str, Any]]:
+    """The dotted key and value of the first NaN or infinite number in a
+    config dict (JSON, and so TOML, has no such numbers)."""
+    items = d.items() if isinstance(d, Mapping) else enumerate(d) if isinstance(d, (list, tuple)) else ()
+    for k, v in items:
+        key = f"{path}[{k}]" if isinstance(k, int) else f"{path}.{k}" if path else str(k)
+        if isinstance(v, (float, np.floating)) and not np.isfinite(v):
+            return key, v
+        found = _bad_number(v, key)
+        if found is not None:
+            return found
+    return None
+
+
+def _check_whole_numbers(**values: Any) -> None:
+    for name, value in values.items():
+        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+            raise ConfigError(f"{name} {value!r}: expected a whole number, 0 or more")
 
 
 def _opt_path(p: Optional[PathLike]) -> Optional[str]:
@@ -186,7 +226,18 @@ def extract(
     Raises :class:`VideoError` for an unreadable video or one with no face,
     :class:`ModelError` when the models are missing (see :func:`check_models`).
     """
+    _check_whole_numbers(threads=threads, iris_views=iris_views)
     if isinstance(video, np.ndarray) or hasattr(video, "__array_interface__"):
+        # Options of a video file, which frames in memory do not have:
+        # refused rather than ignored.
+        if max_seconds is not None:
+            raise ConfigError("max_seconds applies to a video file; slice the frames instead")
+        if threads != 0:
+            raise ConfigError("threads applies to video files (one worker per video segment); "
+                              "frames in memory are read in order by one")
+        if out is not None and (Path(out).is_dir() or Path(out).suffix.lower() != ".csv"):
+            raise ConfigError(f"out: {os.fspath(out)}: frames in memory are written to one "
+                              "CSV file; name it with .csv")
         t = _extract_frames(
             np.asarray(video),
             fps=fps,
@@ -199,11 +250,15 @@ def extract(
             landmarks=landmarks,
             progress=progress,
         )
+        table = t["table"]
+        # As a video with no face is refused: rows that are all NaN would
+        # otherwise look like an answer.
+        if not np.any(table["face"] == 1):
+            raise VideoError(f"frames: no face found in any of their {len(table)} frames")
         if out is not None:
             Path(out).write_text(t.pop("csv_text"))
         else:
             t.pop("csv_text")
-        table = t["table"]
         return to_pandas(table) if pandas else table
     if isinstance(video, (list, tuple)):
         raise TypeError(
@@ -292,7 +347,9 @@ def detect(
     a video, an ``eyereplay extract`` CSV, a session CSV, or frames in
     memory as for :func:`extract` (with ``fps`` or ``timestamps``).
     ``model`` is a detector file from ``eyereplay train``; by default the
-    detector shipped in this package (:data:`DEFAULT_DETECTOR`).
+    detector shipped in this package (:data:`DEFAULT_DETECTOR`). Frames are
+    read with the detector's own extractor (the cascade), as a video file
+    is, so the frames of a video get the video's answer.
 
     Returns a dict: ``verdict`` (``"reading"`` or ``"not reading"``; for a
     clip shorter than one window, ``"uncertain"`` when its interval holds
@@ -319,7 +376,11 @@ def detect(
     if isinstance(video_or_frames, np.ndarray) or hasattr(video_or_frames, "__array_interface__"):
         with tempfile.TemporaryDirectory(prefix="eyereplay-detect-") as tmp:
             csv = Path(tmp) / "frames.csv"
-            extract(video_or_frames, fps=fps, timestamps=timestamps, out=csv, progress=progress)
+            # The detector's extractor, as for a video file (the cascade:
+            # what it was trained and measured on), so that frames and the
+            # video they came from get the same answer.
+            extract(video_or_frames, fps=fps, timestamps=timestamps, out=csv, landmarks="cascade",
+                    progress=progress)
             try:
                 d = json.loads(_native.detect(str(csv), str(model_path), cache=_opt_path(cache)))
             except EyereplayError as e:
@@ -328,7 +389,13 @@ def detect(
                 cls = VideoError if type(e) is SourceError else type(e)
                 raise cls(str(e).replace(str(csv), "frames")) from None
             d["input"]["path"] = "<frames>"
+            d["input"]["kind"] = "frames"
     else:
+        if not isinstance(video_or_frames, (str, os.PathLike)):
+            raise TypeError(
+                "video_or_frames: expected one path or a numpy uint8 array (T, H, W, 3), "
+                f"got a {type(video_or_frames).__name__}"
+            )
         if fps is not None or timestamps is not None:
             raise ConfigError("fps and timestamps apply to frames in memory, not to a file")
         d = json.loads(
@@ -382,9 +449,7 @@ def extract_many(
     videos = [os.fspath(v) for v in videos]
     if not videos:
         raise ConfigError("no videos given")
-    for name, value in (("threads", threads), ("iris_views", iris_views)):
-        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-            raise ConfigError(f"{name} {value!r}: expected a whole number, 0 or more")
+    _check_whole_numbers(threads=threads, iris_views=iris_views)
     results = _native.extract(
         videos,
         out=_opt_path(out),
@@ -479,8 +544,9 @@ def generate(
     and evaluates the dataset. Rerun after an interruption: finished
     sessions are verified and skipped.
 
-    ``config=None`` uses the bundled default sample (``examples/default.toml``
-    of a checkout above the current folder). ``shard`` is ``"K/N"`` or
+    ``config=None`` uses the bundled default sample, ``examples/default.toml``
+    of an eyereplay checkout above the current folder (its sources come with
+    the checkout; from the package alone, give a config). ``shard`` is ``"K/N"`` or
     ``(K, N)``; finish a sharded dataset with :func:`merge`. Returns the
     sessions rendered/skipped, frames, the report path and seconds per stage.
     """
@@ -521,8 +587,9 @@ def evaluate(
 ) -> Dict[str, Any]:
     """Measures a dataset's fidelity (``eyereplay evaluate``) and writes
     ``report/index.html`` and ``report/metrics.json``; returns the metrics
-    as a dict (the same document as metrics.json), with the report's path
-    under the key ``"report_html"``.
+    as a dict (the same document as metrics.json, so it stays one
+    ``json.dump`` can write), with the report's path as a ``str`` under the
+    key ``"report_html"``.
 
     ``visual=False`` skips the visual-fidelity section; ``visual_session``
     picks the session whose video is read back; ``video`` with
@@ -543,10 +610,10 @@ def evaluate(
 
 
 def check_models(dir: Optional[PathLike] = None) -> List[str]:
-    """Verifies the models folder (sha256, one inference per model). The
-    models are fetched and converted by a checkout's ``scripts/setup.sh``
-    (``scripts/models.sh DIR``), into ``$EYEREPLAY_MODELS`` or
-    :func:`default_models_dir`."""
+    """Verifies the models folder (sha256, one inference per model):
+    ``dir``, else :func:`default_models_dir` (the models shipped in this
+    package, unless ``$EYEREPLAY_MODELS`` names another folder; a checkout
+    makes its own with ``scripts/setup.sh``)."""
     return _native.check_models(_opt_path(dir))
 
 

@@ -130,14 +130,17 @@ class _Partial:
 
 
 def resolve(progress):
-    """``True`` -> a :class:`ProgressBar`, ``False``/``None`` -> nothing,
+    """``True`` -> a :class:`ProgressBar`, ``False``/``None`` -> no bar
+(warnings still become :class:`EyereplayWarning`),
     an object with some of the methods above -> that object (the missing
     methods do nothing); anything else is a ``TypeError``, before any work
     starts."""
     if progress is True:
         return ProgressBar()
     if progress is False or progress is None:
-        return None
+        # No bar, but warnings still become EyereplayWarning: a script
+        # that turns the bar off must still hear that a video was cut off.
+        return _Partial(None, [])
     have = [m for m in _METHODS if callable(getattr(progress, m, None))]
     if not have:
         raise TypeError(

@@ -73,7 +73,9 @@ class Session:
     def frames(self, start: int = 0, count: Optional[int] = None) -> np.ndarray:
         """Decoded RGB frames ``[start, start + count)`` of the video as a
         ``uint8`` array of shape ``(count, height, width, 3)``, read with
-        the ffmpeg program (exact frame seek)."""
+        the ffmpeg program (exact frame seek); ``count`` defaults to the
+        rest of the video, and one that runs past its end is a
+        :class:`VideoError`."""
         if self.video is None:
             raise VideoError(f"{self.video_path}: not rendered (run eyereplay.generate)")
         return decode_frames(self.video_path, start, count)
@@ -187,6 +189,8 @@ def load_dataset(dataset_dir: Union[str, "os.PathLike[str]"]) -> Dataset:
     """Reads ``labels.csv`` and ``metadata.json`` (checking the format
     version, as every eyereplay reader does); trajectories, truth and
     frames are read when used."""
+    if not isinstance(dataset_dir, (str, os.PathLike)):
+        raise TypeError(f"dataset_dir: expected a folder path, got a {type(dataset_dir).__name__}")
     root = Path(dataset_dir)
     meta_text, rows = _native.dataset_index(os.fspath(root))
     sessions = [
@@ -208,8 +212,8 @@ def load_dataset(dataset_dir: Union[str, "os.PathLike[str]"]) -> Dataset:
 def decode_frames(video: Path, start: int = 0, count: Optional[int] = None) -> np.ndarray:
     """RGB frames of any video via the ffmpeg program: ``uint8 (n, h, w, 3)``.
     ``start`` and ``count`` are whole numbers, 0 or more; a ``start`` at or
-    past the last frame is a :class:`VideoError` (an empty array would pass
-    for a short read)."""
+    past the last frame, or a ``count`` that runs past it, is a
+    :class:`VideoError` (a shorter array would pass for a short read)."""
     for name, value in (("start", start), ("count", count)):
         if value is None and name == "count":
             continue
@@ -235,6 +239,12 @@ def decode_frames(video: Path, start: int = 0, count: Optional[int] = None) -> n
     n = len(r.stdout) // (w * h * 3)
     if n == 0 and start > 0 and count != 0:
         raise VideoError(f"{video}: frame {start} is past its last frame")
+    # Fewer frames than asked for would change a batch's shape downstream.
+    if count is not None and n < count:
+        raise VideoError(
+            f"{video}: {count} frames asked from frame {start}, but the video ends "
+            f"{n} frames later (at frame {start + n})"
+        )
     return np.frombuffer(r.stdout, dtype=np.uint8)[: n * w * h * 3].reshape(n, h, w, 3)
 
 
