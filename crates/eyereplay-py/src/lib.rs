@@ -114,6 +114,19 @@ fn py_err(e: Error) -> PyErr {
     raise(kind_of(&e), e.to_string())
 }
 
+/// Errors of a call on a dataset folder (`evaluate`, `merge`): a file
+/// that is missing or wrong there, or the folder itself, is the dataset's
+/// fault ([`DatasetError`]), a video
+/// named by the caller (`evaluate(video=...)`) the video's.
+fn dataset_err(e: Error, video: Option<&Path>) -> PyErr {
+    let kind = match (kind_of(&e), &e) {
+        (Kind::Other, Error::Input { path, .. }) if Some(path.as_path()) == video => Kind::Video,
+        (Kind::Other, Error::Input { .. } | Error::Core(_)) => Kind::Dataset,
+        (kind, _) => kind,
+    };
+    raise(kind, e.to_string())
+}
+
 /// Errors while checking a job's config: a bad `[render]` table or a
 /// setting the renderer refuses is the config's fault, whatever layer
 /// noticed it.
@@ -728,7 +741,17 @@ fn generate<'py>(
     };
     let progress = PyProgress(progress);
     let summary =
-        interruptible(py, || eyereplay::generate(&job, &opts, &progress))?.map_err(py_err)?;
+        interruptible(py, || eyereplay::generate(&job, &opts, &progress))?.map_err(|e| {
+            // The output folder that cannot be made or written is the
+            // dataset's; a source's fault keeps its own class.
+            match e {
+                Error::Input { ref path, .. } if path == &out => {
+                    raise(Kind::Dataset, e.to_string())
+                }
+                Error::Core(_) => raise(Kind::Dataset, e.to_string()),
+                e => py_err(e),
+            }
+        })?;
     let d = PyDict::new(py);
     d.set_item("out", &out)?;
     d.set_item("rendered", summary.render.rendered)?;
@@ -760,6 +783,7 @@ fn evaluate<'py>(
     visual_seconds: f64,
     models: Option<PathBuf>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let named_video = video.clone();
     let visual = match (visual, video, trajectory, visual_session) {
         (false, ..) => VisualChoice::Skip,
         (_, Some(video), Some(trajectory), _) => VisualChoice::Video { video, trajectory },
@@ -777,8 +801,8 @@ fn evaluate<'py>(
         models,
         ..EvaluateOptions::default()
     };
-    let outcome =
-        interruptible(py, || eyereplay::evaluate(&dataset_dir, &opts))?.map_err(py_err)?;
+    let outcome = interruptible(py, || eyereplay::evaluate(&dataset_dir, &opts))?
+        .map_err(|e| dataset_err(e, named_video.as_deref()))?;
     let d = PyDict::new(py);
     d.set_item("metrics_json", &outcome.metrics_json)?;
     d.set_item("metrics_path", &outcome.metrics_path)?;
@@ -791,8 +815,8 @@ fn evaluate<'py>(
 #[pyo3(signature = (dataset_dir, evaluate=true))]
 fn merge(py: Python<'_>, dataset_dir: PathBuf, evaluate: bool) -> PyResult<Option<PathBuf>> {
     let opts = evaluate.then(EvaluateOptions::default);
-    let outcome =
-        interruptible(py, || eyereplay::finalize(&dataset_dir, opts.as_ref()))?.map_err(py_err)?;
+    let outcome = interruptible(py, || eyereplay::finalize(&dataset_dir, opts.as_ref()))?
+        .map_err(|e| dataset_err(e, None))?;
     Ok(outcome.map(|o| o.html))
 }
 

@@ -396,3 +396,11 @@ def test_a_config_dict_takes_numpy_numbers_and_names_bad_values(tmp_path):
         eyereplay.load_dataset([tmp_path])
     with pytest.raises(TypeError, match="video_or_frames: expected one path"):
         eyereplay.detect([tmp_path / "a.mp4"])
+
+
+def test_an_output_folder_that_cannot_be_made_is_a_dataset_error(tmp_path):
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(eyereplay.DatasetError, match="afile"):
+        eyereplay.generate(small_config(), tmp_path / "afile" / "sub", progress=False)
+    with pytest.raises(eyereplay.DatasetError):
+        eyereplay.merge(tmp_path / "afile")

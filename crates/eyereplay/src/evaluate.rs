@@ -86,7 +86,7 @@ pub fn evaluate(dir: &Path, opts: &EvaluateOptions) -> Result<EvaluateOutcome> {
     let memo = ReadBackMemo::default();
     ev.visual = match &opts.visual {
         VisualChoice::Skip => VisualSection::NotComputed {
-            reason: "not computed: skipped with --no-visual".into(),
+            reason: "not computed: skipped (--no-visual, or visual=False in Python)".into(),
         },
         choice => visual_section(dir, choice, opts, &mut ev, &memo)?,
     };
@@ -141,7 +141,10 @@ fn check_options(o: &EvaluateOptions) -> Result<()> {
         return bad("--window-s must be positive".into());
     }
     if o.visual_seconds.is_nan() || o.visual_seconds <= 0.0 {
-        return bad("--visual-seconds must be positive".into());
+        return bad(
+            "the visual section's seconds (--visual-seconds, visual_seconds=) must be positive"
+                .into(),
+        );
     }
     Ok(())
 }
