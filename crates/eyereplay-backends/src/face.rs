@@ -465,6 +465,7 @@ fn render_matched_to_readback(
             first.drawn.len(),
             p.fps / every as f64,
             iris_views,
+            &eyereplay_extract::NoProgress,
         )
     }) {
         Ok(rows) => rows,

@@ -6,7 +6,7 @@
 
 use crate::{
     extract_many, order_eye_corners, CornerReference, ExtractError, ExtractOptions, EyeCropTracker,
-    Models, NoProgress, Pt, Result, Row, DEFAULT_BLINK_RATIO,
+    Models, Pt, Result, Row, DEFAULT_BLINK_RATIO,
 };
 use std::path::Path;
 
@@ -46,6 +46,7 @@ pub fn extract_with_detector(
     n_max: usize,
     fps: f64,
     iris_views: usize,
+    progress: &dyn crate::Progress,
 ) -> Result<Vec<Row>> {
     let opts = ExtractOptions {
         models_dir: models.to_path_buf(),
@@ -53,7 +54,7 @@ pub fn extract_with_detector(
         max_duration_s: Some(n_max as f64 / fps),
         ..Default::default()
     };
-    let ext = extract_many(&[video.to_path_buf()], &opts, &NoProgress)
+    let ext = extract_many(&[video.to_path_buf()], &opts, progress)
         .pop()
         .expect("one result per video")
         .map_err(|e| ExtractError::ReadBack {

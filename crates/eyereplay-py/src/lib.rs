@@ -771,7 +771,7 @@ fn generate<'py>(
 /// text and where the report and metrics were written.
 #[pyfunction]
 #[pyo3(signature = (dataset_dir, visual=true, visual_session=None, video=None, trajectory=None,
-    visual_seconds=120.0, models=None))]
+    visual_seconds=120.0, models=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn evaluate<'py>(
     py: Python<'py>,
@@ -782,7 +782,9 @@ fn evaluate<'py>(
     trajectory: Option<PathBuf>,
     visual_seconds: f64,
     models: Option<PathBuf>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let progress = PyProgress(progress);
     let named_video = video.clone();
     let visual = match (visual, video, trajectory, visual_session) {
         (false, ..) => VisualChoice::Skip,
@@ -801,8 +803,10 @@ fn evaluate<'py>(
         models,
         ..EvaluateOptions::default()
     };
-    let outcome = interruptible(py, || eyereplay::evaluate(&dataset_dir, &opts))?
-        .map_err(|e| dataset_err(e, named_video.as_deref()))?;
+    let outcome = interruptible(py, || {
+        eyereplay::evaluate_with_progress(&dataset_dir, &opts, &progress)
+    })?
+    .map_err(|e| dataset_err(e, named_video.as_deref()))?;
     let d = PyDict::new(py);
     d.set_item("metrics_json", &outcome.metrics_json)?;
     d.set_item("metrics_path", &outcome.metrics_path)?;
@@ -812,11 +816,19 @@ fn evaluate<'py>(
 
 /// Finishes a sharded dataset once every shard is rendered (`eyereplay merge`).
 #[pyfunction]
-#[pyo3(signature = (dataset_dir, evaluate=true))]
-fn merge(py: Python<'_>, dataset_dir: PathBuf, evaluate: bool) -> PyResult<Option<PathBuf>> {
+#[pyo3(signature = (dataset_dir, evaluate=true, progress=None))]
+fn merge(
+    py: Python<'_>,
+    dataset_dir: PathBuf,
+    evaluate: bool,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Option<PathBuf>> {
+    let progress = PyProgress(progress);
     let opts = evaluate.then(EvaluateOptions::default);
-    let outcome = interruptible(py, || eyereplay::finalize(&dataset_dir, opts.as_ref()))?
-        .map_err(|e| dataset_err(e, None))?;
+    let outcome = interruptible(py, || {
+        eyereplay::finalize_with_progress(&dataset_dir, opts.as_ref(), &progress)
+    })?
+    .map_err(|e| dataset_err(e, None))?;
     Ok(outcome.map(|o| o.html))
 }
 

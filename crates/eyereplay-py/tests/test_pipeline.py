@@ -135,7 +135,13 @@ def test_gil_is_released_during_work(datasets):
 
 def test_evaluate_returns_metrics_json(datasets):
     py = datasets["py"]
-    m = eyereplay.evaluate(py, visual=False)
+    rec = Recorder()
+    m = eyereplay.evaluate(py, visual=False, progress=rec)
+    # The read-backs of the videos (one session per class) are shown as an
+    # extraction: begun, frames advanced, ended.
+    names = [e[:2] for e in rec.events]
+    assert ("begin", "extract") in names and ("end", "extract") in names, names
+    assert sum(e[1] for e in rec.events if e[0] == "advance") >= 2 * 100
     html = m.pop("report_html")
     assert Path(html).name == "index.html"
     on_disk = json.loads((py / "report" / "metrics.json").read_text())

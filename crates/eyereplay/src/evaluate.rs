@@ -79,25 +79,30 @@ pub struct EvaluateOutcome {
 
 /// Measures a dataset's fidelity and writes its report.
 pub fn evaluate(dir: &Path, opts: &EvaluateOptions) -> Result<EvaluateOutcome> {
+    evaluate_with_progress(dir, opts, &eyereplay_core::NoProgress)
+}
+
+/// [`evaluate`], its read-backs of the rendered videos (the visual
+/// section's, and one session per class or every one: seconds to minutes)
+/// shown as an extraction stage on `progress`.
+pub fn evaluate_with_progress(
+    dir: &Path,
+    opts: &EvaluateOptions,
+    progress: &dyn eyereplay_core::Progress,
+) -> Result<EvaluateOutcome> {
     check_options(opts)?;
     check_labels(dir)?;
     eyereplay_eval::check_report_place(dir)?;
     let mut ev = evaluate_dataset(dir, &opts.config)?;
-    let memo = ReadBackMemo::default();
-    ev.visual = match &opts.visual {
-        VisualChoice::Skip => VisualSection::NotComputed {
-            reason: "not computed: skipped (--no-visual, or visual=False in Python)".into(),
-        },
-        choice => visual_section(dir, choice, opts, &mut ev, &memo)?,
+    let memo = ReadBackMemo {
+        done: Default::default(),
+        progress,
     };
-    let per_class = if opts.read_back_all {
-        usize::MAX
-    } else {
-        opts.read_back_per_class
-    };
-    if per_class > 0 {
-        ev.sessions_read_back = sessions_read_back(dir, opts, &ev, per_class, &memo)?;
-    }
+    progress.begin(eyereplay_core::Stage::Extract, 0);
+    progress.status("(reading the videos back)");
+    let read = evaluate_read_backs(dir, opts, &mut ev, &memo);
+    progress.end(eyereplay_core::Stage::Extract);
+    read?;
     let (paths, metrics_json) = write_report(dir, &ev)?;
     Ok(EvaluateOutcome {
         evaluation: ev,
@@ -105,6 +110,30 @@ pub fn evaluate(dir: &Path, opts: &EvaluateOptions) -> Result<EvaluateOutcome> {
         metrics_path: paths.metrics,
         metrics_json,
     })
+}
+
+/// The visual section and the table of sessions read back.
+fn evaluate_read_backs(
+    dir: &Path,
+    opts: &EvaluateOptions,
+    ev: &mut Evaluation,
+    memo: &ReadBackMemo,
+) -> Result<()> {
+    ev.visual = match &opts.visual {
+        VisualChoice::Skip => VisualSection::NotComputed {
+            reason: "not computed: skipped (--no-visual, or visual=False in Python)".into(),
+        },
+        choice => visual_section(dir, choice, opts, ev, memo)?,
+    };
+    let per_class = if opts.read_back_all {
+        usize::MAX
+    } else {
+        opts.read_back_per_class
+    };
+    if per_class > 0 {
+        ev.sessions_read_back = sessions_read_back(dir, opts, ev, per_class, memo)?;
+    }
+    Ok(())
 }
 
 /// `labels.csv` lists the sessions `metadata.json` plans
@@ -509,7 +538,15 @@ pub fn read_back_session(dir: &Path, video: &Path, frames: usize, fps: f64) -> R
     eyereplay_extract::check_models(&models)?;
     check_frame_count(video, frames)?;
     let geometry = SessionPaths::beside_video(video).identity_json;
-    match read_back(dir, video, &models, frames, fps, &geometry)? {
+    match read_back(
+        dir,
+        video,
+        &models,
+        frames,
+        fps,
+        &geometry,
+        &eyereplay_extract::NoProgress,
+    )? {
         Ok(r) => Ok(r.n.iter().filter(|p| p[0].is_finite()).count()),
         Err(NotComputed(reason)) => Err(Error::input(video, reason)),
     }
@@ -526,6 +563,7 @@ fn read_back(
     n: usize,
     fps: f64,
     geometry: &Path,
+    progress: &dyn eyereplay_extract::Progress,
 ) -> Result<std::result::Result<ReadBack, NotComputed>> {
     // When the render says where it drew the eyes (a close-up, a browser
     // page), a 4-s trial decides first whether the detector sees a face at
@@ -561,12 +599,12 @@ fn read_back(
         .as_ref()
         .is_some_and(|i| i.corner_pairs_px().is_some());
     let detected = if has_fallback && n > trial {
-        match extract_with_detector(video, models, trial, fps, views) {
+        match extract_with_detector(video, models, trial, fps, views, progress) {
             Ok(r) if rows_detection_rate(&r) < 0.5 => Ok(r),
-            _ => extract_with_detector(video, models, n, fps, views),
+            _ => extract_with_detector(video, models, n, fps, views, progress),
         }
     } else {
-        extract_with_detector(video, models, n, fps, views)
+        extract_with_detector(video, models, n, fps, views, progress)
     };
     match detected {
         Ok(r) if rows_detection_rate(&r) >= 0.5 || identity.is_none() => Ok(Ok(ReadBack {
@@ -615,10 +653,13 @@ struct NotComputed(String);
 /// The read-backs of one evaluation, by video and frame count: the visual
 /// section's session is also the first of the every-session table, and an
 /// extraction costs more than the rest of the report.
-#[derive(Default)]
-struct ReadBackMemo(std::cell::RefCell<Vec<(PathBuf, usize, ReadBack)>>);
+struct ReadBackMemo<'a> {
+    done: std::cell::RefCell<Vec<(PathBuf, usize, ReadBack)>>,
+    /// Where each read-back's frames are shown.
+    progress: &'a dyn eyereplay_core::Progress,
+}
 
-impl ReadBackMemo {
+impl ReadBackMemo<'_> {
     /// [`read_back`], or what it gave for the same video and frames before.
     fn read_back(
         &self,
@@ -630,16 +671,17 @@ impl ReadBackMemo {
         geometry: &Path,
     ) -> Result<std::result::Result<ReadBack, NotComputed>> {
         if let Some((.., r)) = self
-            .0
+            .done
             .borrow()
             .iter()
             .find(|(v, k, _)| v == video && *k == n)
         {
             return Ok(Ok(r.clone()));
         }
-        let r = read_back(dir, video, models, n, fps, geometry)?;
+        let frames = eyereplay_extract::StageFrames(self.progress);
+        let r = read_back(dir, video, models, n, fps, geometry, &frames)?;
         if let Ok(r) = &r {
-            self.0
+            self.done
                 .borrow_mut()
                 .push((video.to_path_buf(), n, r.clone()));
         }

@@ -2,7 +2,7 @@
 //! by every shard of a cluster job): check completeness, write the final
 //! `metadata.json` with each session's identity, and evaluate.
 
-use crate::evaluate::{evaluate, EvaluateOptions, EvaluateOutcome};
+use crate::evaluate::{evaluate_with_progress, EvaluateOptions, EvaluateOutcome};
 use crate::{Error, Result};
 use eyereplay_backends::{csv_data_rows, is_complete, why_incomplete};
 use eyereplay_core::GazeClass;
@@ -38,6 +38,16 @@ fn incomplete(dir: &Path, meta: &DatasetMetadata) -> Result<Vec<SessionJob>> {
 pub fn finalize(
     dir: &Path,
     evaluate_with: Option<&EvaluateOptions>,
+) -> Result<Option<EvaluateOutcome>> {
+    finalize_with_progress(dir, evaluate_with, &eyereplay_core::NoProgress)
+}
+
+/// [`finalize`], the evaluation's read-backs shown on `progress`
+/// ([`crate::evaluate_with_progress`]).
+pub fn finalize_with_progress(
+    dir: &Path,
+    evaluate_with: Option<&EvaluateOptions>,
+    progress: &dyn eyereplay_core::Progress,
 ) -> Result<Option<EvaluateOutcome>> {
     let meta = read_metadata(dir)?;
     let jobs = list_sessions(dir, meta.dataset.seed)?;
@@ -113,7 +123,9 @@ pub fn finalize(
         render: Some(RenderMetadata { sessions }),
     };
     write_metadata(dir, &merged)?;
-    evaluate_with.map(|o| evaluate(dir, o)).transpose()
+    evaluate_with
+        .map(|o| evaluate_with_progress(dir, o, progress))
+        .transpose()
 }
 
 /// `labels.csv` lists the sessions `metadata.json` planned, in its order

@@ -242,7 +242,7 @@ pub fn generate(
     let mut report = None;
     if job.shard.is_none() {
         let t = Instant::now();
-        if let Some(ev) = crate::finalize(out, opts.evaluate.as_ref())? {
+        if let Some(ev) = crate::finalize_with_progress(out, opts.evaluate.as_ref(), progress)? {
             report = Some(ev.html);
         }
         stage("merge+evaluate", t, &mut log);

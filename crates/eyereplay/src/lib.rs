@@ -68,8 +68,10 @@ pub mod profile;
 
 pub use detection_page::detection_page;
 pub use error::{Error, Result};
-pub use evaluate::{evaluate, EvaluateOptions, EvaluateOutcome, VisualChoice};
-pub use finalize::{check_labels_against_plan, finalize, missing_sessions};
+pub use evaluate::{
+    evaluate, evaluate_with_progress, EvaluateOptions, EvaluateOutcome, VisualChoice,
+};
+pub use finalize::{check_labels_against_plan, finalize, finalize_with_progress, missing_sessions};
 pub use generate::{
     estimate_bytes_per_frame, generate, plan, plan_config, render_table, GenerateOptions,
     GenerateSummary, Job,

@@ -109,7 +109,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         read_back_all: args.read_back_all,
         read_back_per_class: args.read_back,
     };
-    let outcome = eyereplay::evaluate(&args.dataset_dir, &opts)?;
+    let outcome =
+        eyereplay::evaluate_with_progress(&args.dataset_dir, &opts, &super::Bars::default())?;
     super::work_done();
     print_outcome(&outcome, args.json);
     Ok(())

@@ -27,7 +27,8 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let opts = (!args.no_evaluate).then(eyereplay::EvaluateOptions::default);
-    let outcome = eyereplay::finalize(&args.dir, opts.as_ref())?;
+    let outcome =
+        eyereplay::finalize_with_progress(&args.dir, opts.as_ref(), &super::Bars::default())?;
     super::work_done();
     if let Some(ev) = outcome {
         super::evaluate::print_outcome(&ev, false);

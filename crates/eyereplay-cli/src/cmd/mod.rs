@@ -208,14 +208,25 @@ impl Progress for Bars {
     fn begin(&self, stage: Stage, total: u64) {
         let template = match stage {
             Stage::Extract => {
-                "extract {bar:30} {human_pos}/{human_len} frames, {per_sec}, ETA {eta}"
+                "extract {bar:30} {human_pos}/{human_len} frames, {rate}, ETA {eta} {msg}"
             }
             Stage::Render => {
-                "render {bar:30} {msg} {human_pos}/{human_len} frames, {per_sec}, ETA {eta}"
+                "render {bar:30} {msg} {human_pos}/{human_len} frames, {rate}, ETA {eta}"
             }
         };
         let bar = ProgressBar::new(total);
-        bar.set_style(ProgressStyle::with_template(template).expect("static template"));
+        bar.set_style(
+            ProgressStyle::with_template(template)
+                .expect("static template")
+                // Whole frames a second ("93/s"): indicatif's {per_sec}
+                // shows four decimals of a rate that moves in the units.
+                .with_key(
+                    "rate",
+                    |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                        let _ = write!(w, "{:.0}/s", s.per_sec());
+                    },
+                ),
+        );
         *self.bar.lock().expect("progress lock") = Some(bar);
         self.logged.restart();
         *self.stage.lock().expect("progress lock") = match stage {

@@ -567,11 +567,13 @@ def generate(
     )
 
 
-def merge(dataset_dir: PathLike, *, evaluate: bool = True) -> Optional[Path]:
+def merge(dataset_dir: PathLike, *, evaluate: bool = True, progress: Any = True) -> Optional[Path]:
     """Finishes a dataset rendered in shards (``eyereplay merge``): checks
     that every session is there, writes the render metadata and (with
-    ``evaluate``) the report; returns the report's path."""
-    html = _native.merge(os.fspath(dataset_dir), evaluate=evaluate)
+    ``evaluate``) the report; returns the report's path. ``progress`` as
+    for :func:`evaluate`."""
+    html = _native.merge(os.fspath(dataset_dir), evaluate=evaluate,
+                         progress=_resolve_progress(progress))
     return None if html is None else Path(html)
 
 
@@ -584,6 +586,7 @@ def evaluate(
     trajectory: Optional[PathLike] = None,
     visual_seconds: float = 120.0,
     models: Optional[PathLike] = None,
+    progress: Any = True,
 ) -> Dict[str, Any]:
     """Measures a dataset's fidelity (``eyereplay evaluate``) and writes
     ``report/index.html`` and ``report/metrics.json``; returns the metrics
@@ -594,6 +597,9 @@ def evaluate(
     ``visual=False`` skips the visual-fidelity section; ``visual_session``
     picks the session whose video is read back; ``video`` with
     ``trajectory`` judges any rendered video (another simulator's, say).
+    ``progress`` shows the read-backs of the videos (seconds to minutes):
+    ``True`` a bar, ``False`` none, or an object with the methods of
+    :class:`ProgressBar`, as for :func:`generate`.
     """
     r = _native.evaluate(
         os.fspath(dataset_dir),
@@ -603,6 +609,7 @@ def evaluate(
         trajectory=_opt_path(trajectory),
         visual_seconds=visual_seconds,
         models=_opt_path(models),
+        progress=_resolve_progress(progress),
     )
     metrics = json.loads(r["metrics_json"])
     metrics["report_html"] = r["html"]

@@ -54,8 +54,9 @@ def evaluate(
     trajectory: Optional[str] = None,
     visual_seconds: float = 120.0,
     models: Optional[str] = None,
+    progress: Any = None,
 ) -> Dict[str, Any]: ...
-def merge(dataset_dir: str, evaluate: bool = True) -> Optional[str]: ...
+def merge(dataset_dir: str, evaluate: bool = True, progress: Any = None) -> Optional[str]: ...
 def detect(
     input: str,
     model: str,
