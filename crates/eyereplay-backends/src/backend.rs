@@ -189,9 +189,13 @@ impl SessionOutputs {
 
     /// Removes whatever was staged.
     pub(crate) fn discard(&self) {
-        for f in self.finals() {
-            let _ = std::fs::remove_file(staged(f));
-        }
+        // Guarded as the encoder's cleanup is: a session failed by a stop
+        // leaves its files to the stop, which removes and reports them.
+        eyereplay_core::inflight::guarded(|| {
+            for f in self.finals() {
+                let _ = std::fs::remove_file(staged(f));
+            }
+        });
     }
 }
 

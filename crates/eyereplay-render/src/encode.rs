@@ -435,7 +435,12 @@ impl Drop for Encoder {
                 let _ = c.kill();
                 let _ = c.wait();
             }
-            let _ = std::fs::remove_file(&self.tmp);
+            // Guarded: once a stop has begun (it killed FFmpeg, which is
+            // why this encoder failed) the stop removes the file and
+            // reports it, and this waits for the process to end.
+            eyereplay_core::inflight::guarded(|| {
+                let _ = std::fs::remove_file(&self.tmp);
+            });
         }
     }
 }
