@@ -229,7 +229,8 @@ def test_fps_true_is_not_one_frame_a_second():
         eyereplay.extract(frames, fps=True, progress=False)
 
 
-def test_a_video_cut_off_part_way_warns_with_its_name(tmp_path):
+def _cut_video(tmp_path):
+    """An 8-s clip of franck.mp4 cut off half-way through its bytes."""
     import subprocess
 
     whole = tmp_path / "whole.mp4"
@@ -240,6 +241,11 @@ def test_a_video_cut_off_part_way_warns_with_its_name(tmp_path):
     )
     cut = tmp_path / "cut.mp4"
     cut.write_bytes(whole.read_bytes()[: whole.stat().st_size // 2])
+    return cut
+
+
+def test_a_video_cut_off_part_way_warns_with_its_name(tmp_path):
+    cut = _cut_video(tmp_path)
     with pytest.warns(eyereplay.EyereplayWarning) as said:
         t = eyereplay.extract(cut, progress=False)
     # The cut may also leave a corrupt packet, its own warning.
@@ -301,21 +307,6 @@ def test_cuda_asked_for_and_not_used_is_said():
     # the script is told, as the command tells its user on stderr.
     with pytest.warns(eyereplay.EyereplayWarning, match="CUDA not used"):
         eyereplay.extract(DATA / "franck.mp4", device="cuda", max_seconds=1, progress=False)
-
-
-def _cut_video(tmp_path):
-    """An 8-s clip of franck.mp4 cut off half-way through its bytes."""
-    import subprocess
-
-    whole = tmp_path / "whole.mp4"
-    subprocess.run(
-        ["ffmpeg", "-v", "error", "-i", str(DATA / "franck.mp4"), "-t", "8", "-c", "copy",
-         "-movflags", "+faststart", str(whole)],
-        check=True,
-    )
-    cut = tmp_path / "cut.mp4"
-    cut.write_bytes(whole.read_bytes()[: whole.stat().st_size // 2])
-    return cut
 
 
 def test_a_cut_off_video_warns_without_a_bar_and_from_the_cache(tmp_path):
