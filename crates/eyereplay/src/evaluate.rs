@@ -98,10 +98,18 @@ pub fn evaluate_with_progress(
         done: Default::default(),
         progress,
     };
-    progress.begin(eyereplay_core::Stage::Extract, 0);
-    progress.status("(reading the videos back)");
+    // A bar only where videos are read (not with --no-visual --read-back 0).
+    let reads = !matches!(opts.visual, VisualChoice::Skip)
+        || opts.read_back_all
+        || opts.read_back_per_class > 0;
+    if reads {
+        progress.begin(eyereplay_core::Stage::Extract, 0);
+        progress.status("(reading the videos back)");
+    }
     let read = evaluate_read_backs(dir, opts, &mut ev, &memo);
-    progress.end(eyereplay_core::Stage::Extract);
+    if reads {
+        progress.end(eyereplay_core::Stage::Extract);
+    }
     read?;
     let (paths, metrics_json) = write_report(dir, &ev)?;
     Ok(EvaluateOutcome {
