@@ -16,9 +16,13 @@ recordings, calibrates, resamples, normalizes and slices them into sessions (the
 pipeline of 'A Synthetic Eye Movement Dataset for Script Reading Detection'), renders \
 each session on a 3D eye simulator, and measures how faithful the result is.",
     after_help = "Examples:\n  \
-# stages 2-5: trajectories\n  \
+# the whole job: the bundled default sample, or your config\n  \
+eyereplay generate --config examples/default.toml --out data/\n  \
+eyereplay generate --config dataset.toml --out data/ --dry-run\n  \
+# stages 2-5 only: trajectories\n  \
 eyereplay prepare --config dataset.toml --out data/\n  \
-eyereplay prepare --config dataset.toml --out data/ --dry-run\n\n\
+# is the person in this video reading, and when?\n  \
+eyereplay detect interview.mp4\n\n\
 Run 'eyereplay <command> --help' for each command's options and examples."
 )]
 struct Cli {
@@ -71,7 +75,7 @@ fn main() -> std::process::ExitCode {
     // First: a stop in the first milliseconds ends the run as any other.
     remove_partial_files_when_stopped();
     quiet_when_stdout_is_gone();
-    let cli = match Cli::try_parse() {
+    let cli = match parse_args() {
         Ok(cli) => cli,
         Err(e) => {
             use clap::error::ErrorKind;
@@ -120,6 +124,24 @@ fn main() -> std::process::ExitCode {
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// The command line, with negative numbers taken as values (`--gain -1`
+/// then meets its own range check, not clap's "unexpected argument '-1'"
+/// and a tip to write `-- -1`).
+fn parse_args() -> Result<Cli, clap::Error> {
+    use clap::{CommandFactory, FromArgMatches};
+    let mut command = Cli::command();
+    let names: Vec<String> = command
+        .get_subcommands()
+        .map(|s| s.get_name().to_string())
+        .collect();
+    for name in names {
+        command = command.mut_subcommand(name, |s| s.allow_negative_numbers(true));
+    }
+    command
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m))
 }
 
 /// Ctrl-C, or SIGTERM (a Slurm job's time limit, `kill`), ends the run

@@ -224,6 +224,33 @@ fn mistakes_are_refused_up_front_in_one_line() {
     );
     let e = one_line_error(&eyereplay(&["evaluate", "x", "--d-max", "2"]));
     assert!(e.contains("--d-max"), "{e}");
+    // Found by reading every --help as a new user (30 Nov 2026): a
+    // negative number met clap's "unexpected argument '-1'" and a tip to
+    // write `-- -1`, not its own range; a --live option without --live was
+    // dropped; a refused extract had already made its output folder.
+    let e = one_line_error(&eyereplay(&["render", "t.csv", "--gain", "-1"]));
+    assert!(e.contains("gain must be above 0"), "{e}");
+    let traj = d.join("short.csv");
+    std::fs::write(&traj, "frame,x,y\n0,640,360\n").unwrap();
+    let e = one_line_error(&eyereplay(&[
+        "detect",
+        traj.to_str().unwrap(),
+        "--stall-timeout-s",
+        "5",
+    ]));
+    assert!(e.contains("--live only"), "{e}");
+    let folder = d.join("made_too_soon");
+    let e = one_line_error(&eyereplay(&[
+        "extract",
+        "a.mp4",
+        "b.mp4",
+        "--out",
+        &format!("{}/", folder.display()),
+        "--compare",
+        "f.csv",
+    ]));
+    assert!(e.contains("--compare takes exactly one video"), "{e}");
+    assert!(!folder.exists());
     // A bench that would keep more than 4 GiB of frames (it replays them
     // to time the encoder alone): 2^32 / (1280 * 720 * 3 / 2) = 3106.9.
     for mode in [&["--face"][..], &[]] {

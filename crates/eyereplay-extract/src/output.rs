@@ -252,7 +252,7 @@ pub fn output_csv_paths(
         .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
     if single_file && videos.len() > 1 {
         return Err(ExtractError::Output(format!(
-            "--out (out=) {} is one file but {} videos were given; pass a folder",
+            "the output {} is one file but {} videos were given; pass a folder",
             out.display(),
             videos.len()
         )));

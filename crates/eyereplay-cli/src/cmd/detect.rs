@@ -21,9 +21,11 @@ const BUILT_IN_MODEL_NAME: &str = "built-in default model";
 /// segments with their times come from overlapping windows (docs/DETECTOR.md).
 /// A clip shorter than one window (from 3 s of gaze) is scored from its
 /// best stretch with a 90 % bootstrap interval, and called `uncertain`
-/// when the interval holds the threshold. Writes
-/// OUT/<name>_detect.json and a plot of the probability over time under
-/// the gaze track (OUT/<name>_detect.png).
+/// when the interval holds the threshold. Writes OUT/<name>_detect.json,
+/// a plot of the probability over time under the gaze track
+/// (OUT/<name>_detect.png) and a reviewer's page, the video with its
+/// timeline (OUT/<name>_detect.html); --live with --out writes them as
+/// live_detect.*.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
 eyereplay detect interview.mp4                 # the built-in model\n  \
@@ -61,15 +63,15 @@ pub struct Args {
     /// scripts/run.sh trains into out/default/detector.json).
     #[arg(long, value_name = "MODEL")]
     pub model: Option<PathBuf>,
-    /// Folder for the JSON and the plot (default: beside the input; with
-    /// --live, none unless given).
-    #[arg(long, value_name = "DIR")]
+    /// Folder for the JSON, the plot and the page (default: beside the
+    /// input; with --live, none unless given).
+    #[arg(short, long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Also print the JSON to standard output; everything else then goes
     /// to standard error, so the output is the JSON alone.
     #[arg(long)]
     pub json: bool,
-    /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
+    /// Extraction cache (default: $EYEREPLAY_CACHE, else $XDG_CACHE_HOME/eyereplay, else ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
     /// Time the detector on the loaded track (windows, features, model;
@@ -80,6 +82,11 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    // clap's `requires` gives way to INPUT's conflict with --live.
+    anyhow::ensure!(
+        args.live.is_some() || args.stall_timeout_s == 30.0,
+        "--stall-timeout-s is for --live only (a stream that stops sending frames)"
+    );
     // The model first: a bad one stops before any extraction.
     let (model, model_path) = match &args.model {
         Some(path) => (DetectorModel::load(path)?, path.clone()),

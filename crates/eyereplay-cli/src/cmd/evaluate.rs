@@ -48,8 +48,9 @@ pub struct Args {
     /// dataset, as in labels.csv); default: the first rendered reading session.
     #[arg(long, value_name = "CSV")]
     pub visual_session: Option<String>,
-    /// Any rendered video to judge (with --trajectory), e.g. another simulator's.
-    #[arg(long, requires = "trajectory")]
+    /// Any rendered video to judge (with --trajectory), e.g. another
+    /// simulator's, instead of a session of the dataset.
+    #[arg(long, requires = "trajectory", conflicts_with = "visual_session")]
     pub video: Option<PathBuf>,
     /// The frame,x,y canvas trajectory that drove --video; mapped back to
     /// normalized iris units with metadata.json's calibration.
@@ -58,7 +59,7 @@ pub struct Args {
     /// Compare only the first this many seconds of the video (the paper: 120).
     #[arg(long, default_value_t = 120.0, value_name = "SECONDS")]
     pub visual_seconds: f64,
-    /// Folder of the iris models (default: $EYEREPLAY_MODELS or .cache/models).
+    /// Folder of the iris models (default: $EYEREPLAY_MODELS, else the Python package's, else $EYEREPLAY_CACHE/models, else .cache/models up from the current folder).
     #[arg(long, value_name = "DIR")]
     pub models: Option<PathBuf>,
     /// Also read every rendered session back whole and add a table of

@@ -25,7 +25,7 @@ pub struct Args {
     /// Output folder.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
+    /// Extraction cache (default: $EYEREPLAY_CACHE, else $XDG_CACHE_HOME/eyereplay, else ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
     /// The feature model's classifier, in place of the protocol's

@@ -16,7 +16,8 @@ use std::path::PathBuf;
 /// with --input extracted what the extractor reads from their videos, or
 /// with --input drawn the drawn eyes' own positions (what a perfect
 /// extractor would read): drawn against extracted is what the read-back
-/// loses.
+/// loses. It also scores short clips (3, 5 and 8 s, each wholly reading
+/// or wholly not) as `detect` scores a clip shorter than one window.
 ///
 /// With --spliced PROTOCOL instead of DATASET: the real eye-tracker
 /// recordings of a detector protocol (docs/DETECTOR.md) cut into pieces
@@ -34,9 +35,12 @@ eyereplay train out/localize_train --input trajectory --frame-labels \\\n      \
 # other people\n  \
 eyereplay prepare --config examples/localize.toml --out out/localize\n  \
 eyereplay evaluate-localization out/localize --model out/interview.json\n  \
-# rendered: as a perfect extractor would read\n  \
+# rendered interviews (examples/interview_face.toml's header makes them),\n  \
+# as a perfect extractor would read them\n  \
+eyereplay generate --config examples/interview_face.toml \\\n      \
+--out out/interview_test --no-evaluate\n  \
 eyereplay evaluate-localization out/interview_test --input drawn \\\n      \
---model m.json\n  \
+--model out/interview.json\n  \
 eyereplay evaluate-localization \\\n      \
 --spliced examples/detector/protocol_behaviour.toml \\\n      \
 --model out/interview.json")]
@@ -55,16 +59,18 @@ pub struct Args {
     /// With --spliced: how many streams of 5 minutes [default: 20].
     #[arg(long, requires = "spliced", value_parser = clap::value_parser!(u32).range(1..))]
     pub streams: Option<u32>,
-    /// Where the short clips are cut and, with --spliced, the streams'
-    /// pieces.
+    /// Where the short clips (above) are cut and, with --spliced, the
+    /// streams' pieces.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// What to score: the sessions' trajectories, what the extractor
     /// reads back from their rendered videos (the user's path), or the
     /// drawn eyes' positions in their apertures (the videos' _truth.csv).
-    #[arg(long, value_enum, default_value_t = super::train::InputArg::Trajectory)]
+    /// (A dataset only: the spliced streams are what their protocol's
+    /// recordings give.)
+    #[arg(long, value_enum, default_value_t = super::train::InputArg::Trajectory, conflicts_with = "spliced")]
     pub input: super::train::InputArg,
-    /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
+    /// Extraction cache (default: $EYEREPLAY_CACHE, else $XDG_CACHE_HOME/eyereplay, else ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
     /// The detector (`eyereplay train`).
@@ -73,7 +79,8 @@ pub struct Args {
     /// Cut segments where the per-frame probability of reading reaches this.
     #[arg(long, default_value_t = eyereplay::detect::localize::SEGMENT_THRESHOLD, value_parser = super::values::open_fraction)]
     pub threshold: f64,
-    /// Also write every number here as JSON.
+    /// Also write every number to this JSON file (a file name, where
+    /// `evaluate --json` and `detect --json` print to standard output).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
 }

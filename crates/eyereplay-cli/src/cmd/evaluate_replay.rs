@@ -26,15 +26,17 @@ eyereplay evaluate-replay out/replay --json out/replay/replay_eval.json")]
 pub struct Args {
     /// A dataset folder rendered with render.backend = "replay".
     pub dataset: PathBuf,
-    /// Also write every number (per group and per session) here.
+    /// Also write every number (per group and per session) to this JSON
+    /// file (a file name, where `evaluate --json` and `detect --json` print
+    /// to standard output).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
     /// A carrier video outside the config's paths and the bundled ones
     /// (found by the sha256 the sessions record); repeat for several.
     #[arg(long, value_name = "VIDEO")]
     pub carrier: Vec<PathBuf>,
-    /// Extraction and carrier cache (default: $EYEREPLAY_CACHE or
-    /// ~/.cache/eyereplay).
+    /// Extraction and carrier cache (default: $EYEREPLAY_CACHE, else
+    /// $XDG_CACHE_HOME/eyereplay, else ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
 }

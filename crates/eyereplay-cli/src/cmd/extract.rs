@@ -28,10 +28,10 @@ eyereplay extract interview.mp4 --out interview.csv\n  \
 eyereplay extract a.mp4 b.webm c.mov --out iris/\n  \
 # annotated PNGs every 5 s\n  \
 eyereplay extract clip.mp4 --out iris/ --preview previews/\n  \
-eyereplay extract franck.mp4 --out /tmp/f.csv --compare \\\n      \
+eyereplay extract .cache/data/franck.mp4 --out /tmp/f.csv --compare \\\n      \
 crates/eyereplay-extract/tests/data/franck_mediapipe.csv\n  \
 # CPU time per frame by stage\n  \
-eyereplay extract franck.mp4 --out /tmp/f.csv --profile\n  \
+eyereplay extract .cache/data/franck.mp4 --out /tmp/f.csv --profile\n  \
 # finest on small movements, ~7x the CPU\n  \
 eyereplay extract talk.mp4 --out talk.csv --landmarks cascade --iris-views 5"
 )]
@@ -40,9 +40,9 @@ pub struct Args {
     #[arg(required = true)]
     pub videos: Vec<PathBuf>,
     /// Output: a .csv file (one video) or a folder (one <video stem>.csv each).
-    #[arg(short, long)]
+    #[arg(short, long, value_name = "CSV|DIR")]
     pub out: PathBuf,
-    /// Models folder [default: $EYEREPLAY_MODELS or .cache/models].
+    /// Models folder [default: $EYEREPLAY_MODELS, else the Python package's, else $EYEREPLAY_CACHE/models, else .cache/models up from the current folder].
     #[arg(long)]
     pub models: Option<PathBuf>,
     /// Worker threads (0 = all cores). The rows do not depend on it: a
@@ -62,8 +62,8 @@ pub struct Args {
     #[arg(long, value_parser = super::values::positive)]
     pub max_seconds: Option<f64>,
     /// Cascade: run the face mesh on one frame in N (1 = MediaPipe's iris pipeline
-    /// on every frame; larger is faster but agrees less with MediaPipe). Selects the
-    /// cascade when --landmarks is not given [default: 2].
+    /// on every frame; larger is faster but agrees less with MediaPipe). Giving it
+    /// selects the cascade when --landmarks is not given; the cascade's default is 2.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub mesh_every: Option<u32>,
     /// Read each eye from N crops (1-9) and average: the tracked crop and copies
@@ -208,6 +208,10 @@ fn peak_rss_mib() -> Option<f64> {
 }
 
 pub fn run(a: Args) -> Result<()> {
+    // The arguments first: a refusal must not leave an output folder made.
+    if a.compare.is_some() && a.videos.len() != 1 {
+        bail!("--compare takes exactly one video");
+    }
     let csv_paths = ex::output_csv_paths(&a.out, &a.videos).map_err(anyhow::Error::msg)?;
     // Every CSV can be written, before any video is read.
     for csv in &csv_paths {
@@ -215,9 +219,6 @@ pub fn run(a: Args) -> Result<()> {
     }
     if let Some(dir) = &a.preview {
         super::check_folder_arg(dir, "--preview")?;
-    }
-    if a.compare.is_some() && a.videos.len() != 1 {
-        bail!("--compare takes exactly one video");
     }
     // Every video opens (a missing, damaged or text file), before the
     // first one is read: a batch should not stop at its last video.

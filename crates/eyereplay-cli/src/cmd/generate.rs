@@ -38,7 +38,7 @@ gain = 1.0              # amplification of the iris excursion\n  \
 natural_blinks = true   # blink at a natural rate\n  \
 preset = \"veryfast\"     # x264\n  \
 crf = 18\n  \
-jobs = 2                # sessions rendered at once\n\
+jobs = 0                # sessions rendered at once (0: one per core)\n\
 With backend = \"replay\": carriers = [\"me.mp4\"], real talking-head clips\n\
 (default: the bundled ones).")]
 pub struct Args {
@@ -46,7 +46,7 @@ pub struct Args {
     #[arg(long, value_name = "TOML")]
     pub config: Option<PathBuf>,
     /// Output dataset folder.
-    #[arg(long, value_name = "DIR", required_unless_present_any = ["dry_run", "profile"])]
+    #[arg(short, long, value_name = "DIR", required_unless_present_any = ["dry_run", "profile"])]
     pub out: Option<PathBuf>,
     /// Draw with this seed instead of the config's `seed`: a second draw
     /// of the same config (other people, other sessions) without copying
@@ -94,7 +94,7 @@ pub struct Args {
         conflicts_with_all = ["no_evaluate", "read_back_all"]
     )]
     pub read_back: usize,
-    /// Folder for cached extractions (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
+    /// Folder for cached extractions (default: $EYEREPLAY_CACHE, else $XDG_CACHE_HOME/eyereplay, else ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
 }

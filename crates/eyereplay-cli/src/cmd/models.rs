@@ -28,8 +28,9 @@ pub struct Args {
 pub enum Action {
     /// Verify the models folder and run each model once.
     Check {
-        /// Models folder [default: $EYEREPLAY_MODELS, else $EYEREPLAY_CACHE/models, else
-        /// .cache/models up from the current folder].
+        /// Models folder [default: $EYEREPLAY_MODELS, else the Python
+        /// package's, else $EYEREPLAY_CACHE/models, else .cache/models up
+        /// from the current folder].
         #[arg(long)]
         dir: Option<PathBuf>,
     },

@@ -28,12 +28,12 @@ pub struct Args {
     #[arg(long, value_name = "TOML")]
     pub config: PathBuf,
     /// Output dataset folder (created if missing).
-    #[arg(long, value_name = "DIR", required_unless_present = "dry_run")]
+    #[arg(short, long, value_name = "DIR", required_unless_present = "dry_run")]
     pub out: Option<PathBuf>,
     /// Read the sources and print what would be made, without writing anything.
     #[arg(long)]
     pub dry_run: bool,
-    /// Folder for cached video extractions (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
+    /// Folder for cached video extractions (default: $EYEREPLAY_CACHE, else $XDG_CACHE_HOME/eyereplay, else ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
 }
@@ -82,8 +82,14 @@ fn print_summary(cfg: &DatasetConfig, p: &Prepared) {
             c.mu_y,
             match p.calibration_ranges {
                 Some(r) => format!(
-                    " (n_x {:.4}..{:.4}, n_y {:.4}..{:.4} -> 80 % of {}x{})",
-                    r[0][0], r[0][1], r[1][0], r[1][1], cfg.canvas.width_px, cfg.canvas.height_px
+                    " (n_x {:.4}..{:.4}, n_y {:.4}..{:.4} -> {} % of {}x{})",
+                    r[0][0],
+                    r[0][1],
+                    r[1][0],
+                    r[1][1],
+                    eyereplay_core::show_number(100.0 * cfg.calibration.fill_fraction),
+                    cfg.canvas.width_px,
+                    cfg.canvas.height_px
                 ),
                 None => " (manual)".into(),
             }

@@ -33,7 +33,7 @@ pub struct Args {
     #[arg(required_unless_present_any = ["dataset", "bench"], conflicts_with_all = ["dataset", "bench"])]
     pub trajectory: Option<PathBuf>,
     /// Output MP4 (default: the trajectory's path with .mp4).
-    #[arg(long, short)]
+    #[arg(long, short, value_name = "MP4")]
     pub out: Option<PathBuf>,
     /// Ground-truth CSV (default: <out stem>_truth.csv beside the video;
     /// with --png-frames, truth.csv among the frames).
@@ -75,7 +75,7 @@ pub struct Args {
     #[arg(long, value_name = "VIDEO")]
     pub replay: Option<PathBuf>,
     /// Cache of carrier measurements and head poses, for --dataset and
-    /// --bench --replay (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
+    /// --bench --replay (default: $EYEREPLAY_CACHE, else $XDG_CACHE_HOME/eyereplay, else ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
     /// Identity seed (face, iris, lighting, camera); 0 is the reference face.
@@ -83,10 +83,11 @@ pub struct Args {
     /// seed (metadata.json), as `eyereplay generate` draws it.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Amplify the normalized iris excursion by this factor.
+    /// Amplify the normalized iris excursion by this factor (above 0, at
+    /// most 10).
     #[arg(long, default_value_t = 1.0)]
     pub gain: f64,
-    /// Distance of the fixated screen, for binocular vergence (mm).
+    /// Distance of the fixated screen, for binocular vergence (mm, over 50).
     #[arg(long, default_value_t = 600.0, value_name = "MM")]
     pub viewing_distance_mm: f64,
     /// Take canvas, fps and calibration (s_x, s_y, mu_x, mu_y) from a
@@ -98,7 +99,8 @@ pub struct Args {
     /// which draws at the carrier's own size.
     #[arg(long, default_value = "1280x720", conflicts_with = "replay")]
     pub size: String,
-    /// Frame rate of the trajectory and video.
+    /// Frame rate of the trajectory and video, above 0 and at most 1000
+    /// [default: 25, or --calibration's dataset's].
     #[arg(long)]
     pub fps: Option<f64>,
     /// Add blinks at the identity's natural rate (8-22 per minute).
@@ -113,10 +115,11 @@ pub struct Args {
     /// Lossless H.264 (qp 0) instead of constant quality.
     #[arg(long, conflicts_with = "crf")]
     pub lossless: bool,
-    /// x264 constant rate factor (lower is better quality).
+    /// x264 constant rate factor, 0 to 51 (lower is better quality).
     #[arg(long, default_value_t = 18)]
     pub crf: u32,
-    /// x264 preset.
+    /// x264 preset: ultrafast, superfast, veryfast, faster, fast, medium,
+    /// slow, slower, veryslow or placebo.
     #[arg(long, default_value = "veryfast")]
     pub preset: String,
     /// Extra x264 options, as for ffmpeg's -x264-params ('' for none);

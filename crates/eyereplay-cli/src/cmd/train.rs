@@ -27,13 +27,15 @@ eyereplay train out/interview_train --frame-labels --out interview.json\n\n\
 Then: eyereplay detect interview.mp4 --model reading.model.json")]
 pub struct Args {
     /// Dataset folders written by 'eyereplay generate' (labels.csv and the
-    /// sessions' MP4s).
+    /// sessions' MP4s), or by 'eyereplay prepare' for --input trajectory
+    /// (no videos needed).
     #[arg(required = true)]
     pub datasets: Vec<PathBuf>,
     /// Where to write the model (JSON).
-    #[arg(long, value_name = "MODEL")]
+    #[arg(short, long, value_name = "MODEL")]
     pub out: PathBuf,
-    /// Window length in seconds (10 s is the main size, 30 s the second).
+    /// Window length in seconds, 2 to 600 (10 s is the main size, 30 s the
+    /// second).
     #[arg(long, default_value_t = 10.0, value_name = "SECONDS")]
     pub window_s: f64,
     /// What to learn from: 'extracted' (the iris that 'eyereplay extract'
@@ -65,7 +67,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0, value_name = "N",
           value_parser = clap::value_parser!(u16).range(0..=100))]
     pub noise_copies: u16,
-    /// Extraction cache (default: $EYEREPLAY_CACHE or ~/.cache/eyereplay).
+    /// Extraction cache (default: $EYEREPLAY_CACHE, else $XDG_CACHE_HOME/eyereplay, else ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
     /// Label each window by the sessions' per-frame `reading` column where
