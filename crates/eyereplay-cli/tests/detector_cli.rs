@@ -253,11 +253,10 @@ fn without_a_model_detect_uses_the_shipped_one() {
         "--out",
         s(&b),
     ]));
-    let read = |dir: &Path| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(dir.join("reader_detect.json")).unwrap())
-            .unwrap()
-    };
-    let (mut ja, mut jb) = (read(&a), read(&b));
+    let (mut ja, mut jb) = (
+        read_json(&a.join("reader_detect.json")),
+        read_json(&b.join("reader_detect.json")),
+    );
     assert_eq!(ja["model"]["path"], "built-in default model");
     assert_eq!(jb["model"]["path"], s(&shipped));
     assert_eq!(ja["model"]["kind"], "bagged_trees");
@@ -265,6 +264,39 @@ fn without_a_model_detect_uses_the_shipped_one() {
     jb["model"]["path"] = serde_json::Value::Null;
     assert_eq!(ja, jb);
     assert_eq!(ja["windows"].as_array().unwrap().len(), 3);
+    // evaluate-localization too, on generated interviews (no data needed).
+    let interviews = d.join("interviews");
+    ok(&eyereplay(&[
+        "prepare",
+        "--config",
+        "examples/localize.toml",
+        "--out",
+        s(&interviews),
+    ]));
+    let (ea, eb) = (d.join("a.json"), d.join("b.json"));
+    ok(&eyereplay(&[
+        "evaluate-localization",
+        s(&interviews),
+        "--json",
+        s(&ea),
+    ]));
+    ok(&eyereplay(&[
+        "evaluate-localization",
+        s(&interviews),
+        "--model",
+        s(&shipped),
+        "--json",
+        s(&eb),
+    ]));
+    let (mut la, mut lb) = (read_json(&ea), read_json(&eb));
+    assert_eq!(la["model"], "built-in default model");
+    la["model"] = serde_json::Value::Null;
+    lb["model"] = serde_json::Value::Null;
+    assert_eq!(la, lb);
+}
+
+fn read_json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
 #[test]

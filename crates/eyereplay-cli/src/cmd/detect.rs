@@ -6,11 +6,11 @@ use std::path::{Path, PathBuf};
 /// The default model, built in: the file the Python package ships as
 /// `eyereplay.DEFAULT_DETECTOR` (`cargo xtask default-detector` trains it
 /// again and puts it there).
-const BUILT_IN_MODEL: &str =
+pub(crate) const BUILT_IN_MODEL: &str =
     include_str!("../../../eyereplay-py/python/eyereplay/default_detector.json");
 
 /// How a detection's `model.path` names the built-in model.
-const BUILT_IN_MODEL_NAME: &str = "built-in default model";
+pub(crate) const BUILT_IN_MODEL_NAME: &str = "built-in default model";
 
 /// Is the person in this video reading? Per-window probabilities and a verdict.
 ///

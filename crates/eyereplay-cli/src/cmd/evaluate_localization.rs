@@ -73,9 +73,10 @@ pub struct Args {
     /// Extraction cache (default: $EYEREPLAY_CACHE, else $XDG_CACHE_HOME/eyereplay, else ~/.cache/eyereplay).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
-    /// The detector (`eyereplay train`).
+    /// The detector (`eyereplay train`; default: the built-in one, as for
+    /// `detect`).
     #[arg(long, value_name = "FILE")]
-    pub model: PathBuf,
+    pub model: Option<PathBuf>,
     /// Cut segments where the per-frame probability of reading reaches this.
     #[arg(long, default_value_t = eyereplay::detect::localize::SEGMENT_THRESHOLD, value_parser = super::values::open_fraction)]
     pub threshold: f64,
@@ -94,15 +95,31 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .chain(&args.rendered_from)
             .map(|d| d.as_path())
             .collect();
-        let inputs: Vec<&std::path::Path> = [Some(&args.model), args.spliced.as_ref()]
+        let inputs: Vec<&std::path::Path> = [args.model.as_ref(), args.spliced.as_ref()]
             .into_iter()
             .flatten()
             .map(|p| p.as_path())
             .collect();
         super::check_json_out(path, "--json", &datasets, &inputs)?;
     }
+    // The built-in model goes to a scratch file for the protocols, which
+    // read a model file; the results name it as `detect` does.
+    let scratch;
+    let model = match &args.model {
+        Some(path) => path.clone(),
+        None => {
+            scratch = eyereplay_core::inflight::ListedTempDir::new()?;
+            let path = scratch.path().join("default_detector.json");
+            std::fs::write(&path, super::detect::BUILT_IN_MODEL)?;
+            path
+        }
+    };
+    let name = |shown: String| match args.model {
+        Some(_) => shown,
+        None => super::detect::BUILT_IN_MODEL_NAME.to_string(),
+    };
     if let Some(protocol) = &args.spliced {
-        return run_spliced(&args, protocol);
+        return run_spliced(&args, protocol, &model, name);
     }
     // clap lets these through beside DATASET (it conflicts with --spliced,
     // which they require), where they would be ignored.
@@ -117,15 +134,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let dataset = args.dataset.as_deref().expect("clap requires it");
     let cache = super::cache_dir(args.cache.as_deref())?;
-    let ev = evaluate_localization(
+    let mut ev = evaluate_localization(
         dataset,
-        &args.model,
+        &model,
         args.threshold,
         args.input.into(),
         args.seed,
         &cache,
         &Bars::default(),
     )?;
+    ev.model = name(ev.model);
     println!(
         "{} sessions ({}), {:.0} min, {} reading segments; model {}, segments cut where the per-frame probability reaches {:.3} (--threshold)",
         ev.sessions,
@@ -180,7 +198,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn run_spliced(args: &Args, protocol: &std::path::Path) -> anyhow::Result<()> {
+fn run_spliced(
+    args: &Args,
+    protocol: &std::path::Path,
+    model: &std::path::Path,
+    name: impl Fn(String) -> String,
+) -> anyhow::Result<()> {
     if let Some(dir) = &args.rendered_from {
         anyhow::ensure!(
             dir.is_dir(),
@@ -196,15 +219,16 @@ fn run_spliced(args: &Args, protocol: &std::path::Path) -> anyhow::Result<()> {
         seed: args.seed,
         ..Default::default()
     };
-    let ev = evaluate_spliced(
+    let mut ev = evaluate_spliced(
         protocol,
-        &args.model,
+        model,
         args.threshold,
         &opts,
         args.rendered_from.as_deref(),
         &cache,
         &Bars::default(),
     )?;
+    ev.model = name(ev.model);
     println!(
         "{} streams of {:.0} s from real recordings ({} reading segments): readers {}; others {}",
         opts.streams,
