@@ -55,10 +55,39 @@ static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new
 static GATE: RwLock<()> = RwLock::new(());
 /// The process's state: its work running, a stop under way, or the work
 /// finished (outputs in place, the process about to exit on its own).
-static STATE: AtomicU8 = AtomicU8::new(RUNNING);
+/// Whichever of a stop and the work's end comes first wins.
+struct RunState(AtomicU8);
+
 const RUNNING: u8 = 0;
 const STOPPING: u8 = 1;
 const FINISHED: u8 = 2;
+
+impl RunState {
+    const fn new() -> RunState {
+        RunState(AtomicU8::new(RUNNING))
+    }
+
+    fn stopping(&self) -> bool {
+        self.0.load(Ordering::SeqCst) == STOPPING
+    }
+
+    /// True if the work is now finished (or was); false if a stop began.
+    fn finish(&self) -> bool {
+        self.0
+            .compare_exchange(RUNNING, FINISHED, Ordering::SeqCst, Ordering::SeqCst)
+            .map_or_else(|state| state == FINISHED, |_| true)
+    }
+
+    /// True if a stop may go on (it began now, or was already under way);
+    /// false once the work has finished.
+    fn begin_stop(&self) -> bool {
+        self.0
+            .compare_exchange(RUNNING, STOPPING, Ordering::SeqCst, Ordering::SeqCst)
+            .map_or_else(|state| state == STOPPING, |_| true)
+    }
+}
+
+static STATE: RunState = RunState::new();
 
 /// Runs `step`, a file operation that creates a listed temporary or
 /// renames one into place, so that a stop never falls in its middle: a
@@ -90,7 +119,7 @@ pub fn guarded<R>(step: impl FnOnce() -> R) -> R {
 /// that finds its work failed should not report it (the failure may be
 /// the stop's removal of its files).
 pub fn stopping() -> bool {
-    STATE.load(Ordering::SeqCst) == STOPPING
+    STATE.stopping()
 }
 
 /// Marks the command's work finished, so that a stop arriving from now on
@@ -98,10 +127,7 @@ pub fn stopping() -> bool {
 /// about to exit with the work's own status. Returns false if a stop began
 /// first (the caller then leaves the exit to it).
 pub fn finish() -> bool {
-    match STATE.compare_exchange(RUNNING, FINISHED, Ordering::SeqCst, Ordering::SeqCst) {
-        Ok(_) => true,
-        Err(state) => state == FINISHED,
-    }
+    STATE.finish()
 }
 
 /// A child process writing a listed temporary (FFmpeg encoding a video),
@@ -181,9 +207,7 @@ impl Drop for InFlight {
 /// and their next guarded step never returns. `None`, doing nothing, once
 /// the work has [`finish`]ed: the stop came too late to stop anything.
 pub fn remove_in_flight() -> Option<Vec<PathBuf>> {
-    if let Err(FINISHED) =
-        STATE.compare_exchange(RUNNING, STOPPING, Ordering::SeqCst, Ordering::SeqCst)
-    {
+    if !STATE.begin_stop() {
         return None;
     }
     std::mem::forget(GATE.write().unwrap_or_else(|e| e.into_inner()));
@@ -252,20 +276,19 @@ mod tests {
             .any(|(_, p)| p.starts_with(d.path())));
     }
 
+    /// Whichever comes first of a stop and the work's end wins, for good.
+    /// (A state of its own: the process's is left to the process.)
     #[test]
-    fn a_stop_after_the_work_finished_removes_nothing() {
-        let d = tempfile::tempdir().unwrap();
-        let listed = d.path().join(".late.csv.1.tmp");
-        std::fs::write(&listed, b"x").unwrap();
-        let _writing = InFlight::new(&listed);
-        assert!(finish(), "nothing had stopped the work");
-        assert!(finish(), "finishing twice is still finished");
-        assert_eq!(remove_in_flight(), None, "a late stop stops nothing");
-        assert!(!stopping());
-        assert!(listed.exists());
-        // And the other order: a stop that began first keeps the exit.
-        STATE.store(STOPPING, Ordering::SeqCst);
-        assert!(!finish());
-        STATE.store(RUNNING, Ordering::SeqCst);
+    fn a_stop_after_the_work_finished_stops_nothing_and_the_other_way_round() {
+        let s = RunState::new();
+        assert!(s.finish(), "nothing had stopped the work");
+        assert!(s.finish(), "finishing twice is still finished");
+        assert!(!s.begin_stop(), "a late stop stops nothing");
+        assert!(!s.stopping());
+        let s = RunState::new();
+        assert!(s.begin_stop() && s.stopping());
+        assert!(s.begin_stop(), "a second signal goes on with the stop");
+        assert!(!s.finish(), "a stop that began first keeps the exit");
+        assert!(s.stopping());
     }
 }

@@ -21,6 +21,14 @@ pub mod replay_eval;
 pub mod spliced_eval;
 
 pub use detector_eval::{DetectorEvaluation, Protocol};
+
+/// A detector for the localization protocols, and the path that names it
+/// in their errors and results: its file, or a program's built-in model.
+#[derive(Clone, Copy)]
+pub struct NamedDetector<'a> {
+    pub model: &'a eyereplay_detect::DetectorModel,
+    pub name: &'a std::path::Path,
+}
 pub use localization_eval::{evaluate_localization, LocalizationEval};
 pub use replay_eval::{evaluate_replay, ReplayEval};
 pub use spliced_eval::{evaluate_spliced, SpliceOptions, SplicedEval};

@@ -349,18 +349,17 @@ const NO_READING_COLUMN: &str =
 
 /// Every session of the dataset in `dir` that has a `reading` column, read
 /// as `input` says (its trajectory, or read back from its video; short
-/// clips cut at places drawn with `seed`), localized by each method with the detector in
-/// `model_path`.
+/// clips cut at places drawn with `seed`), localized by each method with `detector`.
 pub fn evaluate_localization(
     dir: &Path,
-    model_path: &Path,
+    detector: crate::NamedDetector<'_>,
     threshold: f64,
     input: TrainInput,
     seed: u64,
     cache: &Path,
     progress: &dyn Progress,
 ) -> Result<LocalizationEval> {
-    let model = DetectorModel::load(model_path)?;
+    let (model, model_path) = (detector.model, detector.name);
     let surfaces = source_surfaces(dir)?;
     let mut tracks = Vec::new();
     let mut flags_all = Vec::new();
@@ -399,7 +398,7 @@ pub fn evaluate_localization(
         tracks
             .iter()
             .zip(&flags_all)
-            .map(|(t, f)| score_session(t, f, &model, m, threshold))
+            .map(|(t, f)| score_session(t, f, model, m, threshold))
             .collect()
     };
     let scored: Vec<(Method, Vec<SessionScore>)> =
@@ -410,9 +409,9 @@ pub fn evaluate_localization(
         .find(|(m, _)| *m == localize::DEFAULT_METHOD)
         .map(|(_, s)| s.as_slice())
         .expect("Method::ALL holds the default");
-    let labelled = LabelledWindows::of(&tracks, &flags_all, &model);
-    let calibration = calibration_of(&labelled, &model);
-    let clips = clip_results(&tracks, &flags_all, &model, CLIPS_PER_CLASS, seed);
+    let labelled = LabelledWindows::of(&tracks, &flags_all, model);
+    let calibration = calibration_of(&labelled, model);
+    let clips = clip_results(&tracks, &flags_all, model, CLIPS_PER_CLASS, seed);
     let by_surface = by_surface(detects, &session_surface, &labelled);
     Ok(LocalizationEval {
         dataset: dir.display().to_string(),

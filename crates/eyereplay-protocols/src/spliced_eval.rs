@@ -27,7 +27,7 @@ use eyereplay::{extract_cached, Error, Result};
 use eyereplay_core::Progress;
 use eyereplay_detect::localize::{self, Method};
 use eyereplay_detect::window::{name_seed, with_white_noise};
-use eyereplay_detect::{DetectorModel, Track, FPS};
+use eyereplay_detect::{Track, FPS};
 use eyereplay_prepare::DatasetConfig;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
@@ -242,18 +242,18 @@ fn rendered_track(
 }
 
 /// Localizes spliced streams of the real recordings of the detector
-/// protocol at `protocol_path` with the model at `model_path`; the
+/// protocol at `protocol_path` with `detector`; the
 /// `rendered` condition when `rendered_from` holds that protocol's output.
 pub fn evaluate_spliced(
     protocol_path: &Path,
-    model_path: &Path,
+    detector: crate::NamedDetector<'_>,
     threshold: f64,
     opts: &SpliceOptions,
     rendered_from: Option<&Path>,
     cache: &Path,
     progress: &dyn Progress,
 ) -> Result<SplicedEval> {
-    let model = DetectorModel::load(model_path)?;
+    let (model, model_path) = (detector.model, detector.name);
     let p = Protocol::load(protocol_path)?;
     // Holding fixation is too easy a negative to prove anything; the
     // streams use the real tasks.
@@ -329,9 +329,9 @@ pub fn evaluate_spliced(
                 condition: name.clone(),
                 methods: Method::ALL
                     .into_iter()
-                    .map(|m| score_method(&tracks, &flags, &model, m, threshold))
+                    .map(|m| score_method(&tracks, &flags, model, m, threshold))
                     .collect(),
-                calibration: window_calibration(&tracks, &flags, &model),
+                calibration: window_calibration(&tracks, &flags, model),
             }
         })
         .collect();
@@ -342,7 +342,7 @@ pub fn evaluate_spliced(
         let csv = extract_cached(&[video], cache, progress)?.remove(0);
         let track = extract_csv_track(&csv)?;
         let (frame_p, loc) =
-            localize::localize_frames(&track, &model, localize::DEFAULT_METHOD, threshold);
+            localize::localize_frames(&track, model, localize::DEFAULT_METHOD, threshold);
         let segments: Vec<(f64, f64)> = loc.segments.iter().map(|s| (s.start_s, s.end_s)).collect();
         let scored: Vec<usize> = (0..frame_p.len())
             .filter(|&k| frame_p[k].is_finite())

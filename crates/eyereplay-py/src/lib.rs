@@ -114,14 +114,16 @@ fn py_err(e: Error) -> PyErr {
     raise(kind_of(&e), e.to_string())
 }
 
-/// Errors of a call on a dataset folder (`evaluate`, `merge`): a file
-/// that is missing or wrong there, or the folder itself, is the dataset's
-/// fault ([`DatasetError`]), a video
-/// named by the caller (`evaluate(video=...)`) the video's.
-fn dataset_err(e: Error, video: Option<&Path>) -> PyErr {
+/// Errors of a call that writes or reads the dataset folder `dataset`
+/// (`generate`, `evaluate`, `merge`): a file there that is missing or
+/// wrong, or the folder itself, is the dataset's fault ([`DatasetError`]);
+/// a video named by the caller (`evaluate(video=...)`) the video's; any
+/// other keeps its class.
+fn dataset_err(e: Error, dataset: &Path, video: Option<&Path>) -> PyErr {
     let kind = match (kind_of(&e), &e) {
         (Kind::Other, Error::Input { path, .. }) if Some(path.as_path()) == video => Kind::Video,
-        (Kind::Other, Error::Input { .. } | Error::Core(_)) => Kind::Dataset,
+        (Kind::Other, Error::Input { path, .. }) if path.starts_with(dataset) => Kind::Dataset,
+        (Kind::Other, Error::Core(_)) => Kind::Dataset,
         (kind, _) => kind,
     };
     raise(kind, e.to_string())
@@ -740,18 +742,8 @@ fn generate<'py>(
         evaluate: evaluate.then(EvaluateOptions::default),
     };
     let progress = PyProgress(progress);
-    let summary =
-        interruptible(py, || eyereplay::generate(&job, &opts, &progress))?.map_err(|e| {
-            // The output folder that cannot be made or written is the
-            // dataset's; a source's fault keeps its own class.
-            match e {
-                Error::Input { ref path, .. } if path == &out => {
-                    raise(Kind::Dataset, e.to_string())
-                }
-                Error::Core(_) => raise(Kind::Dataset, e.to_string()),
-                e => py_err(e),
-            }
-        })?;
+    let summary = interruptible(py, || eyereplay::generate(&job, &opts, &progress))?
+        .map_err(|e| dataset_err(e, &out, None))?;
     let d = PyDict::new(py);
     d.set_item("out", &out)?;
     d.set_item("rendered", summary.render.rendered)?;
@@ -806,7 +798,7 @@ fn evaluate<'py>(
     let outcome = interruptible(py, || {
         eyereplay::evaluate_with_progress(&dataset_dir, &opts, &progress)
     })?
-    .map_err(|e| dataset_err(e, named_video.as_deref()))?;
+    .map_err(|e| dataset_err(e, &dataset_dir, named_video.as_deref()))?;
     let d = PyDict::new(py);
     d.set_item("metrics_json", &outcome.metrics_json)?;
     d.set_item("metrics_path", &outcome.metrics_path)?;
@@ -828,7 +820,7 @@ fn merge(
     let outcome = interruptible(py, || {
         eyereplay::finalize_with_progress(&dataset_dir, opts.as_ref(), &progress)
     })?
-    .map_err(|e| dataset_err(e, None))?;
+    .map_err(|e| dataset_err(e, &dataset_dir, None))?;
     Ok(outcome.map(|o| o.html))
 }
 

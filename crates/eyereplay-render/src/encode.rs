@@ -375,10 +375,7 @@ impl Encoder {
     fn fail_message(&mut self) -> String {
         self.stdin.take();
         let mut msg = String::new();
-        if let Some(child) = {
-            self.child_listed.take();
-            self.child.take()
-        } {
+        if let Some(child) = self.take_child() {
             if let Ok(out) = child.wait_with_output() {
                 msg = String::from_utf8_lossy(&out.stderr)
                     .lines()
@@ -396,13 +393,16 @@ impl Encoder {
         eyereplay_core::inflight::guarded(|| self.finish_unguarded())
     }
 
+    /// FFmpeg, taken off the stop's list first: whoever takes it reaps it,
+    /// and a stop must not signal a pid that may then be another process's.
+    fn take_child(&mut self) -> Option<std::process::Child> {
+        self.child_listed.take();
+        self.child.take()
+    }
+
     fn finish_unguarded(mut self) -> Result<(), RenderError> {
         self.stdin.take();
-        let child = {
-            self.child_listed.take();
-            self.child.take()
-        }
-        .expect("encoder already finished");
+        let child = self.take_child().expect("encoder already finished");
         let out = child.wait_with_output().map_err(|e| RenderError::Ffmpeg {
             path: self.target.clone(),
             message: e.to_string(),
@@ -428,10 +428,7 @@ impl Drop for Encoder {
     fn drop(&mut self) {
         if !self.done {
             self.stdin.take();
-            if let Some(mut c) = {
-                self.child_listed.take();
-                self.child.take()
-            } {
+            if let Some(mut c) = self.take_child() {
                 let _ = c.kill();
                 let _ = c.wait();
             }

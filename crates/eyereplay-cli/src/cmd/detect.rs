@@ -6,11 +6,23 @@ use std::path::{Path, PathBuf};
 /// The default model, built in: the file the Python package ships as
 /// `eyereplay.DEFAULT_DETECTOR` (`cargo xtask default-detector` trains it
 /// again and puts it there).
-pub(crate) const BUILT_IN_MODEL: &str =
+const BUILT_IN_MODEL: &str =
     include_str!("../../../eyereplay-py/python/eyereplay/default_detector.json");
 
-/// How a detection's `model.path` names the built-in model.
-pub(crate) const BUILT_IN_MODEL_NAME: &str = "built-in default model";
+/// How results (a detection's `model.path`) name the built-in model.
+const BUILT_IN_MODEL_NAME: &str = "built-in default model";
+
+/// The model in `file`, or the built-in one; with the path that names it
+/// in errors and results.
+pub fn load_model(file: Option<&Path>) -> anyhow::Result<(DetectorModel, PathBuf)> {
+    Ok(match file {
+        Some(path) => (DetectorModel::load(path)?, path.to_path_buf()),
+        None => {
+            let name = PathBuf::from(BUILT_IN_MODEL_NAME);
+            (DetectorModel::parse(BUILT_IN_MODEL, &name)?, name)
+        }
+    })
+}
 
 /// Is the person in this video reading? Per-window probabilities and a verdict.
 ///
@@ -54,9 +66,9 @@ pub struct Args {
     pub ffmpeg: PathBuf,
     /// With --live: a stream that gives no frame for this many seconds is
     /// taken as ended (network streams; a pipe waits for data or Ctrl-C).
-    /// 0 waits as long as it takes.
-    #[arg(long, value_name = "S", default_value_t = 30.0, requires = "live")]
-    pub stall_timeout_s: f64,
+    /// 0 waits as long as it takes [default: 30].
+    #[arg(long, value_name = "S")]
+    pub stall_timeout_s: Option<f64>,
     /// A model written by 'eyereplay train' (default: the built-in one,
     /// the model the Python package ships: bagged trees on 10-s windows,
     /// trained on 32 generated people drawn as whole faces; the model
@@ -82,19 +94,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    // clap's `requires` gives way to INPUT's conflict with --live.
+    // Not clap's `requires`: INPUT's conflict with --live overrides it.
     anyhow::ensure!(
-        args.live.is_some() || args.stall_timeout_s == 30.0,
+        args.live.is_some() || args.stall_timeout_s.is_none(),
         "--stall-timeout-s is for --live only (a stream that stops sending frames)"
     );
     // The model first: a bad one stops before any extraction.
-    let (model, model_path) = match &args.model {
-        Some(path) => (DetectorModel::load(path)?, path.clone()),
-        None => {
-            let name = PathBuf::from(BUILT_IN_MODEL_NAME);
-            (DetectorModel::parse(BUILT_IN_MODEL, &name)?, name)
-        }
-    };
+    let (model, model_path) = load_model(args.model.as_deref())?;
     // And the output folder: a file there would fail only after the
     // video is read.
     if let Some(out) = &args.out {
@@ -179,6 +185,7 @@ fn write_detection(
 /// `detect --live SOURCE`: windows as they close, then the stream's result.
 fn live(args: &Args, source: &str, model: &DetectorModel, model_path: &Path) -> anyhow::Result<()> {
     use std::io::IsTerminal;
+    let stall_s = args.stall_timeout_s.unwrap_or(30.0);
     anyhow::ensure!(
         !source.trim().is_empty(),
         "--live takes a source: a camera (/dev/video0), a stream URL (rtsp://, http://) or - for standard input"
@@ -190,12 +197,12 @@ fn live(args: &Args, source: &str, model: &DetectorModel, model_path: &Path) -> 
          ffmpeg -re -i call.mp4 -f nut -c:v rawvideo -pix_fmt yuv420p - | eyereplay detect --live -"
     );
     anyhow::ensure!(
-        args.stall_timeout_s.is_finite() && args.stall_timeout_s >= 0.0,
+        stall_s.is_finite() && stall_s >= 0.0,
         "--stall-timeout-s takes seconds, 0 or more (0: wait as long as it takes)"
     );
     let stop = eyereplay::live::Stop {
         requested: Default::default(),
-        stall_s: (args.stall_timeout_s > 0.0).then_some(args.stall_timeout_s),
+        stall_s: (stall_s > 0.0).then_some(stall_s),
     };
     stop_on_signals(stop.requested.clone());
     eprintln!(
@@ -376,9 +383,6 @@ fn relative_href(video: &Path, page_dir: &Path) -> String {
     parts.join("/")
 }
 
-/// The windows, segments and verdict; all on standard error when
-/// `all_to_stderr` (with --json, whose JSON is then standard output alone),
-/// else the verdict on standard output.
 /// `m:ss` (`h:mm:ss` from an hour), as a video player shows a time.
 fn clock(t_s: f64) -> String {
     let t = t_s.max(0.0).round() as u64;
@@ -390,6 +394,9 @@ fn clock(t_s: f64) -> String {
     }
 }
 
+/// The windows, segments and verdict; all on standard error when
+/// `all_to_stderr` (with --json, whose JSON is then standard output alone),
+/// else the verdict on standard output.
 fn print_detection(d: &Detection, all_to_stderr: bool) {
     let verdict = |line: String| {
         if all_to_stderr {

@@ -102,24 +102,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .collect();
         super::check_json_out(path, "--json", &datasets, &inputs)?;
     }
-    // The built-in model goes to a scratch file for the protocols, which
-    // read a model file; the results name it as `detect` does.
-    let scratch;
-    let model = match &args.model {
-        Some(path) => path.clone(),
-        None => {
-            scratch = eyereplay_core::inflight::ListedTempDir::new()?;
-            let path = scratch.path().join("default_detector.json");
-            std::fs::write(&path, super::detect::BUILT_IN_MODEL)?;
-            path
-        }
-    };
-    let name = |shown: String| match args.model {
-        Some(_) => shown,
-        None => super::detect::BUILT_IN_MODEL_NAME.to_string(),
-    };
+    // The model first: a bad one stops before any extraction.
+    let (model, model_path) = super::detect::load_model(args.model.as_deref())?;
     if let Some(protocol) = &args.spliced {
-        return run_spliced(&args, protocol, &model, name);
+        return run_spliced(&args, protocol, &model, &model_path);
     }
     // clap lets these through beside DATASET (it conflicts with --spliced,
     // which they require), where they would be ignored.
@@ -134,16 +120,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let dataset = args.dataset.as_deref().expect("clap requires it");
     let cache = super::cache_dir(args.cache.as_deref())?;
-    let mut ev = evaluate_localization(
+    let detector = eyereplay_protocols::NamedDetector {
+        model: &model,
+        name: &model_path,
+    };
+    let ev = evaluate_localization(
         dataset,
-        &model,
+        detector,
         args.threshold,
         args.input.into(),
         args.seed,
         &cache,
         &Bars::default(),
     )?;
-    ev.model = name(ev.model);
     println!(
         "{} sessions ({}), {:.0} min, {} reading segments; model {}, segments cut where the per-frame probability reaches {:.3} (--threshold)",
         ev.sessions,
@@ -201,8 +190,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn run_spliced(
     args: &Args,
     protocol: &std::path::Path,
-    model: &std::path::Path,
-    name: impl Fn(String) -> String,
+    model: &eyereplay::detect::DetectorModel,
+    model_path: &std::path::Path,
 ) -> anyhow::Result<()> {
     if let Some(dir) = &args.rendered_from {
         anyhow::ensure!(
@@ -219,16 +208,18 @@ fn run_spliced(
         seed: args.seed,
         ..Default::default()
     };
-    let mut ev = evaluate_spliced(
+    let ev = evaluate_spliced(
         protocol,
-        model,
+        eyereplay_protocols::NamedDetector {
+            model,
+            name: model_path,
+        },
         args.threshold,
         &opts,
         args.rendered_from.as_deref(),
         &cache,
         &Bars::default(),
     )?;
-    ev.model = name(ev.model);
     println!(
         "{} streams of {:.0} s from real recordings ({} reading segments): readers {}; others {}",
         opts.streams,
