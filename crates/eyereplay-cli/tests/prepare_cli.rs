@@ -230,6 +230,17 @@ fn mistakes_are_refused_up_front_in_one_line() {
     // dropped; a refused extract had already made its output folder.
     let e = one_line_error(&eyereplay(&["render", "t.csv", "--gain", "-1"]));
     assert!(e.contains("gain must be above 0"), "{e}");
+    // Whole-number options said "invalid digit found in string"; commands
+    // with two ways in named only the first when given neither.
+    let e = one_line_error(&eyereplay(&["extract", "a.mp4", "--threads", "-1"]));
+    assert!(
+        e.contains("must be a whole number, 0 or more, got -1"),
+        "{e}"
+    );
+    let e = one_line_error(&eyereplay(&["detect"]));
+    assert!(e.contains("<INPUT|--live <SOURCE>>"), "{e}");
+    let e = one_line_error(&eyereplay(&["render"]));
+    assert!(e.contains("<TRAJECTORY|--dataset <DIR>|--bench>"), "{e}");
     let traj = d.join("short.csv");
     std::fs::write(&traj, "frame,x,y\n0,640,360\n").unwrap();
     let e = one_line_error(&eyereplay(&[

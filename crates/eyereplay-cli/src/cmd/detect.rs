@@ -39,6 +39,9 @@ pub fn load_model(file: Option<&Path>) -> anyhow::Result<(DetectorModel, PathBuf
 /// timeline (OUT/<name>_detect.html); --live with --out writes them as
 /// live_detect.*.
 #[derive(clap::Args)]
+// One group, so that the usage line and a missing input both show the
+// two ways in: `<INPUT|--live <SOURCE>>`.
+#[command(group = clap::ArgGroup::new("source").required(true).args(["input", "live"]))]
 #[command(after_help = "Examples:\n  \
 eyereplay detect interview.mp4                 # the built-in model\n  \
 eyereplay detect iris.csv --model m.json --out results/ --json\n  \
@@ -51,7 +54,6 @@ eyereplay detect --live -\n\n\
 Your own model: 'eyereplay train DATASET --out m.json' (docs/DETECTOR.md).")]
 pub struct Args {
     /// A video, an 'eyereplay extract' CSV, or a frame,x,y session CSV.
-    #[arg(required_unless_present = "live", conflicts_with = "live")]
     pub input: Option<PathBuf>,
     /// Watch a live stream instead: a camera (/dev/video0), a network
     /// stream (rtsp://, http://) or '-' for a video stream on standard

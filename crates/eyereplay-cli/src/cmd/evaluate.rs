@@ -72,7 +72,8 @@ pub struct Args {
         long,
         default_value_t = 1,
         value_name = "N",
-        conflicts_with = "read_back_all"
+        conflicts_with = "read_back_all",
+        value_parser = super::values::whole::<usize>
     )]
     pub read_back: usize,
 }

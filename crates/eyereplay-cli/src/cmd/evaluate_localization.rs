@@ -27,6 +27,8 @@ use std::path::PathBuf;
 /// protocol's output); and its real webcam talkers localized whole, where
 /// every second called reading is a false one.
 #[derive(clap::Args)]
+// One group, so that the usage line shows the two inputs: `<DATASET|--spliced <PROTOCOL>>`.
+#[command(group = clap::ArgGroup::new("what").required(true).args(["dataset", "spliced"]))]
 #[command(after_help = "Examples:\n  \
 eyereplay prepare --config examples/localize_train.toml \\\n      \
 --out out/localize_train\n  \
@@ -46,7 +48,6 @@ eyereplay evaluate-localization \\\n      \
 --model out/interview.json")]
 pub struct Args {
     /// A dataset folder with interview sessions (`eyereplay prepare` or `generate`).
-    #[arg(required_unless_present = "spliced", conflicts_with = "spliced")]
     pub dataset: Option<PathBuf>,
     /// Real recordings spliced into mixed streams: the recordings of this
     /// detector protocol (`scripts/detector-data.sh` fetches them).
@@ -61,7 +62,7 @@ pub struct Args {
     pub streams: Option<u32>,
     /// Where the short clips (above) are cut and, with --spliced, the
     /// streams' pieces.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = super::values::whole::<u64>)]
     pub seed: u64,
     /// What to score: the sessions' trajectories, what the extractor
     /// reads back from their rendered videos (the user's path), or the

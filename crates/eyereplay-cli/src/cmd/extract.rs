@@ -47,7 +47,7 @@ pub struct Args {
     pub models: Option<PathBuf>,
     /// Worker threads (0 = all cores). The rows do not depend on it: a
     /// video is cut into segments of about 15 s whatever the count.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = super::values::whole::<usize>)]
     pub threads: usize,
     /// Write annotated PNG frames (landmarks drawn) to this folder.
     #[arg(long)]

@@ -51,7 +51,7 @@ pub struct Args {
     /// Draw with this seed instead of the config's `seed`: a second draw
     /// of the same config (other people, other sessions) without copying
     /// it. Give every shard of a job the same one.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = super::values::whole::<u64>)]
     pub seed: Option<u64>,
     /// Render only shard K of N (0-based), e.g. 3/8.
     #[arg(long, value_name = "K/N")]
@@ -91,7 +91,8 @@ pub struct Args {
         long,
         default_value_t = 1,
         value_name = "N",
-        conflicts_with_all = ["no_evaluate", "read_back_all"]
+        conflicts_with_all = ["no_evaluate", "read_back_all"],
+        value_parser = super::values::whole::<usize>
     )]
     pub read_back: usize,
     /// Folder for cached extractions (default: $EYEREPLAY_CACHE, else $XDG_CACHE_HOME/eyereplay, else ~/.cache/eyereplay).

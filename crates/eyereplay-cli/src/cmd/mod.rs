@@ -283,6 +283,19 @@ pub mod values {
         }
     }
 
+    /// A whole number, 0 or more. The integer types' own parse error says
+    /// "invalid digit found in string" for `-1` or `1.5`, which names
+    /// neither what was wrong nor what is wanted.
+    pub fn whole<T: std::str::FromStr>(s: &str) -> Result<T, String> {
+        s.trim().parse().map_err(|_| match s.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() && v >= 0.0 && v.fract() == 0.0 => {
+                format!("{s} is too large")
+            }
+            Ok(_) => format!("must be a whole number, 0 or more, got {s}"),
+            Err(_) => format!("'{s}' is not a whole number"),
+        })
+    }
+
     /// A finite number above 0.
     pub fn positive(s: &str) -> Result<f64, String> {
         let v = number(s)?;
@@ -327,6 +340,13 @@ pub mod values {
             assert_eq!(open_fraction("0.3"), Ok(0.3));
             assert_eq!(probability("1"), Ok(1.0));
             assert!(probability("1.01").is_err() && probability("-0.5").is_err());
+            assert_eq!(whole::<usize>("0"), Ok(0));
+            assert_eq!(whole::<u64>(" 7 "), Ok(7));
+            let negative = whole::<usize>("-1").unwrap_err();
+            assert_eq!(negative, "must be a whole number, 0 or more, got -1");
+            assert!(whole::<u64>("1.5").unwrap_err().contains("whole number"));
+            assert_eq!(whole::<u16>("70000").unwrap_err(), "70000 is too large");
+            assert_eq!(whole::<u64>("x").unwrap_err(), "'x' is not a whole number");
         }
     }
 }

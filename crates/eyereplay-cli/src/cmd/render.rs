@@ -13,6 +13,9 @@ use std::path::PathBuf;
 /// follow it, plus `<out>_truth.csv` with per-frame eye rotation, iris
 /// centre in the image, lid aperture and blink flag.
 #[derive(clap::Args)]
+// One group, so that the usage line shows the three ways in:
+// `<TRAJECTORY|--dataset <DIR>|--bench>`.
+#[command(group = clap::ArgGroup::new("what").required(true).args(["trajectory", "dataset", "bench"]))]
 #[command(after_help = "Examples:\n  \
 # s.mp4 + s_truth.csv\n  \
 eyereplay render data/reading/reading_0000.csv --out s.mp4\n  \
@@ -30,7 +33,6 @@ eyereplay render --bench --face --size 640x480\n  \
 eyereplay render --bench --replay clip.mp4")]
 pub struct Args {
     /// Session trajectory CSV (frame,x,y in canvas pixels).
-    #[arg(required_unless_present_any = ["dataset", "bench"], conflicts_with_all = ["dataset", "bench"])]
     pub trajectory: Option<PathBuf>,
     /// Output MP4 (default: the trajectory's path with .mp4).
     #[arg(long, short, value_name = "MP4")]
@@ -62,7 +64,7 @@ pub struct Args {
     pub bench: bool,
     /// Frames for --bench (default 750; 25 to 100000). The bench keeps them
     /// all in memory, at most 4 GiB: 3,106 frames at 1280x720.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = super::values::whole::<usize>)]
     pub frames: Option<usize>,
     /// With --bench: the full-face webcam mode (render.backend = "face":
     /// the first bundled photo, webcam look, head motion) instead of the
@@ -81,7 +83,7 @@ pub struct Args {
     /// Identity seed (face, iris, lighting, camera); 0 is the reference face.
     /// With --dataset, each session's identity comes from the dataset's own
     /// seed (metadata.json), as `eyereplay generate` draws it.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = super::values::whole::<u64>)]
     pub seed: u64,
     /// Amplify the normalized iris excursion by this factor (above 0, at
     /// most 10).
@@ -116,7 +118,7 @@ pub struct Args {
     #[arg(long, conflicts_with = "crf")]
     pub lossless: bool,
     /// x264 constant rate factor, 0 to 51 (lower is better quality).
-    #[arg(long, default_value_t = 18)]
+    #[arg(long, default_value_t = 18, value_parser = super::values::whole::<u32>)]
     pub crf: u32,
     /// x264 preset: ultrafast, superfast, veryfast, faster, fast, medium,
     /// slow, slower, veryslow or placebo.

@@ -46,7 +46,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = InputArg::Extracted)]
     pub input: InputArg,
     /// Seed of the validation split and of the trees' bootstrap samples.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = super::values::whole::<u64>)]
     pub seed: u64,
     /// What learns from the 14 features: 'trees' (100 decision trees on
     /// bootstrap samples, a window's score the mean of their leaves'
