@@ -113,9 +113,10 @@ struct RenderLock {
 }
 
 impl RenderLock {
-    fn take(out: &Path, shard: Option<Shard>) -> Result<RenderLock> {
+    fn take(out: &Path, shard: Option<Shard>, progress: &dyn Progress) -> Result<RenderLock> {
+        // Shards counted from 0, as `--shard K/N` counts them.
         let name = match shard {
-            Some(s) => format!(".eyereplay-render.{}-of-{}.lock", s.index + 1, s.count),
+            Some(s) => format!(".eyereplay-render.shard-{}-of-{}.lock", s.index, s.count),
             None => ".eyereplay-render.lock".to_string(),
         };
         let path = out.join(name);
@@ -149,10 +150,26 @@ impl RenderLock {
                     out,
                     format!(
                         "another eyereplay run is drawing this dataset{} ({}); wait for it to end, or stop it",
-                        shard.map_or(String::new(), |s| format!("'s shard {}/{}", s.index + 1, s.count)),
+                        shard.map_or(String::new(), |s| format!("'s shard {}/{}", s.index, s.count)),
                         holder.trim()
                     ),
                 ));
+            }
+            // A file system without flock (Lustre mounted without `-o
+            // flock`, some NFS setups): the lock only keeps a second run of
+            // one shard from drawing beside the first, so draw without it
+            // and say so, rather than refuse every shard.
+            Err(std::fs::TryLockError::Error(e)) if e.kind() == std::io::ErrorKind::Unsupported => {
+                progress.info(&format!(
+                    "warning: {}: this file system cannot lock files ({e}); nothing keeps a second run of this {} from drawing beside this one",
+                    path.display(),
+                    if shard.is_some() { "shard" } else { "dataset" }
+                ));
+                let _ = std::fs::remove_file(&path);
+                return Ok(RenderLock {
+                    held: None,
+                    _listed: None,
+                });
             }
             Err(std::fs::TryLockError::Error(e)) => return Err(BackendError::io(&path, e)),
         }
@@ -188,7 +205,7 @@ pub fn render_dataset(
     progress: &dyn Progress,
 ) -> Result<RenderSummary> {
     let meta = eyereplay_dataset::read_metadata(out)?.dataset;
-    let _lock = RenderLock::take(out, shard)?;
+    let _lock = RenderLock::take(out, shard, progress)?;
     let mut summary = RenderSummary::default();
     let mut todo = Vec::new();
     // Every trajectory is read before any session is drawn: one that

@@ -4,6 +4,19 @@
 
 use clap::{Parser, Subcommand};
 
+/// `eprintln!` for this binary, which never panics: std's panics when
+/// standard error is a closed pipe (`... 2>&1 | grep -m1 reading`), which
+/// ended a live watch or a render before its files were written. Standard
+/// error carries messages, not results, so a message nobody can read is
+/// dropped and the work goes on. Defined before the modules, so that it
+/// shadows std's in all of them.
+macro_rules! eprintln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 mod cmd;
 
 #[derive(Parser)]
@@ -51,7 +64,9 @@ enum Command {
 
 /// Ends the program quietly, as other Unix tools end, when whoever reads
 /// its standard output has gone (`eyereplay train ... | head -1`): Rust
-/// ignores SIGPIPE, so `println!` panics with a backtrace there. Not by
+/// ignores SIGPIPE, so `println!` panics with a backtrace there. Commands
+/// write their files before they print their results, so the files are
+/// whole by then. Not by
 /// restoring SIGPIPE itself: a closed pipe to ffmpeg must stay an error
 /// that names ffmpeg's own message.
 fn quiet_when_stdout_is_gone() {
@@ -63,7 +78,11 @@ fn quiet_when_stdout_is_gone() {
             .map(String::as_str)
             .or_else(|| payload.downcast_ref::<&str>().copied())
             .unwrap_or("");
-        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
+        // Standard error too, for a message printed outside this binary's
+        // own `eprintln!` (above).
+        let gone = message.starts_with("failed printing to stdout")
+            || message.starts_with("failed printing to stderr");
+        if gone && message.contains("Broken pipe") {
             // 128 + SIGPIPE: what a shell reports for a tool ended by it.
             std::process::exit(141);
         }

@@ -264,6 +264,33 @@ fn without_a_model_detect_uses_the_shipped_one() {
     jb["model"]["path"] = serde_json::Value::Null;
     assert_eq!(ja, jb);
     assert_eq!(ja["windows"].as_array().unwrap().len(), 3);
+    // Standard error a closed pipe (`2>&1 | grep -m1 ...` once grep has
+    // gone): std's `eprintln!` panicked there, exit 101, in a live watch
+    // before its files were written. Now the messages are dropped and the
+    // command ends as usual, its files written.
+    let closed = d.join("closed");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_eyereplay"))
+        .args(["detect", s(&clip), "--out", s(&closed)])
+        .current_dir(root())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stderr.take());
+    let status = child.wait().unwrap();
+    assert!(status.success(), "{status:?}");
+    assert_eq!(read_json(&closed.join("reader_detect.json")), {
+        let mut j = read_json(&a.join("reader_detect.json"));
+        j["model"]["path"] = "built-in default model".into();
+        j
+    });
+    // A missing model file says it is the model, and that there is one
+    // built in.
+    let e = one_line_error(&eyereplay(&["detect", s(&clip), "--model", "nope.json"]));
+    assert!(
+        e.contains("--model nope.json: no such file") && e.contains("built-in"),
+        "{e}"
+    );
     // evaluate-localization too, on generated interviews (no data needed).
     let interviews = d.join("interviews");
     ok(&eyereplay(&[
@@ -522,7 +549,7 @@ fn a_live_watch_ends_with_its_result_on_ctrl_c_and_a_restarted_clock_runs_on() {
     let said = std::fs::read_to_string(&table).unwrap();
     assert!(o.status.success(), "{said}");
     assert!(
-        said.contains("warning: the stream's clock went back from "),
+        said.contains("warning: the stream's clock went back by "),
         "{said}"
     );
     assert!(said.contains("stopped: "), "{said}");

@@ -90,6 +90,15 @@ fn dry_run_measures_and_projects_and_profile_times_stages_writing_nothing() {
         "{text}"
     );
     assert!(!out.exists(), "a dry run wrote {}", out.display());
+    // A shard writes no report: its projection has none, and merge's is
+    // on a line of its own.
+    let o = generate(&out, &["--dry-run", "--shard", "0/2"]);
+    ok(&o);
+    let shard = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        shard.contains(", evaluate 0 s)") && shard.contains("then 'eyereplay merge', once"),
+        "{shard}"
+    );
     let p: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     // tiny.toml renders one session at a time (jobs = 1) of 50 frames; its
@@ -252,11 +261,23 @@ fn generate_is_deterministic_resumable_and_shardable() {
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(
         e.contains("4 of 8 sessions are not rendered")
-            && e.contains("reading/reading_0001.mp4: missing"),
+            && e.contains("reading/reading_0001.mp4 (session 1): missing"),
         "{e}"
     );
     ok(&generate(&s, &["--shard", "1/2"]));
     ok(&eyereplay(&["merge", s.to_str().unwrap()]));
+    assert_eq!(hashes(&s), ha);
+    // A shard of another config (here another seed) into that folder is
+    // refused before it touches it: it removed the other shards' sessions,
+    // and one drawing beside them left videos that did not match the
+    // trajectories merge then passed.
+    let o = generate(&s, &["--shard", "1/2", "--seed", "9"]);
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("made with another config than this shard's") && e.contains("shard 1/2"),
+        "{e}"
+    );
     assert_eq!(hashes(&s), ha);
     merge_refuses_damage_leaving_the_dataset_as_it_was(&s, &dir.path().join("damaged"));
 
@@ -392,7 +413,7 @@ fn merge_refuses_damage_leaving_the_dataset_as_it_was(done: &Path, scratch: &Pat
         (
             "a truth file cut short",
             |d, keep| keep(&d.join("conversation/conversation_0001_truth.csv"), 30),
-            "1 of 8 sessions are not rendered whole: conversation/conversation_0001_truth.csv: 29 of 50 rows",
+            "1 of 8 sessions are not rendered whole: conversation/conversation_0001_truth.csv (session 5): 29 of 50 rows",
         ),
         (
             "a truth value turned to NaN, the rows all there",

@@ -40,45 +40,49 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
         );
         pen_up = false;
     }
-    let _ = write!(
-        svg,
-        "<text x=\"4\" y=\"14\" class=\"lab\">gaze x</text><path d=\"{path}\" class=\"gaze\"/>"
-    );
+    let _ = write!(svg, "<path d=\"{path}\" class=\"gaze\"/>");
     // Probability per second, the 0.5 line, segments.
     let top = H_GAZE + 10.0;
     let yp = |p: f64| top + (1.0 - p) * H_PROB;
-    // A rect over the whole timeline's height from `a` to `b` seconds: its
-    // x, width and height attributes.
-    let span = |a: f64, b: f64| {
-        format!(
-            "x=\"{:.1}\" y=\"0\" width=\"{:.1}\" height=\"{:.1}\"",
-            x(a),
-            (x(b) - x(a)).max(1.0),
-            top + H_PROB
-        )
-    };
-    for g in &d.localization.segments {
+    // A rect over the whole timeline's height from `a` to `b` seconds, of
+    // `class`, with `more` attributes and a hover `title` (HTML-escaped
+    // here).
+    let band = |svg: &mut String, class: &str, (a, b): (f64, f64), more: &str, title: &str| {
         let _ = write!(
             svg,
-            "<rect class=\"seg\" {} data-start=\"{:.2}\" onclick=\"seek({:.2})\"><title>reading {:.1}-{:.1} s, confidence {:.2}</title></rect>",
-            span(g.start_s, g.end_s),
-            g.start_s,
-            g.start_s,
-            g.start_s,
-            g.end_s,
-            g.confidence
+            "<rect class=\"{class}\" x=\"{:.1}\" y=\"0\" width=\"{:.1}\" height=\"{:.1}\"{more}><title>{}</title></rect>",
+            x(a),
+            (x(b) - x(a)).max(1.0),
+            top + H_PROB,
+            esc(title)
+        );
+    };
+    for g in &d.localization.segments {
+        band(
+            &mut svg,
+            "seg",
+            (g.start_s, g.end_s),
+            &format!(" data-start=\"{0:.2}\" onclick=\"seek({0:.2})\"", g.start_s),
+            &format!(
+                "reading {:.1}-{:.1} s, confidence {:.2}",
+                g.start_s, g.end_s, g.confidence
+            ),
         );
     }
     // Stretches no window could score, with why.
     let unscored = d.unscored();
     for u in unscored {
-        let _ = write!(
-            svg,
-            "<rect class=\"gap\" {}><title>{}-{}: {}</title></rect>",
-            span(u.start_s, u.end_s),
-            clock(u.start_s),
-            clock(u.end_s),
-            esc(&u.reason(d.model.window_s))
+        band(
+            &mut svg,
+            "gap",
+            (u.start_s, u.end_s),
+            "",
+            &format!(
+                "{}-{}: {}",
+                clock(u.start_s),
+                clock(u.end_s),
+                u.reason(d.model.window_s)
+            ),
         );
     }
     let mut prob = String::new();
@@ -99,14 +103,62 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
             None => pen_up = true,
         }
     }
+    let h = top + H_PROB;
     let _ = write!(
         svg,
-        "<line x1=\"0\" x2=\"{W}\" y1=\"{y:.1}\" y2=\"{y:.1}\" class=\"half\"/><path d=\"{prob}\" class=\"prob\"/><text x=\"4\" y=\"{:.1}\" class=\"lab\">P(reading)</text><line id=\"head\" x1=\"0\" x2=\"0\" y1=\"0\" y2=\"{:.1}\" class=\"head\"/>",
-        top + 14.0,
-        top + H_PROB,
+        "<line x1=\"0\" x2=\"{W}\" y1=\"{y:.1}\" y2=\"{y:.1}\" class=\"half\"/><path d=\"{prob}\" class=\"prob\"/><line id=\"head\" x1=\"0\" x2=\"0\" y1=\"0\" y2=\"{h:.1}\" class=\"head\"/>",
         y = yp(0.5),
     );
-    let segments: String = if d.localization.segments.is_empty() {
+    // A short clip's scored stretch, shaded: the page's one figure for it.
+    if let Some(c) = &d.clip {
+        band(
+            &mut svg,
+            "clip",
+            (c.start_s, c.end_s),
+            "",
+            &format!(
+                "scored: {:.1} s of gaze in {:.1}-{:.1} s",
+                c.usable_s, c.start_s, c.end_s
+            ),
+        );
+        // Its score as a level over the stretch, in its interval's band.
+        let _ = write!(
+            svg,
+            "<rect class=\"ci\" x=\"{:.1}\" y=\"{:.1}\" width=\"{:.1}\" height=\"{:.1}\"/><line class=\"prob\" x1=\"{:.1}\" x2=\"{:.1}\" y1=\"{y:.1}\" y2=\"{y:.1}\"/>",
+            x(c.start_s),
+            yp(c.high),
+            (x(c.end_s) - x(c.start_s)).max(1.0),
+            (yp(c.low) - yp(c.high)).max(1.0),
+            x(c.start_s),
+            x(c.end_s),
+            y = yp(c.reading_probability),
+        );
+    }
+    // Time ticks: lines in the drawing, their labels in HTML below it, so
+    // that the text keeps its size however wide the page is.
+    let step_s = tick_step_s(dur);
+    let mut ticks = String::new();
+    for k in 0..=(dur / step_s).floor() as usize {
+        let t = k as f64 * step_s;
+        if k > 0 {
+            let _ = write!(
+                svg,
+                "<line class=\"tick\" x1=\"{0:.1}\" x2=\"{0:.1}\" y1=\"0\" y2=\"{h:.1}\"/>",
+                x(t)
+            );
+        }
+        // One at the right edge ends there, not half past it.
+        let at = 100.0 * t / dur;
+        let _ = write!(
+            ticks,
+            "<span style=\"left:{at:.2}%\"{}>{}</span>",
+            if at > 96.0 { " class=\"end\"" } else { "" },
+            clock(t)
+        );
+    }
+    let segments: String = if d.clip.is_some() {
+        "<li>none: a clip shorter than one window is scored whole (above)</li>".into()
+    } else if d.localization.segments.is_empty() {
         "<li>none</li>".into()
     } else {
         d.localization
@@ -139,21 +191,49 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
     let video = match video_href {
         Some(h) => format!(
             "<video id=\"v\" src=\"{}\" controls preload=\"metadata\"></video>",
-            esc(h)
+            esc(&url_path(h))
         ),
-        None => "<p class=\"note\">The input is a gaze file, not a video: the timeline alone.</p>"
-            .into(),
+        None => format!("<p class=\"note\">{}</p>", no_video_note(&d.input.kind)),
     };
+    // The legend names only what is drawn.
+    let mut legend = vec![format!("0 to {}", clock(dur))];
+    if !d.localization.segments.is_empty() {
+        legend.push(format!(
+            "orange: reading segments{}, their ends where the window scores cross half-way between reading and not",
+            if video_href.is_some() { " (click to play from there)" } else { "" }
+        ));
+    }
+    if d.localization.probability.iter().any(Option::is_some) {
+        legend.push("curve: P(reading), dashed: P = 0.5".into());
+    }
+    if let Some(c) = &d.clip {
+        legend.push(format!(
+            "blue: the stretch scored, its P(reading) the orange line, its {:.0} % interval the band; dashed: P = 0.5",
+            100.0 * c.level
+        ));
+    }
+    if !unscored.is_empty() {
+        legend.push("grey: no score, too little gaze (hover for why)".into());
+    }
     format!(
-        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>{title}</title><style>\
-body{{font:15px system-ui,sans-serif;margin:24px auto;max-width:1040px;color:#222}}\
-video{{width:100%;max-height:480px;background:#000}}svg{{width:100%;height:auto;border:1px solid #ccc;cursor:pointer}}\
+        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">\
+<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>{title}</title><style>\
+body{{font:15px system-ui,sans-serif;margin:24px auto;padding:0 12px;max-width:1040px;color:#222}}\
+video{{width:100%;max-height:480px;background:#000}}.tl{{position:relative}}\
+svg{{display:block;box-sizing:border-box;width:100%;height:{h:.0}px;border:1px solid #ccc;cursor:pointer}}\
+path,line{{vector-effect:non-scaling-stroke}}\
 .gaze{{fill:none;stroke:#456;stroke-width:1}}.prob{{fill:none;stroke:#c60;stroke-width:2}}\
-.half{{stroke:#999;stroke-dasharray:4 4}}.seg{{fill:#fc8;opacity:.45}}.seg:hover{{opacity:.8}}\
-.gap{{fill:#888;opacity:.3}}.head{{stroke:#d00;stroke-width:2}}.lab{{font-size:12px;fill:#555}}.note{{color:#666}}</style></head><body>\
+.half{{stroke:#999;stroke-dasharray:4 4}}.tick{{stroke:#ddd;stroke-width:1}}.seg{{fill:#fc8;opacity:.45}}.seg:hover{{opacity:.8}}\
+.gap{{fill:#888;opacity:.3}}.clip{{fill:#8bd;opacity:.2}}.ci{{fill:#c60;opacity:.2}}.head{{stroke:#d00;stroke-width:2}}\
+.lab{{position:absolute;left:5px;font-size:12px;color:#555;pointer-events:none}}\
+.ticks{{position:relative;height:18px;margin:2px 0 0;font-size:12px;color:#555}}\
+.ticks span{{position:absolute;top:0;transform:translateX(-50%);white-space:nowrap}}.ticks span:first-child{{transform:none}}.ticks .end{{transform:translateX(-100%)}}\
+.note{{color:#666}}</style></head><body>\
 <h1>{title}</h1><p><b>{when}</b>. {average} Model: {model}.</p>{video}\
-<svg id=\"t\" viewBox=\"0 0 {W} {h:.0}\" preserveAspectRatio=\"none\">{svg}</svg>\
-<p class=\"note\">0 to {dur}. Orange: reading segments (click to play from there), their ends where the window scores cross half-way between reading and not; curve: P(reading), dashed: P = 0.5{grey}.</p>\
+<div class=\"tl\"><svg id=\"t\" viewBox=\"0 0 {W} {h:.0}\" preserveAspectRatio=\"none\">{svg}</svg>\
+<span class=\"lab\" style=\"top:2px\">gaze x</span><span class=\"lab\" style=\"top:{prob_top:.0}px\">P(reading)</span></div>\
+<div class=\"ticks\">{ticks}</div>\
+<p class=\"note\">{legend}.</p>\
 <h2>Reading segments</h2><ul>{segments}</ul>{not_scored}\
 <script>\
 var v=document.getElementById('v'),t=document.getElementById('t'),h=document.getElementById('head'),D={durs:.3};\
@@ -165,15 +245,51 @@ if(v)v.addEventListener('timeupdate',function(){{var x=v.currentTime/D*{W};h.set
         average = esc(&average(d)),
         when = esc(&when(d, dur)),
         model = esc(&d.model.path),
-        h = top + H_PROB,
-        dur = clock(dur),
+        prob_top = top + 2.0,
         durs = dur,
-        grey = if unscored.is_empty() {
-            ""
-        } else {
-            "; grey: no score, too little gaze (hover for why)"
-        },
+        legend = esc(&legend.join("; ")),
     )
+}
+
+/// The step between the timeline's time labels: the smallest of a
+/// player's usual steps that gives at most six, so that they fit side by
+/// side on a phone's 390 px.
+fn tick_step_s(dur_s: f64) -> f64 {
+    const STEPS_S: [f64; 14] = [
+        1.0, 2.0, 5.0, 10.0, 15.0, 30.0, 60.0, 120.0, 300.0, 600.0, 900.0, 1800.0, 3600.0, 7200.0,
+    ];
+    STEPS_S
+        .into_iter()
+        .find(|s| dur_s / s <= 6.0)
+        .unwrap_or_else(|| (dur_s / 6.0 / 3600.0).ceil() * 3600.0)
+}
+
+/// What stands where the video would: why there is none.
+fn no_video_note(kind: &str) -> &'static str {
+    match kind {
+        "live" => "A live stream: its video was not kept, so the timeline stands alone.",
+        "frames" => "Frames given in memory: no video file to show, so the timeline stands alone.",
+        _ => "The input is a gaze file, not a video: the timeline alone.",
+    }
+}
+
+/// The video's address with every byte but a path's plain characters
+/// percent-encoded: a `#` or `?` in a file name ("Interview #3.mp4") would
+/// otherwise end the path there and leave a dead video.
+fn url_path(href: &str) -> String {
+    let (scheme, path) = match href.strip_prefix("file://") {
+        Some(p) => ("file://", p),
+        None => ("", href),
+    };
+    let mut out = String::from(scheme);
+    for b in path.bytes() {
+        if b.is_ascii_alphanumeric() || b"-._~/".contains(&b) {
+            out.push(b as char);
+        } else {
+            let _ = write!(out, "%{b:02X}");
+        }
+    }
+    out
 }
 
 /// The gaze trace's vertical scale: the 0.5-99.5 % range of x fills the
@@ -207,6 +323,9 @@ impl GazeBand {
 
 /// The headline: how much of the recording is read, in how many segments.
 fn when(d: &Detection, dur: f64) -> String {
+    if d.clip.is_some() {
+        return format!("A short clip: {}", d.verdict);
+    }
     let segs = &d.localization.segments;
     if segs.is_empty() {
         return "No reading segment".into();
@@ -225,6 +344,18 @@ fn when(d: &Detection, dur: f64) -> String {
 /// a contradiction of the segments beside it: a long interview with one
 /// read answer is "not reading" on average.
 fn average(d: &Detection) -> String {
+    if let Some(summary) = d.clip_summary() {
+        let why = if d.verdict == "uncertain" {
+            ": uncertain, since the interval holds the threshold"
+        } else {
+            ""
+        };
+        // What `detect` prints for it: the stretch, the score, its interval.
+        return format!(
+            "Shorter than one {} s window, so scored from its best stretch: {summary}{why}.",
+            d.model.window_s
+        );
+    }
     let said = format!(
         "Averaged over the whole recording, P(reading) is {:.3} against the model's threshold {:.3}",
         d.reading_probability, d.model.threshold
@@ -348,6 +479,81 @@ mod tests {
         );
         let page = detection_page(&track, &d, None);
         assert!(!page.contains("class=\"gap\"") && !page.contains("Not scored"));
+        // Its headline is the clip's verdict with the stretch, score and
+        // interval `detect` prints, not "No reading segment" (found by a
+        // user audit: a clip called reading whose page said that in bold).
+        assert!(
+            page.contains(
+                "<b>A short clip: not reading</b>. Shorter than one 10 s window, so scored from its \
+                 best stretch: 8.0 s of gaze in 0.0-8.0 s scored, P(reading) 0.400, 90 % interval \
+                 0.300-0.500, threshold 0.600."
+            ),
+            "{}",
+            headline(&page)
+        );
+        // 8 s of 60 shaded: x 0, width 133.3; no video, so no "click to play".
+        assert!(page.contains("<rect class=\"clip\" x=\"0.0\" y=\"0\" width=\"133.3\""));
+        assert!(page.contains("blue: the stretch scored") && !page.contains("click to play"));
+        // Its score 0.4 as a line over the stretch, its interval 0.3-0.5 a
+        // band: y = 100 + (1 - p) 110 for the strip from 100 to 210.
+        assert!(page.contains(
+            "<rect class=\"ci\" x=\"0.0\" y=\"155.0\" width=\"133.3\" height=\"22.0\"/>\
+             <line class=\"prob\" x1=\"0.0\" x2=\"133.3\" y1=\"166.0\" y2=\"166.0\"/>"
+        ));
+    }
+
+    /// Labels every 10 s on a minute (six steps, seven labels with 0:00),
+    /// every 30 s on 100 s, every 10 min on an hour.
+    #[test]
+    fn time_ticks_are_at_most_six_steps() {
+        assert_eq!(tick_step_s(60.0), 10.0);
+        assert_eq!(tick_step_s(100.0), 30.0);
+        assert_eq!(tick_step_s(3600.0), 600.0);
+        assert_eq!(tick_step_s(3.0), 1.0);
+        // Past the table: whole hours, six steps or fewer.
+        assert_eq!(tick_step_s(20.0 * 3600.0), 4.0 * 3600.0);
+        let page = detection_page(&Track::new(vec![[0.5, 0.5]; 2500]), &sample(), None);
+        for label in ["0:00", "0:30", "1:00", "1:30"] {
+            assert!(page.contains(&format!(">{label}</span>")), "{label}");
+        }
+        assert!(!page.contains(">2:00</span>"));
+        // 90 s of 100 is not at the edge; an hour's 60:00 is, and ends there.
+        assert!(page.contains("<span style=\"left:90.00%\">1:30</span>"));
+        let mut hour = sample();
+        hour.input.frames = 90_000;
+        let page = detection_page(&Track::new(vec![[0.5, 0.5]; 90_000]), &hour, None);
+        assert!(page.contains("<span style=\"left:100.00%\" class=\"end\">1:00:00</span>"));
+    }
+
+    /// A `#`, `?`, `%` or space in a file name reaches the browser as part
+    /// of the path; slashes and the `file://` scheme stay as they are.
+    #[test]
+    fn the_video_address_is_percent_encoded() {
+        assert_eq!(url_path("../Interview #3.mp4"), "../Interview%20%233.mp4");
+        assert_eq!(url_path("file:///a/b?c%d.mp4"), "file:///a/b%3Fc%25d.mp4");
+        assert_eq!(url_path("plain-name_1.mp4"), "plain-name_1.mp4");
+        // UTF-8 bytes one by one, as a browser would send them.
+        assert_eq!(url_path("é.mp4"), "%C3%A9.mp4");
+        let page = detection_page(
+            &Track::new(vec![[0.5, 0.5]; 250]),
+            &sample(),
+            Some("a #1.mp4"),
+        );
+        assert!(page.contains("<video id=\"v\" src=\"a%20%231.mp4\""));
+    }
+
+    /// A live stream's page says so, not that the input was a gaze file.
+    #[test]
+    fn a_page_without_video_says_why() {
+        let mut d = sample();
+        d.input.kind = "live".into();
+        let page = detection_page(&Track::new(vec![[0.5, 0.5]; 250]), &d, None);
+        assert!(page.contains("A live stream: its video was not kept"));
+        assert!(!page.contains("gaze file"));
+    }
+
+    fn sample() -> Detection {
+        crate::detector::tests::sample_detection()
     }
 
     #[test]

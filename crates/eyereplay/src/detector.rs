@@ -850,6 +850,26 @@ pub struct Detection {
 }
 
 impl Detection {
+    /// A short clip's score, worded as `detect` prints it and the
+    /// reviewer's page shows it ("8.0 s of gaze in 0.0-8.0 s scored,
+    /// P(reading) 0.947, 90 % interval 0.900-0.990, threshold 0.775");
+    /// `None` for a recording scored by its windows.
+    pub fn clip_summary(&self) -> Option<String> {
+        self.clip.as_ref().map(|c| {
+            format!(
+                "{:.1} s of gaze in {:.1}-{:.1} s scored, P(reading) {:.3}, {:.0} % interval {:.3}-{:.3}, threshold {:.3}",
+                c.usable_s,
+                c.start_s,
+                c.end_s,
+                c.reading_probability,
+                100.0 * c.level,
+                c.low,
+                c.high,
+                self.model.threshold
+            )
+        })
+    }
+
     /// The stretches no window could score, to show and explain; none for
     /// a short clip, which is scored whole from its best stretch.
     pub fn unscored(&self) -> &[eyereplay_detect::localize::Unscored] {
@@ -968,8 +988,25 @@ pub fn detection_figure(track: &Track, d: &Detection) -> Result<eyereplay_eval::
         &windows,
         &figure_unscored(track.len(), d),
         d.model.threshold,
-        &format!("{}: {}", file_label(&d.input.path), d.verdict),
+        &figure_title(d),
     )?)
+}
+
+/// The figure's title: the verdict, and with reading segments how many,
+/// so that "not reading" (the recording's average) does not stand alone
+/// over bars that show an answer read.
+fn figure_title(d: &Detection) -> String {
+    let n = d.localization.segments.len();
+    if d.clip.is_some() || n == 0 {
+        format!("{}: {}", file_label(&d.input.path), d.verdict)
+    } else {
+        format!(
+            "{}: reading in {n} segment{}; {} on average",
+            file_label(&d.input.path),
+            if n == 1 { "" } else { "s" },
+            d.verdict
+        )
+    }
 }
 
 /// What the figure greys: the stretches no window could score
@@ -1009,8 +1046,41 @@ fn file_label(path: &str) -> String {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+
+    /// A 100-s detection of `call.mp4` with nothing found, for tests.
+    pub(crate) fn sample_detection() -> Detection {
+        serde_json::from_value(serde_json::json!({
+            "input": {"path": "call.mp4", "kind": "video", "frames": 2500, "gaze_fraction": 1.0},
+            "model": {"path": "m.json", "kind": "logistic_regression", "window_s": 10.0, "threshold": 0.6},
+            "windows": [], "reading_probability": 0.1, "reading_window_fraction": 0.0,
+            "verdict": "not reading",
+            "localization": {"method": "hmm_edges", "step_s": 1.0, "probability": [0.1],
+                             "segments": [], "unscored": []},
+            "clip": null
+        }))
+        .unwrap()
+    }
+
+    /// A plot of an interview with read answers says so in its title; the
+    /// "not reading" of the average alone read as a contradiction.
+    #[test]
+    fn the_figure_title_names_the_segments() {
+        let mut d = sample_detection();
+        d.input.path = "out/gap_call.mp4".into();
+        d.localization.segments = serde_json::from_value(serde_json::json!([
+            {"start_s": 0.0, "end_s": 44.0, "confidence": 0.9},
+            {"start_s": 78.0, "end_s": 108.0, "confidence": 0.8}
+        ]))
+        .unwrap();
+        assert_eq!(
+            figure_title(&d),
+            "gap_call.mp4: reading in 2 segments; not reading on average"
+        );
+        d.localization.segments.clear();
+        assert_eq!(figure_title(&d), "gap_call.mp4: not reading");
+    }
 
     #[test]
     fn frames_too_sparse_to_join_are_said_to_be() {

@@ -63,17 +63,20 @@ pub fn finalize_with_progress(
     // backend's extra ones: a session not drawn lacks them all, and its
     // video is the one to name.
     let frames = meta.dataset.session_frames;
-    let missing: Vec<(PathBuf, String)> = jobs
+    // With each session's place in labels.csv: the shard that owns it
+    // follows from that (merge is not told the shard count).
+    let missing: Vec<(usize, PathBuf, String)> = jobs
         .par_iter()
-        .filter_map(|j| why_incomplete(j, frames))
+        .enumerate()
+        .filter_map(|(i, j)| why_incomplete(j, frames).map(|(p, why)| (i, p, why)))
         .collect();
     if !missing.is_empty() {
         let shown: Vec<String> = missing
             .iter()
             .take(12)
-            .map(|(path, why)| {
+            .map(|(i, path, why)| {
                 format!(
-                    "{}: {why}",
+                    "{} (session {i}): {why}",
                     path.strip_prefix(dir).unwrap_or(path).display()
                 )
             })
@@ -81,7 +84,8 @@ pub fn finalize_with_progress(
         return Err(Error::input(
             dir,
             format!(
-                "{} of {} sessions are not rendered whole: {}{} (rerun the shard(s) that own them with the same command)",
+                "{} of {} sessions are not rendered whole: {}{} (rerun the shard(s) that own them with the same command: \
+                 with N shards, session i is shard i mod N's)",
                 missing.len(),
                 jobs.len(),
                 shown.join("; "),

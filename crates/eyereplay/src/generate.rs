@@ -199,7 +199,13 @@ pub fn generate(
             ));
         }
     }
-    forget_renders_of_another_config(out, &job.config, progress)?;
+    forget_renders_of_another_config(out, &job.config, job.shard, progress)?;
+    // A shard run again over a merged dataset (a retried task, a check)
+    // writes the trajectories' metadata afresh, without the merge's render
+    // section: the dataset is no longer finished, and a line says so.
+    let merged = job.shard.is_some()
+        && out.join(eyereplay_dataset::layout::METADATA_FILE).is_file()
+        && eyereplay_dataset::read_metadata(out).is_ok_and(|m| m.render.is_some());
     let mut log = RunLog::open(out)?;
     let mut summary = GenerateSummary::default();
     let mut stage = |name: &'static str, t: Instant, log: &mut RunLog| {
@@ -224,6 +230,13 @@ pub fn generate(
         )?;
     }
     stage("extract+prepare", t, &mut log);
+    if merged {
+        progress.info(&format!(
+            "{}: was merged; a shard run over it undoes that (metadata.json loses its render section), so run 'eyereplay merge {}' again when the shards are done",
+            out.display(),
+            out.display()
+        ));
+    }
 
     // Render this shard's sessions (the renderer first removes what a
     // killed run left half-written of each of them).
@@ -237,6 +250,9 @@ pub fn generate(
         progress,
     )?;
     stage("render", t, &mut log);
+    if let Some(shard) = job.shard {
+        check_no_other_config_came(out, &job.config, shard)?;
+    }
 
     // Finish (a sharded run leaves it to 'eyereplay merge').
     let mut report = None;
@@ -259,23 +275,32 @@ pub fn generate(
 /// trajectories or their drawing), its sessions' rendered files are
 /// removed so that they are rendered again, and a line says so. The
 /// trajectories (`prepare`) are written anew anyway.
+///
+/// A shard refuses instead: it would remove the other shards' sessions
+/// without drawing them, and a shard still drawing with the folder's
+/// config would finish sessions that no longer match its trajectories.
 fn forget_renders_of_another_config(
     out: &Path,
     config: &DatasetConfig,
+    shard: Option<Shard>,
     progress: &dyn Progress,
 ) -> Result<()> {
-    if !out.join(eyereplay_dataset::layout::METADATA_FILE).is_file() {
+    let Some(old) = recorded_config(out, config)? else {
+        return Ok(());
+    };
+    if old.config == *config {
         return Ok(());
     }
-    let old = eyereplay_dataset::read_metadata(out)?.dataset;
-    // The folder the config was read from is not recorded (nor does it
-    // move a session).
-    let recorded = DatasetConfig {
-        base_dir: config.base_dir.clone(),
-        ..old.config.clone()
-    };
-    if recorded == *config {
-        return Ok(());
+    if let Some(s) = shard {
+        return Err(Error::input(
+            out,
+            format!(
+                "made with another config than this shard's (its [render] table, seed, sources or sessions differ); \
+                 every shard of a dataset must run the same config and seed, so shard {}/{} stops here. \
+                 Run it with the config the folder was made with, or start again in an empty folder",
+                s.index, s.count
+            ),
+        ));
     }
     let mut removed = 0;
     for s in &old.sessions {
@@ -295,6 +320,56 @@ fn forget_renders_of_another_config(
         ));
     }
     Ok(())
+}
+
+/// The dataset `out` records, with its config's folder set to `config`'s
+/// (the folder a config was read from is not recorded, nor does it move a
+/// session); `None` when `out` holds none yet.
+fn recorded_config(
+    out: &Path,
+    config: &DatasetConfig,
+) -> Result<Option<eyereplay_dataset::DatasetMetadata>> {
+    if !out.join(eyereplay_dataset::layout::METADATA_FILE).is_file() {
+        return Ok(None);
+    }
+    let mut old = eyereplay_dataset::read_metadata(out)?.dataset;
+    old.config.base_dir = config.base_dir.clone();
+    Ok(Some(old))
+}
+
+/// After a shard has drawn its sessions: the folder must still record its
+/// config. Another shard started with another config while this one drew
+/// (the check before drawing cannot see a start within seconds of its
+/// own) leaves this shard's sessions drawn from trajectories the folder no
+/// longer holds; they are removed, so that `merge` refuses the folder
+/// rather than pass videos that do not match their CSVs.
+fn check_no_other_config_came(out: &Path, config: &DatasetConfig, shard: Shard) -> Result<()> {
+    let Some(now) = recorded_config(out, config)? else {
+        return Ok(());
+    };
+    if now.config == *config {
+        return Ok(());
+    }
+    for (_, s) in now
+        .sessions
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| shard.contains(*i))
+    {
+        let paths = eyereplay_dataset::SessionPaths::new(out, &s.file)
+            .map_err(|e| Error::input(out.join(&s.file), e.to_string()))?;
+        for p in paths.outputs().iter().filter(|p| p.is_file()) {
+            std::fs::remove_file(p).map_err(|e| Error::io(p, e))?;
+        }
+    }
+    Err(Error::input(
+        out,
+        format!(
+            "another config was written into this folder while shard {}/{} drew (a shard run with another config or seed?); \
+             this shard's sessions were removed. Run every shard with one config, in an empty folder",
+            shard.index, shard.count
+        ),
+    ))
 }
 
 /// Per-stage timings, appended to `<out>/run.log` (not to metadata.json,
@@ -330,5 +405,51 @@ impl RunLog {
         tracing::info!("{name}: {seconds:.2} s");
         // Timing is informative only: a full disk must not fail the job here.
         let _ = writeln!(self.file, "  {name}: {seconds:.2} s");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Shard 0 of 2 has drawn its sessions (0 and 2 of four) when another
+    /// seed's trajectories are written into the folder, as a shard started
+    /// with another config at the same moment writes them: its sessions'
+    /// files go, and it fails, so that `merge` refuses the folder; the
+    /// other shard's files stay. With its own config there, it passes.
+    #[test]
+    fn a_shard_that_finds_another_config_after_drawing_removes_its_sessions() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("ds");
+        let text = |seed: u64| {
+            format!(
+                "fps = 25.0\nsession_frames = 50\nseed = {seed}\n[classes.conversation]\nsessions = 4\n\
+                 [[classes.conversation.generators]]\nmodel = \"conversation\"\n"
+            )
+        };
+        let config = |seed: u64| {
+            DatasetConfig::from_text(&text(seed), Path::new("t.toml"), dir.path()).unwrap()
+        };
+        let (mine, other) = (config(1), config(2));
+        let cache = dir.path().join("cache");
+        let quiet = eyereplay_core::NoProgress;
+        prepare_dataset(&mine, &out, &cache, &quiet).unwrap();
+        let video = |i: usize| out.join(format!("conversation/conversation_000{i}.mp4"));
+        for i in 0..4 {
+            std::fs::write(video(i), b"drawn").unwrap();
+        }
+        let shard = Shard::new(0, 2).unwrap();
+        check_no_other_config_came(&out, &mine, shard).unwrap();
+        assert!((0..4).all(|i| video(i).is_file()));
+        prepare_dataset(&other, &out, &cache, &quiet).unwrap();
+        let e = check_no_other_config_came(&out, &mine, shard)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("another config was written into this folder while shard 0/2 drew"),
+            "{e}"
+        );
+        let left: Vec<bool> = (0..4).map(|i| video(i).is_file()).collect();
+        assert_eq!(left, [false, true, false, true]);
     }
 }

@@ -297,7 +297,14 @@ pub trait LiveObserver {
     /// Something the viewer should know that does not stop the watch (the
     /// stream's clock went back, it stalled).
     fn warning(&mut self, message: &str);
+    /// The source opened: its picture's size. A viewer's "watching ..."
+    /// belongs here, not before the open, which may fail.
+    fn opened(&mut self, _width: usize, _height: usize) {}
 }
+
+/// With no face in this many seconds of a stream, the watch says so once:
+/// a camera pointed elsewhere should not take the whole call to show.
+const NO_FACE_WARN_S: f64 = 10.0;
 
 /// Watches `source` until it ends or `stop` ends it, telling `observer`
 /// every window of the model's length, one second apart, as it closes;
@@ -356,6 +363,8 @@ pub fn watch(
     let (mut decoder, child) = opening?;
     let opts = ExtractOptions::default();
     let (w, h) = (decoder.info.width, decoder.info.height);
+    observer.opened(w, h);
+    let mut face_checked = false;
     let mut stream = FrameStream::new(&opts, w, h)?;
     let mut clock = WindowClock {
         next: 0,
@@ -393,7 +402,16 @@ pub fn watch(
                 observer.warning(&w);
             }
         }
-        clock.t0.get_or_insert_with(|| (t, Instant::now()));
+        let (t0, _) = *clock.t0.get_or_insert_with(|| (t, Instant::now()));
+        if !face_checked && t - t0 >= NO_FACE_WARN_S {
+            face_checked = true;
+            if !stream.rows().iter().any(|r| r.face()) {
+                observer.warning(&format!(
+                    "no face in the first {NO_FACE_WARN_S:.0} s of the stream: is the camera \
+                     pointed at a face? (the watch goes on)"
+                ));
+            }
+        }
         clock.close(stream.rows(), Some(t), model, &mut |w| observer.window(w));
         Ok(ControlFlow::Continue(()))
     });
@@ -459,6 +477,9 @@ pub fn watch(
 struct Rebase {
     /// Added to every incoming time since the last restart.
     offset_s: f64,
+    /// The first frame's time: the tables count from it, and so does
+    /// the warning (an MPEG-TS stream starts at 1.4 s, say).
+    first: Option<f64>,
     /// The last time given out, and the last interval between frames.
     last: Option<f64>,
     interval_s: Option<f64>,
@@ -487,6 +508,7 @@ impl Rebase {
                 return Timed::Behind;
             }
             self.last = Some(t);
+            self.first = Some(t);
             return Timed::At(t);
         };
         let continued = last + self.interval_s.unwrap_or(1.0 / FPS);
@@ -505,11 +527,14 @@ impl Rebase {
         }
         self.offset_s = continued - t_s;
         self.last = Some(continued);
+        let first = self.first.unwrap_or(0.0);
         Timed::Restarted(
             continued,
             format!(
-                "the stream's clock went back from {last:.2} s to {t:.2} s (a restarted camera \
-                 or encoder?); its frames continue from {continued:.2} s"
+                "the stream's clock went back by {:.2} s at {:.2} s into the stream (a restarted \
+                 camera or encoder?); its frames continue from there",
+                last - t,
+                continued - first
             ),
         )
     }
@@ -599,8 +624,9 @@ mod tests {
             panic!("a restart")
         };
         assert!((t - 5.12).abs() < 1e-9, "{t}");
+        // In the tables' time, which starts at the first frame (5.0 s).
         assert!(
-            message.contains("went back from 5.08 s to 0.00 s"),
+            message.contains("went back by 5.08 s at 0.12 s into the stream"),
             "{message}"
         );
         let Timed::At(t) = r.time(0.04) else {

@@ -16,7 +16,16 @@ const BUILT_IN_MODEL_NAME: &str = "built-in default model";
 /// in errors and results.
 pub fn load_model(file: Option<&Path>) -> anyhow::Result<(DetectorModel, PathBuf)> {
     Ok(match file {
-        Some(path) => (DetectorModel::load(path)?, path.to_path_buf()),
+        Some(path) => {
+            // Not the bare "No such file or directory" of the read: say it
+            // is the model, and that the command has one of its own.
+            anyhow::ensure!(
+                path.exists(),
+                "--model {}: no such file (a model 'eyereplay train' writes; without --model the built-in one is used)",
+                path.display()
+            );
+            (DetectorModel::load(path)?, path.to_path_buf())
+        }
         None => {
             let name = PathBuf::from(BUILT_IN_MODEL_NAME);
             (DetectorModel::parse(BUILT_IN_MODEL, &name)?, name)
@@ -55,15 +64,25 @@ Your own model: 'eyereplay train DATASET --out m.json' (docs/DETECTOR.md).")]
 pub struct Args {
     /// A video, an 'eyereplay extract' CSV, or a frame,x,y session CSV.
     pub input: Option<PathBuf>,
-    /// Watch a live stream instead: a camera (/dev/video0), a network
-    /// stream (rtsp://, http://) or '-' for a video stream on standard
-    /// input (NUT, Matroska, MPEG-TS). Prints each window's probability as
-    /// it closes (one window a second), then the whole stream's segments;
-    /// with --out, writes the JSON and the reviewer's page as for a file.
-    /// Ctrl-C ends the watch with the same result as the stream's end.
+    /// Watch a live stream instead: a camera (/dev/video0, opened through
+    /// --ffmpeg), a network stream (rtsp://, http://), '-' for a video
+    /// stream on standard input (NUT, Matroska, MPEG-TS; raw frames as
+    /// yuv420p or rgb24, or any codec FFmpeg decodes), or a file, read as
+    /// fast as it decodes. From the first window's end (10 s with the
+    /// built-in model), prints each window as it closes, one a second,
+    /// overlapping: start_s end_s P(reading) call gaze_s (seconds with
+    /// gaze in it) lag_s (how long after the window's end it was printed).
+    /// Then the whole stream's result as for a file: its non-overlapping
+    /// windows scored again from the whole track (a figure can differ a
+    /// little from its live line), the segments and the verdict. The rows,
+    /// segments and verdict go to standard output, the table and messages
+    /// to standard error (with --json, all but the JSON); with --out, the JSON and the reviewer's page as
+    /// for a file. Ctrl-C ends the watch with that result, status 0, as
+    /// the stream's end does; a second Ctrl-C stops at once.
     #[arg(long, value_name = "SOURCE")]
     pub live: Option<String>,
-    /// The ffmpeg program that opens a camera for --live.
+    /// The ffmpeg program that opens a camera for --live (streams, files
+    /// and standard input are read in-process).
     #[arg(long, value_name = "PATH", default_value = "ffmpeg")]
     pub ffmpeg: PathBuf,
     /// With --live: a stream that gives no frame for this many seconds is
@@ -207,17 +226,17 @@ fn live(args: &Args, source: &str, model: &DetectorModel, model_path: &Path) -> 
         stall_s: (stall_s > 0.0).then_some(stall_s),
     };
     stop_on_signals(stop.requested.clone());
-    eprintln!(
-        "watching {}: one {} s window a second, scored when {:.1} s of it have gaze, threshold {:.3} \
-         (Ctrl-C, or the end of the stream, ends the watch with its result)",
-        src.label(),
-        model.window_s,
-        model.window_s * (1.0 - eyereplay::detect::window::MAX_MISSING_FRACTION),
-        model.threshold
-    );
     let mut table = LiveTable {
         header: true,
         to_stderr: args.json,
+        banner: format!(
+            "one {} s window a second, scored when {:.1} s of it have gaze, threshold {:.3} \
+             (Ctrl-C, or the end of the stream, ends the watch with its result)",
+            model.window_s,
+            model.window_s * (1.0 - eyereplay::detect::window::MAX_MISSING_FRACTION),
+            model.threshold
+        ),
+        label: src.label(),
     };
     let outcome = eyereplay::live::watch(&src, model, model_path, &args.ffmpeg, &stop, &mut table)?;
     let ended = match outcome.end {
@@ -225,14 +244,27 @@ fn live(args: &Args, source: &str, model: &DetectorModel, model_path: &Path) -> 
         eyereplay::live::LiveEnd::Stopped => "stopped",
         eyereplay::live::LiveEnd::Stalled => "the stream stalled",
     };
+    // The source's frames, and the 25 fps track the detector reads (the
+    // JSON's `frames` and `gaze_fraction`), each named.
+    let track_s = outcome.track.len() as f64 / eyereplay::detect::FPS;
+    let gaze = outcome.track.xy.iter().filter(|p| p[0].is_finite()).count();
     eprintln!(
-        "{ended}: {} frame{}, face in {:.1} %",
+        "{ended}: {} frame{} over {track_s:.1} s, a face in {:.1} % of them, gaze in {:.1} % of the time",
         outcome.frames,
         if outcome.frames == 1 { "" } else { "s" },
-        100.0 * outcome.face_frames as f64 / outcome.frames.max(1) as f64
+        100.0 * outcome.face_frames as f64 / outcome.frames.max(1) as f64,
+        100.0 * gaze as f64 / outcome.track.len().max(1) as f64
     );
     let d = match outcome.detection {
         Ok(d) => d,
+        Err(_) if outcome.face_frames == 0 => {
+            // As a file with no face is refused, not "not enough gaze".
+            anyhow::bail!(
+                "{}: no face found in any of its {} frames",
+                src.label(),
+                outcome.frames
+            );
+        }
         Err(why) => {
             let label = src.label();
             anyhow::bail!(
@@ -272,6 +304,9 @@ struct LiveTable {
     /// opens leaves the output empty.
     header: bool,
     to_stderr: bool,
+    /// "watching SOURCE: ...", said once the source has opened.
+    label: String,
+    banner: String,
 }
 
 impl eyereplay::live::LiveObserver for LiveTable {
@@ -312,6 +347,13 @@ impl eyereplay::live::LiveObserver for LiveTable {
 
     fn warning(&mut self, message: &str) {
         eprintln!("warning: {message}");
+    }
+
+    fn opened(&mut self, width: usize, height: usize) {
+        eprintln!(
+            "watching {} ({width}x{height}): {}",
+            self.label, self.banner
+        );
     }
 }
 
@@ -425,10 +467,13 @@ fn print_detection(d: &Detection, all_to_stderr: bool) {
             if w.reading { "reading" } else { "-" }
         );
     }
+    // The segments are the answer for an interview: on standard output
+    // with the verdict (`> result.txt` keeps them), the table above on
+    // standard error.
     let segs = &d.localization.segments;
     if segs.is_empty() {
         if d.clip.is_none() {
-            eprintln!("reading segments: none");
+            verdict("reading segments: none".into());
         }
     } else {
         // Minutes and seconds beside the seconds where a recording is long
@@ -448,7 +493,10 @@ fn print_detection(d: &Detection, all_to_stderr: bool) {
                 )
             })
             .collect();
-        eprintln!("reading segments (confidence): {}", list.join(", "));
+        verdict(format!(
+            "reading segments (confidence): {}",
+            list.join(", ")
+        ));
     }
     // A short clip is scored whole below; its stretches need no list.
     for u in d.unscored() {
@@ -459,20 +507,10 @@ fn print_detection(d: &Detection, all_to_stderr: bool) {
             u.reason(d.model.window_s)
         );
     }
-    if let Some(c) = &d.clip {
+    if let Some(summary) = d.clip_summary() {
         verdict(format!(
-            "{}: {} (a clip shorter than one {} s window: {:.1} s of gaze in {:.1}-{:.1} s scored, P(reading) {:.3}, {:.0} % interval {:.3}-{:.3}, threshold {:.3})",
-            d.input.path,
-            d.verdict,
-            d.model.window_s,
-            c.usable_s,
-            c.start_s,
-            c.end_s,
-            c.reading_probability,
-            100.0 * c.level,
-            c.low,
-            c.high,
-            d.model.threshold
+            "{}: {} (a clip shorter than one {} s window: {summary})",
+            d.input.path, d.verdict, d.model.window_s
         ));
         return;
     }
@@ -492,12 +530,13 @@ fn print_detection(d: &Detection, all_to_stderr: bool) {
         )
     };
     verdict(format!(
-        "{}: {lead} (mean P(reading) {:.3} against threshold {:.3}; {} of {} windows of {} s called reading)",
+        "{}: {lead} (mean P(reading) {:.3} against threshold {:.3}; {} of {} window{} of {} s called reading)",
         d.input.path,
         d.reading_probability,
         d.model.threshold,
         d.windows.iter().filter(|w| w.reading).count(),
         d.windows.len(),
+        if d.windows.len() == 1 { "" } else { "s" },
         d.model.window_s
     ));
 }

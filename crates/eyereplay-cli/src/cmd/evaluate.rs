@@ -144,7 +144,11 @@ pub fn print_outcome(o: &EvaluateOutcome, json: bool) {
             }
         }
     }
-    eprint!("{}", eyereplay_eval::behaviour_table(&ev.behaviour));
+    // Not `eprint!`, which panics on a closed standard error (main.rs).
+    let _ = std::io::Write::write_all(
+        &mut std::io::stderr(),
+        eyereplay_eval::behaviour_table(&ev.behaviour).as_bytes(),
+    );
     match &ev.visual {
         VisualSection::NotComputed { reason } => eprintln!("visual fidelity: {reason}"),
         VisualSection::Computed(run) => {

@@ -56,8 +56,9 @@ pub struct Args {
     /// Render only shard K of N (0-based), e.g. 3/8.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
-    /// Shard count for engines that give only an index (JOB_COMPLETION_INDEX).
-    #[arg(long, value_name = "N", env = "EYEREPLAY_SHARDS", value_parser = clap::value_parser!(u32).range(1..))]
+    /// Shard count for engines that give only an index (JOB_COMPLETION_INDEX);
+    /// $EYEREPLAY_SHARDS when not given (an empty value is no value).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     pub shards: Option<u32>,
     /// Print the plan, and the wall time and disk it projects from one
     /// session rendered now in a scratch folder (as --profile); write
@@ -123,7 +124,11 @@ pub fn run(args: Args) -> Result<()> {
         args.profile_json.is_none() || args.profile || args.dry_run,
         "--profile-json writes the measurement of --profile or --dry-run; add one of them"
     );
-    let shard = Shard::resolve(args.shard.as_deref(), args.shards.map(|n| n as usize))?;
+    let shards = match args.shards {
+        Some(n) => Some(n as usize),
+        None => shards_from_env(std::env::var("EYEREPLAY_SHARDS").ok().as_deref())?,
+    };
+    let shard = Shard::resolve(args.shard.as_deref(), shards)?;
     let mut config = eyereplay::DatasetConfig::load(&config_path)?;
     if let Some(seed) = args.seed {
         config.seed = seed;
@@ -172,7 +177,9 @@ pub fn run(args: Args) -> Result<()> {
                 .map(|c| c.sessions.min(args.read_back))
                 .sum()
         };
-        return dry_run(&job, &p, read_back);
+        // A shard and --no-evaluate write no report: `merge` does, once.
+        let evaluates = !args.no_evaluate && job.shard.is_none();
+        return dry_run(&job, &p, read_back, evaluates);
     }
     let out = args.out.clone().expect("clap requires --out");
     let opts = GenerateOptions {
@@ -203,7 +210,7 @@ pub fn run(args: Args) -> Result<()> {
     let took = took(minutes, r.frames, job.config.fps);
     match (shard, &summary.report) {
         (Some(s), _) => println!(
-            "shard {}/{} done in {took}; run 'eyereplay merge {}' when every shard is",
+            "shard {}/{} done in {took}; run 'eyereplay merge {}' when every shard is done",
             s.index,
             s.count,
             out.display()
@@ -308,8 +315,15 @@ fn print_profile(p: &eyereplay::profile::SessionProfile) {
     );
 }
 
-/// `read_back`: how many sessions the report reads back whole.
-fn dry_run(job: &Job, p: &eyereplay::profile::SessionProfile, read_back: usize) -> Result<()> {
+/// `read_back`: how many sessions the report reads back whole;
+/// `evaluates`: whether this run writes the report (not a shard's, nor
+/// with --no-evaluate).
+fn dry_run(
+    job: &Job,
+    p: &eyereplay::profile::SessionProfile,
+    read_back: usize,
+    evaluates: bool,
+) -> Result<()> {
     let cfg = &job.config;
     println!("plan:");
     for (class, cc) in &cfg.classes {
@@ -332,7 +346,11 @@ fn dry_run(job: &Job, p: &eyereplay::profile::SessionProfile, read_back: usize) 
         job.params.width,
         job.params.height
     );
-    let proj = p.projection(read_back);
+    let mut proj = p.projection(read_back);
+    let report_s = proj.evaluate_s;
+    if !evaluates {
+        proj.evaluate_s = 0.0;
+    }
     let wall_s = proj.total_s();
     let video_s = frames as f64 / cfg.fps;
     println!(
@@ -343,7 +361,8 @@ fn dry_run(job: &Job, p: &eyereplay::profile::SessionProfile, read_back: usize) 
         p.parallel_sessions,
         1000.0 * p.session_cpu_s(false) / p.frames.max(1) as f64,
         1000.0 * (p.session_cpu_s(true) - p.session_cpu_s(false)) / p.frames.max(1) as f64,
-        job.sessions
+        // Of the whole dataset's: a shard's report is merge's.
+        cfg.classes.values().map(|c| c.sessions).sum::<usize>()
     );
     println!(
         "  projected: {:.1} min wall on this machine ({:.2}x real time; extract+prepare {:.0} s, render {:.0} s, evaluate {:.0} s), videos {:.2} GB",
@@ -360,13 +379,50 @@ fn dry_run(job: &Job, p: &eyereplay::profile::SessionProfile, read_back: usize) 
         p.session_cpu_s(true) / (p.frames as f64 / p.fps),
         p.video_bytes as f64 / (p.frames as f64 / p.fps) * 3600.0 / 1e9
     );
+    if job.shard.is_some() {
+        println!(
+            "  then 'eyereplay merge', once, after every shard: about {report_s:.0} s for its report on a machine like this"
+        );
+    } else if wall_s > 3600.0 {
+        // A job of hours: say how to spread it.
+        println!(
+            "  to spread it over machines: '--shard K/N' on each (docs/cluster/README.md); N machines like this one take about {:.1} h / N",
+            (proj.prepare_s + proj.render_s) / 3600.0
+        );
+    }
     println!("nothing written (dry run)");
     Ok(())
 }
 
+/// `$EYEREPLAY_SHARDS`, refused by its own name (clap's `env` named the
+/// flag, `--shards`, that the user never gave); an empty value, as
+/// `export EYEREPLAY_SHARDS=$N` with N unset leaves, is no value.
+fn shards_from_env(value: Option<&str>) -> anyhow::Result<Option<usize>> {
+    let Some(v) = value.map(str::trim).filter(|v| !v.is_empty()) else {
+        return Ok(None);
+    };
+    match v.parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(Some(n)),
+        _ => anyhow::bail!(
+            "EYEREPLAY_SHARDS='{v}': the shard count must be a whole number, 1 or more"
+        ),
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::took;
+    use super::{shards_from_env, took};
+
+    #[test]
+    fn the_shard_count_from_the_environment_is_refused_by_its_name() {
+        assert_eq!(shards_from_env(None).unwrap(), None);
+        assert_eq!(shards_from_env(Some("")).unwrap(), None);
+        assert_eq!(shards_from_env(Some(" 8 ")).unwrap(), Some(8));
+        for bad in ["0", "x", "-2", "1.5"] {
+            let e = shards_from_env(Some(bad)).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("EYEREPLAY_SHARDS='{bad}'")), "{e}");
+        }
+    }
 
     /// The `[render]` table `generate --help` shows can be pasted into a
     /// config: it parses, and every key in it is one the renderer takes.
