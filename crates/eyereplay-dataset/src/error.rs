@@ -61,6 +61,23 @@ pub(crate) fn read_text(path: &std::path::Path) -> Result<String, DatasetError> 
     }
     std::fs::read_to_string(path).map_err(|e| {
         if e.kind() == std::io::ErrorKind::NotFound {
+            // A class folder given for its dataset: its labels.csv or
+            // metadata.json is the dataset's, one folder up.
+            let name = path.file_name().and_then(|n| n.to_str());
+            let top = [crate::layout::LABELS_FILE, crate::layout::METADATA_FILE];
+            if let (Some(class_dir), true) = (path.parent(), name.is_some_and(|n| top.contains(&n)))
+            {
+                if crate::layout::is_session_file(path) {
+                    let dataset = class_dir.parent().unwrap_or(class_dir);
+                    return DatasetError::invalid(
+                        class_dir,
+                        format!(
+                            "a class folder of the dataset {}; give that folder",
+                            dataset.display()
+                        ),
+                    );
+                }
+            }
             DatasetError::invalid(path, missing_file_hint(path))
         } else {
             DatasetError::io(path, e)
@@ -103,6 +120,15 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("is this a dataset folder"), "{e}");
+        // A class folder given for the dataset (`train ds/reading`): named
+        // as such, not as a session to draw again.
+        let e = read_text(&dir.path().join("reading/labels.csv"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("reading: a class folder of the dataset") && e.ends_with("give that folder"),
+            "{e}"
+        );
         let id = dir.path().join("reading/reading_0000_identity.json");
         let e = read_text(&id).unwrap_err().to_string();
         assert!(

@@ -266,7 +266,10 @@ pub fn evaluate_class(ds: &Dataset, class_index: usize, cfg: &EvalConfig) -> Cla
         .collect();
     let win = ((cfg.window_s * ds.fps).round() as usize).max(2);
     let first = &cd.pool[0].points;
-    let sess = &cd.sessions[0];
+    // The middle session: it is cut from the middle of the pool, where the
+    // first is cut from its start and would show the pool's first seconds
+    // again beside them.
+    let sess = &cd.sessions[cd.sessions.len() / 2];
     ClassEvaluation {
         class: cd.class,
         n_sessions: cd.sessions.len(),

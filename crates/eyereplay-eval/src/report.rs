@@ -84,6 +84,14 @@ fn img(f: &Figure, alt: &str) -> String {
     )
 }
 
+/// `v` to three decimals, marked as failed where `ok` says it misses.
+fn mark(v: Option<f64>, ok: impl Fn(f64) -> bool) -> String {
+    match v {
+        Some(x) if !ok(x) => format!("<span class=\"fail\">{x:.3}</span>"),
+        _ => f3(v),
+    }
+}
+
 fn verdict(ok: bool) -> &'static str {
     if ok {
         "<span class=\"pass\">pass</span>"
@@ -117,15 +125,169 @@ fn recording_kind_note(ev: &Evaluation) -> String {
         "<p class=\"note\">The classes come from different kinds of recording ({}). A classifier \
 trained on this data could learn the recording type instead of the behaviour. eyereplay brings \
 their noise levels together (EdgeGauss smoothing of video landmarks, fixational drift in \
-fixation reports); compare the low end of the speed Q-Q plots and the fixation dispersion below \
-before relying on it, and prefer sources of one kind per dataset where you can.</p>\n",
+fixation reports); compare the fixation dispersion and the median speed under \"Beyond the paper\" \
+(the Q-Q plots' linear axes leave the slow end to a corner) before relying on it, and prefer sources \
+of one kind per dataset where you can.</p>\n",
         per_class.join("; ")
     )
+}
+
+/// Every check the report marks pass or fail, counted, with the failing
+/// ones named: the page's summary and `evaluate`'s last line, so that a
+/// reader need not find a red cell half way down the page.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Checks {
+    pub total: usize,
+    pub failing: Vec<String>,
+}
+
+impl Checks {
+    fn check(&mut self, ok: bool, what: impl FnOnce() -> String) {
+        self.total += 1;
+        if !ok {
+            self.failing.push(what());
+        }
+    }
+
+    /// "9 of 12 checks pass"
+    pub fn headline(&self) -> String {
+        format!(
+            "{} of {} checks pass",
+            self.total - self.failing.len(),
+            self.total
+        )
+    }
+}
+
+/// The checks of `ev`: KS D per class and metric against the threshold;
+/// each behaviour model's D against the real spread; the visual section's
+/// r and amplitude ratio per axis; and each session read back, the same
+/// targets and its head's yaw r.
+pub fn checks(ev: &Evaluation) -> Checks {
+    checks_of(
+        &ev.classes,
+        &ev.behaviour,
+        &ev.visual,
+        &ev.sessions_read_back,
+        ev.config.d_max,
+    )
+}
+
+fn checks_of(
+    classes: &[crate::ClassEvaluation],
+    behaviour: &[crate::behaviour::BehaviourCheck],
+    visual: &VisualSection,
+    read_back: &[SessionReadBack],
+    d_max: f64,
+) -> Checks {
+    let mut c = Checks::default();
+    for ce in classes {
+        for cmp in &ce.comparisons {
+            if let Some(k) = &cmp.ks {
+                c.check(k.d <= d_max, || {
+                    format!(
+                        "{} {}: KS D {:.3} > {d_max}",
+                        ce.class,
+                        cmp.metric.key(),
+                        k.d
+                    )
+                });
+            }
+        }
+    }
+    for b in behaviour {
+        for r in &b.rows {
+            if let Some(ok) = r.pass() {
+                c.check(ok, || {
+                    format!(
+                        "{} {}: the behaviour model's D {} beyond the real spread {}",
+                        b.class,
+                        r.metric.key(),
+                        f3(r.d_model),
+                        f3(r.d_real)
+                    )
+                });
+            }
+        }
+    }
+    let (lo, hi) = TARGET_AMPLITUDE_RATIO;
+    let axes = |c: &mut Checks, who: &str, f: &crate::visual::VisualFidelity| {
+        for (ax, a) in [("x", &f.x), ("y", &f.y)] {
+            c.check(matches!(a.r, Some(r) if r >= TARGET_R_MIN), || {
+                format!("{who}: r {ax} {} < {TARGET_R_MIN}", f3(a.r))
+            });
+            c.check(
+                matches!(a.amplitude_ratio, Some(x) if (lo..=hi).contains(&x)),
+                || {
+                    format!(
+                        "{who}: amplitude ratio {ax} {} outside {lo}-{hi}",
+                        f3(a.amplitude_ratio)
+                    )
+                },
+            );
+        }
+    };
+    // The visual section's session is counted once: when the read-back
+    // table holds it whole, its row stands for it.
+    if let VisualSection::Computed(run) = visual {
+        let stem = |p: &str| Path::new(p).with_extension("");
+        let read_whole = read_back
+            .iter()
+            .any(|r| stem(&r.session) == stem(&run.video));
+        if !read_whole {
+            axes(&mut c, &format!("visual ({})", run.video), &run.fidelity);
+        }
+    }
+    for r in read_back {
+        axes(&mut c, &format!("read back {}", r.session), &r.fidelity);
+        if let Some(y) = r.head_yaw {
+            c.check(matches!(y.r, Some(v) if v >= TARGET_HEAD_YAW_R_MIN), || {
+                format!(
+                    "read back {}: head yaw r {} < {TARGET_HEAD_YAW_R_MIN}",
+                    r.session,
+                    f3(y.r)
+                )
+            });
+        }
+    }
+    c
+}
+
+/// The summary at the top: the checks, and what each section compares.
+fn summary_section(h: &mut String, ev: &Evaluation) {
+    let c = checks(ev);
+    let failing = if c.failing.is_empty() {
+        String::new()
+    } else {
+        let items: String = c
+            .failing
+            .iter()
+            .map(|f| format!("<li>{}</li>", html_escape(f)))
+            .collect();
+        format!("; failing:<ul>{items}</ul>")
+    };
+    let _ = writeln!(
+        h,
+        "<div class=\"summary {}\"><b>{}</b>{failing}</div>",
+        if c.failing.is_empty() { "ok" } else { "bad" },
+        c.headline()
+    );
+    h.push_str(
+        "<p>What each section compares. <b>Distributional fidelity</b>: the sessions against the \
+source pool they were cut from (the circular slicing of <i>A Synthetic Eye Movement Dataset for \
+Script Reading Detection</i>, \"the paper\" below), so it measures what slicing, speed scaling \
+and normalization keep, not realism. <b>Behaviour models against real recordings</b>: the \
+generated people against the real ones in the same pool, on the scale of two real people \
+against each other. <b>Visual mapping fidelity</b>: the rendered video read back by the \
+extractor against the trajectory that drove it. KS D is the largest gap between two cumulative \
+distributions (0: the same; a check passes at or under the threshold).</p>\n",
+    );
 }
 
 pub fn report_html(ev: &Evaluation, figs: &[Figure]) -> String {
     let mut h = String::new();
     html_head(&mut h, ev);
+    summary_section(&mut h, ev);
     dataset_section(&mut h, ev);
     parameters_section(&mut h, ev);
     distribution_section(&mut h, ev, figs);
@@ -139,13 +301,14 @@ pub fn report_html(ev: &Evaluation, figs: &[Figure]) -> String {
 /// Document head and style.
 fn html_head(h: &mut String, _ev: &Evaluation) {
     h.push_str(
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>eyereplay evaluation</title>\n<style>\n\
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<title>eyereplay evaluation</title>\n<style>\n\
 body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;max-width:1440px;margin:2em auto;padding:0 1em;color:#222}\n\
-table{border-collapse:collapse;margin:0.8em 0}td,th{border:1px solid #ccc;padding:4px 10px;text-align:right}\n\
+table{border-collapse:collapse;margin:0.8em 0;display:block;max-width:100%;overflow-x:auto}td,th{border:1px solid #ccc;padding:4px 10px;text-align:right;white-space:nowrap}\n\
+th{white-space:normal}td:first-child{white-space:normal;min-width:8em}.summary{border:1px solid #ccc;padding:0.6em 1em;margin:1em 0}.summary.ok{border-left:4px solid #1a7f37}.summary.bad{border-left:4px solid #c62828}.summary ul{margin:0.3em 0}\n\
 th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}\n\
 .pass{color:#1a7f37;font-weight:600}.fail{color:#c62828;font-weight:600}\n\
 figure{margin:1em 0}img{max-width:100%;height:auto;border:1px solid #ddd}figcaption{color:#555;font-size:0.9em}\n\
-table.kv td{text-align:left}\n\
+table.kv td{text-align:left;white-space:normal}\n\
 .note{background:#fff8e1;border-left:4px solid #f0b400;padding:0.6em 1em}code{background:#f3f3f3;padding:0 3px}\n\
 </style></head><body>\n<h1>eyereplay evaluation</h1>\n",
     );
@@ -296,7 +459,7 @@ fn distribution_section(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
         h.push_str(&img(f, "Q-Q plots: generated quantiles against source quantiles, per class and metric; dashed line 1:1; KS D annotated"));
     }
     if let Some(f) = fig("timeseries") {
-        h.push_str(&img(f, "Time-series windows: source pool (left) beside a generated session (right), x and y in canvas px"));
+        h.push_str(&img(f, "Time-series windows: the source pool (left) beside a generated session (right), x and y in canvas px. Each session is a stretch of the pool, cut by circular slicing, speed-scaled and normalized, so a session that starts where the pool starts looks like its first seconds"));
     }
 }
 
@@ -401,8 +564,9 @@ fn visual_html(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
                 html_escape(&run.eye_locator),
                 100.0 * run.detection_rate
             );
-            h.push_str("<table><tr><th>measure</th><th>value</th><th>target</th><th>verdict</th><th>paper</th></tr>\n");
-            let _ = writeln!(h, "<tr><td>mean error (normalized)</td><td>{:.4}</td><td>-</td><td>-</td><td>0.053</td></tr>", v.error.mean);
+            h.push_str("<p>The errors are per-frame distances between the read-back and the source in normalized iris units (n<sub>x</sub>: the iris from the image-left eye corner, 0, to the image-right one, 1; n<sub>y</sub>: from the upper lid, 0, to the lower, 1). They include a constant offset between the two (the extractor reads the iris a little off where the renderer drew it), which the renderer leaves alone: r and the amplitude ratio, which carry the targets, do not see it. The last column is what the paper's own web simulator gave in its Table 4, for comparison.</p>\n");
+            h.push_str("<table><tr><th>measure</th><th>value</th><th>target</th><th>verdict</th><th>the paper's simulator</th></tr>\n");
+            let _ = writeln!(h, "<tr><td>mean error (normalized units)</td><td>{:.4}</td><td>-</td><td>-</td><td>0.053</td></tr>", v.error.mean);
             let _ = writeln!(
                 h,
                 "<tr><td>median error</td><td>{:.4}</td><td>-</td><td>-</td><td>0.036</td></tr>",
@@ -440,7 +604,7 @@ fn visual_html(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
     if let Some((file, t)) = &ev.render_truth {
         let _ = writeln!(
             h,
-            "<h3>Renderer ground truth against the source</h3>\n<p>The renderer's own per-frame iris position (<code>{}</code>, mean of both eyes) against the source, without the extractor, {} frames: {}. This isolates the simulator's mapping from extraction error.</p>",
+            "<h3>Renderer ground truth against the source</h3>\n<p>The renderer's own per-frame iris position (<code>{}</code>, mean of both eyes) against the source, without the extractor, {} frames: {}. This isolates the simulator's mapping from extraction error. It has no target: with <code>match_extractor</code> (the default) the eye is drawn through the inverse of the extractor's measured response (the session's <code>_identity.json</code>, <code>mapping.extractor_response</code>), so that the video reads back as the source; where the extractor reads a movement at 0.4 of its size, the eye is drawn 2.5 times as far, and this ratio shows it. The read-back above is the end-to-end measure.</p>",
             html_escape(file),
             t.n_frames,
             t.summary()
@@ -520,6 +684,11 @@ fn sessions_read_back_html(h: &mut String, rows: &[SessionReadBack], sessions: u
         );
     }
     let _ = writeln!(h, "</table>\n<table><tr><th>session</th><th>frames</th><th>iris found</th><th>r x</th><th>amplitude ratio x</th><th>r y</th><th>amplitude ratio y</th><th>median error</th>{head_th}</tr>");
+    // A value that misses its target is marked as the tables above mark
+    // a failed check (the summary at the top counts them).
+    let (lo, hi) = TARGET_AMPLITUDE_RATIO;
+    let r_of = |v: Option<f64>, min: f64| mark(v, |x| x >= min);
+    let ratio = |v: Option<f64>| mark(v, |x| (lo..=hi).contains(&x));
     for r in rows {
         let v = &r.fidelity;
         let head = match (heads, r.head_yaw) {
@@ -527,7 +696,7 @@ fn sessions_read_back_html(h: &mut String, rows: &[SessionReadBack], sessions: u
             (true, None) => "<td>n/a</td><td>n/a</td><td>n/a</td>".to_string(),
             (true, Some(y)) => format!(
                 "<td>{}</td><td>{}</td><td>{:.2}</td>",
-                f3(y.r),
+                r_of(y.r, TARGET_HEAD_YAW_R_MIN),
                 f3(y.slope),
                 y.truth_sd_deg
             ),
@@ -538,10 +707,10 @@ fn sessions_read_back_html(h: &mut String, rows: &[SessionReadBack], sessions: u
             html_escape(&r.session),
             v.n_frames,
             100.0 * r.detection_rate,
-            f3(v.x.r),
-            f3(v.x.amplitude_ratio),
-            f3(v.y.r),
-            f3(v.y.amplitude_ratio),
+            r_of(v.x.r, TARGET_R_MIN),
+            ratio(v.x.amplitude_ratio),
+            r_of(v.y.r, TARGET_R_MIN),
+            ratio(v.y.amplitude_ratio),
             v.error.median
         );
     }
@@ -803,6 +972,39 @@ mod tests {
         // One of twelve: the heading says it is a sample, and how to get more.
         assert!(h.contains("Sessions read back: a sample"), "{h}");
         assert!(h.contains("1 of the 12 sessions"), "{h}");
+    }
+
+    /// Each session read back is four checks (r and amplitude ratio per
+    /// axis) and one more with a head; the summary counts and names the
+    /// misses, and the table marks them. A perfect read-back (the source
+    /// itself: r 1, ratio 1) passes; a head yaw r of 0.5 fails its 0.9.
+    #[test]
+    fn the_summary_counts_every_check_and_names_the_misses() {
+        let yaw = HeadYawReadBack {
+            frames: 300,
+            frames_read: 300,
+            r: Some(0.5),
+            slope: Some(0.8),
+            truth_sd_deg: 2.0,
+        };
+        let rows = [row("reading/a.csv", None), row("reading/b.csv", Some(yaw))];
+        let none = VisualSection::NotComputed {
+            reason: "skipped".into(),
+        };
+        let c = checks_of(&[], &[], &none, &rows, 0.15);
+        assert_eq!(c.total, 9);
+        assert_eq!(
+            c.failing,
+            ["read back reading/b.csv: head yaw r 0.500 < 0.9"]
+        );
+        assert_eq!(c.headline(), "8 of 9 checks pass");
+        let mut h = String::new();
+        sessions_read_back_html(&mut h, &rows, 2);
+        assert!(
+            h.contains("<td><span class=\"fail\">0.500</span></td><td>0.800</td>"),
+            "{h}"
+        );
+        assert_eq!(h.matches("class=\"fail\"").count(), 1, "{h}");
     }
 
     /// The budget table lists the sessions that have one, with their r and

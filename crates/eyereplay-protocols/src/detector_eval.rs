@@ -135,9 +135,27 @@ impl Protocol {
     /// Loads and checks a protocol: every file there, names known, and no
     /// test recording among its fold's training sources.
     pub fn load(path: &Path) -> Result<Self> {
+        // Said as what was expected, not the OS's "Is a directory".
+        const WANTED: &str = "evaluate-detector takes a protocol file (TOML), such as examples/detector/protocol.toml";
+        if path.is_dir() {
+            return Err(Error::input(path, format!("a folder: {WANTED}")));
+        }
+        if !path.exists() {
+            return Err(Error::input(path, format!("no such file: {WANTED}")));
+        }
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let mut p: Protocol = toml::from_str(&text)
-            .map_err(|e| Error::input(path, eyereplay_prepare::describe_toml_error(&text, &e)))?;
+        let mut p: Protocol = toml::from_str(&text).map_err(|e| {
+            let is_toml = path.extension().is_some_and(|x| x == "toml");
+            let why = eyereplay_prepare::describe_toml_error(&text, &e);
+            Error::input(
+                path,
+                if is_toml {
+                    why
+                } else {
+                    format!("not a protocol file ({why}): {WANTED}")
+                },
+            )
+        })?;
         p.base_dir = path
             .parent()
             .filter(|d| !d.as_os_str().is_empty())

@@ -122,17 +122,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 /// is, on stderr; with `json`, metrics.json on stdout.
 pub fn print_outcome(o: &EvaluateOutcome, json: bool) {
     let ev = &o.evaluation;
+    let d_max = ev.config.d_max;
     for c in &ev.classes {
         for m in &c.comparisons {
             match &m.ks {
                 Some(k) => eprintln!(
-                    "{:<13} {:<18} D = {:.4}  p = {:.3e}  (n = {} / {})",
+                    "{:<13} {:<18} D = {:.4}  p = {:.3e}  (n = {} / {})  {}",
                     c.class.name(),
                     m.metric.key(),
                     k.d,
                     k.p,
                     m.n_source,
-                    m.n_generated
+                    m.n_generated,
+                    if k.d <= d_max {
+                        format!("pass (D <= {d_max})")
+                    } else {
+                        format!("FAIL (D > {d_max})")
+                    }
                 ),
                 None => eprintln!(
                     "{:<13} {:<18} no samples (n = {} / {})",
@@ -159,6 +165,18 @@ pub fn print_outcome(o: &EvaluateOutcome, json: bool) {
                 run.fidelity.summary()
             );
         }
+    }
+    // The page's summary: the checks it marks, and which fail (the exit
+    // status stays 0: a report that fails a check is still a report).
+    let checks = eyereplay_eval::report::checks(ev);
+    if checks.failing.is_empty() {
+        eprintln!("{}", checks.headline());
+    } else {
+        eprintln!(
+            "{}; failing: {}",
+            checks.headline(),
+            checks.failing.join("; ")
+        );
     }
     eprintln!("report: {}", o.html.display());
     eprintln!("metrics: {}", o.metrics_path.display());

@@ -12,7 +12,10 @@ use std::path::PathBuf;
 /// real data (leaving out the pair of people it is tested on). Writes
 /// OUT/index.html and OUT/detector_eval.json. Resumable: the
 /// generated datasets are kept under OUT/train and OUT/real, and a rerun
-/// skips what is finished.
+/// skips what is finished. A long job: examples/detector/protocol.toml
+/// takes about 25-40 min on 2 cores. Its real
+/// recordings are fetched once by scripts/detector-data.sh, a script of
+/// the source checkout (a missing one is named before any work).
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  \
 scripts/detector-data.sh        # the real test recordings (once)\n  \

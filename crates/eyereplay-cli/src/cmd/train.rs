@@ -149,7 +149,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     model.save(&args.out)?;
     let t = &model.training;
     println!(
-        "trained on {} + {} windows of {} s (reading + other), validated on {} + {} from sessions it did not see: AUROC {}, threshold {:.3}",
+        "trained on {} + {} windows of {} s (reading + other), validated on {} + {} from sessions it did not see \
+         (other sessions, perhaps of the same people: this says how well it separates these, not other people): \
+         AUROC {}, threshold {:.3}",
         t.train_windows_reading,
         t.train_windows_other,
         model.window_s,
@@ -159,6 +161,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .map_or("n/a (too few sessions)".into(), |a| format!("{a:.3}")),
         model.threshold
     );
+    // What the threshold and the probabilities are, as measured on those
+    // held-out windows (they were in the model file only).
+    if let (Some(fpr), Some(tpr)) = (t.validation_fpr, t.validation_tpr) {
+        println!(
+            "  the threshold is the P(reading) above which a window is called reading, chosen so that at most \
+             {:.0} % of not-reading windows are (--max-fpr); on the held-out windows it called {:.1} % of them \
+             reading and found {:.1} % of the reading ones",
+            100.0 * t.options.max_fpr,
+            100.0 * fpr,
+            100.0 * tpr
+        );
+    }
+    if let Some(ece) = t.validation_ece {
+        println!(
+            "  expected calibration error {ece:.3} (0: a window given P(reading) 0.7 reads 70 % of the time; \
+             measured on the windows the calibration saw, so 'eyereplay evaluate-localization' measures it on \
+             other people)"
+        );
+    }
     // A handful of windows trains a model that only seems to work: its
     // validation AUROC rests on a few sessions.
     let fewest = t.train_windows_reading.min(t.train_windows_other);
