@@ -171,6 +171,8 @@ pub struct GenerateSummary {
     pub stage_s: Vec<(&'static str, f64)>,
     /// Set when the dataset was finished and evaluated here (no shard).
     pub report: Option<PathBuf>,
+    /// The report's checks (its summary), with it.
+    pub checks: Option<eyereplay_eval::report::Checks>,
 }
 
 /// Runs a validated [`Job`] into `opts.out`. Kill it at any moment and run
@@ -255,16 +257,18 @@ pub fn generate(
     }
 
     // Finish (a sharded run leaves it to 'eyereplay merge').
-    let mut report = None;
+    let (mut report, mut checks) = (None, None);
     if job.shard.is_none() {
         let t = Instant::now();
         if let Some(ev) = crate::finalize_with_progress(out, opts.evaluate.as_ref(), progress)? {
+            checks = Some(eyereplay_eval::report::checks(&ev.evaluation));
             report = Some(ev.html);
         }
         stage("merge+evaluate", t, &mut log);
     }
     summary.render = render;
     summary.report = report;
+    summary.checks = checks;
     Ok(summary)
 }
 

@@ -208,6 +208,18 @@ pub fn run(args: Args) -> Result<()> {
     }
     let minutes = started.elapsed().as_secs_f64() / 60.0;
     let took = took(minutes, r.frames, job.config.fps);
+    // The report's summary: how many of its checks pass, which fail.
+    if let Some(c) = &summary.checks {
+        if c.failing.is_empty() {
+            println!("report: {}", c.headline());
+        } else {
+            println!(
+                "report: {}; failing: {}",
+                c.headline(),
+                c.failing.join("; ")
+            );
+        }
+    }
     match (shard, &summary.report) {
         (Some(s), _) => println!(
             "shard {}/{} done in {took}; run 'eyereplay merge {}' when every shard is done",
