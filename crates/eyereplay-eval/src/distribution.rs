@@ -264,7 +264,11 @@ pub fn evaluate_class(ds: &Dataset, class_index: usize, cfg: &EvalConfig) -> Cla
         .iter()
         .map(|&m| compare_metric(m, m.samples(&source), m.samples(&generated), cfg.qq_points))
         .collect();
-    let win = ((cfg.window_s * ds.fps).round() as usize).max(2);
+    // At most a session long: a longer window showed more of the pool
+    // than of the session beside it, on time axes that did not match.
+    let win = ((cfg.window_s * ds.fps).round() as usize)
+        .min(ds.session_frames)
+        .max(2);
     let first = &cd.pool[0].points;
     // The middle session: it is cut from the middle of the pool, where the
     // first is cut from its start and would show the pool's first seconds

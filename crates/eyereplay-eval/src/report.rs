@@ -378,7 +378,16 @@ fn parameters_section(h: &mut String, ev: &Evaluation) {
         c.thresholds.saccade_above_px_per_frame,
         c.thresholds.hold_min_frames,
         c.d_max,
-        c.window_s,
+        {
+            // A window longer than a session is shown a session long, on
+            // both sides (distribution.rs).
+            let session_s = ev.session_frames as f64 / ev.fps;
+            if c.window_s > session_s {
+                format!("{} (shown {session_s:.1}, a session's length)", c.window_s)
+            } else {
+                format!("{}", c.window_s)
+            }
+        },
         c.qq_points,
         c.px_per_deg
             .map_or("not given (no degrees)".into(), |k| format!("{k} px per degree"))

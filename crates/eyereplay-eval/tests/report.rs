@@ -136,6 +136,12 @@ fn hand_worked_distribution() {
     assert_eq!(j.get("visual.computed"), Some(&Json::Bool(false)));
     assert_eq!(j.get("visual.x.r"), Some(&Json::Null));
     assert_eq!(j.get("visual.error.p95"), Some(&Json::Null));
+    // The time-series window (30 s by default) is shown at most a session
+    // long, 5 frames, on both sides: the pool's 13 frames beside a
+    // session's 5 had time axes that did not match.
+    for c in &ev.classes {
+        assert_eq!((c.window_source.len(), c.window_generated.len()), (5, 5));
+    }
 }
 
 #[test]

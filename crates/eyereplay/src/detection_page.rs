@@ -204,7 +204,10 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
         ));
     }
     if d.localization.probability.iter().any(Option::is_some) {
-        legend.push("curve: P(reading), dashed: P = 0.5".into());
+        legend.push(format!(
+            "curve: P(reading), dashed: P = 0.5 (the verdict above compares the mean P with the model's threshold, {:.3})",
+            d.model.threshold
+        ));
     }
     if let Some(c) = &d.clip {
         legend.push(format!(
