@@ -561,7 +561,7 @@ fn draw_visual<DB: DrawingBackend>(
         .map_err(s)?;
     chart
         .configure_mesh()
-        .x_desc("error")
+        .x_desc("error (normalized iris units: n_x, n_y)")
         .y_desc("frames")
         .x_label_formatter(&|v| {
             if emax < 0.01 {
