@@ -3,8 +3,9 @@
 //! Understood: `SAMPLES` lines (which eyes; VEL / RES / INPUT extra columns
 //! are skipped by position), sample lines `time x y pupil [x y pupil] ...`
 //! with `.` for missing values, `SBLINK`/`EBLINK` events (samples inside a
-//! blink are flagged), and `MSG ... DISPLAY_COORDS l t r b` for the screen
-//! size. Timestamps are tracker milliseconds.
+//! blink are flagged, and so are those of the `ESACC` saccade that holds
+//! it), and `MSG ... DISPLAY_COORDS l t r b` for the screen size.
+//! Timestamps are tracker milliseconds.
 
 use crate::series::ScreenSeries;
 use crate::{EyeChoice, ReadOptions, Recording, ScreenOptions, SourceError};
@@ -32,8 +33,9 @@ pub(crate) fn read(
     let mut saw_left = false;
     let mut saw_right = false;
     let mut raw: Vec<RawSample> = Vec::new();
-    // Blink intervals per eye: (start_ms, end_ms).
+    // Blink and saccade intervals per eye: (left?, start_ms, end_ms).
     let mut blinks: Vec<(bool, f64, f64)> = Vec::new();
+    let mut saccades: Vec<(bool, f64, f64)> = Vec::new();
 
     for (i, line) in reader.split(b'\n').enumerate() {
         let line_no = i as u64 + 1;
@@ -64,12 +66,17 @@ pub(crate) fn read(
                 saw_right |= r;
                 eyes = Some((l, r));
             }
-            "EBLINK" => {
+            "EBLINK" | "ESACC" => {
                 let rest: Vec<&str> = tok.collect();
                 if rest.len() >= 3 {
                     let is_left = rest[0] == "L";
                     if let (Ok(a), Ok(b)) = (rest[1].parse::<f64>(), rest[2].parse::<f64>()) {
-                        blinks.push((is_left, a, b));
+                        let list = if first == "EBLINK" {
+                            &mut blinks
+                        } else {
+                            &mut saccades
+                        };
+                        list.push((is_left, a, b));
                     }
                 }
             }
@@ -159,6 +166,22 @@ pub(crate) fn read(
     })?;
     let ppd = screen.geometry.px_per_deg(screen_px[0]);
 
+    // EyeLink reports each blink inside a saccade: the closing and opening
+    // lid drags the pupil's image, so the samples just before SBLINK and
+    // just after EBLINK swing far off the screen (y 1408 on a 1024-px
+    // display in the bundled both_eyes.asc) though only those between
+    // them lose the pupil. The saccade that holds a blink is flagged with
+    // it, as SR Research's documentation advises for "blink saccades".
+    let held: Vec<(bool, f64, f64)> = saccades
+        .iter()
+        .filter(|s| {
+            blinks
+                .iter()
+                .any(|b| b.0 == s.0 && s.1 <= b.2 && b.1 <= s.2)
+        })
+        .copied()
+        .collect();
+    blinks.extend(held);
     blinks.sort_by(|a, b| a.1.total_cmp(&b.1));
     let in_blink = |t: f64| {
         blinks.iter().any(|&(is_left, a, b)| {

@@ -148,6 +148,47 @@ pub(crate) fn parse_f64(
     })
 }
 
+/// Eye trackers record at 25-2000 samples a second; timestamps read in the
+/// wrong unit put them a thousand times too close or too far apart. Read
+/// as seconds where they were milliseconds, every sample became a segment
+/// of its own ("no segment with at least 2 gaze samples"); the other way,
+/// the whole recording lasted a few milliseconds and did not seem to move
+/// ("set calibration.mode = manual", wrong advice). Said here instead, by
+/// the median step between samples.
+const SAMPLE_RATE_HZ: (f64, f64) = (1.0, 10_000.0);
+
+fn check_sample_rate<P>(path: &Path, samples: &[Sample<P>]) -> Result<(), SourceError> {
+    let mut steps: Vec<f64> = samples
+        .windows(2)
+        .map(|w| w[1].t_s - w[0].t_s)
+        .filter(|d| *d > 0.0)
+        .collect();
+    if steps.len() < 2 {
+        return Ok(());
+    }
+    steps.sort_by(f64::total_cmp);
+    let step_s = steps[steps.len() / 2];
+    let rate_hz = 1.0 / step_s;
+    let (lo, hi) = SAMPLE_RATE_HZ;
+    if (lo..=hi).contains(&rate_hz) {
+        return Ok(());
+    }
+    Err(SourceError::file(
+        path,
+        format!(
+            "its timestamps put the samples {step_s:.3e} s apart ({rate_hz:.3e} a second; eye trackers record \
+             {lo}-{hi} a second): is the time unit what the config (time_unit) or its sidecar says? \
+             In a unit a thousand times {} they would come {:.0} a second",
+            if rate_hz > hi {
+                "larger (s for ms, ms for us)"
+            } else {
+                "smaller (ms for s, us for ms)"
+            },
+            if rate_hz > hi { rate_hz / 1000.0 } else { rate_hz * 1000.0 }
+        ),
+    ))
+}
+
 /// Checks that a screen-pixel source's geometry gives finite positions.
 pub(crate) fn check_screen(
     path: &Path,
@@ -233,6 +274,7 @@ impl<'a> ScreenSeries<'a> {
     }
 
     pub fn finish(self) -> Result<Recording, SourceError> {
+        check_sample_rate(self.path, &self.series.samples)?;
         let segments = self.series.finish(self.opts.max_gap_s)?;
         recording(
             self.path,
@@ -258,5 +300,48 @@ pub(crate) fn for_each_record<R: std::io::Read>(
             Ok(false) => return Ok(()),
             Err(e) => return Err(SourceError::file(path, e.to_string())),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(step_s: f64) -> Vec<Sample<NormPos>> {
+        (0..100)
+            .map(|k| Sample {
+                t_s: 10.0 + k as f64 * step_s,
+                pos: NormPos { nx: 0.5, ny: 0.5 },
+                valid: true,
+                aperture: None,
+                blink: false,
+            })
+            .collect()
+    }
+
+    /// 500 samples a second read in the right unit pass; read a thousand
+    /// times too close (seconds taken as milliseconds) or too far apart
+    /// (the other way) they are refused, with the rate the other unit
+    /// gives: 1 / 0.002 s = 500.
+    #[test]
+    fn a_sample_rate_no_eye_tracker_records_says_the_unit_is_wrong() {
+        let p = Path::new("gaze.csv");
+        assert!(check_sample_rate(p, &at(0.002)).is_ok());
+        assert!(check_sample_rate(p, &at(1.0 / 30.0)).is_ok());
+        let close = check_sample_rate(p, &at(2e-6)).unwrap_err().to_string();
+        assert!(
+            close.starts_with("gaze.csv: its timestamps put the samples 2.000e-6 s apart")
+                && close.contains("a thousand times larger")
+                && close.ends_with("they would come 500 a second"),
+            "{close}"
+        );
+        let far = check_sample_rate(p, &at(2.0)).unwrap_err().to_string();
+        assert!(
+            far.contains("a thousand times smaller")
+                && far.ends_with("they would come 500 a second"),
+            "{far}"
+        );
+        // Too few steps to tell: no verdict.
+        assert!(check_sample_rate(p, &at(5.0)[..2]).is_ok());
     }
 }

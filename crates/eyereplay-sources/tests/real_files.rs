@@ -101,6 +101,32 @@ fn eyelink_asc_agrees_with_syelinks_own_parser() {
     }
     // The file has 17 EBLINK events; samples inside them are flagged.
     assert!(ours.iter().filter(|s| s.blink).count() > 1000);
+
+    // And so are those of the saccade that holds a blink. In both_eyes.asc
+    // the left eye's "ESACC L 350559 350823" holds "EBLINK L 350599
+    // 350789"; the samples just before the blink swing down past the
+    // 1024-px display (y 841.8 at 350589, 1408.5 at 350597) and are not
+    // the gaze. Those of the saccade are flagged, the ones before it not.
+    let both = one(SourceSpec::Eyelink {
+        path: data("syelink/both_eyes.asc"),
+        eye: EyeChoice::Left,
+        screen_px: None,
+        geometry: ViewingGeometry::default(),
+    });
+    let at = |t_ms: f64| {
+        both.segments
+            .iter()
+            .flat_map(|s| s.samples().iter())
+            .find(|s| (s.t_s * 1e3 - t_ms).abs() < 0.5)
+            .copied()
+            .unwrap()
+    };
+    for t in [350_559.0, 350_589.0, 350_597.0, 350_801.0, 350_823.0] {
+        assert!(at(t).blink, "{t} ms is in the blink's saccade");
+    }
+    for t in [350_557.0, 350_825.0] {
+        assert!(!at(t).blink, "{t} ms is outside it");
+    }
     // Three recording blocks separated by minutes: three segments.
     assert!(rec.segments.len() >= 2, "{}", rec.segments.len());
 }
