@@ -565,10 +565,29 @@ fn slice_class(
         });
     }
     let reuse = reuse_ratio(t, n, cfg.session_frames);
+    let f = cfg.session_frames;
     let warning = (reuse > 1.0).then(|| {
+        // Said in seconds too, with what it means for the sessions and the
+        // fix: a ratio alone read as jargon.
+        let (session_s, pool_s) = (f as f64 / cfg.fps, t as f64 / cfg.fps);
+        let stride = t / n;
+        let what = if f > t {
+            format!(
+                "each {session_s:.0}-s session is longer than the class's {pool_s:.0} s of gaze, so it repeats it {:.1} times",
+                f as f64 / t as f64
+            )
+        } else if stride < f {
+            format!(
+                "consecutive sessions share {} of their {f} frames ({:.0} %)",
+                f - stride,
+                100.0 * (f - stride) as f64 / f as f64
+            )
+        } else {
+            "sessions reuse the pool".to_string()
+        };
         format!(
-            "class '{class}': reuse ratio N*F/T = {n}*{}/{t} = {reuse:.2}: each source frame appears {reuse:.1} times on average; the paper's larger KS gap for reading came from a reuse ratio near 11",
-            cfg.session_frames
+            "class '{class}': reuse ratio N*F/T = {n}*{f}/{t} = {reuse:.2}: each source frame appears {reuse:.1} times on average ({what}); \
+             add sources, or lower sessions or session_frames (the paper's larger KS gap for reading came from a reuse ratio near 11)"
         )
     });
     let scale = cfg.speed_scale(class);

@@ -88,8 +88,40 @@ where
     for l in loaded {
         out.extend(l?);
     }
+    check_no_recording_in_two_classes(&out)?;
     out.extend(generated_sources(cfg)?);
     Ok(out)
+}
+
+/// The same recording (the same bytes, under any name) in two classes:
+/// its sessions would carry both labels, and a detector would learn the
+/// file, not the behaviour.
+fn check_no_recording_in_two_classes(inputs: &[SourceInput]) -> Result<(), PrepareError> {
+    for (i, a) in inputs.iter().enumerate() {
+        if let Some(b) = inputs[..i]
+            .iter()
+            .find(|b| b.sha256 == a.sha256 && b.class != a.class)
+        {
+            let what = if a.file == b.file {
+                "listed".to_string()
+            } else {
+                format!(
+                    "the same recording as {} (sha256 {}...)",
+                    b.file,
+                    &a.sha256[..12.min(a.sha256.len())]
+                )
+            };
+            return Err(PrepareError::Source {
+                id: a.file.clone(),
+                message: format!(
+                    "{what} in class '{}' and in class '{}': its sessions would carry both labels \
+                     (each recording belongs to one class)",
+                    b.class, a.class
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The recordings every class's behaviour models generate: one per

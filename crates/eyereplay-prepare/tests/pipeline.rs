@@ -256,3 +256,46 @@ fn missing_sources_are_all_named_before_any_work() {
         "{e}"
     );
 }
+
+/// One recording as a source of both classes, under its own name or a
+/// copy's: refused before any reading, both classes named. A copy in one
+/// class twice is not refused (the same label).
+#[test]
+fn a_recording_in_two_classes_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let body: String = std::iter::once("time_ms,x,y\n".to_string())
+        .chain((0..100).map(|k| format!("{},{},{}\n", 2 * k, 400 + k, 300 + (k * 7) % 50)))
+        .collect();
+    std::fs::write(dir.path().join("a.csv"), &body).unwrap();
+    std::fs::write(dir.path().join("copy.csv"), &body).unwrap();
+    let src = |f: &str| format!("{{ format = \"csv\", path = \"{f}\", screen_px = [1280, 720] }}");
+    let cfg = |reading: &str, conversation: &str| {
+        let text = format!(
+            "session_frames = 5\n[classes.reading]\nsessions = 1\nsources = [{reading}]\n\
+             [classes.conversation]\nsessions = 1\nsources = [{conversation}]\n"
+        );
+        let mut c = DatasetConfig::parse(&text).unwrap();
+        c.base_dir = dir.path().to_path_buf();
+        c
+    };
+    let refused = |c: DatasetConfig| {
+        load_sources(&c, |_, _| unreachable!("no video"))
+            .err()
+            .map(|e| e.to_string())
+    };
+    let e = refused(cfg(&src("a.csv"), &src("a.csv"))).unwrap();
+    assert!(
+        e.contains("a.csv: listed in class 'reading' and in class 'conversation'"),
+        "{e}"
+    );
+    let e = refused(cfg(&src("a.csv"), &src("copy.csv"))).unwrap();
+    assert!(
+        e.contains("copy.csv: the same recording as a.csv (sha256 ")
+            && e.contains("each recording belongs to one class"),
+        "{e}"
+    );
+    let twice = format!("{}, {}", src("a.csv"), src("copy.csv"));
+    let other = dir.path().join("b.csv");
+    std::fs::write(&other, body.replace("400", "401")).unwrap();
+    assert_eq!(refused(cfg(&twice, &src("b.csv"))), None);
+}

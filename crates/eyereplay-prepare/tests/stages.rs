@@ -257,3 +257,39 @@ fn a_source_mostly_filled_or_off_its_screen_is_warned_of() {
         p.warnings
     );
 }
+
+/// A class that reuses its pool says how, in seconds and frames, and how
+/// to mend it; the ratio alone read as jargon. 200 frames at 25 fps (8 s):
+/// one 500-frame (20-s) session repeats them 2.5 times; with 50-frame
+/// sessions, 8 of them step 200 / 8 = 25 frames, so consecutive ones share
+/// 25 of their 50.
+#[test]
+fn a_reused_pool_is_said_in_seconds_and_with_the_fix() {
+    let long = config(500, MANUAL);
+    let p = run(&long, &[input(walk(200), 25.0, RecordingKind::EyeTracker)]).unwrap();
+    let w = p
+        .warnings
+        .iter()
+        .find(|w| w.contains("reuse ratio"))
+        .unwrap();
+    assert!(
+        w.contains(
+            "each 20-s session is longer than the class's 8 s of gaze, so it repeats it 2.5 times"
+        ) && w.contains("add sources, or lower sessions or session_frames"),
+        "{w}"
+    );
+    let text = format!(
+        "session_frames = 50\n{MANUAL}\n[classes.conversation]\nsessions = 8\nsources = [{{ format = \"extract\", path = \"unused.csv\" }}]\n"
+    );
+    let many = DatasetConfig::parse(&text).unwrap();
+    let p = run(&many, &[input(walk(200), 25.0, RecordingKind::EyeTracker)]).unwrap();
+    let w = p
+        .warnings
+        .iter()
+        .find(|w| w.contains("reuse ratio"))
+        .unwrap();
+    assert!(
+        w.contains("consecutive sessions share 25 of their 50 frames (50 %)"),
+        "{w}"
+    );
+}

@@ -38,14 +38,25 @@ pub(crate) fn read(
             None => defaults.to_vec(),
         };
         column_index(&headers, &names).ok_or_else(|| {
-            SourceError::file(
-                path,
-                format!(
+            // A header read as one column that holds another separator:
+            // the file is not separated as its name says, and the names
+            // looked for are in it.
+            let other = [('\t', "tabs"), (';', "semicolons"), (',', "commas")]
+                .into_iter()
+                .find(|(c, _)| *c != delim as char && headers.len() == 1 && headers[0].contains(*c));
+            let message = match other {
+                Some((_, by)) => format!(
+                    "its header reads as one column, separated by {by} ({}); a .csv is read comma-separated, \
+                     a .tsv tab-separated: name the file for its separator, or convert it",
+                    headers[0].replace('\t', "\\t")
+                ),
+                None => format!(
                     "no {what} column (looked for {}; header: {}); name it with {what}_column",
                     names.join(" or "),
                     headers.join(",")
                 ),
-            )
+            };
+            SourceError::file(path, message)
         })
     };
     let ti = find(cols.time, TIME_NAMES, "time")?;

@@ -95,6 +95,43 @@ fn csv_without_xy_columns_says_how_to_name_them() {
     assert!(e.contains("gaze.tsv") && e.contains("x_column"), "{e}");
 }
 
+/// A file separated otherwise than its name says: its header reads as one
+/// column holding the names looked for, which "no time column (looked for
+/// time_ms; header: time_ms<TAB>gaze_x...)" left the user to see.
+#[test]
+fn a_file_separated_otherwise_than_its_name_says_is_named_so() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, body, by) in [
+        ("tabs.csv", "time_ms\tgaze_x\tgaze_y\n0\t1\t2\n", "tabs"),
+        ("commas.tsv", "time_ms,gaze_x,gaze_y\n0,1,2\n", "commas"),
+        ("excel.csv", "time_ms;gaze_x;gaze_y\n0;1;2\n", "semicolons"),
+    ] {
+        let p = dir.path().join(name);
+        std::fs::write(&p, body).unwrap();
+        let e = read_source(
+            &SourceSpec::Csv {
+                path: p,
+                time_column: None,
+                x_column: None,
+                y_column: None,
+                time_unit: TimeUnit::Ms,
+                screen_px: [1920.0, 1080.0],
+                geometry: ViewingGeometry::default(),
+            },
+            &ReadOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains(name)
+                && e.contains(&format!(
+                    "its header reads as one column, separated by {by}"
+                )),
+            "{e}"
+        );
+    }
+}
+
 #[test]
 fn missing_file_is_named() {
     let e = read_source(
