@@ -95,9 +95,12 @@ fn a_video_source_is_read_with_the_landmarks_it_names() {
     let cfg = dir.path().join("c.toml");
     std::fs::write(
         &cfg,
+        // The clip twice in one class (one recording in two classes is
+        // refused), the other class generated.
         "session_frames = 25\n\
-         [classes.reading]\nsources = [{ format = \"video\", path = \"clip.mp4\", landmarks = \"attention\" }]\n\
-         [classes.conversation]\nsources = [{ format = \"video\", path = \"clip.mp4\" }]\n",
+         [classes.reading]\nsources = [{ format = \"video\", path = \"clip.mp4\", landmarks = \"attention\" }, \
+         { format = \"video\", path = \"clip.mp4\" }]\n\
+         [classes.conversation]\n[[classes.conversation.generators]]\nmodel = \"conversation\"\n",
     )
     .unwrap();
     let cache = dir.path().join("cache");

@@ -194,10 +194,13 @@ fn help_teaches_with_examples() {
 fn mistakes_are_refused_up_front_in_one_line() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
+    // A recording for each class: one in both is refused.
     webcam_csv(&d.join("r.csv"), 600);
+    webcam_csv(&d.join("c.csv"), 601);
     let source = "sources = [{ format = \"extract\", path = \"r.csv\" }]\n";
+    let other = "sources = [{ format = \"extract\", path = \"c.csv\" }]\n";
     let classes = format!(
-        "[classes.reading]\nsessions = 2\n{source}[classes.conversation]\nsessions = 2\n{source}"
+        "[classes.reading]\nsessions = 2\n{source}[classes.conversation]\nsessions = 2\n{other}"
     );
     for (i, (table, want)) in [
         ("[render]\njbos = 2\n", "did you mean 'jobs'"),
@@ -487,14 +490,16 @@ fn outputs_never_land_on_inputs_and_cut_sessions_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     webcam_csv(&d.join("r.csv"), 600);
+    webcam_csv(&d.join("c.csv"), 601);
     let source = "sources = [{ format = \"extract\", path = \"r.csv\" }]\n";
+    let other = "sources = [{ format = \"extract\", path = \"c.csv\" }]\n";
     let cfg = d.join("ok.toml");
     std::fs::write(
         &cfg,
         format!(
             "session_frames = 100\n[render]\nwidth = 160\nheight = 120\n\
              [classes.reading]\nsessions = 2\n{source}\
-             [classes.conversation]\nsessions = 2\n{source}"
+             [classes.conversation]\nsessions = 2\n{other}"
         ),
     )
     .unwrap();

@@ -157,6 +157,16 @@ impl Checks {
             self.total
         )
     }
+
+    /// The headline and, where some fail, each one: what `evaluate` and
+    /// `generate` end with.
+    pub fn line(&self) -> String {
+        if self.failing.is_empty() {
+            self.headline()
+        } else {
+            format!("{}; failing: {}", self.headline(), self.failing.join("; "))
+        }
+    }
 }
 
 /// The checks of `ev`: KS D per class and metric against the threshold;
@@ -1007,6 +1017,10 @@ mod tests {
             ["read back reading/b.csv: head yaw r 0.500 < 0.9"]
         );
         assert_eq!(c.headline(), "8 of 9 checks pass");
+        assert_eq!(
+            c.line(),
+            "8 of 9 checks pass; failing: read back reading/b.csv: head yaw r 0.500 < 0.9"
+        );
         let mut h = String::new();
         sessions_read_back_html(&mut h, &rows, 2);
         assert!(

@@ -265,13 +265,14 @@ fn a_source_mostly_filled_or_off_its_screen_is_warned_of() {
 /// 25 of their 50.
 #[test]
 fn a_reused_pool_is_said_in_seconds_and_with_the_fix() {
-    let long = config(500, MANUAL);
-    let p = run(&long, &[input(walk(200), 25.0, RecordingKind::EyeTracker)]).unwrap();
-    let w = p
-        .warnings
-        .iter()
-        .find(|w| w.contains("reuse ratio"))
-        .unwrap();
+    let reuse_warning = |cfg: &DatasetConfig| {
+        let p = run(cfg, &[input(walk(200), 25.0, RecordingKind::EyeTracker)]).unwrap();
+        p.warnings
+            .into_iter()
+            .find(|w| w.contains("reuse ratio"))
+            .unwrap()
+    };
+    let w = reuse_warning(&config(500, MANUAL));
     assert!(
         w.contains(
             "each 20-s session is longer than the class's 8 s of gaze, so it repeats it 2.5 times"
@@ -281,13 +282,7 @@ fn a_reused_pool_is_said_in_seconds_and_with_the_fix() {
     let text = format!(
         "session_frames = 50\n{MANUAL}\n[classes.conversation]\nsessions = 8\nsources = [{{ format = \"extract\", path = \"unused.csv\" }}]\n"
     );
-    let many = DatasetConfig::parse(&text).unwrap();
-    let p = run(&many, &[input(walk(200), 25.0, RecordingKind::EyeTracker)]).unwrap();
-    let w = p
-        .warnings
-        .iter()
-        .find(|w| w.contains("reuse ratio"))
-        .unwrap();
+    let w = reuse_warning(&DatasetConfig::parse(&text).unwrap());
     assert!(
         w.contains("consecutive sessions share 25 of their 50 frames (50 %)"),
         "{w}"

@@ -78,9 +78,16 @@ fn csv_without_xy_columns_says_how_to_name_them() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("gaze.tsv");
     std::fs::write(&p, "time\tgx\tgy\n0\t1\t2\n").unwrap();
-    let e = read_source(
+    let e = csv_err(p);
+    assert!(e.contains("gaze.tsv") && e.contains("x_column"), "{e}");
+}
+
+/// The error of reading `path` as a samples table with the default
+/// columns, in milliseconds, on a 1920x1080 screen.
+fn csv_err(path: std::path::PathBuf) -> String {
+    read_source(
         &SourceSpec::Csv {
-            path: p,
+            path,
             time_column: None,
             x_column: None,
             y_column: None,
@@ -91,8 +98,7 @@ fn csv_without_xy_columns_says_how_to_name_them() {
         &ReadOptions::default(),
     )
     .unwrap_err()
-    .to_string();
-    assert!(e.contains("gaze.tsv") && e.contains("x_column"), "{e}");
+    .to_string()
 }
 
 /// A file separated otherwise than its name says: its header reads as one
@@ -108,20 +114,7 @@ fn a_file_separated_otherwise_than_its_name_says_is_named_so() {
     ] {
         let p = dir.path().join(name);
         std::fs::write(&p, body).unwrap();
-        let e = read_source(
-            &SourceSpec::Csv {
-                path: p,
-                time_column: None,
-                x_column: None,
-                y_column: None,
-                time_unit: TimeUnit::Ms,
-                screen_px: [1920.0, 1080.0],
-                geometry: ViewingGeometry::default(),
-            },
-            &ReadOptions::default(),
-        )
-        .unwrap_err()
-        .to_string();
+        let e = csv_err(p);
         assert!(
             e.contains(name)
                 && e.contains(&format!(

@@ -168,16 +168,7 @@ pub fn print_outcome(o: &EvaluateOutcome, json: bool) {
     }
     // The page's summary: the checks it marks, and which fail (the exit
     // status stays 0: a report that fails a check is still a report).
-    let checks = eyereplay_eval::report::checks(ev);
-    if checks.failing.is_empty() {
-        eprintln!("{}", checks.headline());
-    } else {
-        eprintln!(
-            "{}; failing: {}",
-            checks.headline(),
-            checks.failing.join("; ")
-        );
-    }
+    eprintln!("{}", eyereplay_eval::report::checks(ev).line());
     eprintln!("report: {}", o.html.display());
     eprintln!("metrics: {}", o.metrics_path.display());
     if json {

@@ -210,15 +210,7 @@ pub fn run(args: Args) -> Result<()> {
     let took = took(minutes, r.frames, job.config.fps);
     // The report's summary: how many of its checks pass, which fail.
     if let Some(c) = &summary.checks {
-        if c.failing.is_empty() {
-            println!("report: {}", c.headline());
-        } else {
-            println!(
-                "report: {}; failing: {}",
-                c.headline(),
-                c.failing.join("; ")
-            );
-        }
+        println!("report: {}", c.line());
     }
     match (shard, &summary.report) {
         (Some(s), _) => println!(
