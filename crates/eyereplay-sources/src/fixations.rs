@@ -252,10 +252,23 @@ pub(crate) fn read(spec: &SourceSpec, opts: &ReadOptions) -> Result<Vec<Recordin
         let mut k = 0u64;
         for (i, f) in fixes.iter().enumerate() {
             if i > 0 && f.start_s < fixes[i - 1].end_s {
+                // Both rows, in time order (the file's order may differ),
+                // and the likely cause where nothing groups the rows: a
+                // file of several trials whose clocks start again.
+                let prev = &fixes[i - 1];
+                let hint = if key.is_empty() {
+                    "; several recordings in one file, each clock starting again? group them with \
+                     group_columns, e.g. [\"participant_id\", \"TRIAL_INDEX\"]"
+                } else {
+                    ""
+                };
                 return Err(SourceError::line(
                     path,
                     f.line,
-                    "fixation starts before the previous one ends",
+                    format!(
+                        "fixation starts at {:.3} s, before the one of line {} ends ({:.3} s){hint}",
+                        f.start_s, prev.line, prev.end_s
+                    ),
                 ));
             }
             let next = fixes.get(i + 1);

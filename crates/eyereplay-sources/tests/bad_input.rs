@@ -168,6 +168,25 @@ fn fixations_err(rows: &str) -> String {
     e
 }
 
+/// Two trials in one file, the second's clock starting again, with no
+/// `group_columns`: sorted by time, the second trial's fixation of line 4
+/// (50-200 ms) comes first, and line 2's (100-250 ms) starts before it
+/// ends. Both lines are named, and the fix.
+#[test]
+fn overlapping_fixations_name_both_rows_and_group_columns() {
+    let e = fixations_err(
+        "100,250,300,200
+300,450,400,200
+50,200,500,300
+",
+    );
+    assert!(
+        e.contains("line 2: fixation starts at 0.100 s, before the one of line 4 ends (0.200 s)")
+            && e.contains("group them with group_columns"),
+        "{e}"
+    );
+}
+
 #[test]
 fn fixation_with_infinite_or_nan_end_is_an_error_not_an_endless_loop() {
     // Synthesis loops until the last fixation's end: with an end of inf or
