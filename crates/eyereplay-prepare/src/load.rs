@@ -20,6 +20,23 @@ pub fn check_source_files(cfg: &DatasetConfig) -> Result<(), PrepareError> {
             missing.push(format!("{} ({e})", p.display()));
         }
     }
+    // A relative path is taken from the config's folder, not the current
+    // one; a path that exists from the current folder says which was meant.
+    let from_here: Vec<String> = cfg
+        .classes
+        .values()
+        .flat_map(|c| c.sources.iter().map(|s| s.path()))
+        .filter(|w| w.is_relative() && !cfg.resolve(w).exists() && w.exists())
+        .map(|w| w.display().to_string())
+        .collect();
+    if !from_here.is_empty() {
+        missing.push(format!(
+            "a config's relative paths are taken from its own folder ({}), and {} exists from the current \
+             folder instead: write it relative to the config, or absolute",
+            cfg.base_dir.display(),
+            from_here.join(", ")
+        ));
+    }
     if missing.is_empty() {
         Ok(())
     } else {

@@ -299,3 +299,26 @@ fn a_recording_in_two_classes_is_refused() {
     std::fs::write(&other, body.replace("400", "401")).unwrap();
     assert_eq!(refused(cfg(&twice, &src("b.csv"))), None);
 }
+
+/// A relative source path is taken from the config's folder. One that
+/// exists only from the current folder (the tests run in the crate's, where
+/// `Cargo.toml` is) is refused with what was probably meant.
+#[test]
+fn a_path_written_from_the_current_folder_is_named_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = "session_frames = 5\n[classes.reading]\nsessions = 1\n\
+                sources = [{ format = \"csv\", path = \"Cargo.toml\", screen_px = [1280, 720] }]\n";
+    let mut cfg = DatasetConfig::parse(text).unwrap();
+    cfg.base_dir = dir.path().to_path_buf();
+    let e = eyereplay_prepare::check_source_files(&cfg)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("taken from its own folder")
+            && e.contains("Cargo.toml exists from the current folder instead"),
+        "{e}"
+    );
+    // Written from the config's folder: no such line.
+    std::fs::write(dir.path().join("Cargo.toml"), "x").unwrap();
+    assert!(eyereplay_prepare::check_source_files(&cfg).is_ok());
+}

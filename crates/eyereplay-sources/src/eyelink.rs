@@ -153,9 +153,14 @@ pub(crate) fn read(
         EyeChoice::Mean => saw_right,
     };
     if (eye == EyeChoice::Left && !saw_left) || (eye == EyeChoice::Right && !saw_right) {
+        // As the config spells it, and what the file has.
+        let (asked, has) = match eye {
+            EyeChoice::Left => ("left", "right"),
+            _ => ("right", "left"),
+        };
         return Err(SourceError::file(
             path,
-            format!("eye = {eye:?} requested but the file records no such eye"),
+            format!("eye = \"{asked}\" asked for, but the file records only the {has} eye: use eye = \"{has}\" (or \"mean\")"),
         ));
     }
     let screen_px = screen.screen_px.or(display).ok_or_else(|| {

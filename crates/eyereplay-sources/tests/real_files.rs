@@ -129,6 +129,23 @@ fn eyelink_asc_agrees_with_syelinks_own_parser() {
     }
     // Three recording blocks separated by minutes: three segments.
     assert!(rec.segments.len() >= 2, "{}", rec.segments.len());
+    // The right eye of a left-eye recording: said as the config spells it,
+    // with the eye the file has.
+    let e = eyereplay_sources::read_source(
+        &SourceSpec::Eyelink {
+            path: data("syelink/left_eye.asc"),
+            eye: EyeChoice::Right,
+            screen_px: None,
+            geometry: ViewingGeometry::default(),
+        },
+        &ReadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("eye = \"right\" asked for, but the file records only the left eye"),
+        "{e}"
+    );
 }
 
 #[test]
