@@ -201,13 +201,12 @@ pub fn generate(
             ));
         }
     }
-    forget_renders_of_another_config(out, &job.config, job.shard, progress)?;
+    let recorded = recorded_metadata(out, &job.config)?;
+    forget_renders_of_another_config(out, recorded.as_ref(), &job.config, job.shard, progress)?;
     // A shard run again over a merged dataset (a retried task, a check)
     // writes the trajectories' metadata afresh, without the merge's render
     // section: the dataset is no longer finished, and a line says so.
-    let merged = job.shard.is_some()
-        && out.join(eyereplay_dataset::layout::METADATA_FILE).is_file()
-        && eyereplay_dataset::read_metadata(out).is_ok_and(|m| m.render.is_some());
+    let merged = job.shard.is_some() && recorded.is_some_and(|m| m.render.is_some());
     let mut log = RunLog::open(out)?;
     let mut summary = GenerateSummary::default();
     let mut stage = |name: &'static str, t: Instant, log: &mut RunLog| {
@@ -285,11 +284,12 @@ pub fn generate(
 /// config would finish sessions that no longer match its trajectories.
 fn forget_renders_of_another_config(
     out: &Path,
+    recorded: Option<&eyereplay_dataset::Metadata>,
     config: &DatasetConfig,
     shard: Option<Shard>,
     progress: &dyn Progress,
 ) -> Result<()> {
-    let Some(old) = recorded_config(out, config)? else {
+    let Some(old) = recorded.map(|m| &m.dataset) else {
         return Ok(());
     };
     if old.config == *config {
@@ -306,17 +306,7 @@ fn forget_renders_of_another_config(
             ),
         ));
     }
-    let mut removed = 0;
-    for s in &old.sessions {
-        let paths = eyereplay_dataset::SessionPaths::new(out, &s.file)
-            .map_err(|e| Error::input(out.join(&s.file), e.to_string()))?;
-        let mut any = false;
-        for p in paths.outputs().iter().filter(|p| p.is_file()) {
-            std::fs::remove_file(p).map_err(|e| Error::io(p, e))?;
-            any = true;
-        }
-        removed += any as usize;
-    }
+    let removed = remove_rendered(out, old.sessions.iter())?;
     if removed > 0 {
         progress.info(&format!(
             "{}: made with another config than this one (its [render] table, seed, sources or sessions); its {removed} rendered sessions are rendered again",
@@ -326,19 +316,39 @@ fn forget_renders_of_another_config(
     Ok(())
 }
 
-/// The dataset `out` records, with its config's folder set to `config`'s
+/// The metadata `out` records, its config's folder set to `config`'s
 /// (the folder a config was read from is not recorded, nor does it move a
 /// session); `None` when `out` holds none yet.
-fn recorded_config(
+fn recorded_metadata(
     out: &Path,
     config: &DatasetConfig,
-) -> Result<Option<eyereplay_dataset::DatasetMetadata>> {
+) -> Result<Option<eyereplay_dataset::Metadata>> {
     if !out.join(eyereplay_dataset::layout::METADATA_FILE).is_file() {
         return Ok(None);
     }
-    let mut old = eyereplay_dataset::read_metadata(out)?.dataset;
-    old.config.base_dir = config.base_dir.clone();
-    Ok(Some(old))
+    let mut m = eyereplay_dataset::read_metadata(out)?;
+    m.dataset.config.base_dir = config.base_dir.clone();
+    Ok(Some(m))
+}
+
+/// Removes the rendered files (video, truth, identity, ...) of `sessions`;
+/// returns how many had any.
+fn remove_rendered<'a>(
+    out: &Path,
+    sessions: impl Iterator<Item = &'a eyereplay_dataset::SessionEntry>,
+) -> Result<usize> {
+    let mut removed = 0;
+    for s in sessions {
+        let paths = eyereplay_dataset::SessionPaths::new(out, &s.file)
+            .map_err(|e| Error::input(out.join(&s.file), e.to_string()))?;
+        let mut any = false;
+        for p in paths.outputs().iter().filter(|p| p.is_file()) {
+            std::fs::remove_file(p).map_err(|e| Error::io(p, e))?;
+            any = true;
+        }
+        removed += any as usize;
+    }
+    Ok(removed)
 }
 
 /// After a shard has drawn its sessions: the folder must still record its
@@ -348,24 +358,20 @@ fn recorded_config(
 /// longer holds; they are removed, so that `merge` refuses the folder
 /// rather than pass videos that do not match their CSVs.
 fn check_no_other_config_came(out: &Path, config: &DatasetConfig, shard: Shard) -> Result<()> {
-    let Some(now) = recorded_config(out, config)? else {
+    let Some(now) = recorded_metadata(out, config)? else {
         return Ok(());
     };
-    if now.config == *config {
+    if now.dataset.config == *config {
         return Ok(());
     }
-    for (_, s) in now
-        .sessions
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| shard.contains(*i))
-    {
-        let paths = eyereplay_dataset::SessionPaths::new(out, &s.file)
-            .map_err(|e| Error::input(out.join(&s.file), e.to_string()))?;
-        for p in paths.outputs().iter().filter(|p| p.is_file()) {
-            std::fs::remove_file(p).map_err(|e| Error::io(p, e))?;
-        }
-    }
+    let sessions = now.dataset.sessions.iter();
+    remove_rendered(
+        out,
+        sessions
+            .enumerate()
+            .filter(|(i, _)| shard.contains(*i))
+            .map(|(_, s)| s),
+    )?;
     Err(Error::input(
         out,
         format!(

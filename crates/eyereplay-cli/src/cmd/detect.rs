@@ -115,7 +115,8 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    // Not clap's `requires`: INPUT's conflict with --live overrides it.
+    // Said here, not by clap's `requires`: its "required arguments were
+    // not provided: --live" does not say what the option is for.
     anyhow::ensure!(
         args.live.is_some() || args.stall_timeout_s.is_none(),
         "--stall-timeout-s is for --live only (a stream that stops sending frames)"
