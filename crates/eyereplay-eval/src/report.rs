@@ -84,10 +84,21 @@ fn img(f: &Figure, alt: &str) -> String {
     )
 }
 
-/// `v` to three decimals, marked as failed where `ok` says it misses.
-fn mark(v: Option<f64>, ok: impl Fn(f64) -> bool) -> String {
+/// Whether a read-back r meets its target `min` (r, or head yaw's r).
+fn r_meets(r: Option<f64>, min: f64) -> bool {
+    matches!(r, Some(r) if r >= min)
+}
+
+/// Whether an amplitude ratio lies in [`TARGET_AMPLITUDE_RATIO`].
+fn ratio_meets(ratio: Option<f64>) -> bool {
+    let (lo, hi) = TARGET_AMPLITUDE_RATIO;
+    matches!(ratio, Some(x) if (lo..=hi).contains(&x))
+}
+
+/// `v` to three decimals, marked as failed where it misses (`ok` false).
+fn mark(v: Option<f64>, ok: bool) -> String {
     match v {
-        Some(x) if !ok(x) => format!("<span class=\"fail\">{x:.3}</span>"),
+        Some(x) if !ok => format!("<span class=\"fail\">{x:.3}</span>"),
         _ => f3(v),
     }
 }
@@ -223,18 +234,15 @@ fn checks_of(
     let (lo, hi) = TARGET_AMPLITUDE_RATIO;
     let axes = |c: &mut Checks, who: &str, f: &crate::visual::VisualFidelity| {
         for (ax, a) in [("x", &f.x), ("y", &f.y)] {
-            c.check(matches!(a.r, Some(r) if r >= TARGET_R_MIN), || {
+            c.check(r_meets(a.r, TARGET_R_MIN), || {
                 format!("{who}: r {ax} {} < {TARGET_R_MIN}", f3(a.r))
             });
-            c.check(
-                matches!(a.amplitude_ratio, Some(x) if (lo..=hi).contains(&x)),
-                || {
-                    format!(
-                        "{who}: amplitude ratio {ax} {} outside {lo}-{hi}",
-                        f3(a.amplitude_ratio)
-                    )
-                },
-            );
+            c.check(ratio_meets(a.amplitude_ratio), || {
+                format!(
+                    "{who}: amplitude ratio {ax} {} outside {lo}-{hi}",
+                    f3(a.amplitude_ratio)
+                )
+            });
         }
     };
     // The visual section's session is counted once: when the read-back
@@ -251,7 +259,7 @@ fn checks_of(
     for r in read_back {
         axes(&mut c, &format!("read back {}", r.session), &r.fidelity);
         if let Some(y) = r.head_yaw {
-            c.check(matches!(y.r, Some(v) if v >= TARGET_HEAD_YAW_R_MIN), || {
+            c.check(r_meets(y.r, TARGET_HEAD_YAW_R_MIN), || {
                 format!(
                     "read back {}: head yaw r {} < {TARGET_HEAD_YAW_R_MIN}",
                     r.session,
@@ -593,8 +601,7 @@ fn visual_html(h: &mut String, ev: &Evaluation, figs: &[Figure]) {
             );
             let _ = writeln!(h, "<tr><td>95th percentile error</td><td>{:.4}</td><td>-</td><td>-</td><td>0.161</td></tr>", v.error.p95);
             for (ax, a, pr, pa) in [("x", &v.x, 0.006, 0.30), ("y", &v.y, 0.077, 0.42)] {
-                let r_ok = matches!(a.r, Some(r) if r >= TARGET_R_MIN);
-                let a_ok = matches!(a.amplitude_ratio, Some(x) if (lo..=hi).contains(&x));
+                let (r_ok, a_ok) = (r_meets(a.r, TARGET_R_MIN), ratio_meets(a.amplitude_ratio));
                 let _ = writeln!(
                     h,
                     "<tr><td>Pearson r ({ax})</td><td>{}</td><td>&ge; {TARGET_R_MIN}</td><td>{}</td><td>{pr}</td></tr>\n<tr><td>amplitude ratio ({ax}, std rendered / std source)</td><td>{}</td><td>{lo}-{hi}</td><td>{}</td><td>{pa}</td></tr>\n<tr><td>gain ({ax}, slope of rendered on source; the ratio without the read-back's noise, which inflates the ratio by about 1/r)</td><td>{}</td><td>-</td><td>-</td><td>-</td></tr>",
@@ -705,9 +712,8 @@ fn sessions_read_back_html(h: &mut String, rows: &[SessionReadBack], sessions: u
     let _ = writeln!(h, "</table>\n<table><tr><th>session</th><th>frames</th><th>iris found</th><th>r x</th><th>amplitude ratio x</th><th>r y</th><th>amplitude ratio y</th><th>median error</th>{head_th}</tr>");
     // A value that misses its target is marked as the tables above mark
     // a failed check (the summary at the top counts them).
-    let (lo, hi) = TARGET_AMPLITUDE_RATIO;
-    let r_of = |v: Option<f64>, min: f64| mark(v, |x| x >= min);
-    let ratio = |v: Option<f64>| mark(v, |x| (lo..=hi).contains(&x));
+    let r_of = |v: Option<f64>, min: f64| mark(v, r_meets(v, min));
+    let ratio = |v: Option<f64>| mark(v, ratio_meets(v));
     for r in rows {
         let v = &r.fidelity;
         let head = match (heads, r.head_yaw) {
