@@ -130,7 +130,7 @@ fn main() -> std::process::ExitCode {
         Command::EvaluateReplay(a) => cmd::evaluate_replay::run(a),
         Command::EvaluateLocalization(a) => cmd::evaluate_localization::run(a),
     };
-    // A stop under way ends the process itself (status 130); what failed
+    // A stop under way ends the process itself (status 130 or 143); what failed
     // here may be its removal of files this run was writing. Otherwise
     // the work is over: a stop from now on changes nothing, so it is
     // ignored and the command ends with its own status and output.
@@ -163,43 +163,56 @@ fn parse_args() -> Result<Cli, clap::Error> {
         .and_then(|m| Cli::from_arg_matches(&m))
 }
 
-/// Ctrl-C, or SIGTERM (a Slurm job's time limit, `kill`), ends the run
+/// Ctrl-C, SIGTERM (a Slurm job's time limit, `kill`) or SIGHUP (the
+/// terminal closed) ends the run
 /// at once as it would by default, but first removes the temporary files
 /// and folders being written (a video's `.NAME.PID.part`, a session's
 /// staged files, a report's folder): finished outputs stay, and nothing
-/// half-written is left beside them. Exit status 130, a shell's for
-/// Ctrl-C. `detect --live` replaces this with its own handler (a stop
-/// there ends the watch with its result).
+/// half-written is left beside them. Exit status 128 + the signal's
+/// number, as a shell reports a process the signal killed: 130 for
+/// Ctrl-C, 143 for SIGTERM, so a job scheduler's accounting tells a
+/// time limit from a user's stop. `detect --live` replaces this with its
+/// own handler (a stop there ends the watch with its result).
 fn remove_partial_files_when_stopped() {
-    let installed = ctrlc::set_handler(|| {
-        let Some(removed) = eyereplay_core::inflight::remove_in_flight() else {
-            // The work had finished: every output is in place.
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    // signal-hook's iterator: the handler only writes to a pipe, and this
+    // thread, woken with the signal's number, does the removal outside
+    // the handler's restrictions.
+    let mut signals = match signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) {
+        Ok(s) => s,
+        Err(e) => {
+            tracing::debug!("no Ctrl-C handler: {e}");
             return;
-        };
-        if removed.is_empty() {
-            eprintln!("stopped");
-        } else {
-            // The example: the most recently listed that is not the
-            // render's lock (the file the user saw growing).
-            let example = removed
-                .iter()
-                .find(|p| p.extension().is_none_or(|e| e != "lock"))
-                .unwrap_or(&removed[0]);
-            eprintln!(
-                "stopped: removed {} unfinished file(s), such as {}",
-                removed.len(),
-                example.display()
-            );
         }
-        let _ = std::io::Write::flush(&mut std::io::stdout());
-        // Not `exit`: its atexit work tears down ONNX Runtime's statics
-        // while its threads still run, and they print errors on the way.
-        // SAFETY: _exit ends the process without touching its state.
-        unsafe { libc::_exit(130) }
+    };
+    std::thread::spawn(move || {
+        for signal in signals.forever() {
+            let Some(removed) = eyereplay_core::inflight::remove_in_flight() else {
+                // The work had finished: every output is in place.
+                continue;
+            };
+            if removed.is_empty() {
+                eprintln!("stopped");
+            } else {
+                // The example: the most recently listed that is not the
+                // render's lock (the file the user saw growing).
+                let example = removed
+                    .iter()
+                    .find(|p| p.extension().is_none_or(|e| e != "lock"))
+                    .unwrap_or(&removed[0]);
+                eprintln!(
+                    "stopped: removed {} unfinished file(s), such as {}",
+                    removed.len(),
+                    example.display()
+                );
+            }
+            let _ = std::io::Write::flush(&mut std::io::stdout());
+            // Not `exit`: its atexit work tears down ONNX Runtime's statics
+            // while its threads still run, and they print errors on the way.
+            // SAFETY: _exit ends the process without touching its state.
+            unsafe { libc::_exit(128 + signal) }
+        }
     });
-    if let Err(e) = installed {
-        tracing::debug!("no Ctrl-C handler: {e}");
-    }
 }
 
 /// clap's usage error on one line, as every other error is: its message

@@ -392,6 +392,33 @@ impl Default for RenderTable {
     }
 }
 
+/// The line of `path` that sets the `[render]` key an error names (its
+/// first quoted word: `'backend': unknown variant ...`), under a `[render]`
+/// or `[render.*]` header or written `render.key = ...`; `None` when the
+/// file cannot be read (a config given as a Python dict) or holds no such
+/// line.
+fn render_key_line(path: &Path, message: &str) -> Option<usize> {
+    let key = message.split('\'').nth(1)?;
+    let text = std::fs::read_to_string(path).ok()?;
+    let mut in_render = false;
+    for (i, line) in text.lines().enumerate() {
+        let l = line.trim();
+        if l.starts_with('[') {
+            let header = l.trim_start_matches('[').trim_end_matches(']').trim();
+            in_render = header == "render" || header.starts_with("render.");
+            continue;
+        }
+        let Some((k, _)) = l.split_once('=') else {
+            continue;
+        };
+        let k = k.trim();
+        if (in_render && k == key) || k.strip_prefix("render.") == Some(key) {
+            return Some(i + 1);
+        }
+    }
+    None
+}
+
 impl RenderSettings {
     /// The config's `[render]` table, typed (defaults where it is absent).
     /// `path` names the config in errors.
@@ -399,13 +426,14 @@ impl RenderSettings {
         match &cfg.render {
             None => Ok(RenderSettings::default()),
             Some(table) => Self::from_table(table).map_err(|e| {
-                DatasetError::invalid(
-                    path,
-                    format!(
-                        "[render]: {}",
-                        eyereplay_prepare::describe_toml_error("", &e)
-                    ),
-                )
+                let message = eyereplay_prepare::describe_toml_error("", &e);
+                // The table was parsed apart from the text, so its errors
+                // carry no position: the key they name is looked up in
+                // the file, as the rest of the config's errors give lines.
+                let at = render_key_line(path, &message)
+                    .map(|n| format!("line {n}: "))
+                    .unwrap_or_default();
+                DatasetError::invalid(path, format!("{at}[render]: {message}"))
             }),
         }
     }
@@ -469,6 +497,33 @@ mod tests {
             "[classes.reading]\nsources = [{{ format = \"extract\", path = \"a.csv\" }}]\n{render}"
         ))
         .unwrap()
+    }
+
+    /// A `[render]` error gives the line of the key it names, as the rest
+    /// of the config's errors do: the table itself carries no positions.
+    #[test]
+    fn render_errors_give_the_line_of_their_key() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("data.toml");
+        let body = "[render]\nwidth = 320\nbackend = \"eye\"\n";
+        let text = format!(
+            "[classes.reading]\nsources = [{{ format = \"extract\", path = \"a.csv\" }}]\n{body}"
+        );
+        std::fs::write(&p, &text).unwrap();
+        let e = RenderSettings::from_config(&DatasetConfig::parse(&text).unwrap(), &p)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("data.toml: line 5: [render]: 'backend'") && e.contains("'eyes'"),
+            "{e}"
+        );
+        // Dotted, at the top level.
+        let text = "render.crf = \"high\"\n[classes.reading]\nsources = [{ format = \"extract\", path = \"a.csv\" }]\n";
+        std::fs::write(&p, text).unwrap();
+        let e = RenderSettings::from_config(&DatasetConfig::parse(text).unwrap(), &p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 1: [render]: 'crf'"), "{e}");
     }
 
     #[test]

@@ -414,12 +414,26 @@ fn draw_main_sequence<DB: DrawingBackend>(
         } else {
             (1.0, 10.0)
         };
+        // The ticks chosen here, not by plotters: its own key points on a
+        // log axis left a lower decade without one named tick and drew
+        // a bold line at each of 10 000, 11 000, ... in the top one.
+        let (x_named, x_minor) = log_ticks(xl, xh);
+        let (y_named, y_minor) = log_ticks(yl, yh);
         let mut chart = ChartBuilder::on(&panels[ci])
             .caption(format!("{} - main sequence", c.class), (FONT, 16))
             .margin(10)
             .x_label_area_size(36)
             .y_label_area_size(56)
-            .build_cartesian_2d((xl..xh).log_scale(), (yl..yh).log_scale())
+            .build_cartesian_2d(
+                (xl..xh)
+                    .log_scale()
+                    .with_key_points(x_named)
+                    .with_light_points(x_minor),
+                (yl..yh)
+                    .log_scale()
+                    .with_key_points(y_named)
+                    .with_light_points(y_minor),
+            )
             .map_err(s)?;
         chart
             .configure_mesh()
@@ -429,7 +443,8 @@ fn draw_main_sequence<DB: DrawingBackend>(
             .y_label_formatter(&log_tick_label)
             .label_style((FONT, 12))
             .axis_desc_style((FONT, 13))
-            .light_line_style(WHITE)
+            .bold_line_style(BLACK.mix(0.18))
+            .light_line_style(BLACK.mix(0.06))
             .draw()
             .map_err(s)?;
         for (pts, color, name) in [(&sp, SRC_COLOR, "source"), (&gp, GEN_COLOR, "generated")] {
@@ -454,15 +469,46 @@ fn draw_main_sequence<DB: DrawingBackend>(
     Ok(())
 }
 
-/// A log axis's tick label: only 1, 2 and 5 times a power of ten are
-/// named (the nine ticks of a decade, all labelled, ran into each other),
-/// without a trailing ".0".
+/// A log axis's ticks over `[lo, hi]`: the named ones, 1, 2 and 5 times
+/// each power of ten (the nine of a decade, all named, ran into each
+/// other), and the light grid, every whole multiple. A range too narrow
+/// to hold two of the named gets every whole multiple named instead, and
+/// one without two of those its ends.
+fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
+    let mut named = Vec::new();
+    let mut minor = Vec::new();
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return (named, minor);
+    }
+    let first = lo.log10().floor() as i32;
+    let last = hi.log10().ceil() as i32;
+    for decade in first..=last {
+        let unit = 10f64.powi(decade);
+        for m in 1..=9 {
+            // Rounded, so that 3 x 0.1 is named 0.3, not 0.30000000000000004.
+            let v = (m as f64 * unit * 1e9).round() / 1e9;
+            if v < lo || v > hi {
+                continue;
+            }
+            minor.push(v);
+            if matches!(m, 1 | 2 | 5) {
+                named.push(v);
+            }
+        }
+    }
+    if named.len() < 2 {
+        named = minor.clone();
+    }
+    if named.len() < 2 {
+        // Inside one step of a decade (all points alike): its ends.
+        named = vec![lo, hi];
+    }
+    (named, minor)
+}
+
+/// A log axis's tick label, without a trailing ".0".
 fn log_tick_label(v: &f64) -> String {
     if !(*v > 0.0 && v.is_finite()) {
-        return String::new();
-    }
-    let mantissa = v / 10f64.powf(v.log10().floor());
-    if ![1.0, 2.0, 5.0].iter().any(|d| (mantissa - d).abs() < 1e-6) {
         return String::new();
     }
     if *v >= 1.0 {
@@ -1069,15 +1115,22 @@ mod tests {
 
     #[test]
     fn log_ticks_name_one_two_and_five_per_decade() {
-        let named: Vec<String> = [
-            1.0, 2.0, 3.0, 5.0, 7.0, 10.0, 20.0, 400.0, 500.0, 20000.0, 0.5,
-        ]
-        .iter()
-        .map(log_tick_label)
-        .collect();
+        // 15-1100 px: named 20, 50, 100, 200, 500, 1000; the grid every
+        // whole multiple, 20-90, 100-900, 1000.
+        let (named, minor) = log_ticks(15.0, 1100.0);
+        assert_eq!(named, [20.0, 50.0, 100.0, 200.0, 500.0, 1000.0]);
+        assert_eq!(minor.len(), 8 + 9 + 1);
+        assert_eq!((minor[0], minor[17]), (20.0, 1000.0));
+        let labels: Vec<String> = named.iter().map(log_tick_label).collect();
+        assert_eq!(labels, ["20", "50", "100", "200", "500", "1000"]);
+        // Below 1, as a fraction: 0.3 named 0.3.
+        let (named, _) = log_ticks(0.25, 0.6);
         assert_eq!(
-            named,
-            ["1", "2", "", "5", "", "10", "20", "", "500", "20000", "0.5"]
+            named.iter().map(log_tick_label).collect::<Vec<_>>(),
+            ["0.3", "0.4", "0.5", "0.6"]
         );
+        // 310-390 holds no 1-2-5 tick and no whole multiple: its ends.
+        assert_eq!(log_ticks(310.0, 390.0), (vec![310.0, 390.0], vec![]));
+        assert_eq!(log_ticks(0.0, 10.0), (vec![], vec![]));
     }
 }

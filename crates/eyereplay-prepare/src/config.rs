@@ -494,6 +494,13 @@ pub fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
     let mut out = format!("{}{}", pos.unwrap_or_default(), msg.trim());
     if let Some(s) = suggestion(&msg) {
         out.push_str(&format!(" (did you mean '{s}'?)"));
+    } else if msg.contains("invalid inline table") {
+        // The usual cause: a source's `{ ... }` broken over lines, which
+        // TOML 1.0 does not allow.
+        out.push_str(
+            " (an inline table `{ ... }` must stay on one line; for a long source write \
+             [[classes.NAME.sources]] and one key a line below it)",
+        );
     } else if msg.contains("missing field `format`") {
         // A source's `format` picks its kind, so serde sees a misspelt
         // `format` as the tag missing, not as an unknown key: find it in
@@ -625,6 +632,30 @@ mod tests {
         assert_eq!(c.speed_scale(GazeClass::Conversation), 1.0);
         assert_eq!(c.calibration.fill_fraction, 0.8);
         assert_eq!(c.blink_filter.iqr_k, 3.0);
+    }
+
+    /// A source's inline table broken over lines is refused by TOML 1.0;
+    /// the error names the way that works, which parses to the same source.
+    #[test]
+    fn a_multi_line_inline_table_points_to_the_array_of_tables() {
+        let e = DatasetConfig::parse(
+            "[classes.reading]\nsources = [{ format = \"extract\",\n  path = \"a.csv\" }]\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("line 2") && e.contains("[[classes.NAME.sources]]"),
+            "{e}"
+        );
+        let tables = DatasetConfig::parse(
+            "[[classes.reading.sources]]\nformat = \"extract\"\npath = \"a.csv\"\n",
+        )
+        .unwrap();
+        let inline = DatasetConfig::parse(
+            "[classes.reading]\nsources = [{ format = \"extract\", path = \"a.csv\" }]\n",
+        )
+        .unwrap();
+        assert_eq!(tables.classes, inline.classes);
     }
 
     #[test]

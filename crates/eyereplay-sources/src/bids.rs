@@ -6,6 +6,8 @@
 //! (m), and a `timestamp` column description with `Units`. Without `Units`
 //! the timestamp unit is inferred from the sampling frequency (an interval of
 //! 2 at 500 Hz is milliseconds) and checked, never guessed silently.
+//! The sidecar may be the file's own or inherited from folders above inside
+//! its dataset (BIDS's inheritance principle), the nearer's keys winning.
 
 use crate::series::{parse_f64, ScreenSeries};
 use crate::{file_name, ReadOptions, Recording, ScreenOptions, SourceError};
@@ -15,11 +17,121 @@ use std::path::{Path, PathBuf};
 
 pub(crate) fn sidecar_path(path: &Path) -> PathBuf {
     let s = path.to_string_lossy();
-    let stem = s
-        .strip_suffix(".tsv.gz")
-        .or_else(|| s.strip_suffix(".tsv"))
-        .unwrap_or(&s);
-    PathBuf::from(format!("{stem}.json"))
+    PathBuf::from(format!("{}.json", data_stem(&s)))
+}
+
+/// The name without `.tsv` or `.tsv.gz`.
+fn data_stem(name: &str) -> &str {
+    name.strip_suffix(".tsv.gz")
+        .or_else(|| name.strip_suffix(".tsv"))
+        .unwrap_or(name)
+}
+
+/// A BIDS name's entities (`sub-01`, `task-reading`, ...) and its suffix
+/// (`physio`): `sub-01_task-reading_physio` gives
+/// `[("sub", "01"), ("task", "reading")]` and `physio`.
+fn entities(stem: &str) -> (Vec<(&str, &str)>, &str) {
+    let mut parts: Vec<&str> = stem.split('_').collect();
+    let suffix = parts.pop().unwrap_or("");
+    let pairs = parts.iter().filter_map(|p| p.split_once('-')).collect();
+    (pairs, suffix)
+}
+
+/// The folders whose sidecars apply to `path`, the dataset's root first.
+/// BIDS's inheritance principle: a sidecar in a folder above, such as
+/// `task-reading_physio.json` at the root, applies to every data file
+/// below whose name holds its entities. Walked only inside a dataset (a
+/// folder above, at most three up, holds `dataset_description.json`), so
+/// that a loose file never picks up JSON from unrelated folders.
+fn sidecar_folders(path: &Path) -> Vec<PathBuf> {
+    let own = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut chain = vec![own.clone()];
+    let mut dir = own;
+    for _ in 0..4 {
+        if dir.join("dataset_description.json").is_file() {
+            chain.reverse();
+            return chain;
+        }
+        let Some(up) = dir.parent().map(Path::to_path_buf) else {
+            break;
+        };
+        let up = if up.as_os_str().is_empty() {
+            PathBuf::from("..")
+        } else {
+            up
+        };
+        if up == dir {
+            break;
+        }
+        chain.push(up.clone());
+        dir = up;
+    }
+    chain.truncate(1);
+    chain
+}
+
+/// The sidecar metadata of `path`: every `*_physio.json` that applies to
+/// it (its own, beside it, and those it inherits), the nearer's keys over
+/// the farther's, and the path of the nearest, which errors about the
+/// metadata name.
+fn read_sidecar(path: &Path) -> Result<(PathBuf, Value), SourceError> {
+    let own_stem = data_stem(&file_name(path)).to_string();
+    let (own_entities, own_suffix) = entities(&own_stem);
+    let mut merged = serde_json::Map::new();
+    let mut nearest: Option<PathBuf> = None;
+    for dir in sidecar_folders(path) {
+        let Ok(listing) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        // Fewer entities first: the more specific sidecar of a folder
+        // overrides the more general.
+        let mut applying: Vec<(usize, PathBuf)> = listing
+            .flatten()
+            .filter_map(|e| {
+                let name = e.file_name().to_string_lossy().into_owned();
+                let stem = name.strip_suffix(".json")?;
+                let (ents, suffix) = entities(stem);
+                let applies = suffix == own_suffix
+                    && ents.iter().all(|kv| own_entities.contains(kv))
+                    && (stem == own_stem || stem.split('_').count() == ents.len() + 1);
+                applies.then(|| (ents.len(), e.path()))
+            })
+            .collect();
+        applying.sort();
+        for (_, side_path) in applying {
+            let text = std::fs::read_to_string(&side_path).map_err(|e| {
+                SourceError::file(
+                    &side_path,
+                    format!("BIDS sidecar for {} unreadable: {e}", file_name(path)),
+                )
+            })?;
+            let value: Value = serde_json::from_str(&text)
+                .map_err(|e| SourceError::file(&side_path, format!("invalid JSON: {e}")))?;
+            let Value::Object(fields) = value else {
+                return Err(SourceError::file(
+                    &side_path,
+                    "not a JSON object (a BIDS sidecar holds {\"SamplingFrequency\": ..., ...})",
+                ));
+            };
+            merged.extend(fields);
+            nearest = Some(side_path);
+        }
+    }
+    let nearest = nearest.ok_or_else(|| {
+        SourceError::file(
+            sidecar_path(path),
+            format!(
+                "BIDS sidecar for {} missing: no {} beside it, nor one it inherits \
+                 from a folder above inside its dataset",
+                file_name(path),
+                file_name(&sidecar_path(path))
+            ),
+        )
+    })?;
+    Ok((nearest, Value::Object(merged)))
 }
 
 pub(crate) fn read(
@@ -27,15 +139,7 @@ pub(crate) fn read(
     screen: &ScreenOptions,
     opts: &ReadOptions,
 ) -> Result<Recording, SourceError> {
-    let side_path = sidecar_path(path);
-    let side_text = std::fs::read_to_string(&side_path).map_err(|e| {
-        SourceError::file(
-            &side_path,
-            format!("BIDS sidecar for {} unreadable: {e}", file_name(path)),
-        )
-    })?;
-    let side: Value = serde_json::from_str(&side_text)
-        .map_err(|e| SourceError::file(&side_path, format!("invalid JSON: {e}")))?;
+    let (side_path, side) = read_sidecar(path)?;
     let fs = side
         .get("SamplingFrequency")
         .and_then(Value::as_f64)
@@ -86,8 +190,13 @@ pub(crate) fn read(
                 "no ScreenResolution; give screen_px = [width, height]",
             )
         })?;
+    // The config's geometry, where it gives one, outranks the sidecar's, as
+    // `screen_px` outranks `ScreenResolution`: a config that sets
+    // `screen_width_mm` or `distance_mm` (not only `px_per_deg`) is one
+    // written because the sidecar's are wrong or missing. Left at the
+    // defaults, the sidecar's values are used.
     let mut geometry = screen.geometry;
-    if geometry.px_per_deg.is_none() {
+    if geometry == crate::ViewingGeometry::default() {
         if let (Some(size), Some(dist)) = (
             side.get("ScreenSize").and_then(Value::as_array),
             side.get("ScreenDistance").and_then(Value::as_f64),
@@ -129,7 +238,7 @@ pub(crate) fn read(
             Some(k) => parse_f64(path, line_no, "timestamp", cells[k])?,
             None => start_s + rows.len() as f64 / fs,
         };
-        let missing = |c: &str| matches!(c.trim(), "n/a" | "" | "NaN" | "nan");
+        let missing = crate::series::is_missing;
         let g = if missing(cells[xi]) || missing(cells[yi]) {
             None
         } else {

@@ -26,7 +26,17 @@ pub(crate) fn read(
     opts: &ReadOptions,
 ) -> Result<Recording, SourceError> {
     let file = std::fs::File::open(path).map_err(|e| SourceError::io(path, e))?;
-    let reader = BufReader::new(file);
+    let mut reader = BufReader::new(file);
+    // The binary EDF the tracker writes starts "SR_RESEARCH_1000FILE"; read
+    // as text it gave "no samples", leaving the user to find out why.
+    let head = std::io::BufRead::fill_buf(&mut reader).map_err(|e| SourceError::io(path, e))?;
+    if head.starts_with(b"SR_RESEARCH") {
+        return Err(SourceError::file(
+            path,
+            "a binary EDF file; eyereplay reads the ASCII that SR Research's edf2asc \
+             writes from it (`edf2asc FILE.edf` gives FILE.asc)",
+        ));
+    }
     let mut display: Option<[f64; 2]> = None;
     // Eyes of the current recording block: (left, right).
     let mut eyes: Option<(bool, bool)> = None;

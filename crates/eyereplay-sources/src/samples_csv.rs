@@ -67,10 +67,10 @@ pub(crate) fn read(
     let mut series = ScreenSeries::new(path, screen_px, ppd, opts)?;
     for_each_record(path, &mut rdr, |rec, line| {
         let t = parse_f64(path, line, &headers[ti], rec.get(ti).unwrap_or(""))?;
-        // Empty or NaN coordinates are tracking loss, not a format error.
+        // Empty, NaN or NA coordinates are tracking loss, not a format error.
         let coord = |i: usize| -> Result<Option<f64>, SourceError> {
             let c = rec.get(i).unwrap_or("").trim();
-            if c.is_empty() || c.eq_ignore_ascii_case("nan") || c == "." {
+            if crate::series::is_missing(c) {
                 Ok(None)
             } else {
                 parse_f64(path, line, &headers[i], c).map(Some)

@@ -129,6 +129,19 @@ pub(crate) fn recording(
 }
 
 /// Parses a numeric cell, naming file, line and column on failure.
+/// A coordinate cell that records tracking loss rather than a number: empty,
+/// NaN (Python, MATLAB), `NA` (R's `write.csv`), `n/a` (BIDS), `.` (SAS,
+/// EyeLink's `edf2asc`), `null` or `None` (JSON and pandas' object
+/// columns written as text). Such a sample is a gap, not a format error.
+pub(crate) fn is_missing(cell: &str) -> bool {
+    let c = cell.trim();
+    c.is_empty()
+        || c == "."
+        || ["nan", "na", "n/a", "null", "none"]
+            .iter()
+            .any(|m| c.eq_ignore_ascii_case(m))
+}
+
 pub(crate) fn parse_f64(
     path: &Path,
     line: u64,
@@ -224,7 +237,19 @@ pub(crate) struct ScreenSeries<'a> {
     screen_px: [f64; 2],
     px_per_deg: f64,
     opts: &'a ReadOptions,
+    /// Gaze samples (not lost, not in a blink), and the range they span,
+    /// for the check that they were recorded on `screen_px`.
+    gaze_n: usize,
+    far_outside_n: usize,
+    x_range_px: [f64; 2],
+    y_range_px: [f64; 2],
 }
+
+/// Share of gaze samples that may lie more than a quarter of the screen
+/// beyond its edges before `screen_px` is taken for the wrong screen. Eye
+/// trackers do report gaze off the screen (a glance at the keyboard, a
+/// head turned), but not for most of a recording.
+const MAX_FAR_OUTSIDE_FRACTION: f64 = 0.5;
 
 impl<'a> ScreenSeries<'a> {
     /// Fails when the screen size or `px_per_deg` is not a positive finite
@@ -243,6 +268,10 @@ impl<'a> ScreenSeries<'a> {
             screen_px,
             px_per_deg,
             opts,
+            gaze_n: 0,
+            far_outside_n: 0,
+            x_range_px: [f64::INFINITY, f64::NEG_INFINITY],
+            y_range_px: [f64::INFINITY, f64::NEG_INFINITY],
         })
     }
 
@@ -255,6 +284,15 @@ impl<'a> ScreenSeries<'a> {
         blink: bool,
     ) -> Result<(), SourceError> {
         let [x_px, y_px] = gaze.unwrap_or([f64::NAN, f64::NAN]);
+        if gaze.is_some() && !blink && x_px.is_finite() && y_px.is_finite() {
+            let [w, h] = self.screen_px;
+            self.gaze_n += 1;
+            if x_px < -0.25 * w || x_px > 1.25 * w || y_px < -0.25 * h || y_px > 1.25 * h {
+                self.far_outside_n += 1;
+            }
+            self.x_range_px = [self.x_range_px[0].min(x_px), self.x_range_px[1].max(x_px)];
+            self.y_range_px = [self.y_range_px[0].min(y_px), self.y_range_px[1].max(y_px)];
+        }
         let pos = screen_to_iris(
             ScreenPos { x_px, y_px },
             self.screen_px,
@@ -275,6 +313,7 @@ impl<'a> ScreenSeries<'a> {
 
     pub fn finish(self) -> Result<Recording, SourceError> {
         check_sample_rate(self.path, &self.series.samples)?;
+        self.check_on_screen()?;
         let segments = self.series.finish(self.opts.max_gap_s)?;
         recording(
             self.path,
@@ -283,6 +322,49 @@ impl<'a> ScreenSeries<'a> {
             segments,
             Some(self.px_per_deg),
         )
+    }
+}
+
+impl ScreenSeries<'_> {
+    /// Gaze recorded on another screen than `screen_px` says, or written
+    /// as fractions of the screen (Pupil Labs' `norm_pos`, Tobii's
+    /// normalized columns), would be read as movements of the wrong size
+    /// (every fixation in a 1 px corner, for fractions) without a word.
+    fn check_on_screen(&self) -> Result<(), SourceError> {
+        if self.gaze_n < 2 {
+            return Ok(());
+        }
+        let [w, h] = self.screen_px;
+        let range = format!(
+            "x {:.1} to {:.1}, y {:.1} to {:.1}",
+            self.x_range_px[0], self.x_range_px[1], self.y_range_px[0], self.y_range_px[1]
+        );
+        let spans_fraction = self.x_range_px[0] >= -0.5
+            && self.x_range_px[1] <= 1.5
+            && self.y_range_px[0] >= -0.5
+            && self.y_range_px[1] <= 1.5;
+        if spans_fraction && w.min(h) >= 100.0 {
+            return Err(SourceError::file(
+                self.path,
+                format!(
+                    "every gaze sample lies within 0-1 ({range}) on a {w}x{h} px screen: \
+                     fractions of the screen, not pixels? Multiply x by the width and y by \
+                     the height (eyereplay reads pixels)"
+                ),
+            ));
+        }
+        let far = self.far_outside_n as f64 / self.gaze_n as f64;
+        if far > MAX_FAR_OUTSIDE_FRACTION {
+            return Err(SourceError::file(
+                self.path,
+                format!(
+                    "{:.0} % of the gaze samples lie over a quarter of the screen beyond the \
+                     {w}x{h} px screen ({range}): is screen_px the screen they were recorded on?",
+                    100.0 * far
+                ),
+            ));
+        }
+        Ok(())
     }
 }
 

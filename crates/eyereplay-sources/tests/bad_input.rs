@@ -1,5 +1,7 @@
 //! Each bad input gets one line naming the file (and line) and the problem.
 
+mod common;
+use common::csv_spec;
 use eyereplay_sources::{read_source, ReadOptions, SourceSpec, TimeUnit, ViewingGeometry};
 use std::path::Path;
 
@@ -82,23 +84,161 @@ fn csv_without_xy_columns_says_how_to_name_them() {
     assert!(e.contains("gaze.tsv") && e.contains("x_column"), "{e}");
 }
 
-/// The error of reading `path` as a samples table with the default
-/// columns, in milliseconds, on a 1920x1080 screen.
-fn csv_err(path: std::path::PathBuf) -> String {
-    read_source(
-        &SourceSpec::Csv {
-            path,
-            time_column: None,
-            x_column: None,
-            y_column: None,
-            time_unit: TimeUnit::Ms,
-            screen_px: [1920.0, 1080.0],
+/// Tracking loss as R (`NA`), BIDS (`n/a`), pandas' object columns
+/// (`None`) or SAS (`.`) write it reads as the gap an empty cell is, not as
+/// "NA is not a number".
+#[test]
+fn missing_value_tokens_are_gaps_like_empty_cells() {
+    let dir = tempfile::tempdir().unwrap();
+    let table = |missing: &str| {
+        let mut s = String::from("time,x,y\n");
+        for i in 0..60 {
+            let (x, y) = if (20..23).contains(&i) {
+                (missing.to_string(), missing.to_string())
+            } else {
+                (format!("{}", 900 + 3 * i), format!("{}", 500 - 2 * i))
+            };
+            s.push_str(&format!("{},{x},{y}\n", 1000 + 2 * i));
+        }
+        s
+    };
+    let read = |name: &str, missing: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, table(missing)).unwrap();
+        let r = read_source(&csv_spec(p), &ReadOptions::default())
+            .unwrap_or_else(|e| panic!("{missing:?}: {e}"));
+        r.into_iter().flat_map(|r| r.segments).collect::<Vec<_>>()
+    };
+    let empty = read("empty.csv", "");
+    // 60 rows, 3 of them lost.
+    let gaze: usize = empty.iter().map(|s| s.gaze_count()).sum();
+    assert_eq!(gaze, 57);
+    for token in ["NA", "n/a", "N/A", "None", "null", ".", "NaN"] {
+        // Debug text: lost samples hold NaN, which equals nothing.
+        assert_eq!(
+            format!("{:?}", read("t.csv", token)),
+            format!("{empty:?}"),
+            "{token}"
+        );
+    }
+}
+
+/// Gaze written as fractions of the screen (Pupil Labs' `norm_pos_x`), or
+/// recorded on a larger screen than `screen_px` says, is named: read as
+/// pixels it would be movements of the wrong size, every fixation of the
+/// fractions in one pixel.
+#[test]
+fn gaze_off_the_configured_screen_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let table = |x: &dyn Fn(usize) -> f64, y: &dyn Fn(usize) -> f64| {
+        let mut s = String::from("time,x,y\n");
+        for i in 0..50 {
+            s.push_str(&format!("{},{:.4},{:.4}\n", 1000 + 2 * i, x(i), y(i)));
+        }
+        s
+    };
+    let p = dir.path().join("pupil.csv");
+    std::fs::write(
+        &p,
+        table(&|i| 0.3 + 0.004 * i as f64, &|i| 0.6 - 0.002 * i as f64),
+    )
+    .unwrap();
+    let e = csv_err(p);
+    assert!(
+        e.contains("pupil.csv") && e.contains("within 0-1") && e.contains("1920x1080"),
+        "{e}"
+    );
+    // A 3840x2160 recording read as 1920x1080: 30 of 50 samples beyond
+    // 1.25 x 1920 = 2400 px.
+    let p = dir.path().join("uhd.csv");
+    std::fs::write(
+        &p,
+        table(
+            &|i| if i < 20 { 1800.0 } else { 3000.0 + i as f64 },
+            &|_| 1000.0,
+        ),
+    )
+    .unwrap();
+    let e = csv_err(p);
+    assert!(
+        e.contains("uhd.csv") && e.contains("60 %") && e.contains("screen_px"),
+        "{e}"
+    );
+    // Some gaze off the screen, as a glance at the keyboard gives, reads.
+    let p = dir.path().join("glance.csv");
+    std::fs::write(
+        &p,
+        table(&|i| if i < 30 { 900.0 } else { 3000.0 }, &|_| 500.0),
+    )
+    .unwrap();
+    read_source(&csv_spec(p), &ReadOptions::default()).unwrap();
+}
+
+/// A binary EDF given as an EyeLink source is named as such, with the
+/// conversion to run: its first bytes as the tracker writes them (those
+/// of the EDFs bundled with the eyelinkio and eyelink-reader packages).
+#[test]
+fn a_binary_edf_is_named_with_its_conversion() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("rec.edf");
+    let mut bytes =
+        b"SR_RESEARCH_1000FILE\nDATE: Fri Mar 14 14:03:21 2014\nTYPE: EDF_FILE BINARY EVENT\n"
+            .to_vec();
+    bytes.extend([0u8, 7, 255, 3, 0, 0, 41]);
+    std::fs::write(&p, bytes).unwrap();
+    let e = read_source(
+        &SourceSpec::Eyelink {
+            path: p,
+            eye: Default::default(),
+            screen_px: None,
             geometry: ViewingGeometry::default(),
         },
         &ReadOptions::default(),
     )
     .unwrap_err()
-    .to_string()
+    .to_string();
+    assert!(
+        e.contains("rec.edf") && e.contains("binary EDF") && e.contains("edf2asc"),
+        "{e}"
+    );
+}
+
+/// A BIDS source of three samples, `dir/NAME_physio.tsv`, with `sidecar`
+/// written beside it when given.
+fn bids_spec(
+    dir: &Path,
+    name: &str,
+    sidecar: Option<&str>,
+    geometry: ViewingGeometry,
+) -> SourceSpec {
+    let path = dir.join(format!("{name}_physio.tsv"));
+    std::fs::write(&path, "0\t600\t400\n2\t601\t400\n4\t602\t401\n").unwrap();
+    if let Some(json) = sidecar {
+        std::fs::write(dir.join(format!("{name}_physio.json")), json).unwrap();
+    }
+    SourceSpec::Bids {
+        path,
+        screen_px: None,
+        geometry,
+    }
+}
+
+/// A sidecar for [`bids_spec`]'s samples: 500 Hz, milliseconds, a
+/// 1280x1024 screen of `size_m` at `distance_m`.
+fn sidecar(size_m: &str, distance_m: &str) -> String {
+    format!(
+        r#"{{"SamplingFrequency": 500, "Columns": ["timestamp", "x_coordinate", "y_coordinate"],
+            "timestamp": {{"Units": "ms"}}, "ScreenResolution": [1280, 1024],
+            "ScreenSize": {size_m}, "ScreenDistance": {distance_m}}}"#
+    )
+}
+
+/// The error of reading `path` as a samples table with the default
+/// columns, in milliseconds, on a 1920x1080 screen.
+fn csv_err(path: std::path::PathBuf) -> String {
+    read_source(&csv_spec(path), &ReadOptions::default())
+        .unwrap_err()
+        .to_string()
 }
 
 /// A file separated otherwise than its name says: its header reads as one
@@ -213,30 +353,113 @@ fn a_cell_spanning_lines_keeps_the_error_on_one_line() {
     assert!(e.contains("'nx'") && e.contains("\\n"), "{e}");
 }
 
+/// The config's `screen_width_mm` / `distance_mm` outrank the sidecar's
+/// `ScreenSize` / `ScreenDistance`, as its `screen_px` outranks
+/// `ScreenResolution` (docs/CONFIG.md); left at the defaults, the
+/// sidecar's are read. By hand: 1280 px across 2 atan(200 / 800) =
+/// 28.07 deg is 45.60 px/deg; across 2 atan(200 / 1000) = 22.62 deg,
+/// 56.58 px/deg (the defaults, 531 mm at 600 mm, would give 26.81).
+#[test]
+fn bids_geometry_from_the_config_outranks_the_sidecar() {
+    let dir = tempfile::tempdir().unwrap();
+    let side = sidecar("[0.4, 0.3]", "0.8");
+    let ppd = |geometry: ViewingGeometry| {
+        read_source(
+            &bids_spec(dir.path(), "s", Some(&side), geometry),
+            &ReadOptions::default(),
+        )
+        .unwrap()[0]
+            .px_per_deg
+            .unwrap()
+    };
+    let from_sidecar = ppd(ViewingGeometry::default());
+    assert!((from_sidecar - 45.60).abs() < 0.01, "{from_sidecar}");
+    let from_config = ppd(ViewingGeometry {
+        px_per_deg: None,
+        screen_width_mm: 400.0,
+        distance_mm: 1000.0,
+    });
+    assert!((from_config - 56.58).abs() < 0.01, "{from_config}");
+    let given = ppd(ViewingGeometry {
+        px_per_deg: Some(40.0),
+        ..ViewingGeometry::default()
+    });
+    assert_eq!(given, 40.0);
+}
+
+/// BIDS's inheritance principle: a `task-reading_physio.json` at the
+/// dataset's root applies to every reading recording below it, and the
+/// file's own sidecar overrides its keys. Outside a dataset (no
+/// `dataset_description.json` above) nothing is inherited, and the
+/// missing sidecar is named.
+#[test]
+fn bids_sidecars_are_inherited_inside_a_dataset() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    let beh = root.join("sub-01/beh");
+    std::fs::create_dir_all(&beh).unwrap();
+    let spec = bids_spec(
+        &beh,
+        "sub-01_task-reading",
+        None,
+        ViewingGeometry::default(),
+    );
+    // The shared keys at the root; a sidecar of another task, which must
+    // not apply.
+    std::fs::write(
+        root.join("task-reading_physio.json"),
+        sidecar("[0.4, 0.3]", "0.6"),
+    )
+    .unwrap();
+    std::fs::write(
+        root.join("task-other_physio.json"),
+        r#"{"SamplingFrequency": "not this one"}"#,
+    )
+    .unwrap();
+    let outside = read_source(&spec, &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        outside.contains("sub-01_task-reading_physio.json") && outside.contains("missing"),
+        "{outside}"
+    );
+    std::fs::write(root.join("dataset_description.json"), "{}").unwrap();
+    // By hand: 1280 px across 2 atan(200 / 600) = 36.87 deg, 34.72 px/deg.
+    let inherited = read_source(&spec, &ReadOptions::default())
+        .unwrap()
+        .remove(0);
+    assert!(
+        (inherited.px_per_deg.unwrap() - 34.72).abs() < 0.01,
+        "{:?}",
+        inherited.px_per_deg
+    );
+    assert_eq!(inherited.sample_count(), 3);
+    // The file's own sidecar overrides one key: 2 atan(200 / 800), 45.60.
+    std::fs::write(
+        beh.join("sub-01_task-reading_physio.json"),
+        r#"{"ScreenDistance": 0.8}"#,
+    )
+    .unwrap();
+    let own = read_source(&spec, &ReadOptions::default())
+        .unwrap()
+        .remove(0);
+    assert!(
+        (own.px_per_deg.unwrap() - 45.60).abs() < 0.01,
+        "{:?}",
+        own.px_per_deg
+    );
+}
+
 #[test]
 fn bids_sidecar_with_absurd_distance_is_an_error() {
     // ScreenDistance 1e308 m makes px_per_deg infinite: every position was
     // infinite and the recording still "read".
     let dir = tempfile::tempdir().unwrap();
-    let p = dir.path().join("s_physio.tsv");
-    std::fs::write(&p, "0\t600\t400\n2\t601\t400\n4\t602\t401\n").unwrap();
-    std::fs::write(
-        dir.path().join("s_physio.json"),
-        r#"{"SamplingFrequency": 500, "Columns": ["timestamp", "x_coordinate", "y_coordinate"],
-            "timestamp": {"Units": "ms"}, "ScreenResolution": [1280, 1024],
-            "ScreenSize": [0.531, 0.299], "ScreenDistance": 1e308}"#,
-    )
-    .unwrap();
-    let e = read_source(
-        &SourceSpec::Bids {
-            path: p,
-            screen_px: None,
-            geometry: ViewingGeometry::default(),
-        },
-        &ReadOptions::default(),
-    )
-    .unwrap_err()
-    .to_string();
+    let side = sidecar("[0.531, 0.299]", "1e308");
+    let spec = bids_spec(dir.path(), "s", Some(&side), ViewingGeometry::default());
+    let e = read_source(&spec, &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("s_physio.tsv") && e.contains("px per degree"),
         "{e}"

@@ -6,6 +6,8 @@
 //! cases is bounded so the suite stays fast; `EYEREPLAY_FUZZ_CASES` raises
 //! it for a longer local run.
 
+mod common;
+use common::csv_spec;
 use eyereplay_sources::{
     read_source, EyeChoice, ReadOptions, Recording, SourceSpec, TimeUnit, ViewingGeometry,
 };
@@ -222,18 +224,6 @@ fn samples_table(sep: char) -> String {
         s.push_str(&format!("{}{sep}{x}{sep}{y}\n", 1000 + 2 * i));
     }
     s
-}
-
-fn csv_spec(path: PathBuf) -> SourceSpec {
-    SourceSpec::Csv {
-        path,
-        time_column: None,
-        x_column: None,
-        y_column: None,
-        time_unit: TimeUnit::Ms,
-        screen_px: [1920.0, 1080.0],
-        geometry: ViewingGeometry::default(),
-    }
 }
 
 #[test]

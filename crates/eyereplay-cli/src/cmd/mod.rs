@@ -45,7 +45,7 @@ pub const LOG_EVERY_S: u64 = 30;
 /// The command's work is done and its outputs are in place: a stop from
 /// here on changes nothing, so it is ignored and the command prints its
 /// summary and ends with its own status. If a stop began first, this
-/// waits for it to end the process (status 130), so that no summary
+/// waits for it to end the process (status 130 or 143), so that no summary
 /// follows its line.
 pub fn work_done() {
     if !eyereplay_core::inflight::finish() {
