@@ -20,30 +20,32 @@ pub struct BrowserBackend {
 }
 
 impl BrowserBackend {
-    /// `[render.browser]` typed; also finds the browser, so a missing one
-    /// is reported before work starts (one line naming the Debian package).
+    /// `[render.browser]` typed and checked (sizes, crop, the page's file);
+    /// also finds the browser, so a missing one is reported before work
+    /// starts (one line naming the Debian package), not once per session.
     pub fn settings(table: Option<&toml::Table>) -> Result<BrowserSettings> {
         let b: BrowserSettings = toml::Value::Table(table.cloned().unwrap_or_default())
             .try_into()
-            .map_err(|e| BackendError::Setting(format!("[render.browser]: {}", e.message())))?;
+            .map_err(|e| {
+                let message = eyereplay_prepare::describe_toml_error("", &e);
+                BackendError::Setting(format!("[render.browser]: {message}"))
+            })?;
+        b.validate()
+            .map_err(|e| BackendError::Setting(format!("[render.browser]: {e}")))?;
         eyereplay_browser::find_browser(b.browser.as_deref())
             .map_err(|e| BackendError::Setting(e.to_string()))?;
         Ok(b)
     }
 
-    /// `jobs` browsers at once (0: one per two cores: each keeps about two
-    /// cores busy with its renderer and compositor).
+    /// `jobs` browsers at once
+    /// ([`eyereplay_dataset::RenderSettings::sessions_at_once`]).
     pub fn new(
         settings: BrowserSettings,
         encoder: EncoderSettings,
         eye_corners_px: Option<[[f64; 4]; 2]>,
         jobs: usize,
     ) -> Self {
-        let jobs = if jobs > 0 {
-            jobs
-        } else {
-            std::thread::available_parallelism().map_or(1, |n| (n.get() / 2).max(1))
-        };
+        let jobs = jobs.max(1);
         BrowserBackend {
             settings,
             encoder,
@@ -62,7 +64,12 @@ impl SessionBackend for BrowserBackend {
         self.jobs
     }
 
-    fn render(&self, s: &Session, out: &SessionOutputs, _: &dyn Progress) -> Result<Rendered> {
+    fn render(
+        &self,
+        s: &Session,
+        out: &SessionOutputs,
+        progress: &dyn Progress,
+    ) -> Result<Rendered> {
         // The page runs in Chromium (launched per session) and the encoder
         // in ffmpeg: child processes, whose CPU time the lap's child column
         // holds once they have ended and been waited for.
@@ -76,6 +83,18 @@ impl SessionBackend for BrowserBackend {
                 &out.truth(),
             )
         })?;
+        // A page that does not follow the cursor gives a video of one
+        // picture, which nothing else would say.
+        if stats.frames > 1 && stats.unchanged_frames * 2 > stats.frames {
+            progress.warn(&format!(
+                "{}: the page redrew {} of {} frames, the video repeats the picture in the \
+                 others (does the page move with the mouse? see the browser README, \
+                 \"Frame exactness and reruns\")",
+                s.job.paths.file,
+                stats.frames - stats.unchanged_frames,
+                stats.frames
+            ));
+        }
         out.write_identity(&SessionIdentity {
             file: s.job.paths.file.clone(),
             seed: s.job.seed,

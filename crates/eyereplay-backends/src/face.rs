@@ -77,9 +77,10 @@ impl FaceSettings {
                 )))
             }
         };
-        let webcam: WebcamRanges = toml::Value::Table(table)
-            .try_into()
-            .map_err(|e| Error::Setting(format!("[render.webcam]: {}", e.message())))?;
+        let webcam: WebcamRanges = toml::Value::Table(table).try_into().map_err(|e| {
+            let message = eyereplay_prepare::describe_toml_error("", &e);
+            Error::Setting(format!("[render.webcam]: {message}"))
+        })?;
         webcam
             .validate()
             .map_err(|e| Error::Setting(e.to_string()))?;
@@ -336,6 +337,17 @@ impl SessionBackend for FaceBackend {
         } else {
             ExtractorMatch::default()
         };
+        // Asked for and not had: the session is drawn at the geometric
+        // position, which nothing else would say (its identity file only
+        // lacks `mapping.extractor_response`).
+        if settings.extractor.match_extractor && matched.response.is_none() {
+            progress.warn(&format!(
+                "{}: the extractor could not read this identity's eyes in the probe clip \
+                 (eyes cut off by a tight frame, or too small?); drawn at the geometric \
+                 position, not matched to the extractor",
+                files.file
+            ));
+        }
         p.mapping = GazeMapping {
             extractor_response: matched.response,
             ..mapping
@@ -376,7 +388,8 @@ impl SessionBackend for FaceBackend {
             identity: FaceIdentityRecord {
                 backend: "face",
                 photo: photo.name.clone(),
-                eye_identity: &eye_identity,
+                // The scene's: the eyeballs as drawn, the photo's iris.
+                eye_identity: &scene.eye_identity,
                 webcam: &look,
                 face_height_frac: scene.face_frac,
                 coordination_e0_deg: coordination.e0_deg,
@@ -662,10 +675,13 @@ pub fn check(settings: &mut FaceBackendSettings, resolve: &dyn Fn(&Path) -> Path
     let photos = identity_photos(settings, resolve);
     for p in &photos {
         if !p.is_file() {
-            return Err(Error::input(
-                p,
-                "identity photo not found: set render.identities to face photos of your own (the bundled ones come with the Python package and with an eyereplay checkout's scripts/setup.sh)",
-            ));
+            // A photo the config names, or a bundled one not installed.
+            let why = if settings.identities.is_empty() {
+                "identity photo not found: set render.identities to face photos of your own (the bundled ones come with the Python package and with an eyereplay checkout's scripts/setup.sh)"
+            } else {
+                "identity photo not found (render.identities names it; a relative path is from the config's folder)"
+            };
+            return Err(Error::input(p, why));
         }
     }
     let mesh = default_faces_dir().join(MESH_FILE);

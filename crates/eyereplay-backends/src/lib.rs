@@ -161,7 +161,7 @@ pub fn open_backend(
             browser::BrowserBackend::settings(browser.as_ref())?,
             params.encoder,
             *eye_corners_px,
-            settings.jobs,
+            settings.sessions_at_once(),
         )),
         #[cfg(not(feature = "browser"))]
         BackendSettings::Browser { .. } => return Err(not_built("browser")),

@@ -226,6 +226,48 @@ impl BrowserSettings {
         if self.url.trim().is_empty() {
             return bad("url is empty".into());
         }
+        self.check_page()
+    }
+
+    /// The page can be loaded as far as can be told before a browser
+    /// starts: a bundled page that exists, a supported scheme, a local
+    /// file that is there. Each was found only once a browser had started
+    /// for every session ("No such file or directory (os error 2)" for
+    /// `builtin:nope`).
+    fn check_page(&self) -> Result<(), BrowserError> {
+        let url = self.url.as_str();
+        let bad = |m: String| Err(BrowserError::Settings(m));
+        if url.starts_with("builtin:") {
+            if !url.starts_with(TEST_PAGE_URL) {
+                return bad(format!(
+                    "url {url}: no such bundled page (the bundled one is {TEST_PAGE_URL})"
+                ));
+            }
+            return Ok(());
+        }
+        if url.starts_with("about:") || url.starts_with("data:") {
+            return Ok(());
+        }
+        let local = match url.split_once("://") {
+            Some(("http" | "https", _)) => return Ok(()),
+            Some(("file", rest)) => {
+                // Percent-encoded names are left to the browser.
+                let path = rest.split(['?', '#']).next().unwrap_or(rest);
+                if path.contains('%') {
+                    return Ok(());
+                }
+                path
+            }
+            Some((scheme, _)) => {
+                return bad(format!(
+                    "url {url}: scheme {scheme} not supported (http, https, file, or a local path)"
+                ))
+            }
+            None => url,
+        };
+        if !std::path::Path::new(local).is_file() {
+            return bad(format!("url {url}: no such file ({local})"));
+        }
         Ok(())
     }
 

@@ -191,20 +191,19 @@ fn remove_partial_files_when_stopped() {
                 // The work had finished: every output is in place.
                 continue;
             };
-            if removed.is_empty() {
-                eprintln!("stopped");
-            } else {
-                // The example: the most recently listed that is not the
-                // render's lock (the file the user saw growing).
-                let example = removed
-                    .iter()
-                    .find(|p| p.extension().is_none_or(|e| e != "lock"))
-                    .unwrap_or(&removed[0]);
-                eprintln!(
+            // The render's lock is bookkeeping, not a file the user saw
+            // growing: named neither in the count nor as the example.
+            let unfinished: Vec<_> = removed
+                .iter()
+                .filter(|p| p.extension().is_none_or(|e| e != "lock"))
+                .collect();
+            match unfinished.first() {
+                None => eprintln!("stopped"),
+                Some(example) => eprintln!(
                     "stopped: removed {} unfinished file(s), such as {}",
-                    removed.len(),
+                    unfinished.len(),
                     example.display()
-                );
+                ),
             }
             let _ = std::io::Write::flush(&mut std::io::stdout());
             // Not `exit`: its atexit work tears down ONNX Runtime's statics

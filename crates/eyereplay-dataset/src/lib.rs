@@ -48,14 +48,15 @@ pub use pool::{
     POOL_HEADER, POOL_HEAD_HEADER,
 };
 pub use render_settings::{
-    BackendSettings, ExtractorMatchSettings, FaceBackendSettings, HeadMotion, RenderBackend,
-    RenderSettings, MAX_JOBS, MAX_MATCH_READBACK_EVERY,
+    render_key_line, BackendSettings, ExtractorMatchSettings, FaceBackendSettings, HeadMotion,
+    RenderBackend, RenderSettings, MAX_JOBS, MAX_MATCH_READBACK_EVERY,
 };
 pub use session::{
     check_session_rows, read_blink_column, read_reading_column, read_session_csv,
     session_calibrations, write_session_csv, write_session_csv_with_blinks,
 };
 pub use truth::{
-    read_head_yaw_csv, read_truth_csv, write_truth_csv, EyeTruthRow, TruthRow, TRUTH_HEADER,
+    check_truth_numbers, has_renderer_truth, read_head_yaw_csv, read_truth_csv, write_truth_csv,
+    EyeTruthRow, TruthRow, TRUTH_HEADER,
 };
 pub use write::{write_dataset, WriteSummary};

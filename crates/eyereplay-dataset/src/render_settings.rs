@@ -393,12 +393,14 @@ impl Default for RenderTable {
 }
 
 /// The line of `path` that sets the `[render]` key an error names (its
-/// first quoted word: `'backend': unknown variant ...`), under a `[render]`
-/// or `[render.*]` header or written `render.key = ...`; `None` when the
-/// file cannot be read (a config given as a Python dict) or holds no such
-/// line.
-fn render_key_line(path: &Path, message: &str) -> Option<usize> {
-    let key = message.split('\'').nth(1)?;
+/// first quoted word: `'backend': unknown variant ...`, or serde's
+/// ``unknown field `urll` ``), under a `[render]` or `[render.*]` header or
+/// written `render.key = ...`; `None` when the file cannot be read (a
+/// config given as a Python dict) or holds no such line.
+pub fn render_key_line(path: &Path, message: &str) -> Option<usize> {
+    let quote = message.find(['\'', '`'])?;
+    let q = message[quote..].chars().next()?;
+    let key = message[quote + 1..].split(q).next()?;
     let text = std::fs::read_to_string(path).ok()?;
     let mut in_render = false;
     for (i, line) in text.lines().enumerate() {
@@ -484,6 +486,22 @@ impl RenderSettings {
             std::thread::available_parallelism()
                 .map(|n| n.get())
                 .unwrap_or(1)
+        }
+    }
+
+    /// Sessions the backend renders at once, as it will render them:
+    /// [`RenderSettings::jobs`] for the close-up eyes and the full face;
+    /// `jobs`, or one browser per two cores (each keeps about two busy
+    /// with its renderer and compositor); one for replay, which takes no
+    /// `jobs` (each session decodes its carrier on every core). What
+    /// `generate --dry-run` projects with.
+    pub fn sessions_at_once(&self) -> usize {
+        match self.backend.kind() {
+            RenderBackend::Replay => 1,
+            RenderBackend::Browser if self.jobs == 0 => {
+                std::thread::available_parallelism().map_or(1, |n| (n.get() / 2).max(1))
+            }
+            _ => self.jobs(),
         }
     }
 }

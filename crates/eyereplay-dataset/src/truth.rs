@@ -100,6 +100,39 @@ pub fn read_head_yaw_csv(path: &Path) -> Result<Vec<f64>, DatasetError> {
 }
 
 /// Reads a truth CSV (columns by name, so added columns do not break it).
+/// Whether a truth CSV has the renderer's columns ([`TRUTH_HEADER`]): the
+/// close-up, full-face and replay modes write them; the browser mode
+/// writes `frame,x,y,page_x,page_y` and whatever columns its page's
+/// `truth_js` gives, which may be none of them. `false` for a file that
+/// cannot be read (its reader then names why).
+pub fn has_renderer_truth(path: &Path) -> bool {
+    let Ok(text) = read_text(path) else {
+        return false;
+    };
+    let header: Vec<&str> = text
+        .lines()
+        .next()
+        .unwrap_or("")
+        .split(',')
+        .map(str::trim)
+        .collect();
+    TRUTH_HEADER.split(',').all(|c| header.contains(&c))
+}
+
+/// Every field of a truth CSV, whatever its columns, is a finite number:
+/// the check for a browser page's own columns, which [`read_truth_csv`]
+/// does not know. The first bad field is named with its line.
+pub fn check_truth_numbers(path: &Path) -> Result<(), DatasetError> {
+    let text = read_text(path)?;
+    let t = crate::table::Table::parse(&text, path)?;
+    for (line, rec) in &t.records {
+        for c in 0..t.headers.len() {
+            t.number(rec, *line, c)?;
+        }
+    }
+    Ok(())
+}
+
 pub fn read_truth_csv(path: &Path) -> Result<Vec<TruthRow>, DatasetError> {
     let text = read_text(path)?;
     let t = crate::table::Table::parse(&text, path)?;

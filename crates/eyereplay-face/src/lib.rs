@@ -62,9 +62,9 @@ pub use mesh::{
     BUNDLED_FACES, INNER_LIPS, LEFT_EYE_CONTOUR, MESH_FILE, MESH_VERTICES, RIGHT_EYE_CONTOUR,
 };
 pub use photo::{
-    fit_shape, lids_without_the_photos_irises, read_image, PhotoEye, PhotoFitter, PhotoIdentity,
-    MIN_FACE_HEIGHT_PX, PHOTO_IRIS_BAND_MIN_PX, PHOTO_IRIS_BAND_RADII, PHOTO_IRIS_REACH_RADII,
-    PHOTO_VFOV_DEG,
+    exif_orientation, fit_shape, jpeg_is_whole, lids_without_the_photos_irises, read_image,
+    PhotoEye, PhotoFitter, PhotoIdentity, MIN_FACE_HEIGHT_PX, PHOTO_IRIS_BAND_MIN_PX,
+    PHOTO_IRIS_BAND_RADII, PHOTO_IRIS_REACH_RADII, PHOTO_VFOV_DEG,
 };
 pub use pose::{solve_pose, weighted_procrustes, Camera, HeadPose, Similarity};
 pub use probe::{

@@ -215,6 +215,18 @@ impl PhotoFitter {
         }
         let camera = Camera::from_vfov(image.width, image.height, PHOTO_VFOV_DEG);
         let (photo_pose, shape_cm) = fit_shape(&self.mesh, &camera, &landmarks_px);
+        // A face lying on its side (a photo turned without an EXIF
+        // orientation to say so) fitted, and drew NaN.
+        if photo_pose.roll_deg.abs() > MAX_PHOTO_ROLL_DEG {
+            return Err(FaceError::Identity {
+                path: source.to_path_buf(),
+                message: format!(
+                    "the face is tilted {:.0} deg (at most {MAX_PHOTO_ROLL_DEG}): is the photo \
+                     on its side? Turn it upright",
+                    photo_pose.roll_deg
+                ),
+            });
+        }
         // face.eyes is ordered by image side; pair each mesh eye contour
         // with the iris nearest its centroid, whatever the head's roll.
         let eyes = [RIGHT_EYE_CONTOUR, LEFT_EYE_CONTOUR].map(|contour| {
@@ -266,6 +278,10 @@ impl PhotoFitter {
         })
     }
 }
+
+/// The most a photo's face may be tilted (its head's roll): beyond, it is
+/// taken for a photo on its side.
+pub const MAX_PHOTO_ROLL_DEG: f64 = 35.0;
 
 /// The photo's head pose, and the shape: each landmark's line of sight at
 /// the depth the posed canonical vertex has, taken back to the head frame.
@@ -450,8 +466,85 @@ pub(crate) fn inside(poly: &[[f32; 2]], p: [f32; 2]) -> bool {
 /// is built without zlib (decoders for video only), and PNG is lossless:
 /// the bytes are the file's whatever decodes it.
 pub fn read_image(path: &Path) -> Result<RgbImage> {
-    if is_png(path) {
-        return read_png(path);
+    // A file named as a PNG or JPEG that is not one (a text file renamed)
+    // reached FFmpeg, whose "video stream has no picture size" named no
+    // cause.
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let named_jpeg = ext == "jpg" || ext == "jpeg";
+    if (ext == "png" || named_jpeg) && path.is_file() {
+        let mut head = [0u8; 8];
+        let n = std::fs::File::open(path)
+            .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+            .unwrap_or(0);
+        let (is, kind) = if named_jpeg {
+            (n >= 2 && head[..2] == [0xFF, 0xD8], "JPEG")
+        } else {
+            (n == 8 && head == *b"\x89PNG\r\n\x1a\n", "PNG")
+        };
+        if !is {
+            return Err(FaceError::Unreadable {
+                path: path.to_path_buf(),
+                message: format!(
+                    "not a {kind}, though named one (its first bytes are not a {kind}'s; a \
+                     file of another kind renamed, or empty?)"
+                ),
+            });
+        }
+    }
+    let image = if is_png(path) {
+        read_png(path)?
+    } else {
+        decode_image(path)?
+    };
+    // A phone stores the sensor's rows and says in EXIF how to turn them:
+    // read as stored, a portrait photo's face lay on its side, and its
+    // fit gave a renderer input it could not draw (NaN in the truth
+    // files, found only at the merge).
+    Ok(match exif_orientation(path) {
+        Some(o) => image.oriented(o),
+        None => image,
+    })
+}
+
+/// The EXIF orientation (2-8) of an image file that has one other than
+/// upright; `None` without EXIF, for 1, or for a value out of range.
+pub fn exif_orientation(path: &Path) -> Option<u32> {
+    let file = std::fs::File::open(path).ok()?;
+    let exif = exif::Reader::new()
+        .read_from_container(&mut std::io::BufReader::new(file))
+        .ok()?;
+    let field = exif.get_field(exif::Tag::Orientation, exif::In::PRIMARY)?;
+    field.value.get_uint(0).filter(|o| (2..=8).contains(o))
+}
+
+/// Whether a JPEG's bytes hold its whole picture: an end-of-image marker
+/// (FF D9) after its last start-of-scan (FF DA). FFmpeg decodes a JPEG
+/// cut off part-way without an error, the missing rows green; neither
+/// marker can occur inside the coded data (an FF there is followed by 00
+/// or a restart marker), and an EXIF thumbnail's own markers come before
+/// the picture's scans.
+pub fn jpeg_is_whole(bytes: &[u8]) -> bool {
+    let at = |m: u8| bytes.windows(2).rposition(|w| w == [0xFF, m]);
+    match (at(0xDA), at(0xD9)) {
+        (Some(scan), Some(end)) => end > scan,
+        _ => false,
+    }
+}
+
+/// The first picture of an image file other than a PNG, through the
+/// extractor's decoder (FFmpeg).
+fn decode_image(path: &Path) -> Result<RgbImage> {
+    if let Ok(bytes) = std::fs::read(path) {
+        if bytes.starts_with(&[0xFF, 0xD8]) && !jpeg_is_whole(&bytes) {
+            return Err(FaceError::Unreadable {
+                path: path.to_path_buf(),
+                message: "the JPEG ends before its picture does (a download or copy cut off?)"
+                    .into(),
+            });
+        }
     }
     let unreadable = |e: ExtractError| match e {
         ExtractError::Open { message, .. } | ExtractError::Decode { message, .. } => {

@@ -445,6 +445,9 @@ impl FaceScene {
         let iris = identity.iris_rgb.map(lin);
         eye_identity.iris.outer_rgb = iris;
         eye_identity.iris.inner_rgb = iris.map(|c| c * 0.8);
+        // Its name, too: the identity file recorded the sampled palette
+        // ("dark brown") beside the photo's green iris that was drawn.
+        eye_identity.iris.palette = "the photo's".into();
         let photo_sclera = photo_sclera_linear(&identity);
         // The photo's iris radius relative to its eye width gives the
         // eyeball's iris radius in mm (the mesh is metric).
@@ -798,6 +801,9 @@ impl FaceScene {
         self.draw_backdrop(&state.head, raster.inv_depth(), &holes, face_box, frame);
         for k in 0..2 {
             self.draw_eye(state, k, &openings[k], holes[k], raster.inv_depth(), frame);
+            // Over the eye: where the closing lid's triangles fold, the
+            // eyeball showed through them.
+            self.draw_closed_lid(state, k, &openings[k], frame);
         }
     }
 
@@ -933,6 +939,99 @@ impl FaceScene {
 
     /// Ray-traces eye `k` into the pixels of its lid opening (`op`, inside
     /// the pixel box `rect`) that the face left uncovered.
+    /// The upper lid's skin where a blink has drawn it down. The lid's
+    /// triangles, stretched over the eye, carried the photo's lashes and
+    /// the band its iris was taken out of: a pale curtain with dark holes
+    /// at full closure, streaks before it. The band between the open lid
+    /// and the closing one is painted instead with the lid's own skin,
+    /// read in this frame just above the open lid (past its lashes) and
+    /// smoothed along it, darkening to a lash line at the closing margin;
+    /// faded in over the first quarter of the closure.
+    fn draw_closed_lid(&self, state: &FaceState, k: usize, now: &Opening, frame: &mut RgbImage) {
+        let weight = ((state.closure - 0.02) / 0.23).clamp(0.0, 1.0) as f32;
+        if weight <= 0.0 {
+            return;
+        }
+        let open = self.opening(
+            &FaceState {
+                closure: 0.0,
+                ..*state
+            },
+            k,
+        );
+        let (w, h) = (frame.width, frame.height);
+        let eye_w = now.width_px();
+        let xs = [now.corner_left[0], now.corner_right[0]];
+        let x0 = xs[0].min(xs[1]).floor().max(0.0) as usize;
+        let x1 = (xs[0].max(xs[1]).ceil().max(0.0) as usize).min(w);
+        if x1 <= x0 + 1 || eye_w < 4.0 {
+            return;
+        }
+        // Past the lashes, then a band of lid skin.
+        let gap = (0.08 * eye_w).max(1.0);
+        let band = (0.10 * eye_w).max(1.0);
+        let lash = (0.05 * eye_w).max(1.0);
+        let skin: Vec<[f32; 3]> = (x0..x1)
+            .map(|x| {
+                let top = open.lid_y_at(true, x as f64 + 0.5) - gap;
+                let (ya, yb) = ((top - band).floor().max(0.0), top.floor().max(0.0));
+                let (ya, yb) = ((ya as usize).min(h - 1), (yb as usize).min(h - 1));
+                let mut sum = [0f32; 3];
+                for y in ya..=yb {
+                    let p = frame.pixel(x, y);
+                    for c in 0..3 {
+                        sum[c] += p[c] as f32;
+                    }
+                }
+                sum.map(|v| v / (yb - ya + 1) as f32)
+            })
+            .collect();
+        // Smoothed along the lid: the skin's shading stays, a stray
+        // lash or crease does not.
+        let reach = ((0.12 * eye_w) as usize).max(1);
+        let smooth: Vec<[f32; 3]> = (0..skin.len())
+            .map(|i| {
+                let (a, b) = (i.saturating_sub(reach), (i + reach + 1).min(skin.len()));
+                let mut sum = [0f32; 3];
+                for s in &skin[a..b] {
+                    for c in 0..3 {
+                        sum[c] += s[c];
+                    }
+                }
+                sum.map(|v| v / (b - a) as f32)
+            })
+            .collect();
+        for x in x0..x1 {
+            let xc = x as f64 + 0.5;
+            let top = open.lid_y_at(true, xc) - gap;
+            let margin = now.lid_y_at(true, xc);
+            if margin <= top {
+                continue;
+            }
+            let ya = top.floor().max(0.0) as usize;
+            let yb = (margin.ceil().max(0.0) as usize).min(h);
+            let col = smooth[x - x0];
+            for y in ya..yb {
+                let yc = y as f64 + 0.5;
+                // In from the top over `gap`, out below the margin's
+                // pixel; darker over the last `lash` px above the margin.
+                let cover =
+                    ((yc - top) / gap).clamp(0.0, 1.0) * (margin - yc + 0.5).clamp(0.0, 1.0);
+                let dark = 1.0 - 0.55 * (1.0 - ((margin - yc) / lash).clamp(0.0, 1.0));
+                let a = weight * cover as f32;
+                if a <= 0.0 {
+                    continue;
+                }
+                let i = (y * w + x) * 3;
+                for (px, skin) in frame.data[i..i + 3].iter_mut().zip(col) {
+                    let want = skin * dark as f32;
+                    let was = *px as f32;
+                    *px = (was + a * (want - was)).round().clamp(0.0, 255.0) as u8;
+                }
+            }
+        }
+    }
+
     fn draw_eye(
         &self,
         state: &FaceState,

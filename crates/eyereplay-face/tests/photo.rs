@@ -299,3 +299,94 @@ fn a_png_decodes_as_ffmpeg_decodes_it_in_every_layout() {
     let e = read_image(&bad).unwrap_err().to_string();
     assert!(e.contains("bad.png"), "{e}");
 }
+
+/// A phone's portrait photo: the sensor's rows stored on their side, with
+/// an EXIF orientation saying how to show them. Grace Hopper's photo
+/// turned a quarter anticlockwise (FFmpeg's `transpose=2`) and tagged
+/// orientation 6 ("turn a quarter clockwise to show") reads back as the
+/// upright photo; the same stored picture without the tag is refused as a
+/// face on its side. A JPEG cut off part-way (FFmpeg decodes it without an
+/// error, the missing rows green) is named so.
+#[test]
+fn photos_are_read_upright_and_whole() {
+    let Some(mut fitter) = fitter() else { return };
+    let Some(src) = common::faces_file("grace_hopper.jpg") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let stored = dir.path().join("stored.jpg");
+    let o = std::process::Command::new("ffmpeg")
+        .args(["-nostdin", "-v", "error", "-y", "-i"])
+        .arg(&src)
+        .args(["-vf", "transpose=2", "-q:v", "2"])
+        .arg(&stored)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let bytes = std::fs::read(&stored).unwrap();
+    // APP1 "Exif": a big-endian TIFF header and one IFD entry,
+    // Orientation (0x0112), SHORT, 1 value: 6.
+    let mut app1 = vec![0xFF, 0xE1, 0x00, 0x22];
+    app1.extend(b"Exif\0\0MM\0\x2A\0\0\0\x08");
+    app1.extend([0x00, 0x01, 0x01, 0x12, 0x00, 0x03, 0x00, 0x00, 0x00, 0x01]);
+    app1.extend([0x00, 0x06, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]);
+    let tagged = dir.path().join("tagged.jpg");
+    std::fs::write(&tagged, [&bytes[..2], &app1, &bytes[2..]].concat()).unwrap();
+    assert_eq!(exif_orientation(&tagged), Some(6));
+    assert_eq!(exif_orientation(&stored), None);
+
+    let upright = read_image(&src).unwrap();
+    let shown = read_image(&tagged).unwrap();
+    assert_eq!((shown.width, shown.height), (upright.width, upright.height));
+    // Two JPEG generations apart: close, not equal.
+    let mean_abs = shown
+        .data
+        .iter()
+        .zip(&upright.data)
+        .map(|(a, b)| (*a as f64 - *b as f64).abs())
+        .sum::<f64>()
+        / shown.data.len() as f64;
+    assert!(mean_abs < 4.0, "{mean_abs}");
+    let id = fitter.fit(&tagged).unwrap();
+    assert!(id.photo_pose.roll_deg.abs() < 10.0, "{:?}", id.photo_pose);
+
+    let e = fitter.fit(&stored).unwrap_err().to_string();
+    assert!(
+        e.starts_with(&stored.display().to_string()) && e.contains("on its side"),
+        "{e}"
+    );
+
+    let cut = dir.path().join("cut.jpg");
+    let whole = std::fs::read(&src).unwrap();
+    assert!(jpeg_is_whole(&whole));
+    std::fs::write(&cut, &whole[..whole.len() * 3 / 4]).unwrap();
+    let e = fitter.fit(&cut).unwrap_err().to_string();
+    assert!(
+        e.starts_with(&cut.display().to_string()) && e.contains("cut off"),
+        "{e}"
+    );
+}
+
+/// A file named as a PNG or a JPEG that is not one is named so (FFmpeg's
+/// own words for it were "video stream has no picture size").
+#[test]
+fn a_file_named_as_an_image_that_is_not_one_is_named_so() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, kind) in [
+        ("text.png", "not a PNG"),
+        ("text.jpg", "not a JPEG"),
+        ("t.JPEG", "not a JPEG"),
+    ] {
+        let p = dir.path().join(name);
+        std::fs::write(&p, "name,value\na,1\n").unwrap();
+        let e = read_image(&p).unwrap_err().to_string();
+        assert!(
+            e.starts_with(&p.display().to_string()) && e.contains(kind),
+            "{e}"
+        );
+    }
+    let empty = dir.path().join("empty.jpg");
+    std::fs::write(&empty, b"").unwrap();
+    let e = read_image(&empty).unwrap_err().to_string();
+    assert!(e.contains("not a JPEG"), "{e}");
+}

@@ -145,17 +145,37 @@ fn plan_err(e: Error, config_label: &Path) -> PyErr {
 /// methods `begin(stage, total)`, `add_total(n)`, `advance(n)`,
 /// `status(text)`, `end(stage)`, `info(line)` and `warn(line)`. Called from
 /// worker threads; each call takes the GIL for the duration of the call. An
-/// exception in a callback is reported as unraisable and the work goes on.
-struct PyProgress(Option<Py<PyAny>>);
+/// exception in a callback is reported once, as unraisable, and the object
+/// is not called again; the work goes on (a broken bar printed one
+/// traceback an event, dozens a run). The frames path in Python does the
+/// same (`_progress.guarded`).
+struct PyProgress {
+    obj: Option<Py<PyAny>>,
+    broken: std::sync::atomic::AtomicBool,
+}
+
+impl PyProgress {
+    fn new(obj: Option<Py<PyAny>>) -> PyProgress {
+        PyProgress {
+            obj,
+            broken: std::sync::atomic::AtomicBool::new(false),
+        }
+    }
+}
 
 macro_rules! notify {
     ($self:ident, $method:literal, $args:expr) => {
-        if let Some(obj) = &$self.0 {
-            Python::with_gil(|py| {
-                if let Err(e) = obj.call_method1(py, $method, $args) {
-                    e.write_unraisable(py, None);
-                }
-            })
+        if let Some(obj) = &$self.obj {
+            use std::sync::atomic::Ordering;
+            if !$self.broken.load(Ordering::Relaxed) {
+                Python::with_gil(|py| {
+                    if let Err(e) = obj.call_method1(py, $method, $args) {
+                        if !$self.broken.swap(true, Ordering::Relaxed) {
+                            e.write_unraisable(py, None);
+                        }
+                    }
+                })
+            }
         }
     };
 }
@@ -358,7 +378,7 @@ fn extract<'py>(
         ),
         None => None,
     };
-    let progress = PyProgress(progress);
+    let progress = PyProgress::new(progress);
     Progress::begin(&progress, Stage::Extract, 0);
     let results = interruptible(py, || ex::extract_many(&videos, &opts, &progress))?;
     Progress::end(&progress, Stage::Extract);
@@ -580,7 +600,7 @@ fn detect(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
     let cache = cache_of(cache);
-    let progress = PyProgress(progress);
+    let progress = PyProgress::new(progress);
     // One class per thing at fault: the detector file is a model; the
     // input, a video or a gaze CSV, whatever layer noticed its problem
     // (missing, not a kind `detect` reads, too little gaze), except the
@@ -602,6 +622,86 @@ fn detect(
         _ => raise(input_kind, e.to_string()),
     })?;
     serde_json::to_string(&d).map_err(|e| EyereplayError::new_err(e.to_string()))
+}
+
+/// Trains the reading detector on generated datasets (`eyereplay train`)
+/// and writes the model to `out`; returns the model file's text and the
+/// warnings its own figures give (too few windows, chance AUROC).
+#[pyfunction]
+#[pyo3(signature = (datasets, out, window_s=10.0, input="extracted", classifier="trees",
+    seed=1, alpha=1.0, noise_copies=0, frame_labels=false,
+    max_fpr=eyereplay::detect::model::DEFAULT_MAX_FPR, cache=None, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn train<'py>(
+    py: Python<'py>,
+    datasets: Vec<PathBuf>,
+    out: PathBuf,
+    window_s: f64,
+    input: &str,
+    classifier: &str,
+    seed: u64,
+    alpha: f64,
+    noise_copies: usize,
+    frame_labels: bool,
+    max_fpr: f64,
+    cache: Option<PathBuf>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use eyereplay::detect::{Classifier, TrainOptions};
+    use eyereplay::detector::TrainInput;
+    let input = match input {
+        "extracted" => TrainInput::Extracted,
+        "trajectory" => TrainInput::Trajectory,
+        "drawn" => TrainInput::Drawn,
+        other => {
+            return Err(ConfigError::new_err(format!(
+                "input {other:?}: expected \"extracted\", \"trajectory\" or \"drawn\""
+            )))
+        }
+    };
+    let classifier = match classifier {
+        "trees" => Classifier::BaggedTrees,
+        "logistic" => Classifier::LogisticRegression,
+        other => {
+            return Err(ConfigError::new_err(format!(
+                "classifier {other:?}: expected \"trees\" or \"logistic\""
+            )))
+        }
+    };
+    let opts = eyereplay::detector::TrainDetectorOptions {
+        window_s,
+        input,
+        train: TrainOptions {
+            classifier,
+            alpha,
+            seed,
+            noise_copies,
+            max_fpr,
+            ..TrainOptions::default()
+        },
+        cache: cache_of(cache),
+        frame_labels,
+    };
+    let progress = PyProgress::new(progress);
+    let model = interruptible(py, || {
+        eyereplay::detector::train_detector(&datasets, &opts, &progress)
+    })?
+    .map_err(|e| match kind_of(&e) {
+        // A folder that is not a dataset, or a session in it that cannot
+        // be read, is the dataset's fault.
+        Kind::Other | Kind::Source => raise(Kind::Dataset, e.to_string()),
+        kind => raise(kind, e.to_string()),
+    })?;
+    model
+        .save(&out)
+        .map_err(|e| EyereplayError::new_err(e.to_string()))?;
+    let d = PyDict::new(py);
+    d.set_item(
+        "model_json",
+        serde_json::to_string(&model).map_err(|e| EyereplayError::new_err(e.to_string()))?,
+    )?;
+    d.set_item("warnings", eyereplay::detector::training_warnings(&model))?;
+    Ok(d)
 }
 
 /// Makes the models (and ONNX Runtime library) shipped inside the
@@ -647,9 +747,12 @@ fn prepare<'py>(
     dry_run: bool,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (cfg, _) = load_config(config_path, config_toml, label, base_dir)?;
+    let (cfg, label) = load_config(config_path, config_toml, label, base_dir)?;
+    // As `eyereplay prepare` does: a typo in `[render]` is found now, not
+    // when the prepared dataset is rendered.
+    eyereplay::render_table(&cfg, &label).map_err(|e| plan_err(e, &label))?;
     let cache = cache_of(cache);
-    let progress = PyProgress(progress);
+    let progress = PyProgress::new(progress);
     let d = PyDict::new(py);
     let prepared = match out.filter(|_| !dry_run) {
         None => interruptible(py, || eyereplay::prepare_only(&cfg, &cache, &progress))?
@@ -741,7 +844,7 @@ fn generate<'py>(
         cache: Some(cache),
         evaluate: evaluate.then(EvaluateOptions::default),
     };
-    let progress = PyProgress(progress);
+    let progress = PyProgress::new(progress);
     let summary = interruptible(py, || eyereplay::generate(&job, &opts, &progress))?
         .map_err(|e| dataset_err(e, &out, None))?;
     let d = PyDict::new(py);
@@ -751,6 +854,14 @@ fn generate<'py>(
     d.set_item("frames", summary.render.frames)?;
     d.set_item("clamped_points", summary.render.clamped_points)?;
     d.set_item("report", summary.report.as_ref())?;
+    d.set_item(
+        "checks",
+        summary
+            .checks
+            .as_ref()
+            .map(|c| checks_dict(py, c))
+            .transpose()?,
+    )?;
     let stages = PyDict::new(py);
     for (name, s) in &summary.stage_s {
         stages.set_item(*name, *s)?;
@@ -776,7 +887,7 @@ fn evaluate<'py>(
     models: Option<PathBuf>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let progress = PyProgress(progress);
+    let progress = PyProgress::new(progress);
     let named_video = video.clone();
     let visual = match (visual, video, trajectory, visual_session) {
         (false, ..) => VisualChoice::Skip,
@@ -800,9 +911,28 @@ fn evaluate<'py>(
     })?
     .map_err(|e| dataset_err(e, &dataset_dir, named_video.as_deref()))?;
     let d = PyDict::new(py);
+    d.set_item(
+        "checks",
+        checks_dict(py, &eyereplay::eval::report::checks(&outcome.evaluation))?,
+    )?;
     d.set_item("metrics_json", &outcome.metrics_json)?;
     d.set_item("metrics_path", &outcome.metrics_path)?;
     d.set_item("html", &outcome.html)?;
+    Ok(d)
+}
+
+/// The report's summary, as `generate` and `evaluate` print it: `total`
+/// checks, `passing`, the `failing` ones named (`"reading: r y 0.870 <
+/// 0.95"`), and `line`, the printed sentence.
+fn checks_dict<'py>(
+    py: Python<'py>,
+    c: &eyereplay::eval::report::Checks,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("total", c.total)?;
+    d.set_item("passing", c.total - c.failing.len())?;
+    d.set_item("failing", &c.failing)?;
+    d.set_item("line", c.line())?;
     Ok(d)
 }
 
@@ -815,7 +945,7 @@ fn merge(
     evaluate: bool,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Option<PathBuf>> {
-    let progress = PyProgress(progress);
+    let progress = PyProgress::new(progress);
     let opts = evaluate.then(EvaluateOptions::default);
     let outcome = interruptible(py, || {
         eyereplay::finalize_with_progress(&dataset_dir, opts.as_ref(), &progress)
@@ -908,6 +1038,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(default_config, m)?)?;
     m.add_function(wrap_pyfunction!(version, m)?)?;
     m.add_function(wrap_pyfunction!(detect, m)?)?;
+    m.add_function(wrap_pyfunction!(train, m)?)?;
     m.add_function(wrap_pyfunction!(use_package_files, m)?)?;
     m.add_function(wrap_pyfunction!(use_package_faces, m)?)?;
     m.add_function(wrap_pyfunction!(cache_dir, m)?)?;

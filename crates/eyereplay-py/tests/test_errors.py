@@ -395,3 +395,106 @@ def test_an_output_folder_that_cannot_be_made_is_a_dataset_error(tmp_path):
         eyereplay.generate(small_config(), tmp_path / "afile" / "sub", progress=False)
     with pytest.raises(eyereplay.DatasetError):
         eyereplay.merge(tmp_path / "afile")
+
+
+def test_numpy_integers_are_whole_numbers(tmp_path):
+    import numpy as np
+
+    # What array arithmetic gives: np.int64, not int. Frames of one gray
+    # colour (no face) reach the extractor, past the option checks.
+    frames = np.full((3, 32, 32, 3), 128, dtype=np.uint8)
+    with pytest.raises(eyereplay.VideoError, match="no face"):
+        eyereplay.extract(frames, fps=np.int64(24), iris_views=np.int64(1), progress=False)
+    with pytest.raises(eyereplay.ConfigError, match="fps"):
+        eyereplay.extract(frames, fps=np.int64(0), progress=False)
+    with pytest.raises(eyereplay.ConfigError, match="threads"):
+        eyereplay.extract(DATA / "franck.mp4", threads=np.float64(1.5), progress=False)
+    with pytest.raises(eyereplay.ConfigError, match="threads"):
+        eyereplay.extract(DATA / "franck.mp4", threads=np.bool_(True), progress=False)
+
+
+def test_python_exceptions_catch_ours(tmp_path):
+    # A bad option is a ValueError; an input that is not there, a
+    # FileNotFoundError of its own class, named as such.
+    assert issubclass(eyereplay.ConfigError, ValueError)
+    assert issubclass(eyereplay.ConfigError, eyereplay.EyereplayError)
+    with pytest.raises(ValueError, match="gpu"):
+        eyereplay.extract(DATA / "franck.mp4", device="gpu", progress=False)
+    for call, cls, name in (
+        (lambda: eyereplay.extract(tmp_path / "nope.mp4", progress=False), eyereplay.VideoError,
+         "nope.mp4"),
+        (lambda: eyereplay.detect(tmp_path / "nope.csv", progress=False), eyereplay.SourceError,
+         "nope.csv"),
+        (lambda: eyereplay.prepare(tmp_path / "nope.toml", None, progress=False),
+         eyereplay.ConfigError, "nope.toml"),
+        (lambda: eyereplay.evaluate(tmp_path / "nodata", progress=False), eyereplay.DatasetError,
+         "nodata"),
+        (lambda: eyereplay.load_dataset(tmp_path / "nodata"), eyereplay.DatasetError, "nodata"),
+    ):
+        with pytest.raises(FileNotFoundError) as e:
+            call()
+        assert isinstance(e.value, cls) and type(e.value).__name__ == cls.__name__
+        assert name in str(e.value) and "os error" not in str(e.value)
+
+
+def test_prepare_checks_the_render_table_as_the_command_does(tmp_path):
+    cfg = small_config()
+    cfg["render"]["widht"] = 320
+    with pytest.raises(eyereplay.ConfigError, match="did you mean 'width'"):
+        eyereplay.prepare(cfg, None, dry_run=True, progress=False)
+    assert not (tmp_path / "out").exists()
+
+
+def test_frames_out_in_a_new_folder_is_made_before_the_work(tmp_path):
+    import numpy as np
+
+    # As for a video file: the folder is made; and the answer (no face
+    # here) comes with nothing half-written in it.
+    frames = np.full((3, 32, 32, 3), 128, dtype=np.uint8)
+    out = tmp_path / "new" / "a.csv"
+    with pytest.raises(eyereplay.VideoError):
+        eyereplay.extract(frames, fps=25, out=out, progress=False)
+    assert (tmp_path / "new").is_dir() and list((tmp_path / "new").iterdir()) == []
+
+
+def test_paths_of_every_kind_and_what_is_not_one(tmp_path):
+    # Bytes paths (os.listdir(b".")) are paths; a number is named as the
+    # argument it was given for.
+    with pytest.raises(eyereplay.VideoError, match="nope.mp4"):
+        eyereplay.extract(str(tmp_path / "nope.mp4").encode(), progress=False)
+    with pytest.raises(TypeError, match="video: expected one path"):
+        eyereplay.extract(42, progress=False)
+    with pytest.raises(TypeError, match="videos: expected paths, got a int"):
+        eyereplay.extract_many([DATA / "franck.mp4", 42], progress=False)
+
+
+def test_a_progress_object_that_raises_is_reported_once_on_either_path(capfd, monkeypatch):
+    import sys
+
+    import numpy as np
+
+    # The work goes on; the first exception is printed as Python prints
+    # one it cannot raise, and the object is not called again: the same
+    # from a video file (the native side) and from frames (Python's).
+    class Broken:
+        calls = 0
+
+        def advance(self, n):
+            Broken.calls += 1
+            raise RuntimeError("boom")
+
+    # The native side reports it as Python reports an exception it cannot
+    # raise: through sys.unraisablehook.
+    seen = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda u: seen.append(str(u.exc_value)))
+    t = eyereplay.extract(DATA / "franck.mp4", max_seconds=1, progress=Broken())
+    assert len(t["frame"]) > 0 and Broken.calls == 1
+    assert seen == ["boom"]
+    Broken.calls = 0
+    capfd.readouterr()
+    frames = np.full((70, 32, 32, 3), 128, dtype=np.uint8)
+    with pytest.raises(eyereplay.VideoError, match="no face"):
+        eyereplay.extract(frames, fps=25, progress=Broken())
+    assert Broken.calls == 1
+    err = capfd.readouterr().err
+    assert err.count("RuntimeError: boom") == 1, err

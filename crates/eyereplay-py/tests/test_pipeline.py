@@ -42,6 +42,7 @@ def datasets(tmp_path_factory, cache_dir):
     cli_out = base / "cli"
     r = run_cli("generate", "--config", toml_path, "--out", cli_out, "--cache", cache_dir)
     assert r.returncode == 0, r.stderr
+    cli_stdout = r.stdout
     py_out = base / "py"
     rec = Recorder()
     ticks = []
@@ -67,6 +68,7 @@ def datasets(tmp_path_factory, cache_dir):
         "ticks_during": [x for x in ticks if t0 < x < t1],
         "seconds": t1 - t0,
         "config": cfg,
+        "cli_stdout": cli_stdout,
     }
 
 
@@ -112,6 +114,47 @@ def test_summary_counts_what_was_rendered(datasets):
     assert s["frames"] == 4 * 100
     assert Path(s["report"]).is_file()
     assert set(s["stage_s"]) == {"extract+prepare", "render", "merge+evaluate"}
+    assert s["out"] == datasets["py"]
+    # The report's summary, as the command prints it.
+    c = s["checks"]
+    assert c["passing"] + len(c["failing"]) == c["total"] > 0
+    assert c["line"].startswith(f"{c['passing']} of {c['total']} checks pass")
+    assert f"report: {c['line']}" in datasets["cli_stdout"]
+
+
+def test_train_writes_the_commands_model_and_warns_of_few_windows(datasets, tmp_path):
+    # 4 s sessions, two a class, in 2 s windows overlapping by half: a few
+    # windows a class, fewer than the 20 below which a model is called
+    # unreliable.
+    py = datasets["py"]
+    with pytest.warns(eyereplay.EyereplayWarning, match=r"only \d+ training windows"):
+        m = eyereplay.train(py, tmp_path / "py.json", window_s=2, input="trajectory",
+                            seed=np.int64(3), progress=False)
+    assert m["model"] == tmp_path / "py.json" and m["window_s"] == 2.0
+    t = m["training"]
+    per_class = (t["train_windows_reading"] + t["validation_windows_reading"],
+                 t["train_windows_other"] + t["validation_windows_other"])
+    assert 0 < min(per_class) < 20, per_class
+    assert 0.0 <= m["threshold"] <= 1.0 and len(m["features"]) == 14
+    r = run_cli("train", py, "--out", tmp_path / "cli.json", "--window-s", "2",
+                "--input", "trajectory", "--seed", "3")
+    assert r.returncode == 0, r.stderr
+    assert "warning: only " in r.stderr
+    assert (tmp_path / "py.json").read_bytes() == (tmp_path / "cli.json").read_bytes()
+    # The model detects.
+    d = eyereplay.detect(py / "reading" / "reading_0000.csv", model=m["model"], progress=False)
+    assert d["verdict"] in ("reading", "not reading", "uncertain")
+    # Refused before any work, naming the option.
+    for kwargs, name in (({"classifier": "forest"}, "classifier"), ({"input": "video"}, "input"),
+                         ({"max_fpr": 1.5}, "max-fpr"), ({"noise_copies": 101}, "noise-copies"),
+                         ({"window_s": 1}, "window-s")):
+        with pytest.raises(eyereplay.ConfigError, match=name):
+            eyereplay.train(py, tmp_path / "x.json", progress=False, **kwargs)
+    with pytest.raises(eyereplay.ConfigError, match=".json"):
+        eyereplay.train(py, tmp_path / "x.txt", progress=False)
+    with pytest.raises(FileNotFoundError):
+        eyereplay.train(tmp_path / "nodata", tmp_path / "x.json", progress=False)
+    assert not (tmp_path / "x.json").exists()
 
 
 def test_progress_events_add_up(datasets):
@@ -144,6 +187,8 @@ def test_evaluate_returns_metrics_json(datasets):
     assert sum(e[1] for e in rec.events if e[0] == "advance") >= 2 * 100
     html = m.pop("report_html")
     assert Path(html).name == "index.html"
+    c = m.pop("checks")
+    assert c["passing"] + len(c["failing"]) == c["total"] > 0
     on_disk = json.loads((py / "report" / "metrics.json").read_text())
     assert m == on_disk
     # KS D is a distance between distributions: in [0, 1]
@@ -171,6 +216,10 @@ def test_load_dataset_matches_labels_and_files(datasets):
         assert s.video is not None and s.truth is not None and len(s.truth) == 100
     assert ds.fps == 25.0
     assert ds.metadata["session_frames"] == 100
+    # A slice is a dataset of those sessions, as a list's slice is a list.
+    part = ds[1:3]
+    assert isinstance(part, eyereplay.Dataset) and len(part) == 2
+    assert part[0].file == ds[1].file and part.metadata is ds.metadata
 
 
 def test_decoded_frames_seek_exactly(datasets):
@@ -246,6 +295,9 @@ def test_as_torch_windows(datasets, monkeypatch):
     assert np.array_equal(x, ds[0].frames(50, 10))
     with pytest.raises(ValueError):
         ds.as_torch(window=101)
+    # 0 is not the default stride (None is): refused, not read as None.
+    with pytest.raises(ValueError, match="stride 0"):
+        ds.as_torch(window=40, stride=0)
 
 
 def test_the_face_backend_renders_what_the_cli_renders(tmp_path, cache_dir):

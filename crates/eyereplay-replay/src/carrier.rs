@@ -31,6 +31,11 @@ pub const MIN_EYE_WIDTH_RATIO: f64 = 0.65;
 /// eyes wide enough, not turned, not a blink), or the carrier is refused.
 pub const MIN_USABLE_FRACTION: f64 = 0.5;
 
+/// The fewest frames a carrier may have: one second at 25 fps. A session
+/// longer than its carrier plays it back and forth, but a few frames do
+/// not make a person moving.
+pub const MIN_CARRIER_FRAMES: usize = 25;
+
 /// Mesh landmarks at the two corners of each eye.
 const MESH_EYE_CORNERS: [(usize, usize); 2] = [(33, 133), (362, 263)];
 
@@ -310,6 +315,19 @@ impl CarrierTrack {
                 ),
             ));
         }
+        // A still image (a photo given as a carrier) decodes as one
+        // frame; what failed later ("too little of the eyes' whites
+        // shows") did not say why.
+        if u.frames < MIN_CARRIER_FRAMES {
+            return Err(ReplayError::carrier(
+                video,
+                format!(
+                    "{} frame(s): not a video (a still image?); a carrier is a video of a person, \
+                     at least {MIN_CARRIER_FRAMES} frames (the full-face mode draws from a photo)",
+                    u.frames
+                ),
+            ));
+        }
         Ok(u)
     }
 
@@ -426,6 +444,14 @@ mod tests {
         // One usable frame of four is under half: refused, with counts.
         let e = t.check(Path::new("c.mp4")).unwrap_err().to_string();
         assert!(e.starts_with("c.mp4: only 1 of 4 frames usable"), "{e}");
+
+        // Usable, but a still image's one frame: not a video.
+        let still = CarrierTrack {
+            frames: vec![frame(Some([eye(100.0, 40.0), eye(200.0, 40.0)]), false)],
+            ..t.clone()
+        };
+        let e = still.check(Path::new("p.jpg")).unwrap_err().to_string();
+        assert!(e.starts_with("p.jpg: 1 frame(s): not a video"), "{e}");
 
         let small = CarrierTrack {
             frames: vec![frame(Some([eye(100.0, 12.0), eye(200.0, 12.0)]), false); 3],

@@ -727,6 +727,43 @@ fn read_corner_track(path: &Path) -> Result<Track> {
     Ok(Track::new(xy))
 }
 
+/// Noisy copies of each session `train` makes at most.
+pub const MAX_NOISE_COPIES: usize = 100;
+
+/// Training windows of a class below which a model is called unreliable.
+const FEW_WINDOWS: usize = 20;
+
+/// Below this validation AUROC a model is called no better than chance
+/// (0.5 is chance; the bundled detector's is about 0.9).
+const CHANCE_AUROC: f64 = 0.6;
+
+/// What a trained model's own figures say against using it, one line
+/// each: too few windows of a class to trust it, or a validation AUROC no
+/// better than chance. The model is still written (it is what the data
+/// gave); `eyereplay train` prints these as warnings, the Python package
+/// raises them as `EyereplayWarning`.
+pub fn training_warnings(model: &DetectorModel) -> Vec<String> {
+    let t = &model.training;
+    let mut out = Vec::new();
+    let fewest = t.train_windows_reading.min(t.train_windows_other);
+    if fewest < FEW_WINDOWS {
+        out.push(format!(
+            "only {fewest} training windows of one class (fewer than {FEW_WINDOWS}): \
+             the model and its AUROC are unreliable; more or longer sessions, or a shorter \
+             --window-s, give more"
+        ));
+    }
+    if let Some(auroc) = t.validation_auroc.filter(|a| *a < CHANCE_AUROC) {
+        out.push(format!(
+            "the model separates reading from other windows of held-out sessions \
+             no better than chance (AUROC {auroc:.3}, below {CHANCE_AUROC}); it will call \
+             nearly everything one class (more sessions, or classes whose gaze differs, \
+             train a better one)"
+        ));
+    }
+    out
+}
+
 /// Trains the feature model on every session of `datasets`: windows of
 /// `window_s` overlapping by half, validation held out by session.
 pub fn train_detector(
@@ -740,6 +777,26 @@ pub fn train_detector(
             eyereplay_detect::MIN_WINDOW_S,
             eyereplay_detect::MAX_WINDOW_S,
             eyereplay_core::show_number(opts.window_s)
+        )));
+    }
+    let t = &opts.train;
+    if !(t.max_fpr > 0.0 && t.max_fpr < 1.0) {
+        return Err(Error::Setting(format!(
+            "--max-fpr must be a share above 0 and below 1 (e.g. 0.05), got {}",
+            eyereplay_core::show_number(t.max_fpr)
+        )));
+    }
+    if !(t.alpha >= 0.0 && t.alpha.is_finite()) {
+        return Err(Error::Setting(format!(
+            "--alpha must be a number >= 0, got {}",
+            eyereplay_core::show_number(t.alpha)
+        )));
+    }
+    if t.noise_copies > MAX_NOISE_COPIES {
+        return Err(Error::Setting(format!(
+            "--noise-copies must be at most {MAX_NOISE_COPIES} (each copy adds as many windows \
+             as the sessions themselves give), got {}",
+            t.noise_copies
         )));
     }
     // The same folder twice would put each session on both sides of the

@@ -241,7 +241,9 @@ beside a session CSV); run 'eyereplay render' first, or pass --video and --traje
         ));
     }
     Ok(Ok(VisualTarget {
-        truth: paths.truth.is_file().then(|| paths.truth.clone()),
+        // The renderer's truth: a browser page's own columns are not
+        // the drawn eyes' (the sections that need them are left out).
+        truth: eyereplay_dataset::has_renderer_truth(&paths.truth).then(|| paths.truth.clone()),
         video: paths.mp4,
         trajectory: paths.csv,
         session: Some(session),
@@ -404,7 +406,6 @@ fn sessions_read_back(
                 // A session without its video (a shard not rendered yet).
                 _ => continue,
             };
-            taken += 1;
             let input: Vec<CanvasPos> = read_session_csv(&target.trajectory)?;
             check_frame_count(&target.video, input.len())?;
             let source = source_norm(dir, &target, &input)?;
@@ -419,8 +420,15 @@ fn sessions_read_back(
                 &geometry,
             )? {
                 Ok(r) => r,
-                Err(NotComputed(reason)) => return Err(Error::input(&target.video, reason)),
+                // A video the extractor cannot read (a browser page
+                // without a face, and no eye corners configured) has no
+                // row here; the visual section says why. It failed the
+                // whole evaluation, the documented browser default's
+                // among them. The class's other sessions come from the
+                // same page: not tried.
+                Err(NotComputed(_)) => break,
             };
+            taken += 1;
             let n = back.n.len().min(input.len());
             let read = masked(&back.n[..n], &closed[..n]);
             let fidelity = compare_visual(&source[..n], &read, None)

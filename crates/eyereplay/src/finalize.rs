@@ -93,8 +93,9 @@ pub fn finalize_with_progress(
             ),
         ));
     }
-    check_backend_files(dir, &meta.dataset, &jobs)?;
-    check_truth_values(&jobs)?;
+    let browser = check_backend_files(dir, &meta.dataset, &jobs)?
+        == eyereplay_dataset::RenderBackend::Browser;
+    check_truth_values(&jobs, browser)?;
     let sessions = jobs
         .iter()
         .map(|j| {
@@ -187,7 +188,11 @@ fn check_trajectories(dir: &Path, meta: &DatasetMetadata, jobs: &[SessionJob]) -
 /// The backend's own files of each session (the face mode's head CSV, the
 /// replay mode's carrier CSV: `extra_outputs_of`) are there with their
 /// `session_frames` rows.
-fn check_backend_files(dir: &Path, meta: &DatasetMetadata, jobs: &[SessionJob]) -> Result<()> {
+fn check_backend_files(
+    dir: &Path,
+    meta: &DatasetMetadata,
+    jobs: &[SessionJob],
+) -> Result<eyereplay_dataset::RenderBackend> {
     let meta_path = dir.join(eyereplay_dataset::layout::METADATA_FILE);
     let settings = eyereplay_dataset::RenderSettings::from_config(&meta.config, &meta_path)?;
     let files: Vec<PathBuf> = jobs
@@ -205,20 +210,27 @@ fn check_backend_files(dir: &Path, meta: &DatasetMetadata, jobs: &[SessionJob]) 
             settings.backend.kind().name()
         ),
         "rerun the shard(s) that own them with the same command",
-    )
+    )?;
+    Ok(settings.backend.kind())
 }
 
 /// Every truth file reads as numbers, finite ones: a damaged or edited
 /// one (a `NaN`, a word) passes the row count, and would be merged and
 /// then fail, or skew, the evaluation that reads it. The first bad file
 /// in the dataset's order is named, with its line.
-fn check_truth_values(jobs: &[SessionJob]) -> Result<()> {
+/// A browser page's truth has its own columns (perhaps none of the
+/// renderer's, [`eyereplay_dataset::has_renderer_truth`]): each field is
+/// checked to be a finite number.
+fn check_truth_values(jobs: &[SessionJob], browser: bool) -> Result<()> {
     let read: Vec<Result<()>> = jobs
         .par_iter()
         .map(|j| {
-            eyereplay_dataset::read_truth_csv(&j.paths.truth)
-                .map(drop)
-                .map_err(Into::into)
+            if browser {
+                eyereplay_dataset::check_truth_numbers(&j.paths.truth)
+            } else {
+                eyereplay_dataset::read_truth_csv(&j.paths.truth).map(drop)
+            }
+            .map_err(Into::into)
         })
         .collect();
     read.into_iter().collect()

@@ -65,12 +65,22 @@ pub fn render_table(
 ) -> Result<(RenderSettings, RenderParams)> {
     let settings = RenderSettings::from_config(config, config_path)?;
     let params =
-        render_params(&settings, config).map_err(|e| Error::input(config_path, e.to_string()))?;
+        render_params(&settings, config).map_err(|e| render_error(config_path, e.to_string()))?;
     if let BackendSettings::Face(f) = &settings.backend {
         eyereplay_backends::face::FaceSettings::from_backend(f)
-            .map_err(|e| Error::input(config_path, e.to_string()))?;
+            .map_err(|e| render_error(config_path, e.to_string()))?;
     }
     Ok((settings, params))
+}
+
+/// An error in the config's `[render]` tables, naming the config and, when
+/// the file has it, the line of the key the message names: those tables
+/// are typed apart from the text, so their errors carry no position.
+fn render_error(config_path: &Path, message: String) -> Error {
+    match eyereplay_dataset::render_key_line(config_path, &message) {
+        Some(line) => Error::input(config_path, format!("line {line}: {message}")),
+        None => Error::input(config_path, message),
+    }
 }
 
 /// [`plan`] for a config already loaded (from text or built in code);
@@ -96,7 +106,7 @@ pub fn plan_config(
     let settings =
         eyereplay_backends::check_settings(&settings, &|p: &Path| config.resolve(p), cache)
             .map_err(|e| match e {
-                eyereplay_backends::BackendError::Setting(m) => Error::input(config_path, m),
+                eyereplay_backends::BackendError::Setting(m) => render_error(config_path, m),
                 e => e.into(),
             })?;
     let probe = settings

@@ -176,7 +176,7 @@ pub fn profile_session(
             "the config makes no session",
         ));
     }
-    let at_once = job.settings.jobs().clamp(1, all.len());
+    let at_once = job.settings.sessions_at_once().clamp(1, all.len());
     let shard = match what {
         Measure::Alone(None) => Shard::new(0, all.len())?,
         Measure::Alone(Some(name)) => {

@@ -20,15 +20,9 @@ fn have_browser() -> bool {
     }
 }
 
-#[test]
-#[cfg_attr(not(has_models), ignore = "needs .cache/models: run scripts/setup.sh")]
-fn a_dataset_rendered_through_a_web_page_gets_its_visual_fidelity_table() {
-    if !have_browser() {
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    // Reading-like sweeps and a wandering gaze, 100 Hz, in screen px.
+/// Reading-like sweeps and a wandering gaze, 100 Hz, in screen px:
+/// `read.csv` and `talk.csv` in `d`, the sources of [`CLASSES`].
+fn write_sources(d: &std::path::Path) {
     let mut read = String::from("time,x,y\n");
     let mut talk = String::from("time,x,y\n");
     for i in 0..2000 {
@@ -47,13 +41,10 @@ fn a_dataset_rendered_through_a_web_page_gets_its_visual_fidelity_table() {
     }
     std::fs::write(d.join("read.csv"), read).unwrap();
     std::fs::write(d.join("talk.csv"), talk).unwrap();
-    let cfg = r#"
-session_frames = 60
-[render]
-backend = "browser"
-browser_eye_corners_px = [[470.0, 381.6, 170.0, 381.6], [810.0, 381.6, 1110.0, 381.6]]
-[render.browser]
-truth_js = "eyereplayTruth()"
+}
+
+/// One session of each class from [`write_sources`]' files.
+const CLASSES: &str = r#"
 [classes.reading]
 sessions = 1
 sources = [{ format = "csv", path = "read.csv", time_unit = "ms", screen_px = [1920, 1080] }]
@@ -61,7 +52,33 @@ sources = [{ format = "csv", path = "read.csv", time_unit = "ms", screen_px = [1
 sessions = 1
 sources = [{ format = "csv", path = "talk.csv", time_unit = "ms", screen_px = [1920, 1080] }]
 "#;
-    std::fs::write(d.join("dataset.toml"), cfg).unwrap();
+
+/// A folder with [`write_sources`]' files and `dataset.toml`: `top` (the
+/// top-level keys and the `[render]` tables), then [`CLASSES`].
+fn dataset_dir(top: &str) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    write_sources(dir.path());
+    std::fs::write(dir.path().join("dataset.toml"), format!("{top}{CLASSES}")).unwrap();
+    dir
+}
+
+#[test]
+#[cfg_attr(not(has_models), ignore = "needs .cache/models: run scripts/setup.sh")]
+fn a_dataset_rendered_through_a_web_page_gets_its_visual_fidelity_table() {
+    if !have_browser() {
+        return;
+    }
+    let dir = dataset_dir(
+        r#"
+session_frames = 60
+[render]
+backend = "browser"
+browser_eye_corners_px = [[470.0, 381.6, 170.0, 381.6], [810.0, 381.6, 1110.0, 381.6]]
+[render.browser]
+truth_js = "eyereplayTruth()"
+"#,
+    );
+    let d = dir.path();
     let job = eyereplay::plan(&d.join("dataset.toml"), None, &d.join("cache")).unwrap();
     let out = d.join("out");
     let opts = GenerateOptions {
@@ -126,9 +143,93 @@ fn an_unknown_browser_setting_is_refused_before_work_starts() {
         .err()
         .expect("refused")
         .to_string();
+    // The line of the key, and the nearest valid one, as for every other
+    // key of the config.
     assert!(
-        e.contains("dataset.toml") && e.contains("[render.browser]") && e.contains("urll"),
+        e.contains("dataset.toml: line 4: [render.browser]")
+            && e.contains("urll")
+            && e.contains("did you mean 'url'"),
         "{e}"
     );
     assert!(!e.contains('\n'), "{e}");
+}
+
+/// The documented default, `backend = "browser"` alone, renders the
+/// bundled page without `truth_js`: its truth files then hold the cursor
+/// only, none of the renderer's columns, and the dataset is finished and
+/// evaluated all the same (it failed at the merge, "missing column
+/// 'left_yaw_deg'", after every session was drawn).
+#[test]
+#[cfg_attr(not(has_models), ignore = "needs .cache/models: run scripts/setup.sh")]
+fn a_page_without_truth_columns_makes_a_whole_dataset() {
+    if !have_browser() {
+        return;
+    }
+    let dir = dataset_dir("session_frames = 30\n[render]\nbackend = \"browser\"\n");
+    let d = dir.path();
+    let job = eyereplay::plan(&d.join("dataset.toml"), None, &d.join("cache")).unwrap();
+    let out = d.join("out");
+    let opts = GenerateOptions {
+        out: out.clone(),
+        cache: Some(d.join("cache")),
+        evaluate: Some(EvaluateOptions {
+            visual: VisualChoice::Skip,
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let summary = eyereplay::generate(&job, &opts, &NoProgress).unwrap();
+    assert_eq!(summary.render.rendered, 2);
+    assert!(out.join("report/metrics.json").is_file());
+    let truth = std::fs::read_to_string(out.join("reading/reading_0000_truth.csv")).unwrap();
+    assert_eq!(truth.lines().next(), Some("frame,x,y,page_x,page_y"));
+    assert!(!eyereplay_dataset::has_renderer_truth(
+        &out.join("reading/reading_0000_truth.csv")
+    ));
+    // A damaged field is still found, with its line.
+    let bad = truth.replacen("\n1,", "\n1,NaN", 1);
+    std::fs::write(out.join("reading/reading_0000_truth.csv"), bad).unwrap();
+    let e = eyereplay::finalize(&out, None)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        e.contains("reading_0000_truth.csv") && e.contains("line 3"),
+        "{e}"
+    );
+}
+
+/// `[render.browser]` settings the renderer would refuse, and a page that
+/// is not there, are found when the job is planned, once, in one line:
+/// they were found only once a browser had started for each session.
+#[test]
+fn browser_settings_and_the_page_are_checked_before_work_starts() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_sources(d);
+    for (table, want) in [
+        (
+            "crop = { x = 0, y = 0, width = 641, height = 480 }",
+            "must be even",
+        ),
+        (
+            "crop = { x = 1000, y = 0, width = 640, height = 480 }",
+            "not inside",
+        ),
+        ("url = \"builtin:nope\"", "no such bundled page"),
+        ("url = \"file:///nonexistent/page.html\"", "no such file"),
+        ("url = \"nonexistent/page.html\"", "no such file"),
+        ("url = \"ftp://example/page.html\"", "scheme ftp"),
+    ] {
+        let cfg = format!("[render]\nbackend = \"browser\"\n[render.browser]\n{table}\n{CLASSES}");
+        std::fs::write(d.join("dataset.toml"), cfg).unwrap();
+        let e = eyereplay::plan(&d.join("dataset.toml"), None, &d.join("cache"))
+            .err()
+            .unwrap_or_else(|| panic!("{table}: not refused"))
+            .to_string();
+        assert!(
+            e.contains("[render.browser]") && e.contains(want) && !e.contains('\n'),
+            "{table}: {e}"
+        );
+    }
 }

@@ -38,7 +38,7 @@ gain = 1.0              # amplification of the iris excursion\n  \
 natural_blinks = true   # blink at a natural rate\n  \
 preset = \"veryfast\"     # x264\n  \
 crf = 18\n  \
-jobs = 0                # sessions rendered at once (0: one per core)\n\
+jobs = 0                # sessions rendered at once (0: one per core; not for replay)\n\
 With backend = \"replay\": carriers = [\"me.mp4\"], real talking-head clips\n\
 (default: the bundled ones).")]
 pub struct Args {
@@ -342,13 +342,16 @@ fn dry_run(
         println!("  shard {}/{}: {} sessions", s.index, s.count, job.sessions);
     }
     let frames = job.frames();
+    // A replay session's video is its carrier's size, not the canvas's.
+    let size = match job.settings.backend.kind() {
+        eyereplay::dataset::RenderBackend::Replay => "each carrier video's own size".to_string(),
+        _ => format!("{}x{}", job.params.width, job.params.height),
+    };
     println!(
-        "  video: {} frames = {:.2} h at {} fps, {}x{}",
+        "  video: {} frames = {:.2} h at {} fps, {size}",
         frames,
         frames as f64 / cfg.fps / 3600.0,
         cfg.fps,
-        job.params.width,
-        job.params.height
     );
     let mut proj = p.projection(read_back);
     let report_s = proj.evaluate_s;

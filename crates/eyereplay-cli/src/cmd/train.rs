@@ -114,19 +114,7 @@ impl From<InputArg> for TrainInput {
     }
 }
 
-/// Training windows of a class below which `train` warns.
-const FEW_WINDOWS: usize = 20;
-
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if !(args.max_fpr > 0.0 && args.max_fpr < 1.0) {
-        anyhow::bail!(
-            "--max-fpr must be a share above 0 and below 1 (e.g. 0.05), got {}",
-            args.max_fpr
-        );
-    }
-    if !(args.alpha >= 0.0 && args.alpha.is_finite()) {
-        anyhow::bail!("--alpha must be a number >= 0, got {}", args.alpha);
-    }
     // The model is written last: a path it cannot go to is found first.
     let datasets: Vec<&std::path::Path> = args.datasets.iter().map(|d| d.as_path()).collect();
     super::check_json_out(&args.out, "--out", &datasets, &[])?;
@@ -180,26 +168,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
              other people)"
         );
     }
-    // A handful of windows trains a model that only seems to work: its
-    // validation AUROC rests on a few sessions.
-    let fewest = t.train_windows_reading.min(t.train_windows_other);
-    if fewest < FEW_WINDOWS {
-        eprintln!(
-            "warning: only {fewest} training windows of one class (fewer than {FEW_WINDOWS}): \
-             the model and its AUROC are unreliable; more or longer sessions, or a shorter \
-             --window-s, give more"
-        );
-    }
-    // A model no better than chance on sessions it did not see is written
-    // (it is what the data gave), but not without a word: it would call
-    // everything one class.
-    if let Some(auroc) = t.validation_auroc.filter(|a| *a < CHANCE_AUROC) {
-        eprintln!(
-            "warning: the model separates reading from other windows of held-out sessions \
-             no better than chance (AUROC {auroc:.3}, below {CHANCE_AUROC}); it will call \
-             nearly everything one class (more sessions, or classes whose gaze differs, \
-             train a better one)"
-        );
+    // A handful of windows, or an AUROC at chance, trains a model that
+    // only seems to work: written (it is what the data gave), with a word.
+    for w in eyereplay::detector::training_warnings(&model) {
+        eprintln!("warning: {w}");
     }
     println!(
         "wrote {} in {:.1} s",
@@ -208,7 +180,3 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     Ok(())
 }
-
-/// Below this validation AUROC a model is called no better than chance
-/// (0.5 is chance; the bundled detector's is about 0.9).
-const CHANCE_AUROC: f64 = 0.6;

@@ -63,6 +63,20 @@ def detect(
     cache: Optional[str] = None,
     progress: Any = None,
 ) -> str: ...
+def train(
+    datasets: List[str],
+    out: str,
+    window_s: float = 10.0,
+    input: str = "extracted",
+    classifier: str = "trees",
+    seed: int = 1,
+    alpha: float = 1.0,
+    noise_copies: int = 0,
+    frame_labels: bool = False,
+    max_fpr: float = 0.05,
+    cache: Optional[str] = None,
+    progress: Any = None,
+) -> Dict[str, Any]: ...
 def dataset_index(dataset_dir: str) -> Tuple[str, List[Dict[str, Any]]]: ...
 def check_models(dir: Optional[str] = None) -> List[str]: ...
 def default_models_dir() -> str: ...

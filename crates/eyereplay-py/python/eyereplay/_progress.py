@@ -13,6 +13,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
+import traceback
 import warnings
 
 
@@ -32,6 +33,11 @@ class ProgressBar:
         self._done = 0
         self._total = 0
         self._shown_at = 0.0
+        self._last_shown = -1
+        # A terminal gets one line redrawn in place; a log file (no
+        # terminal) a line now and then, '\r' would join them into one.
+        isatty = getattr(self._stream, "isatty", None)
+        self._in_place = bool(isatty and isatty())
         try:  # tqdm.auto picks the notebook widget inside Jupyter
             from tqdm.auto import tqdm
 
@@ -78,21 +84,29 @@ class ProgressBar:
     def warn(self, line: str) -> None:
         warnings.warn(line.removeprefix("warning: "), EyereplayWarning, stacklevel=2)
 
-    # A bar of '=' every 0.2 s at most, redrawn in place with '\r'.
+    # A bar of '=', redrawn in place with '\r' every 0.2 s at most in a
+    # terminal; elsewhere a line every 10 s, and the last one.
     def _text_bar(self) -> None:
         now = time.monotonic()
-        if now - self._shown_at < 0.2 and self._done < self._total:
+        every = 0.2 if self._in_place else 10.0
+        finished = 0 < self._total <= self._done
+        if now - self._shown_at < every and not finished:
             return
-        self._shown_at = now
-        total = max(self._total, self._done, 1)
-        filled = int(30 * self._done / total)
-        self._stream.write(
-            f"\r{self._stage or '':>8} [{'=' * filled}{' ' * (30 - filled)}] {self._done}/{self._total} frames"
-        )
+        if self._done == self._last_shown:
+            return
+        self._shown_at, self._last_shown = now, self._done
+        if self._total <= 0:
+            # No total known yet: a count, not a bar that looks finished.
+            line = f"{self._stage or '':>8} {self._done} frames"
+        else:
+            filled = int(30 * min(self._done, self._total) / self._total)
+            line = (f"{self._stage or '':>8} [{'=' * filled}{' ' * (30 - filled)}] "
+                    f"{self._done}/{self._total} frames")
+        self._stream.write(f"\r{line}" if self._in_place else f"{line}\n")
         self._stream.flush()
 
     def _clear_line(self) -> None:
-        if self._bar is None and self._shown_at:
+        if self._bar is None and self._shown_at and self._in_place:
             self._stream.write("\r" + " " * 70 + "\r")
             self._stream.flush()
 
@@ -100,10 +114,10 @@ class ProgressBar:
         if self._bar is not None:
             self._bar.close()
             self._bar = None
-        elif self._shown_at:
+        elif self._shown_at and self._in_place:
             self._stream.write("\n")
             self._stream.flush()
-        self._shown_at = 0.0
+        self._shown_at, self._last_shown = 0.0, -1
 
 
 _METHODS = ("begin", "add_total", "advance", "status", "end", "info", "warn")
@@ -148,3 +162,35 @@ def resolve(progress):
             f"{', '.join(_METHODS)}; got {type(progress).__name__} {progress!r:.40}"
         )
     return progress if len(have) == len(_METHODS) else _Partial(progress, have)
+
+
+class _Guarded:
+    """A progress object whose first exception is reported (as Python
+    reports an exception it cannot raise) and which is not called again:
+    what the native calls do with one, so that a broken bar neither stops
+    the work nor prints a traceback at every event."""
+
+    def __init__(self, target):
+        self._target = target
+        self._broken = False
+
+    def __getattr__(self, name):
+        method = getattr(self._target, name)
+
+        def call(*args):
+            if self._broken:
+                return None
+            try:
+                return method(*args)
+            except Exception as e:
+                self._broken = True
+                print(f"Exception ignored in the progress object's {name}():", file=sys.stderr)
+                traceback.print_exception(type(e), e, e.__traceback__, file=sys.stderr)
+                return None
+
+        return call
+
+
+def guarded(progress):
+    """:class:`_Guarded` around a resolved progress object (``None`` stays)."""
+    return None if progress is None else _Guarded(progress)

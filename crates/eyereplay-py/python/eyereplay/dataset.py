@@ -16,6 +16,7 @@ import numpy as np
 
 from . import _native
 from ._native import DatasetError, VideoError
+from ._errors import require
 from ._table import read_csv
 
 
@@ -94,8 +95,10 @@ class Dataset(Sequence[Session]):
         return len(self.sessions)
 
     def __getitem__(self, i):  # type: ignore[override]
+        # A slice is a Dataset of those sessions (its metadata and
+        # as_torch kept), as a list's slice is a list.
         if isinstance(i, slice):
-            return self.sessions[i]
+            return Dataset(self.root, self.metadata, self.sessions[i])
         return self.sessions[i]
 
     def __iter__(self) -> Iterator[Session]:
@@ -159,7 +162,8 @@ class Dataset(Sequence[Session]):
             window = max(1, int(round(2 * self.fps))) if video else frames
         if window < 1 or window > frames:
             raise ValueError(f"window {window}: must be 1..{frames} (the session length)")
-        stride = stride or window
+        # None is the default (windows side by side); 0 is not it.
+        stride = window if stride is None else stride
         if stride < 1:
             raise ValueError(f"stride {stride}: must be at least 1")
         starts = list(range(0, frames - window + 1, stride))
@@ -192,6 +196,7 @@ def load_dataset(dataset_dir: Union[str, "os.PathLike[str]"]) -> Dataset:
     if not isinstance(dataset_dir, (str, os.PathLike)):
         raise TypeError(f"dataset_dir: expected a folder path, got a {type(dataset_dir).__name__}")
     root = Path(dataset_dir)
+    require(root, DatasetError, "no such dataset folder")
     meta_text, rows = _native.dataset_index(os.fspath(root))
     sessions = [
         Session(
