@@ -100,7 +100,20 @@ impl Decoder {
         let ctx =
             ff::codec::context::Context::from_parameters(st.parameters()).map_err(open_err)?;
         let codec = ctx.id();
-        let decoder = ctx.decoder().video().map_err(open_err)?;
+        // FFmpeg's own words, "Decoder not found", named neither the
+        // codec nor that this build lacks it (the Python wheel's FFmpeg
+        // has no AV1, say).
+        let decoder = ctx.decoder().video().map_err(|e| match e {
+            ff::Error::DecoderNotFound => ExtractError::Open {
+                path: path.to_path_buf(),
+                message: format!(
+                    "no decoder for its {} video in this build's FFmpeg (convert it to H.264: \
+                     ffmpeg -i IN -c:v libx264 OUT.mp4)",
+                    format!("{codec:?}").to_lowercase()
+                ),
+            },
+            e => open_err(e),
+        })?;
         let rotation = display_rotation(&st);
         let (rw, rh) = (decoder.width() as usize, decoder.height() as usize);
         if rw == 0 || rh == 0 {

@@ -498,3 +498,18 @@ def test_a_progress_object_that_raises_is_reported_once_on_either_path(capfd, mo
     assert Broken.calls == 1
     err = capfd.readouterr().err
     assert err.count("RuntimeError: boom") == 1, err
+
+
+def test_a_codec_the_wheel_cannot_decode_is_named(tmp_path):
+    import subprocess
+
+    # The wheel's FFmpeg has no AV1 decoder (its README): the error names
+    # the codec and the conversion, not FFmpeg's "Decoder not found".
+    av1 = tmp_path / "clip.mp4"
+    subprocess.run(
+        ["ffmpeg", "-v", "error", "-y", "-f", "lavfi", "-i", "testsrc=size=64x48:rate=10",
+         "-t", "0.5", "-c:v", "libaom-av1", "-cpu-used", "8", str(av1)],
+        check=True,
+    )
+    with pytest.raises(eyereplay.VideoError, match="no decoder for its av1 video"):
+        eyereplay.extract(av1, progress=False)
