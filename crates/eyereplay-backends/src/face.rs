@@ -342,9 +342,9 @@ impl SessionBackend for FaceBackend {
         // lacks `mapping.extractor_response`).
         if settings.extractor.match_extractor && matched.response.is_none() {
             progress.warn(&format!(
-                "{}: the extractor could not read this identity's eyes in the probe clip \
-                 (eyes cut off by a tight frame, or too small?); drawn at the geometric \
-                 position, not matched to the extractor",
+                "{}: the probe clip gave no usable fit of how the extractor reads this \
+                 identity (its reads too noisy, or the eyes too small or cut off by the \
+                 frame); drawn at the geometric position, not matched to the extractor",
                 files.file
             ));
         }
