@@ -225,6 +225,18 @@ impl Progress for Bars {
                     |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
                         let _ = write!(w, "{:.0}/s", s.per_sec());
                     },
+                )
+                // "?" until a frame is done: indicatif's {eta} says "0s"
+                // before it knows anything.
+                .with_key(
+                    "eta",
+                    |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                        if s.pos() == 0 {
+                            let _ = write!(w, "?");
+                        } else {
+                            let _ = write!(w, "{:#}", indicatif::HumanDuration(s.eta()));
+                        }
+                    },
                 ),
         );
         *self.bar.lock().expect("progress lock") = Some(bar);
