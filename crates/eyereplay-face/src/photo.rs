@@ -466,6 +466,15 @@ pub(crate) fn inside(poly: &[[f32; 2]], p: [f32; 2]) -> bool {
 /// is built without zlib (decoders for video only), and PNG is lossless:
 /// the bytes are the file's whatever decodes it.
 pub fn read_image(path: &Path) -> Result<RgbImage> {
+    let unreadable = |message: String| FaceError::Unreadable {
+        path: path.to_path_buf(),
+        message,
+    };
+    // Read once: the kind, a JPEG's end and the EXIF orientation are all
+    // in these bytes.
+    let bytes = std::fs::read(path).map_err(|e| unreadable(e.to_string()))?;
+    let png = bytes.starts_with(PNG_SIGNATURE);
+    let jpeg = bytes.starts_with(&[0xFF, 0xD8]);
     // A file named as a PNG or JPEG that is not one (a text file renamed)
     // reached FFmpeg, whose "video stream has no picture size" named no
     // cause.
@@ -473,29 +482,26 @@ pub fn read_image(path: &Path) -> Result<RgbImage> {
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    let named_jpeg = ext == "jpg" || ext == "jpeg";
-    if (ext == "png" || named_jpeg) && path.is_file() {
-        let mut head = [0u8; 8];
-        let n = std::fs::File::open(path)
-            .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
-            .unwrap_or(0);
-        let (is, kind) = if named_jpeg {
-            (n >= 2 && head[..2] == [0xFF, 0xD8], "JPEG")
-        } else {
-            (n == 8 && head == *b"\x89PNG\r\n\x1a\n", "PNG")
-        };
-        if !is {
-            return Err(FaceError::Unreadable {
-                path: path.to_path_buf(),
-                message: format!(
-                    "not a {kind}, though named one (its first bytes are not a {kind}'s; a \
-                     file of another kind renamed, or empty?)"
-                ),
-            });
-        }
+    let named = match ext.as_str() {
+        "png" if !png => Some("PNG"),
+        "jpg" | "jpeg" if !jpeg => Some("JPEG"),
+        _ => None,
+    };
+    if let Some(kind) = named {
+        return Err(unreadable(format!(
+            "not a {kind}, though named one (its first bytes are not a {kind}'s; a file of \
+             another kind renamed, or empty?)"
+        )));
     }
-    let image = if is_png(path) {
-        read_png(path)?
+    // FFmpeg decodes a JPEG cut off part-way without an error, the missing
+    // rows green in every frame drawn from it.
+    if jpeg && !jpeg_is_whole(&bytes) {
+        return Err(unreadable(
+            "the JPEG ends before its picture does (a download or copy cut off?)".into(),
+        ));
+    }
+    let image = if png {
+        read_png(path, &bytes)?
     } else {
         decode_image(path)?
     };
@@ -503,18 +509,25 @@ pub fn read_image(path: &Path) -> Result<RgbImage> {
     // read as stored, a portrait photo's face lay on its side, and its
     // fit gave a renderer input it could not draw (NaN in the truth
     // files, found only at the merge).
-    Ok(match exif_orientation(path) {
+    Ok(match orientation_of(&bytes) {
         Some(o) => image.oriented(o),
         None => image,
     })
 }
 
+/// PNG's first eight bytes.
+const PNG_SIGNATURE: &[u8] = b"\x89PNG\r\n\x1a\n";
+
 /// The EXIF orientation (2-8) of an image file that has one other than
 /// upright; `None` without EXIF, for 1, or for a value out of range.
 pub fn exif_orientation(path: &Path) -> Option<u32> {
-    let file = std::fs::File::open(path).ok()?;
+    orientation_of(&std::fs::read(path).ok()?)
+}
+
+/// [`exif_orientation`] of an image file's bytes.
+fn orientation_of(bytes: &[u8]) -> Option<u32> {
     let exif = exif::Reader::new()
-        .read_from_container(&mut std::io::BufReader::new(file))
+        .read_from_container(&mut std::io::Cursor::new(bytes))
         .ok()?;
     let field = exif.get_field(exif::Tag::Orientation, exif::In::PRIMARY)?;
     field.value.get_uint(0).filter(|o| (2..=8).contains(o))
@@ -537,15 +550,6 @@ pub fn jpeg_is_whole(bytes: &[u8]) -> bool {
 /// The first picture of an image file other than a PNG, through the
 /// extractor's decoder (FFmpeg).
 fn decode_image(path: &Path) -> Result<RgbImage> {
-    if let Ok(bytes) = std::fs::read(path) {
-        if bytes.starts_with(&[0xFF, 0xD8]) && !jpeg_is_whole(&bytes) {
-            return Err(FaceError::Unreadable {
-                path: path.to_path_buf(),
-                message: "the JPEG ends before its picture does (a download or copy cut off?)"
-                    .into(),
-            });
-        }
-    }
     let unreadable = |e: ExtractError| match e {
         ExtractError::Open { message, .. } | ExtractError::Decode { message, .. } => {
             FaceError::Unreadable {
@@ -579,24 +583,15 @@ fn decode_image(path: &Path) -> Result<RgbImage> {
     })
 }
 
-/// Whether `path` starts with PNG's signature.
-fn is_png(path: &Path) -> bool {
-    let mut head = [0u8; 8];
-    std::fs::File::open(path)
-        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
-        .is_ok_and(|()| head == *b"\x89PNG\r\n\x1a\n")
-}
-
 /// A PNG as 8-bit RGB, as FFmpeg converts it to rgb24 (a test compares
 /// the two in every layout): palettes expanded, 16-bit samples rounded to
 /// 8 bits, grey repeated over the three channels, alpha dropped.
-fn read_png(path: &Path) -> Result<RgbImage> {
+fn read_png(path: &Path, bytes: &[u8]) -> Result<RgbImage> {
     let unreadable = |message: String| FaceError::Unreadable {
         path: path.to_path_buf(),
         message,
     };
-    let file = std::fs::File::open(path).map_err(|e| unreadable(e.to_string()))?;
-    let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
     decoder.set_transformations(png::Transformations::EXPAND);
     let mut reader = decoder.read_info().map_err(|e| unreadable(e.to_string()))?;
     let mut buf = vec![0u8; reader.output_buffer_size()];

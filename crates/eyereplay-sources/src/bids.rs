@@ -48,29 +48,18 @@ fn sidecar_folders(path: &Path) -> Vec<PathBuf> {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let mut chain = vec![own.clone()];
-    let mut dir = own;
-    for _ in 0..4 {
-        if dir.join("dataset_description.json").is_file() {
-            chain.reverse();
-            return chain;
-        }
-        let Some(up) = dir.parent().map(Path::to_path_buf) else {
-            break;
-        };
-        let up = if up.as_os_str().is_empty() {
-            PathBuf::from("..")
-        } else {
-            up
-        };
-        if up == dir {
-            break;
-        }
-        chain.push(up.clone());
-        dir = up;
+    // Absolute, so that the folders above a relative path (`sub-01/beh`
+    // from the dataset's root) are reached: `Path::parent` of a relative
+    // path stops at "".
+    let own = std::fs::canonicalize(&own).unwrap_or(own);
+    let chain: Vec<PathBuf> = own.ancestors().take(4).map(Path::to_path_buf).collect();
+    match chain
+        .iter()
+        .position(|d| d.join("dataset_description.json").is_file())
+    {
+        Some(root) => chain[..=root].iter().rev().cloned().collect(),
+        None => vec![own],
     }
-    chain.truncate(1);
-    chain
 }
 
 /// The sidecar metadata of `path`: every `*_physio.json` that applies to

@@ -1,7 +1,7 @@
 //! Each bad input gets one line naming the file (and line) and the problem.
 
 mod common;
-use common::csv_spec;
+use common::{csv_spec, eyelink_spec};
 use eyereplay_sources::{read_source, ReadOptions, SourceSpec, TimeUnit, ViewingGeometry};
 use std::path::Path;
 
@@ -187,12 +187,7 @@ fn a_binary_edf_is_named_with_its_conversion() {
     bytes.extend([0u8, 7, 255, 3, 0, 0, 41]);
     std::fs::write(&p, bytes).unwrap();
     let e = read_source(
-        &SourceSpec::Eyelink {
-            path: p,
-            eye: Default::default(),
-            screen_px: None,
-            geometry: ViewingGeometry::default(),
-        },
+        &eyelink_spec(p, Default::default()),
         &ReadOptions::default(),
     )
     .unwrap_err()
@@ -394,8 +389,15 @@ fn bids_geometry_from_the_config_outranks_the_sidecar() {
 /// missing sidecar is named.
 #[test]
 fn bids_sidecars_are_inherited_inside_a_dataset() {
-    let dir = tempfile::tempdir().unwrap();
-    let root = dir.path();
+    // Named by a relative path, as a config or a script in the dataset's
+    // folder names it (the test's folder is the package's): the folders
+    // above are found all the same.
+    let dir = tempfile::Builder::new()
+        .prefix("bids-inherit-")
+        .tempdir_in(".")
+        .unwrap();
+    let root = Path::new(dir.path().file_name().unwrap());
+    assert!(root.is_relative() && root.is_dir());
     let beh = root.join("sub-01/beh");
     std::fs::create_dir_all(&beh).unwrap();
     let spec = bids_spec(

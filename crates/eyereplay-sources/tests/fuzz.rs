@@ -7,7 +7,7 @@
 //! it for a longer local run.
 
 mod common;
-use common::csv_spec;
+use common::{csv_spec, eyelink_spec};
 use eyereplay_sources::{
     read_source, EyeChoice, ReadOptions, Recording, SourceSpec, TimeUnit, ViewingGeometry,
 };
@@ -280,12 +280,7 @@ fn eyelink_asc_survives_mutation() {
             "rec.asc",
             s.as_bytes(),
             10 + k as u64,
-            |path| SourceSpec::Eyelink {
-                path,
-                eye,
-                screen_px: None,
-                geometry: ViewingGeometry::default(),
-            },
+            |path| eyelink_spec(path, eye),
             no_extra,
         );
     }

@@ -2,6 +2,8 @@
 //! `.cache/data`. Without them these tests are listed as ignored, with the
 //! reason; with `CI` set the build fails instead (build.rs).
 
+mod common;
+use common::eyelink_spec;
 use eyereplay_core::NormPos;
 use eyereplay_sources::{
     read_source, screen::screen_to_iris, EyeChoice, EyeGains, ReadOptions, Recording,
@@ -68,12 +70,7 @@ fn eyelink_asc_agrees_with_syelinks_own_parser() {
         data("syelink/left_eye.asc"),
         data("syelink/left_eye_samples.csv"),
     );
-    let rec = one(SourceSpec::Eyelink {
-        path: asc,
-        eye: EyeChoice::Left,
-        screen_px: None,
-        geometry: ViewingGeometry::default(),
-    });
+    let rec = one(eyelink_spec(asc, EyeChoice::Left));
     assert_eq!(rec.kind, RecordingKind::EyeTracker);
     assert!((rec.rate_hz - 500.0).abs() < 1e-6, "{}", rec.rate_hz);
     // DISPLAY_COORDS 0 0 1279 1023 -> 1280 px wide at the default geometry.
@@ -107,12 +104,7 @@ fn eyelink_asc_agrees_with_syelinks_own_parser() {
     // 350789"; the samples just before the blink swing down past the
     // 1024-px display (y 841.8 at 350589, 1408.5 at 350597) and are not
     // the gaze. Those of the saccade are flagged, the ones before it not.
-    let both = one(SourceSpec::Eyelink {
-        path: data("syelink/both_eyes.asc"),
-        eye: EyeChoice::Left,
-        screen_px: None,
-        geometry: ViewingGeometry::default(),
-    });
+    let both = one(eyelink_spec(data("syelink/both_eyes.asc"), EyeChoice::Left));
     let at = |t_ms: f64| {
         both.segments
             .iter()
@@ -132,12 +124,7 @@ fn eyelink_asc_agrees_with_syelinks_own_parser() {
     // The right eye of a left-eye recording: said as the config spells it,
     // with the eye the file has.
     let e = eyereplay_sources::read_source(
-        &SourceSpec::Eyelink {
-            path: data("syelink/left_eye.asc"),
-            eye: EyeChoice::Right,
-            screen_px: None,
-            geometry: ViewingGeometry::default(),
-        },
+        &eyelink_spec(data("syelink/left_eye.asc"), EyeChoice::Right),
         &ReadOptions::default(),
     )
     .unwrap_err()
@@ -155,12 +142,7 @@ fn eyelink_asc_agrees_with_syelinks_own_parser() {
 )]
 fn binocular_asc_mean_lies_between_the_eyes() {
     let asc = data("syelink/both_eyes.asc");
-    let spec = |eye| SourceSpec::Eyelink {
-        path: asc.clone(),
-        eye,
-        screen_px: None,
-        geometry: ViewingGeometry::default(),
-    };
+    let spec = |eye| eyelink_spec(asc.clone(), eye);
     let (l, r, m) = (
         one(spec(EyeChoice::Left)),
         one(spec(EyeChoice::Right)),
@@ -193,12 +175,7 @@ fn bids_physio_matches_the_same_samples_as_asc() {
         screen_px: None,
         geometry: ViewingGeometry::default(),
     });
-    let a = one(SourceSpec::Eyelink {
-        path: asc,
-        eye: EyeChoice::Left,
-        screen_px: None,
-        geometry: ViewingGeometry::default(),
-    });
+    let a = one(eyelink_spec(asc, EyeChoice::Left));
     let valid = |r: &Recording| -> Vec<(f64, NormPos)> {
         r.segments
             .iter()
@@ -241,12 +218,7 @@ fn generic_csv_with_named_columns_matches_asc() {
         },
         &ReadOptions::default(),
     );
-    let a = one(SourceSpec::Eyelink {
-        path: asc,
-        eye: EyeChoice::Left,
-        screen_px: None,
-        geometry: ViewingGeometry::default(),
-    });
+    let a = one(eyelink_spec(asc, EyeChoice::Left));
     let v = r.unwrap();
     let valid = |r: &Recording| -> usize {
         r.segments
