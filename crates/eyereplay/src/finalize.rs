@@ -93,9 +93,14 @@ pub fn finalize_with_progress(
             ),
         ));
     }
-    let browser = check_backend_files(dir, &meta.dataset, &jobs)?
-        == eyereplay_dataset::RenderBackend::Browser;
-    check_truth_values(&jobs, browser)?;
+    let meta_path = dir.join(eyereplay_dataset::layout::METADATA_FILE);
+    let settings =
+        eyereplay_dataset::RenderSettings::from_config(&meta.dataset.config, &meta_path)?;
+    check_backend_files(dir, &settings, meta.dataset.session_frames, &jobs)?;
+    check_truth_values(
+        &jobs,
+        settings.backend.kind() == eyereplay_dataset::RenderBackend::Browser,
+    )?;
     let sessions = jobs
         .iter()
         .map(|j| {
@@ -190,11 +195,10 @@ fn check_trajectories(dir: &Path, meta: &DatasetMetadata, jobs: &[SessionJob]) -
 /// `session_frames` rows.
 fn check_backend_files(
     dir: &Path,
-    meta: &DatasetMetadata,
+    settings: &eyereplay_dataset::RenderSettings,
+    session_frames: usize,
     jobs: &[SessionJob],
-) -> Result<eyereplay_dataset::RenderBackend> {
-    let meta_path = dir.join(eyereplay_dataset::layout::METADATA_FILE);
-    let settings = eyereplay_dataset::RenderSettings::from_config(&meta.config, &meta_path)?;
+) -> Result<()> {
     let files: Vec<PathBuf> = jobs
         .iter()
         .flat_map(|j| {
@@ -204,14 +208,13 @@ fn check_backend_files(
     check_rows(
         dir,
         &files,
-        meta.session_frames,
+        session_frames,
         &format!(
             "of the sessions' own files of the {} backend",
             settings.backend.kind().name()
         ),
         "rerun the shard(s) that own them with the same command",
-    )?;
-    Ok(settings.backend.kind())
+    )
 }
 
 /// Every truth file reads as numbers, finite ones: a damaged or edited
