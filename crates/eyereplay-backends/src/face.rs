@@ -341,10 +341,13 @@ impl SessionBackend for FaceBackend {
         // position, which nothing else would say (its identity file only
         // lacks `mapping.extractor_response`).
         if settings.extractor.match_extractor && matched.response.is_none() {
+            let why = matched.refused.map_or_else(
+                || "its reads too noisy, or the eyes too small or cut off by the frame".to_string(),
+                |r| r.to_string(),
+            );
             progress.warn(&format!(
-                "{}: the probe clip gave no usable fit of how the extractor reads this \
-                 identity (its reads too noisy, or the eyes too small or cut off by the \
-                 frame); drawn at the geometric position, not matched to the extractor",
+                "{}: drawn at the geometric position, not matched to the extractor: the probe \
+                 clip gave no usable fit of how the extractor reads this identity: {why}",
                 files.file
             ));
         }

@@ -259,7 +259,7 @@ pub fn output_csv_paths(
     }
     if !single_file && out.exists() && !out.is_dir() {
         return Err(ExtractError::Output(format!(
-            "--out {} is a file that is not a .csv; give a .csv file (one video) or a folder",
+            "{}: the output is a file that is not a .csv; give a .csv file (one video) or a folder",
             out.display()
         )));
     }
@@ -269,7 +269,7 @@ pub fn output_csv_paths(
     if !single_file && !out.exists() {
         if let Some(ext) = out.extension() {
             return Err(ExtractError::Output(format!(
-                "--out {} names a .{} file; extraction writes CSV: give a .csv file (one video) or a folder (an existing one, or a name without an extension)",
+                "{}: the output names a .{} file; extraction writes CSV: give a .csv file (one video) or a folder (an existing one, or a name without an extension)",
                 out.display(),
                 ext.to_string_lossy()
             )));
@@ -277,7 +277,7 @@ pub fn output_csv_paths(
     }
     if single_file && out.is_dir() {
         return Err(ExtractError::Output(format!(
-            "--out {} is a folder named .csv; give a file name or another folder",
+            "{}: the output is a folder named .csv; give a file name or another folder",
             out.display()
         )));
     }
@@ -391,7 +391,7 @@ mod tests {
         let e = output_csv_paths(&txt, &[v("a.mp4")])
             .unwrap_err()
             .to_string();
-        assert!(e.contains("out.txt names a .txt file"), "{e}");
+        assert!(e.contains("out.txt: the output names a .txt file"), "{e}");
         assert!(!d.path().join("x").exists(), "nothing made");
         // A folder with a dot in its name is taken once it exists.
         let dotted = d.path().join("run.v2");

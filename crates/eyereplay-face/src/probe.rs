@@ -233,9 +233,47 @@ fn read_clip(
 /// and pitch) at once. `None` with too few reads, a singular design, or an
 /// implausible response ([`ResponseMap::checked`]).
 fn fit_joint(reads: &[ClipRead]) -> Option<(ResponseMap, [[f64; 2]; 2])> {
+    fit_joint_or_why(reads).ok()
+}
+
+/// Why a probe found no usable response map: what `generate`'s warning
+/// says of a session drawn at the geometric position.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ProbeRefusal {
+    /// The extractor saw open eyes in this many of the clip's frames.
+    TooFewReads(usize),
+    /// The reads do not determine the map (the eye read as if still).
+    Undetermined,
+    /// A map no extractor reading an eye has
+    /// ([`ResponseMap::checked`]): its gains and cross terms, as fitted.
+    Implausible { a: [[f64; 2]; 2] },
+}
+
+impl std::fmt::Display for ProbeRefusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ProbeRefusal::TooFewReads(n) => {
+                write!(f, "the extractor found open eyes in only {n} of its frames")
+            }
+            ProbeRefusal::Undetermined => {
+                write!(f, "its reads do not follow the drawn eye (too noisy)")
+            }
+            ProbeRefusal::Implausible { a } => write!(
+                f,
+                "it read the eye's movement at {:.2} of its size horizontally and {:.2} \
+vertically, cross terms {:.2} and {:.2}, where a match needs gains from 0.25 to 4 and cross \
+terms of at most 0.5 (eyes small in the frame read this way)",
+                a[0][0], a[1][1], a[0][1], a[1][0]
+            ),
+        }
+    }
+}
+
+/// [`fit_joint`], or why there is no fit.
+fn fit_joint_or_why(reads: &[ClipRead]) -> Result<(ResponseMap, [[f64; 2]; 2]), ProbeRefusal> {
     use nalgebra::{SMatrix, SVector};
     if reads.len() < 10 {
-        return None;
+        return Err(ProbeRefusal::TooFewReads(reads.len()));
     }
     let mut g = SMatrix::<f64, 5, 5>::zeros();
     let mut r = [SVector::<f64, 5>::zeros(); 2];
@@ -246,17 +284,21 @@ fn fit_joint(reads: &[ClipRead]) -> Option<(ResponseMap, [[f64; 2]; 2])> {
         r[1] += v * m.ny;
     }
     let lu = g.lu();
-    let (x, y) = (lu.solve(&r[0])?, lu.solve(&r[1])?);
+    let (Some(x), Some(y)) = (lu.solve(&r[0]), lu.solve(&r[1])) else {
+        return Err(ProbeRefusal::Undetermined);
+    };
     if !x.iter().chain(y.iter()).all(|v| v.is_finite()) {
-        return None;
+        return Err(ProbeRefusal::Undetermined);
     }
-    let map = ResponseMap {
+    let fitted = ResponseMap {
         a: [[x[0], x[1]], [y[0], y[1]]],
         b: [x[4], y[4]],
-    }
-    .checked()?;
+    };
+    let map = fitted
+        .checked()
+        .ok_or(ProbeRefusal::Implausible { a: fitted.a })?;
     let q = |v: f64| (v * 1e5).round() / 1e5;
-    Some((map, [[q(x[2]), q(x[3])], [q(y[2]), q(y[3])]]))
+    Ok((map, [[q(x[2]), q(x[3])], [q(y[2]), q(y[3])]]))
 }
 
 /// What `match_extractor` measures for one session: the response map
@@ -267,6 +309,8 @@ pub struct ExtractorMatch {
     /// d(nx, ny) / d(head yaw, pitch) per degree (rows nx, ny; columns yaw,
     /// pitch), in measured units; subtracted per frame.
     pub pose_slopes: Option<[[f64; 2]; 2]>,
+    /// Without a response: why the probe's last try gave none.
+    pub refused: Option<ProbeRefusal>,
 }
 
 /// How the extractor reads this session's identity, framing and look, over
@@ -290,6 +334,7 @@ pub fn match_extractor(
     targets: &[NormPos],
     head: &ProbeHeadRange,
 ) -> Result<ExtractorMatch> {
+    let mut refused = None;
     'span: for span in [MIN_SPAN, RETRY_SPAN] {
         let (grid, centre) = grid(targets, span);
         let order = clip_order(&grid);
@@ -303,19 +348,26 @@ pub fn match_extractor(
             };
             let first_frame = pass * order.len() * HOLD_FRAMES;
             read_clip(scene, look, head, fitter, &drawn, first_frame, &mut reads)?;
-            match fit_joint(&reads) {
-                Some((m, slopes)) => fit = Some((m.about(centre), slopes)),
-                None => continue 'span,
+            match fit_joint_or_why(&reads) {
+                Ok((m, slopes)) => fit = Some((m.about(centre), slopes)),
+                Err(why) => {
+                    refused = Some(why);
+                    continue 'span;
+                }
             }
         }
         if let Some((map, slopes)) = fit {
             return Ok(ExtractorMatch {
                 response: Some(map),
                 pose_slopes: Some(slopes),
+                refused: None,
             });
         }
     }
-    Ok(ExtractorMatch::default())
+    Ok(ExtractorMatch {
+        refused,
+        ..ExtractorMatch::default()
+    })
 }
 
 /// The least open-eye frames a session's read-back must give for
@@ -356,6 +408,7 @@ pub fn refine_match(targets: &[NormPos], reads: &[SessionRead]) -> Option<Extrac
     Some(ExtractorMatch {
         response: Some(map.about(centre)),
         pose_slopes: Some(slopes),
+        refused: None,
     })
 }
 
@@ -396,6 +449,33 @@ mod tests {
                 (d, h, m)
             })
             .collect()
+    }
+
+    #[test]
+    fn a_refused_fit_says_why_with_the_gains_it_measured() {
+        // An extractor that reads the vertical movement at a fifth of its
+        // size (a small face): the map is fitted exactly, then refused by
+        // ResponseMap::checked, and the refusal carries the gains.
+        let reads = exact_reads([[0.62, 0.01], [-0.02, 0.2]], [[0.0; 2]; 2], [0.2, 0.3]);
+        let Err(ProbeRefusal::Implausible { a }) = fit_joint_or_why(&reads) else {
+            panic!("a gain of 0.2 must be refused");
+        };
+        assert!(
+            (a[1][1] - 0.2).abs() < 1e-6 && (a[0][0] - 0.62).abs() < 1e-6,
+            "{a:?}"
+        );
+        let said = ProbeRefusal::Implausible { a }.to_string();
+        assert!(
+            said.contains("0.62 of its size horizontally and 0.20 vertically"),
+            "{said}"
+        );
+        assert_eq!(
+            fit_joint_or_why(&reads[..9]),
+            Err(ProbeRefusal::TooFewReads(9))
+        );
+        // At 0.3 the same reads give a map.
+        let reads = exact_reads([[0.62, 0.01], [-0.02, 0.3]], [[0.0; 2]; 2], [0.2, 0.3]);
+        assert!(fit_joint_or_why(&reads).is_ok());
     }
 
     #[test]

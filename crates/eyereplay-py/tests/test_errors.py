@@ -1,6 +1,7 @@
 """Errors are Python exceptions, one class per kind, carrying the command
 line's one-line messages, and nothing is left half-written."""
 
+import io
 import json
 import re
 import shutil
@@ -252,6 +253,12 @@ def test_a_video_cut_off_part_way_warns_with_its_name(tmp_path):
     pattern = r"cut\.mp4: the frames end at [0-9.]+ s of the 8\.[0-5] s"
     assert any(re.search(pattern, str(w.message)) for w in said), [str(w.message) for w in said]
     assert 0 < len(t["frame"]) < 8 * 24
+    # Said from the library's worker thread, named at the caller's line
+    # (warnings.warn alone would have named "sys:1").
+    assert {w.filename for w in said} == {__file__}, [(w.filename, w.lineno) for w in said]
+    with pytest.warns(eyereplay.EyereplayWarning) as said:
+        eyereplay.extract(cut, progress=eyereplay.ProgressBar(stream=io.StringIO()))
+    assert {w.filename for w in said} == {__file__}, [(w.filename, w.lineno) for w in said]
 
 
 def test_frames_out_of_range_are_named_not_empty_or_shifted(tmp_path):

@@ -184,7 +184,13 @@ def test_evaluate_returns_metrics_json(datasets):
     # extraction: begun, frames advanced, ended.
     names = [e[:2] for e in rec.events]
     assert ("begin", "extract") in names and ("end", "extract") in names, names
-    assert sum(e[1] for e in rec.events if e[0] == "advance") >= 2 * 100
+    # Its total is known before the first video opens (one session per
+    # class, 100 frames each), not grown video by video, and the frames
+    # read add up to it.
+    i, j = names.index(("begin", "extract")), names.index(("end", "extract"))
+    assert rec.events[i][2] == 2 * 100, rec.events[i]
+    assert not any(e[0] == "add_total" for e in rec.events[i:j])
+    assert sum(e[1] for e in rec.events[i:j] if e[0] == "advance") == 2 * 100
     html = m.pop("report_html")
     assert Path(html).name == "index.html"
     c = m.pop("checks")
@@ -195,6 +201,14 @@ def test_evaluate_returns_metrics_json(datasets):
     ds = [metric["ks_d"] for cls in ("reading", "conversation")
           for metric in m["distribution"][cls].values() if metric.get("ks_d") is not None]
     assert len(ds) >= 4 and all(0.0 <= d <= 1.0 for d in ds)
+    # The visual section reads the first reading session, which the table
+    # reads too: read once, counted once.
+    rec = Recorder()
+    eyereplay.evaluate(py, progress=rec)
+    names = [e[:2] for e in rec.events]
+    i, j = names.index(("begin", "extract")), names.index(("end", "extract"))
+    assert rec.events[i][2] == 2 * 100, rec.events[i]
+    assert sum(e[1] for e in rec.events[i:j] if e[0] == "advance") == 2 * 100
 
 
 def test_load_dataset_matches_labels_and_files(datasets):

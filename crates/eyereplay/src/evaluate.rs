@@ -103,7 +103,10 @@ pub fn evaluate_with_progress(
         || opts.read_back_all
         || opts.read_back_per_class > 0;
     if reads {
-        progress.begin(eyereplay_core::Stage::Extract, 0);
+        // The whole stage's frames up front: a total that grew as each
+        // video opened showed a bar near its end at every video.
+        let total = planned_read_back_frames(dir, opts, &ev);
+        progress.begin(eyereplay_core::Stage::Extract, total);
         progress.status("(reading the videos back)");
     }
     let read = evaluate_read_backs(dir, opts, &mut ev, &memo);
@@ -118,6 +121,45 @@ pub fn evaluate_with_progress(
         metrics_path: paths.metrics,
         metrics_json,
     })
+}
+
+/// The frames [`evaluate_read_backs`] will read, chosen as it chooses
+/// them (the visual section's session, then each class's first sessions
+/// with a video) and counted once per video and frame count, as
+/// [`ReadBackMemo`] reads them. A session that cannot be read is left to
+/// the read-back itself to report.
+fn planned_read_back_frames(dir: &Path, opts: &EvaluateOptions, ev: &Evaluation) -> u64 {
+    let frames_of = |t: &VisualTarget| {
+        read_session_csv(&t.trajectory)
+            .ok()
+            .map(|rows: Vec<CanvasPos>| rows.len())
+    };
+    let mut reads: Vec<(PathBuf, usize)> = vec![];
+    if !matches!(opts.visual, VisualChoice::Skip) {
+        if let Ok(Ok(t)) = visual_target(dir, &opts.visual, ev) {
+            if let Some(len) = frames_of(&t) {
+                let n = ((opts.visual_seconds * ev.fps).round() as usize).min(len);
+                reads.push((t.video, n));
+            }
+        }
+    }
+    let per_class = if opts.read_back_all {
+        usize::MAX
+    } else {
+        opts.read_back_per_class
+    };
+    for class in &ev.classes {
+        let sessions = class.events.iter().filter_map(|(file, _)| {
+            match visual_target(dir, &VisualChoice::Session(file.clone()), ev) {
+                Ok(Ok(t)) => frames_of(&t).map(|len| (t.video, len)),
+                _ => None,
+            }
+        });
+        reads.extend(sessions.take(per_class));
+    }
+    reads.sort();
+    reads.dedup();
+    reads.iter().map(|(_, n)| *n as u64).sum()
 }
 
 /// The visual section and the table of sessions read back.
@@ -694,14 +736,47 @@ impl ReadBackMemo<'_> {
         {
             return Ok(Ok(r.clone()));
         }
-        let frames = eyereplay_extract::StageFrames(self.progress);
-        let r = read_back(dir, video, models, n, fps, geometry, &frames)?;
+        let frames = ReadBackFrames {
+            progress: self.progress,
+            planned: n as u64,
+            done: Default::default(),
+        };
+        let r = read_back(dir, video, models, n, fps, geometry, &frames);
+        // The rest of its planned frames, however the read went (a 4-s
+        // trial then the eye crops, or an error), so the bar keeps to its
+        // total.
+        let done = frames.done.load(std::sync::atomic::Ordering::Relaxed);
+        self.progress.advance(frames.planned.saturating_sub(done));
+        let r = r?;
         if let Ok(r) = &r {
             self.done
                 .borrow_mut()
                 .push((video.to_path_buf(), n, r.clone()));
         }
         Ok(r)
+    }
+}
+
+/// One read-back's frames on the stage's bar, at most the `planned` ones
+/// [`planned_read_back_frames`] counted for it: a close-up read first for
+/// 4 s, then whole, reads some frames twice.
+struct ReadBackFrames<'a> {
+    progress: &'a dyn eyereplay_core::Progress,
+    planned: u64,
+    done: std::sync::atomic::AtomicU64,
+}
+
+impl eyereplay_extract::Progress for ReadBackFrames<'_> {
+    fn advance(&self, _video: usize, n: u64) {
+        use std::sync::atomic::Ordering::Relaxed;
+        let before = self
+            .done
+            .fetch_update(Relaxed, Relaxed, |d| Some((d + n).min(self.planned)))
+            .expect("the closure always returns Some");
+        let step = (before + n).min(self.planned) - before;
+        if step > 0 {
+            self.progress.advance(step);
+        }
     }
 }
 

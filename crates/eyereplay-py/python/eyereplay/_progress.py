@@ -10,6 +10,7 @@ those methods as ``progress=`` to route them elsewhere.
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 import time
@@ -82,7 +83,7 @@ class ProgressBar:
             print(line, file=self._stream)
 
     def warn(self, line: str) -> None:
-        warnings.warn(line.removeprefix("warning: "), EyereplayWarning, stacklevel=2)
+        _warn_at(getattr(self, "_site", None), line)
 
     # A bar of '=', redrawn in place with '\r' every 0.2 s at most in a
     # terminal; elsewhere a line every 10 s, and the last one.
@@ -127,8 +128,35 @@ def _ignore(*_args) -> None:
     pass
 
 
-def _warn(line: str) -> None:
-    warnings.warn(line.removeprefix("warning: "), EyereplayWarning, stacklevel=3)
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
+
+
+def _user_site():
+    """The first frame outside this package on the calling stack: where
+    the user called eyereplay. The library warns from its worker threads,
+    whose stack has no Python caller (``warnings.warn`` then names
+    ``sys:1``), so the site is taken when the call starts."""
+    f = sys._getframe(1)
+    while f is not None and os.path.dirname(os.path.abspath(f.f_code.co_filename)) == _PACKAGE_DIR:
+        f = f.f_back
+    return None if f is None else (f.f_code.co_filename, f.f_lineno, f.f_globals)
+
+
+def _warn_at(site, line: str) -> None:
+    message = line.removeprefix("warning: ")
+    if site is None:
+        warnings.warn(message, EyereplayWarning, stacklevel=3)
+        return
+    filename, lineno, module_globals = site
+    warnings.warn_explicit(
+        message,
+        EyereplayWarning,
+        filename,
+        lineno,
+        module=module_globals.get("__name__", "<unknown>"),
+        registry=module_globals.setdefault("__warningregistry__", {}),
+        module_globals=module_globals,
+    )
 
 
 class _Partial:
@@ -139,8 +167,11 @@ class _Partial:
 
     def __init__(self, target, have):
         for name in _METHODS:
-            fallback = _warn if name == "warn" else _ignore
+            fallback = self._warn if name == "warn" else _ignore
             setattr(self, name, getattr(target, name) if name in have else fallback)
+
+    def _warn(self, line: str) -> None:
+        _warn_at(getattr(self, "_site", None), line)
 
 
 def resolve(progress):
@@ -150,18 +181,28 @@ def resolve(progress):
     methods do nothing); anything else is a ``TypeError``, before any work
     starts."""
     if progress is True:
-        return ProgressBar()
+        bar = ProgressBar()
+        bar._site = _user_site()
+        return bar
     if progress is False or progress is None:
         # No bar, but warnings still become EyereplayWarning: a script
         # that turns the bar off must still hear that a video was cut off.
-        return _Partial(None, [])
+        quiet = _Partial(None, [])
+        quiet._site = _user_site()
+        return quiet
     have = [m for m in _METHODS if callable(getattr(progress, m, None))]
     if not have:
         raise TypeError(
             f"progress: expected True, False, None or an object with the methods "
             f"{', '.join(_METHODS)}; got {type(progress).__name__} {progress!r:.40}"
         )
-    return progress if len(have) == len(_METHODS) else _Partial(progress, have)
+    if len(have) == len(_METHODS):
+        if isinstance(progress, ProgressBar):
+            progress._site = _user_site()
+        return progress
+    partial = _Partial(progress, have)
+    partial._site = _user_site()
+    return partial
 
 
 class _Guarded:
