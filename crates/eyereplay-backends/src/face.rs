@@ -342,12 +342,12 @@ impl SessionBackend for FaceBackend {
         // lacks `mapping.extractor_response`).
         if settings.extractor.match_extractor && matched.response.is_none() {
             let why = matched.refused.map_or_else(
-                || "its reads too noisy, or the eyes too small or cut off by the frame".to_string(),
+                || "the eyes too small, or cut off by the frame".to_string(),
                 |r| r.to_string(),
             );
             progress.warn(&format!(
-                "{}: drawn at the geometric position, not matched to the extractor: the probe \
-                 clip gave no usable fit of how the extractor reads this identity: {why}",
+                "{}: drawn at the geometric position, not matched to the extractor, as the \
+                 probe clip gave no usable fit of how the extractor reads this identity: {why}",
                 files.file
             ));
         }

@@ -242,7 +242,8 @@ fn fit_joint(reads: &[ClipRead]) -> Option<(ResponseMap, [[f64; 2]; 2])> {
 pub enum ProbeRefusal {
     /// The extractor saw open eyes in this many of the clip's frames.
     TooFewReads(usize),
-    /// The reads do not determine the map (the eye read as if still).
+    /// The reads do not determine the map: the frames where the eyes were
+    /// found do not vary enough in drawn position and head pose.
     Undetermined,
     /// A map no extractor reading an eye has
     /// ([`ResponseMap::checked`]): its gains and cross terms, as fitted.
@@ -256,7 +257,10 @@ impl std::fmt::Display for ProbeRefusal {
                 write!(f, "the extractor found open eyes in only {n} of its frames")
             }
             ProbeRefusal::Undetermined => {
-                write!(f, "its reads do not follow the drawn eye (too noisy)")
+                write!(
+                    f,
+                    "the frames where it found the eyes do not span the positions the clip drew"
+                )
             }
             ProbeRefusal::Implausible { a } => write!(
                 f,
