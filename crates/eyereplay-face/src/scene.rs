@@ -943,10 +943,10 @@ impl FaceScene {
     /// triangles, stretched over the eye, carried the photo's lashes and
     /// the band its iris was taken out of: a pale curtain with dark holes
     /// at full closure, streaks before it. The band between the open lid
-    /// and the closing one is painted instead with the lid's own skin,
-    /// read in this frame just above the open lid (past its lashes) and
-    /// smoothed along it, darkening to a lash line at the closing margin;
-    /// faded in over the first quarter of the closure.
+    /// and the closing one is painted instead with the face's skin beside
+    /// the eye, read in this frame just below the lower lid (past its
+    /// lashes) and smoothed along it, darkening to a lash line at the
+    /// closing margin; faded in over the first quarter of the closure.
     fn draw_closed_lid(&self, state: &FaceState, k: usize, now: &Opening, frame: &mut RgbImage) {
         let weight = ((state.closure - 0.02) / 0.23).clamp(0.0, 1.0) as f32;
         if weight <= 0.0 {
@@ -967,23 +967,30 @@ impl FaceScene {
         if x1 <= x0 + 1 || eye_w < 4.0 {
             return;
         }
-        // Past the lashes, then a band of lid skin.
+        // Past the lashes, then a band of skin.
         let gap = (0.08 * eye_w).max(1.0);
         let band = (0.10 * eye_w).max(1.0);
         let lash = (0.05 * eye_w).max(1.0);
+        let mean_of = |x: usize, ya: f64, yb: f64| -> [f32; 3] {
+            let (ya, yb) = (ya.floor().max(0.0), yb.floor().max(0.0));
+            let (ya, yb) = ((ya as usize).min(h - 1), (yb as usize).min(h - 1));
+            let mut sum = [0f32; 3];
+            for y in ya..=yb {
+                let p = frame.pixel(x, y);
+                for c in 0..3 {
+                    sum[c] += p[c] as f32;
+                }
+            }
+            sum.map(|v| v / (yb - ya + 1) as f32)
+        };
+        // Read below the lower lid, past its lashes: the skin above the
+        // eye is the crease's shadow in deep-set eyes, and by now the
+        // closing lid's triangles have pulled it down over the eye (grey
+        // lids, dark smudges by the nose when it was read there).
         let skin: Vec<[f32; 3]> = (x0..x1)
             .map(|x| {
-                let top = open.lid_y_at(true, x as f64 + 0.5) - gap;
-                let (ya, yb) = ((top - band).floor().max(0.0), top.floor().max(0.0));
-                let (ya, yb) = ((ya as usize).min(h - 1), (yb as usize).min(h - 1));
-                let mut sum = [0f32; 3];
-                for y in ya..=yb {
-                    let p = frame.pixel(x, y);
-                    for c in 0..3 {
-                        sum[c] += p[c] as f32;
-                    }
-                }
-                sum.map(|v| v / (yb - ya + 1) as f32)
+                let low = open.lid_y_at(false, x as f64 + 0.5) + gap;
+                mean_of(x, low, low + band)
             })
             .collect();
         // Smoothed along the lid: the skin's shading stays, a stray
@@ -1001,22 +1008,27 @@ impl FaceScene {
                 sum.map(|v| v / (b - a) as f32)
             })
             .collect();
+        // Faded in over a quarter of the eye's width above the open lid's
+        // line: the crease's texture the closing lid drags down is
+        // covered, the brow is not.
+        let ramp = (0.25 * eye_w).max(gap);
         for x in x0..x1 {
             let xc = x as f64 + 0.5;
-            let top = open.lid_y_at(true, xc) - gap;
+            let upper = open.lid_y_at(true, xc);
             let margin = now.lid_y_at(true, xc);
-            if margin <= top {
+            if margin <= upper - gap {
                 continue;
             }
-            let ya = top.floor().max(0.0) as usize;
+            let start = upper - ramp;
+            let ya = start.floor().max(0.0) as usize;
             let yb = (margin.ceil().max(0.0) as usize).min(h);
             let col = smooth[x - x0];
             for y in ya..yb {
                 let yc = y as f64 + 0.5;
-                // In from the top over `gap`, out below the margin's
+                // In from `start` over `ramp`, out below the margin's
                 // pixel; darker over the last `lash` px above the margin.
                 let cover =
-                    ((yc - top) / gap).clamp(0.0, 1.0) * (margin - yc + 0.5).clamp(0.0, 1.0);
+                    ((yc - start) / ramp).clamp(0.0, 1.0) * (margin - yc + 0.5).clamp(0.0, 1.0);
                 let dark = 1.0 - 0.55 * (1.0 - ((margin - yc) / lash).clamp(0.0, 1.0));
                 let a = weight * cover as f32;
                 if a <= 0.0 {
