@@ -55,6 +55,18 @@ pub struct EvaluateOptions {
     pub read_back_per_class: usize,
 }
 
+impl EvaluateOptions {
+    /// The sessions of each class read back whole: every one with
+    /// `read_back_all`, else `read_back_per_class`.
+    fn sessions_read_back_per_class(&self) -> usize {
+        if self.read_back_all {
+            usize::MAX
+        } else {
+            self.read_back_per_class
+        }
+    }
+}
+
 impl Default for EvaluateOptions {
     fn default() -> Self {
         EvaluateOptions {
@@ -99,9 +111,8 @@ pub fn evaluate_with_progress(
         progress,
     };
     // A bar only where videos are read (not with --no-visual --read-back 0).
-    let reads = !matches!(opts.visual, VisualChoice::Skip)
-        || opts.read_back_all
-        || opts.read_back_per_class > 0;
+    let reads =
+        !matches!(opts.visual, VisualChoice::Skip) || opts.sessions_read_back_per_class() > 0;
     if reads {
         // The whole stage's frames up front: a total that grew as each
         // video opened showed a bar near its end at every video.
@@ -126,36 +137,34 @@ pub fn evaluate_with_progress(
 /// The frames [`evaluate_read_backs`] will read, chosen as it chooses
 /// them (the visual section's session, then each class's first sessions
 /// with a video) and counted once per video and frame count, as
-/// [`ReadBackMemo`] reads them. A session that cannot be read is left to
-/// the read-back itself to report.
+/// [`ReadBackMemo`] reads them. A dataset session has `ev.session_frames`
+/// (its loader checked every CSV); a session that cannot be read is left
+/// to the read-back itself to report.
 fn planned_read_back_frames(dir: &Path, opts: &EvaluateOptions, ev: &Evaluation) -> u64 {
-    let frames_of = |t: &VisualTarget| {
-        read_session_csv(&t.trajectory)
-            .ok()
-            .map(|rows: Vec<CanvasPos>| rows.len())
-    };
+    let visual_n = |len: usize| ((opts.visual_seconds * ev.fps).round() as usize).min(len);
     let mut reads: Vec<(PathBuf, usize)> = vec![];
-    if !matches!(opts.visual, VisualChoice::Skip) {
-        if let Ok(Ok(t)) = visual_target(dir, &opts.visual, ev) {
-            if let Some(len) = frames_of(&t) {
-                let n = ((opts.visual_seconds * ev.fps).round() as usize).min(len);
-                reads.push((t.video, n));
+    match &opts.visual {
+        VisualChoice::Skip => {}
+        // Another renderer's video: its own trajectory's length.
+        VisualChoice::Video { video, trajectory } => {
+            if let Ok(rows) = read_session_csv(trajectory) {
+                reads.push((video.clone(), visual_n(rows.len())));
+            }
+        }
+        choice => {
+            if let Ok(Ok(t)) = visual_target(dir, choice, ev) {
+                reads.push((t.video, visual_n(ev.session_frames)));
             }
         }
     }
-    let per_class = if opts.read_back_all {
-        usize::MAX
-    } else {
-        opts.read_back_per_class
-    };
     for class in &ev.classes {
-        let sessions = class.events.iter().filter_map(|(file, _)| {
-            match visual_target(dir, &VisualChoice::Session(file.clone()), ev) {
-                Ok(Ok(t)) => frames_of(&t).map(|len| (t.video, len)),
-                _ => None,
-            }
-        });
-        reads.extend(sessions.take(per_class));
+        let sessions = class
+            .events
+            .iter()
+            .filter_map(|(file, _)| SessionPaths::new(dir, file).ok())
+            .filter(|p| p.mp4.is_file())
+            .map(|p| (p.mp4, ev.session_frames));
+        reads.extend(sessions.take(opts.sessions_read_back_per_class()));
     }
     reads.sort();
     reads.dedup();
@@ -175,11 +184,7 @@ fn evaluate_read_backs(
         },
         choice => visual_section(dir, choice, opts, ev, memo)?,
     };
-    let per_class = if opts.read_back_all {
-        usize::MAX
-    } else {
-        opts.read_back_per_class
-    };
+    let per_class = opts.sessions_read_back_per_class();
     if per_class > 0 {
         ev.sessions_read_back = sessions_read_back(dir, opts, ev, per_class, memo)?;
     }

@@ -181,28 +181,24 @@ def resolve(progress):
     methods do nothing); anything else is a ``TypeError``, before any work
     starts."""
     if progress is True:
-        bar = ProgressBar()
-        bar._site = _user_site()
-        return bar
-    if progress is False or progress is None:
+        resolved = ProgressBar()
+    elif progress is False or progress is None:
         # No bar, but warnings still become EyereplayWarning: a script
         # that turns the bar off must still hear that a video was cut off.
-        quiet = _Partial(None, [])
-        quiet._site = _user_site()
-        return quiet
-    have = [m for m in _METHODS if callable(getattr(progress, m, None))]
-    if not have:
-        raise TypeError(
-            f"progress: expected True, False, None or an object with the methods "
-            f"{', '.join(_METHODS)}; got {type(progress).__name__} {progress!r:.40}"
-        )
-    if len(have) == len(_METHODS):
-        if isinstance(progress, ProgressBar):
-            progress._site = _user_site()
-        return progress
-    partial = _Partial(progress, have)
-    partial._site = _user_site()
-    return partial
+        resolved = _Partial(None, [])
+    else:
+        have = [m for m in _METHODS if callable(getattr(progress, m, None))]
+        if not have:
+            raise TypeError(
+                f"progress: expected True, False, None or an object with the methods "
+                f"{', '.join(_METHODS)}; got {type(progress).__name__} {progress!r:.40}"
+            )
+        resolved = progress if len(have) == len(_METHODS) else _Partial(progress, have)
+    # Where our own objects say the library's warnings (a user's object
+    # says them as it likes).
+    if isinstance(resolved, (ProgressBar, _Partial)):
+        resolved._site = _user_site()
+    return resolved
 
 
 class _Guarded:
