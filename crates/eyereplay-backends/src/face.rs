@@ -13,8 +13,8 @@ use eyereplay_dataset::{
 use eyereplay_face::coordination::{CoordinationParams, HeadDynamics, Task, DEFAULT_SWAY_RMS};
 use eyereplay_face::webcam::{WebcamLook, WebcamRanges};
 use eyereplay_face::{
-    default_faces_dir, CanonicalMesh, ExtractorMatch, FaceScene, FaceSessionParams, Framing,
-    PhotoFitter, PhotoIdentity, ProbeHeadRange, MESH_FILE,
+    default_faces_dir, Axis, CanonicalMesh, ExtractorMatch, FaceScene, FaceSessionParams, Framing,
+    PhotoFitter, PhotoIdentity, ProbeHeadRange, ProbeRefusal, MESH_FILE,
 };
 use eyereplay_face::{DrawnFrame, FaceSessionStats, SessionRead};
 use eyereplay_render::{EncoderSettings, GazeMapping, Identity, RenderParams, ResponseMap};
@@ -170,6 +170,11 @@ struct FaceIdentityRecord<'a> {
     /// instead (`mapping.extractor_response`, `pose_slopes`).
     #[serde(skip_serializing_if = "Option::is_none")]
     readback_match: Option<ReadbackMatchRecord>,
+    /// `horizontal` or `vertical`: the axis drawn at the geometric
+    /// position where the extractor match could match only the other
+    /// (`mapping.extractor_response` then has that axis's identity row).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    geometric_axis: Option<&'static str>,
 }
 
 /// What `render.match_readback` did for a session.
@@ -189,6 +194,10 @@ struct ReadbackMatchRecord {
     /// and the session is drawn through the probe's match (the first pass
     /// itself where it drew every frame).
     refined: bool,
+    /// The fit the session was drawn through matched one axis only: the
+    /// other, and why (the probe's where the fit was not used).
+    #[serde(skip)]
+    geometric: Option<(Axis, ProbeRefusal)>,
 }
 
 /// The full-face backend, ready to draw sessions: photos fitted, mesh
@@ -356,6 +365,7 @@ impl SessionBackend for FaceBackend {
             ..mapping
         };
         p.pose_slopes = matched.pose_slopes;
+        let probe_geometric = matched.geometric_axis.zip(matched.refused);
         let (mp4, truth) = (out.mp4(), out.truth());
         let (stats, readback_match) = if settings.match_readback && matched.response.is_some() {
             progress.status(&format!("{} (first pass, then its read-back)", files.file));
@@ -368,6 +378,7 @@ impl SessionBackend for FaceBackend {
                 &targets,
                 iris_views,
                 settings.match_readback_every,
+                probe_geometric,
             )?;
             (stats, Some(record))
         } else {
@@ -384,6 +395,20 @@ impl SessionBackend for FaceBackend {
             })?;
             (stats, None)
         };
+        // Matched on one axis only: drawn, but the reviewer should know.
+        let geometric = readback_match.map_or(probe_geometric, |r| r.geometric);
+        if let Some((axis, why)) = geometric {
+            let matched_axis = match axis {
+                Axis::Horizontal => Axis::Vertical,
+                Axis::Vertical => Axis::Horizontal,
+            };
+            progress.warn(&format!(
+                "{}: matched to the extractor {} only, and drawn at the geometric position {}: {why}",
+                files.file,
+                matched_axis.adverb(),
+                axis.adverb()
+            ));
+        }
         // What the session was drawn through in the end.
         out.write_identity(&SessionIdentity {
             file: files.file.clone(),
@@ -411,6 +436,10 @@ impl SessionBackend for FaceBackend {
                 head_motion: settings.head_motion,
                 source_head_frames: stats.source_head_frames,
                 readback_match,
+                geometric_axis: geometric.map(|(axis, _)| match axis {
+                    Axis::Horizontal => "horizontal",
+                    Axis::Vertical => "vertical",
+                }),
             },
             mapping: &p.mapping,
             width: self.width,
@@ -456,6 +485,7 @@ fn render_matched_to_readback(
     targets: &[NormPos],
     iris_views: usize,
     every: usize,
+    probe_geometric: Option<(Axis, ProbeRefusal)>,
 ) -> Result<(FaceSessionStats, ReadbackMatchRecord)> {
     let first_pass = |path: &Path| {
         let name = path.file_name().unwrap_or_default().to_string_lossy();
@@ -497,9 +527,10 @@ fn render_matched_to_readback(
         first_pass_every: every,
         frames_fitted: reads.len(),
         refined: false,
+        geometric: probe_geometric,
     };
     let Some(refit) = lap("fit the response to the read-back", || {
-        eyereplay_face::refine_match(targets, &reads)
+        eyereplay_face::refine_match(targets, &reads, probe_geometric.map(|(axis, _)| axis))
     }) else {
         if every > 1 {
             // The probe's match stands; the session is drawn whole with it.
@@ -525,6 +556,7 @@ fn render_matched_to_readback(
     };
     remove_temp();
     record.refined = true;
+    record.geometric = refit.geometric_axis.zip(refit.refused);
     p.mapping.extractor_response = refit.response;
     p.pose_slopes = refit.pose_slopes;
     p.head_path = Some(first.head_path);

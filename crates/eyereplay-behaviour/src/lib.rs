@@ -328,10 +328,20 @@ pub fn generate(person: &Person, text: &ReadingText, gains: &Gains) -> Generated
             plan.head_tau_s = person.head_tau_s;
             t.sway(&mut plan, &mut rng);
             let mut reading = person.starts_reading == Some(true);
+            let read_range = person.read_s.unwrap_or([8.0, 30.0]);
             let mut at = 0.0;
             while at < dur {
+                // An interview recording ends after an answer, not a
+                // second into one: a read answer the end would cut below
+                // the shortest answer is not started, and the candidate
+                // talks to the end instead. (A session that opens reading
+                // and is shorter than that still reads: there is nothing
+                // else it could be labelled.)
+                if reading && at > 0.0 && dur - at < read_range[0] {
+                    reading = false;
+                }
                 let len = if reading {
-                    draw(person.read_s.unwrap_or([8.0, 30.0]), &mut rng)
+                    draw(read_range, &mut rng)
                 } else {
                     draw(person.talk_s.unwrap_or([8.0, 30.0]), &mut rng)
                 };

@@ -199,7 +199,9 @@ impl Default for EyeRanges {
 pub struct InterviewRanges {
     /// Length of a free-talk stretch (a question heard, an answer given), s.
     pub talk_s: Range,
-    /// Length of a read answer, s.
+    /// Length of a read answer, s. The recording's end never cuts one
+    /// below the low end: a session ends in talk rather than a second into
+    /// an answer.
     pub read_s: Range,
     /// Chance of a glance at the camera at each line end while reading.
     pub glance_prob: Range,

@@ -154,6 +154,36 @@ fn interviews_alternate_and_label_reading() {
 }
 
 #[test]
+fn an_interview_never_ends_in_a_read_answer_shorter_than_the_shortest() {
+    // read_s = [20, 60] over 100 s: without the rule, a read answer begun
+    // near the end is cut to whatever is left (about a third of these
+    // seeds ended in one under 20 s).
+    let text = ReadingText::bundled();
+    let mut s = spec(Model::Interview);
+    s.interview = Some(eyereplay_behaviour::InterviewRanges {
+        talk_s: [10.0, 30.0],
+        read_s: [20.0, 60.0],
+        ..Default::default()
+    });
+    let mut ended_in_talk_after_reading = 0;
+    for seed in 0..30 {
+        let g = generate(
+            &draw_person(&s, seed, 100.0, "bundled"),
+            &text,
+            &Gains::default(),
+        );
+        for r in &g.reading_spans {
+            assert!(r[1] - r[0] >= 20.0 - 1e-9, "seed {seed}: {r:?}");
+        }
+        let last_end = g.reading_spans.last().map_or(0.0, |r| r[1]);
+        if last_end < 100.0 - 1e-9 && !g.reading_spans.is_empty() {
+            ended_in_talk_after_reading += 1;
+        }
+    }
+    assert!(ended_in_talk_after_reading > 0);
+}
+
+#[test]
 fn a_reader_who_never_skips_fixates_every_word_once_corrections_included() {
     // No skips, regressions or refixations, every return sweep undershoots:
     // each word gets exactly one fixation, plus one undersweep fixation a

@@ -504,6 +504,20 @@ pub struct SegmentMatch {
 /// a pair counts when its IoU reaches `min_iou`. Precision and recall are 1
 /// when there is nothing to find and nothing was found.
 pub fn match_segments(found: &[(f64, f64)], truth: &[(f64, f64)], min_iou: f64) -> SegmentMatch {
+    let onset_errors_s = matched_pairs(found, truth, min_iou)
+        .into_iter()
+        .map(|(i, j)| (found[i].0 - truth[j].0).abs())
+        .collect();
+    SegmentMatch::from_counts(found.len(), truth.len(), onset_errors_s)
+}
+
+/// The pairs `(found index, truth index)` that [`match_segments`] counts,
+/// in the order it takes them (best IoU first).
+pub fn matched_pairs(
+    found: &[(f64, f64)],
+    truth: &[(f64, f64)],
+    min_iou: f64,
+) -> Vec<(usize, usize)> {
     let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
     for (i, f) in found.iter().enumerate() {
         for (j, t) in truth.iter().enumerate() {
@@ -516,15 +530,15 @@ pub fn match_segments(found: &[(f64, f64)], truth: &[(f64, f64)], min_iou: f64) 
     // Best IoU first; ties by position, so the result is deterministic.
     pairs.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
     let (mut used_f, mut used_t) = (vec![false; found.len()], vec![false; truth.len()]);
-    let mut onset_errors_s = Vec::new();
+    let mut out = Vec::new();
     for (_, i, j) in pairs {
         if !used_f[i] && !used_t[j] {
             used_f[i] = true;
             used_t[j] = true;
-            onset_errors_s.push((found[i].0 - truth[j].0).abs());
+            out.push((i, j));
         }
     }
-    SegmentMatch::from_counts(found.len(), truth.len(), onset_errors_s)
+    out
 }
 
 impl SegmentMatch {

@@ -68,7 +68,7 @@ pub use photo::{
 };
 pub use pose::{solve_pose, weighted_procrustes, Camera, HeadPose, Similarity};
 pub use probe::{
-    match_extractor, read_frame, refine_match, ExtractorMatch, ProbeHeadRange, ProbeRefusal,
+    match_extractor, read_frame, refine_match, Axis, ExtractorMatch, ProbeHeadRange, ProbeRefusal,
     SessionRead, REFINE_MIN_READS,
 };
 pub use raster::{DrawStats, Rasterizer, RgbImage, SavePng, TexturedMesh};

@@ -228,12 +228,39 @@ fn read_clip(
     Ok(())
 }
 
-/// Least-squares fit of `measured = A drawn + S head + b` over a tracked
-/// clip's reads: the response map and the pose slopes (per degree of yaw
-/// and pitch) at once. `None` with too few reads, a singular design, or an
-/// implausible response ([`ResponseMap::checked`]).
-fn fit_joint(reads: &[ClipRead]) -> Option<(ResponseMap, [[f64; 2]; 2])> {
-    fit_joint_or_why(reads).ok()
+/// An axis of the eye's position in its aperture.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Axis {
+    Horizontal,
+    Vertical,
+}
+
+impl Axis {
+    /// `horizontally` or `vertically`.
+    pub fn adverb(self) -> &'static str {
+        match self {
+            Axis::Horizontal => "horizontally",
+            Axis::Vertical => "vertically",
+        }
+    }
+
+    fn index(self) -> usize {
+        match self {
+            Axis::Horizontal => 0,
+            Axis::Vertical => 1,
+        }
+    }
+}
+
+/// A response map and pose slopes fitted to a clip's or a session's reads
+/// ([`fit_joint_or_why`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct JointFit {
+    map: ResponseMap,
+    slopes: [[f64; 2]; 2],
+    /// Matched on one axis only: the other, drawn at the geometric
+    /// position, and why its fit was not used.
+    geometric: Option<(Axis, ProbeRefusal)>,
 }
 
 /// Why a probe found no usable response map: what `generate`'s warning
@@ -265,16 +292,28 @@ impl std::fmt::Display for ProbeRefusal {
             ProbeRefusal::Implausible { a } => write!(
                 f,
                 "it read the eye's movement at {:.2} of its size horizontally and {:.2} \
-vertically, cross terms {:.2} and {:.2}, where a match needs gains from 0.25 to 4 and cross \
-terms of at most 0.5 (eyes small in the frame read this way)",
-                a[0][0], a[1][1], a[0][1], a[1][0]
+vertically, cross terms {:.2} and {:.2}: {} (eyes small in the frame read this way)",
+                a[0][0],
+                a[1][1],
+                a[0][1],
+                a[1][0],
+                ResponseMap { a: *a, b: [0.0; 2] }.faults().join(", and ")
             ),
         }
     }
 }
 
-/// [`fit_joint`], or why there is no fit.
-fn fit_joint_or_why(reads: &[ClipRead]) -> Result<(ResponseMap, [[f64; 2]; 2]), ProbeRefusal> {
+/// Least-squares fit of `measured = A drawn + S head + b` over a tracked
+/// clip's reads: the response map and the pose slopes (per degree of yaw
+/// and pitch) at once; or why there is none (too few reads, a singular
+/// design, an implausible response: [`ResponseMap::checked`]).
+///
+/// Where one axis's response is implausible and the other's is not (a
+/// face small in the frame can read the vertical at a fifth of its size
+/// while the horizontal reads at half), the plausible axis is matched and
+/// the other drawn at the geometric position ([`one_axis`]): refusing both
+/// would leave the horizontal, which reading is told by, unmatched too.
+fn fit_joint_or_why(reads: &[ClipRead]) -> Result<JointFit, ProbeRefusal> {
     use nalgebra::{SMatrix, SVector};
     if reads.len() < 10 {
         return Err(ProbeRefusal::TooFewReads(reads.len()));
@@ -298,11 +337,45 @@ fn fit_joint_or_why(reads: &[ClipRead]) -> Result<(ResponseMap, [[f64; 2]; 2]), 
         a: [[x[0], x[1]], [y[0], y[1]]],
         b: [x[4], y[4]],
     };
-    let map = fitted
-        .checked()
-        .ok_or(ProbeRefusal::Implausible { a: fitted.a })?;
     let q = |v: f64| (v * 1e5).round() / 1e5;
-    Ok((map, [[q(x[2]), q(x[3])], [q(y[2]), q(y[3])]]))
+    let slopes = [[q(x[2]), q(x[3])], [q(y[2]), q(y[3])]];
+    if let Some(map) = fitted.checked() {
+        return Ok(JointFit {
+            map,
+            slopes,
+            geometric: None,
+        });
+    }
+    let why = ProbeRefusal::Implausible { a: fitted.a };
+    for axis in [Axis::Vertical, Axis::Horizontal] {
+        if let Some((map, slopes)) = one_axis(fitted, slopes, axis) {
+            return Ok(JointFit {
+                map,
+                slopes,
+                geometric: Some((axis, why)),
+            });
+        }
+    }
+    Err(why)
+}
+
+/// `fitted` and `slopes` with `geometric`'s row replaced by the identity
+/// (that axis measured as drawn, no offset, no pose slope: drawing through
+/// the map leaves it at the geometric position), where the other row alone
+/// passes [`ResponseMap::checked`].
+fn one_axis(
+    fitted: ResponseMap,
+    slopes: [[f64; 2]; 2],
+    geometric: Axis,
+) -> Option<(ResponseMap, [[f64; 2]; 2])> {
+    let g = geometric.index();
+    let mut map = fitted;
+    map.a[g] = [0.0; 2];
+    map.a[g][g] = 1.0;
+    map.b[g] = 0.0;
+    let mut slopes = slopes;
+    slopes[g] = [0.0; 2];
+    Some((map.checked()?, slopes))
 }
 
 /// What `match_extractor` measures for one session: the response map
@@ -313,8 +386,24 @@ pub struct ExtractorMatch {
     /// d(nx, ny) / d(head yaw, pitch) per degree (rows nx, ny; columns yaw,
     /// pitch), in measured units; subtracted per frame.
     pub pose_slopes: Option<[[f64; 2]; 2]>,
-    /// Without a response: why the probe's last try gave none.
+    /// Without a response: why the probe's last try gave none. With one
+    /// that matches one axis only: why the other was not matched.
     pub refused: Option<ProbeRefusal>,
+    /// The axis drawn at the geometric position where only the other
+    /// could be matched ([`fit_joint_or_why`]); `None` when both were, or
+    /// neither.
+    pub geometric_axis: Option<Axis>,
+}
+
+impl ExtractorMatch {
+    fn of(fit: JointFit) -> ExtractorMatch {
+        ExtractorMatch {
+            response: Some(fit.map),
+            pose_slopes: Some(fit.slopes),
+            refused: fit.geometric.map(|(_, why)| why),
+            geometric_axis: fit.geometric.map(|(axis, _)| axis),
+        }
+    }
 }
 
 /// How the extractor reads this session's identity, framing and look, over
@@ -329,8 +418,10 @@ pub struct ExtractorMatch {
 /// pass draws the grid through the first fit; both are kept in the final
 /// fit. When the session's own range gives no usable fit (a reading
 /// session's vertical range can be a few hundredths, where the read-back's
-/// noise hides the slope), a grid `RETRY_SPAN` wide is tried; when that
-/// fails too, the session is drawn geometrically (both `None`).
+/// noise hides the slope), a grid `RETRY_SPAN` wide is tried. When that
+/// fails too, the first fit of one axis only is used (the other axis drawn
+/// geometrically, `geometric_axis`), else the session is drawn
+/// geometrically (`response` and `pose_slopes` `None`).
 pub fn match_extractor(
     scene: &FaceScene,
     look: &WebcamLook,
@@ -339,39 +430,53 @@ pub fn match_extractor(
     head: &ProbeHeadRange,
 ) -> Result<ExtractorMatch> {
     let mut refused = None;
+    // A fit of one axis only counts as a refusal here, as it did before
+    // one-axis matches were drawn: the wider grid is tried for both axes
+    // (so a session that one matches is drawn as before, byte for byte),
+    // and the first such fit is drawn through only where no grid fits both.
+    let mut one_axis_match = None;
     'span: for span in [MIN_SPAN, RETRY_SPAN] {
         let (grid, centre) = grid(targets, span);
         let order = clip_order(&grid);
         let mut reads = vec![];
-        let mut fit: Option<(ResponseMap, [[f64; 2]; 2])> = None;
+        let mut fit: Option<JointFit> = None;
         for pass in 0..PASSES {
             // The first pass as targeted, each later one through the fit.
             let drawn: Vec<NormPos> = match fit {
                 None => order.clone(),
-                Some((m, _)) => order.iter().map(|&g| m.invert(g)).collect(),
+                Some(f) => order.iter().map(|&g| f.map.invert(g)).collect(),
             };
             let first_frame = pass * order.len() * HOLD_FRAMES;
             read_clip(scene, look, head, fitter, &drawn, first_frame, &mut reads)?;
             match fit_joint_or_why(&reads) {
-                Ok((m, slopes)) => fit = Some((m.about(centre), slopes)),
+                Ok(f) if f.geometric.is_none() => {
+                    fit = Some(JointFit {
+                        map: f.map.about(centre),
+                        ..f
+                    })
+                }
+                Ok(f) => {
+                    refused = f.geometric.map(|(_, why)| why);
+                    one_axis_match.get_or_insert(ExtractorMatch::of(JointFit {
+                        map: f.map.about(centre),
+                        ..f
+                    }));
+                    continue 'span;
+                }
                 Err(why) => {
                     refused = Some(why);
                     continue 'span;
                 }
             }
         }
-        if let Some((map, slopes)) = fit {
-            return Ok(ExtractorMatch {
-                response: Some(map),
-                pose_slopes: Some(slopes),
-                refused: None,
-            });
+        if let Some(f) = fit {
+            return Ok(ExtractorMatch::of(f));
         }
     }
-    Ok(ExtractorMatch {
+    Ok(one_axis_match.unwrap_or(ExtractorMatch {
         refused,
         ..ExtractorMatch::default()
-    })
+    }))
 }
 
 /// The least open-eye frames a session's read-back must give for
@@ -398,8 +503,14 @@ pub struct SessionRead {
 /// planned range. The map keeps the probe's working point (`targets`'
 /// grid centre maps to itself, [`ResponseMap::about`]). `None` with fewer
 /// than [`REFINE_MIN_READS`] reads or where the fit fails the probe's
-/// checks: the probe's match stands.
-pub fn refine_match(targets: &[NormPos], reads: &[SessionRead]) -> Option<ExtractorMatch> {
+/// checks: the probe's match stands. A fit of one axis only is used where
+/// the probe's match (`probe_geometric`) left the same axis geometric; a
+/// probe that matched both keeps its map.
+pub fn refine_match(
+    targets: &[NormPos],
+    reads: &[SessionRead],
+    probe_geometric: Option<Axis>,
+) -> Option<ExtractorMatch> {
     if reads.len() < REFINE_MIN_READS {
         return None;
     }
@@ -407,13 +518,17 @@ pub fn refine_match(targets: &[NormPos], reads: &[SessionRead]) -> Option<Extrac
         .iter()
         .map(|r| (r.drawn, r.head_deg, r.measured))
         .collect();
-    let (map, slopes) = fit_joint(&reads)?;
+    let fit = fit_joint_or_why(&reads).ok()?;
+    if let Some((axis, _)) = fit.geometric {
+        if probe_geometric != Some(axis) {
+            return None;
+        }
+    }
     let (_, centre) = grid(targets, MIN_SPAN);
-    Some(ExtractorMatch {
-        response: Some(map.about(centre)),
-        pose_slopes: Some(slopes),
-        refused: None,
-    })
+    Some(ExtractorMatch::of(JointFit {
+        map: fit.map.about(centre),
+        ..fit
+    }))
 }
 
 #[cfg(test)]
@@ -456,30 +571,84 @@ mod tests {
     }
 
     #[test]
-    fn a_refused_fit_says_why_with_the_gains_it_measured() {
+    fn a_refused_axis_says_why_and_the_other_is_matched() {
         // An extractor that reads the vertical movement at a fifth of its
-        // size (a small face): the map is fitted exactly, then refused by
-        // ResponseMap::checked, and the refusal carries the gains.
-        let reads = exact_reads([[0.62, 0.01], [-0.02, 0.2]], [[0.0; 2]; 2], [0.2, 0.3]);
-        let Err(ProbeRefusal::Implausible { a }) = fit_joint_or_why(&reads) else {
-            panic!("a gain of 0.2 must be refused");
+        // size (a small face): the map is fitted exactly, its vertical row
+        // refused by ResponseMap::checked, and the refusal carries the
+        // gains. The horizontal row is matched as fitted, its pose slopes
+        // kept; the vertical is drawn as targeted (identity row, no slope).
+        let s = [[-0.003, 0.0004], [0.001, 0.002]];
+        let reads = exact_reads([[0.62, 0.01], [-0.02, 0.2]], s, [0.2, 0.3]);
+        let fit = fit_joint_or_why(&reads).expect("the horizontal matched");
+        let Some((Axis::Vertical, ProbeRefusal::Implausible { a })) = fit.geometric else {
+            panic!("a vertical gain of 0.2 must be refused: {fit:?}");
         };
         assert!(
             (a[1][1] - 0.2).abs() < 1e-6 && (a[0][0] - 0.62).abs() < 1e-6,
             "{a:?}"
         );
+        assert_eq!(fit.map.a[1], [0.0, 1.0]);
+        assert_eq!(fit.map.b[1], 0.0);
+        assert!((fit.map.a[0][0] - 0.62).abs() < 1e-4 && (fit.map.a[0][1] - 0.01).abs() < 1e-4);
+        assert!((fit.map.b[0] - 0.2).abs() < 1e-4, "{:?}", fit.map);
+        assert_eq!(fit.slopes[1], [0.0, 0.0]);
+        assert!((fit.slopes[0][0] + 0.003).abs() < 1e-5, "{:?}", fit.slopes);
+        // Drawn through it, a target keeps its vertical and moves its
+        // horizontal to where this extractor reads the target's.
+        let t = NormPos { nx: 0.55, ny: 0.42 };
+        let d = fit.map.invert(t);
+        assert!((d.ny - 0.42).abs() < 1e-12);
+        assert!(
+            (0.62 * d.nx + 0.01 * d.ny + 0.2 - 0.55).abs() < 1e-3,
+            "{d:?}"
+        );
+        // The horizontal refused instead: the vertical matched.
+        let reads = exact_reads([[0.1, 0.0], [0.0, 0.8]], [[0.0; 2]; 2], [0.5, 0.5]);
+        let fit = fit_joint_or_why(&reads).expect("the vertical matched");
+        assert_eq!(fit.geometric.map(|(axis, _)| axis), Some(Axis::Horizontal));
+        assert_eq!(fit.map.a[0], [1.0, 0.0]);
+        // The read-back's fit of one axis stands only where the probe's
+        // left that same axis geometric.
+        let session: Vec<SessionRead> = reads
+            .iter()
+            .map(|&(drawn, head_deg, measured)| SessionRead {
+                drawn,
+                head_deg,
+                measured,
+            })
+            .collect();
+        let targets: Vec<NormPos> = session.iter().map(|r| r.drawn).collect();
+        assert!(refine_match(&targets, &session, None).is_none());
+        assert!(refine_match(&targets, &session, Some(Axis::Vertical)).is_none());
+        let refit = refine_match(&targets, &session, Some(Axis::Horizontal)).expect("a fit");
+        assert_eq!(refit.geometric_axis, Some(Axis::Horizontal));
+        let reads = exact_reads([[0.62, 0.01], [-0.02, 0.2]], [[0.0; 2]; 2], [0.2, 0.3]);
         let said = ProbeRefusal::Implausible { a }.to_string();
         assert!(
-            said.contains("0.62 of its size horizontally and 0.20 vertically"),
+            said.contains(
+                "0.62 of its size horizontally and 0.20 vertically, cross terms 0.01 and -0.02: \
+                 the vertical gain, 0.2, is outside 0.25-4 (eyes small"
+            ),
             "{said}"
+        );
+        // At the edge: shown at two decimals as the bound, named exactly.
+        let edge = ProbeRefusal::Implausible {
+            a: [[0.5, 0.0], [0.6, 0.2496]],
+        };
+        assert!(
+            edge.to_string().contains(
+                "0.25 vertically, cross terms 0.00 and 0.60: the vertical gain, 0.2496, is \
+                 outside 0.25-4, and a cross term, 0.6, is over 0.5 ("
+            ),
+            "{edge}"
         );
         assert_eq!(
             fit_joint_or_why(&reads[..9]),
             Err(ProbeRefusal::TooFewReads(9))
         );
-        // At 0.3 the same reads give a map.
+        // At 0.3 the same reads give a map of both axes.
         let reads = exact_reads([[0.62, 0.01], [-0.02, 0.3]], [[0.0; 2]; 2], [0.2, 0.3]);
-        assert!(fit_joint_or_why(&reads).is_ok());
+        assert_eq!(fit_joint_or_why(&reads).map(|f| f.geometric), Ok(None));
     }
 
     #[test]
@@ -497,7 +666,9 @@ mod tests {
             pitch_deg: (0.5, 7.5),
         };
         for head in [ProbeHeadRange::default(), looking_down] {
-            let (map, slopes) = fit_joint(&exact_reads_about(a, s, b, &head)).expect("a fit");
+            let fit = fit_joint_or_why(&exact_reads_about(a, s, b, &head)).expect("a fit");
+            let (map, slopes) = (fit.map, fit.slopes);
+            assert_eq!(fit.geometric, None);
             for i in 0..2 {
                 for j in 0..2 {
                     assert!((map.a[i][j] - a[i][j]).abs() < 1e-4, "{map:?}");
@@ -583,7 +754,8 @@ mod tests {
             })
             .collect();
         let targets: Vec<NormPos> = reads.iter().map(|r| r.measured).collect();
-        let refit = refine_match(&targets, &reads).expect("a fit");
+        let refit = refine_match(&targets, &reads, None).expect("a fit");
+        assert_eq!((refit.geometric_axis, refit.refused), (None, None));
         let (map, slopes) = (refit.response.unwrap(), refit.pose_slopes.unwrap());
         for i in 0..2 {
             for j in 0..2 {
@@ -598,14 +770,20 @@ mod tests {
             (back.nx - centre.nx).abs() < 1e-3 && (back.ny - centre.ny).abs() < 1e-3,
             "{back:?} vs {centre:?}"
         );
-        assert!(refine_match(&targets, &reads[..REFINE_MIN_READS - 1]).is_none());
+        assert!(refine_match(&targets, &reads[..REFINE_MIN_READS - 1], None).is_none());
     }
 
     #[test]
     fn joint_fit_refuses_what_the_still_fit_refuses() {
-        // A gain of 0.1 is outside ResponseMap::fit's 0.25-4.
-        let reads = exact_reads([[0.1, 0.0], [0.0, 0.8]], [[0.0; 2]; 2], [0.5, 0.5]);
-        assert!(fit_joint(&reads).is_none());
+        // Gains of 0.1 and 0.2 are outside ResponseMap::fit's 0.25-4.
+        let reads = exact_reads([[0.1, 0.0], [0.0, 0.2]], [[0.0; 2]; 2], [0.5, 0.5]);
+        assert!(matches!(
+            fit_joint_or_why(&reads),
+            Err(ProbeRefusal::Implausible { .. })
+        ));
+        // A cross term of 0.6 spoils the horizontal row as a gain would.
+        let reads = exact_reads([[0.6, 0.6], [0.0, 0.2]], [[0.0; 2]; 2], [0.5, 0.5]);
+        assert!(fit_joint_or_why(&reads).is_err());
         // No eye movement at all: the design is singular.
         let still: Vec<ClipRead> = (0..60)
             .map(|j| {
@@ -613,7 +791,7 @@ mod tests {
                 (p, clip_head(&ProbeHeadRange::default(), j), p)
             })
             .collect();
-        assert!(fit_joint(&still).is_none());
+        assert_eq!(fit_joint_or_why(&still), Err(ProbeRefusal::Undetermined));
     }
 
     /// The clip's head is uncorrelated with the drawn eye, so the fit can

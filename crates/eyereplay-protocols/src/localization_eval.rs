@@ -259,6 +259,104 @@ pub struct LocalizationEval {
     /// surface, for sessions the interview model made (metadata.json names
     /// where each person reads from); empty when it names none.
     pub by_surface: Vec<SurfaceResult>,
+    /// Every read answer scored (each session's [`true_segments`]) and what
+    /// `detect`'s method made of it, session by session.
+    pub answers: Vec<AnswerResult>,
+}
+
+/// One true read answer and what `detect`'s method
+/// ([`localize::DEFAULT_METHOD`]) made of it: found or not, and the
+/// circumstances a miss is read against.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct AnswerResult {
+    /// The session as labels.csv names it (`conversation/conversation_0003.csv`).
+    pub session: String,
+    /// Where its person reads from (metadata.json), when the behaviour
+    /// model says.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub surface: Option<String>,
+    pub start_s: f64,
+    pub end_s: f64,
+    /// Matched one-to-one by a found segment at IoU >= 0.5: what segment
+    /// F1 counts.
+    pub found: bool,
+    /// The largest IoU of any found segment with it (0 when none overlaps).
+    pub best_iou: f64,
+    /// That best segment also overlaps another read answer: two answers
+    /// joined into one segment across the talk between them.
+    pub joined: bool,
+    /// It runs to the session's last frame: the recording cut it.
+    pub at_session_end: bool,
+    /// How its video was matched to the extractor, from the session's
+    /// identity file: `both` axes, `horizontal` or `vertical` only (the
+    /// other drawn at the geometric position), or `none`; absent where not
+    /// read back from video or no identity file says.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub extractor_match: Option<String>,
+}
+
+/// Each of `truth`'s answers against the `found` segments of one session
+/// of `duration_s`, as [`AnswerResult`]s (`session`, `surface` and
+/// `extractor_match` copied into each).
+pub fn answer_results(
+    session: &str,
+    surface: Option<&str>,
+    truth: &[(f64, f64)],
+    found: &[(f64, f64)],
+    duration_s: f64,
+    extractor_match: Option<&str>,
+) -> Vec<AnswerResult> {
+    let pairs = localize::matched_pairs(found, truth, MIN_IOU);
+    truth
+        .iter()
+        .enumerate()
+        .map(|(j, &t)| {
+            let best = found
+                .iter()
+                .map(|&f| (localize::iou(f, t), f))
+                .filter(|(v, _)| *v > 0.0)
+                .max_by(|a, b| a.0.total_cmp(&b.0));
+            let overlaps = |a: (f64, f64), b: (f64, f64)| a.0.max(b.0) < a.1.min(b.1);
+            let joined = best.is_some_and(|(_, f)| {
+                truth
+                    .iter()
+                    .enumerate()
+                    .any(|(k, &other)| k != j && overlaps(f, other))
+            });
+            AnswerResult {
+                session: session.to_string(),
+                surface: surface.map(str::to_string),
+                start_s: t.0,
+                end_s: t.1,
+                found: pairs.iter().any(|&(_, m)| m == j),
+                best_iou: best.map_or(0.0, |(v, _)| v),
+                joined,
+                // Within a frame of the end.
+                at_session_end: t.1 >= duration_s - 1.0 / FPS + 1e-9,
+                extractor_match: extractor_match.map(str::to_string),
+            }
+        })
+        .collect()
+}
+
+/// How the session whose identity file is `path` was matched to the
+/// extractor ([`AnswerResult::extractor_match`]); `None` when there is no
+/// such file to say.
+pub fn extractor_match(path: &Path) -> Option<&'static str> {
+    let identity = eyereplay_dataset::SessionIdentity::read(path).ok()?;
+    let matched = identity
+        .mapping
+        .get("extractor_response")
+        .is_some_and(|r| !r.is_null());
+    // The face mode names the axis it left geometric, where it matched one.
+    Some(
+        match (matched, identity.identity["geometric_axis"].as_str()) {
+            (false, _) => "none",
+            (true, Some("vertical")) => "horizontal",
+            (true, Some("horizontal")) => "vertical",
+            (true, _) => "both",
+        },
+    )
 }
 
 /// One reading surface's sessions (a teleprompter, a laptop, ...), scored
@@ -364,6 +462,8 @@ pub fn evaluate_localization(
     let mut tracks = Vec::new();
     let mut flags_all = Vec::new();
     let mut session_surface = Vec::new();
+    let mut session_names = Vec::new();
+    let mut session_matched = Vec::new();
     // Before any extraction: the sessions with per-frame labels (the ones
     // scored; the others are not read), long enough for one window.
     let mut sessions = dataset_sessions(&[dir.to_path_buf()], input)?;
@@ -387,6 +487,15 @@ pub fn evaluate_localization(
             continue;
         };
         session_surface.push(t.sources.iter().find_map(|s| surfaces.get(s).cloned()));
+        // `DATASET#conversation/conversation_0003.csv`: the part labels.csv names.
+        let file = t.id.rsplit_once('#').map_or(t.id.as_str(), |(_, f)| f);
+        session_matched.push(match input {
+            TrainInput::Extracted => eyereplay_dataset::SessionPaths::new(dir, file)
+                .ok()
+                .and_then(|p| extractor_match(&p.identity_json)),
+            _ => None,
+        });
+        session_names.push(file.to_string());
         // A video may end a frame short of its trajectory.
         flags.truncate(t.track.len());
         let mut track = t.track;
@@ -413,6 +522,20 @@ pub fn evaluate_localization(
     let calibration = calibration_of(&labelled, model);
     let clips = clip_results(&tracks, &flags_all, model, CLIPS_PER_CLASS, seed);
     let by_surface = by_surface(detects, &session_surface, &labelled);
+    let answers = detects
+        .iter()
+        .enumerate()
+        .flat_map(|(i, score)| {
+            answer_results(
+                &session_names[i],
+                session_surface[i].as_ref().map(|s| s.surface.as_str()),
+                &true_segments(&flags_all[i]),
+                &score.found_segments,
+                flags_all[i].len() as f64 / FPS,
+                session_matched[i],
+            )
+        })
+        .collect();
     Ok(LocalizationEval {
         dataset: dir.display().to_string(),
         input: input.name().into(),
@@ -425,6 +548,7 @@ pub fn evaluate_localization(
         calibration,
         clips,
         by_surface,
+        answers,
     })
 }
 
@@ -479,6 +603,8 @@ pub struct SessionScore {
     /// Frames reading, and those of them called reading.
     pub reading_frames: usize,
     pub found_frames: usize,
+    /// The segments found, `(start_s, end_s)`.
+    pub found_segments: Vec<(f64, f64)>,
 }
 
 /// [`SessionScore`] of `track` localized by `method`.
@@ -499,9 +625,10 @@ pub fn score_session(
         onset_errors_s: m.onset_errors_s,
         ..Default::default()
     };
+    s.found_segments = found;
     for (k, &f) in flags.iter().enumerate() {
         let t = k as f64 / FPS;
-        let called = found.iter().any(|&(a, b)| a <= t && t < b) as usize;
+        let called = s.found_segments.iter().any(|&(a, b)| a <= t && t < b) as usize;
         if f {
             s.reading_frames += 1;
             s.found_frames += called;
@@ -582,6 +709,79 @@ mod tests {
         assert!((within.unwrap() - 0.875).abs() < 1e-12);
         assert_eq!(n, 2);
         assert_eq!(w(&[0.5], &[true], &[0]).aurocs(), (None, None, 0));
+    }
+
+    #[test]
+    fn answers_found_joined_and_cut_by_the_end_worked_by_hand() {
+        let truth = [(10.0, 40.0), (60.0, 90.0), (150.0, 180.0)];
+        // The first found segment fits the first answer (IoU 28 / 31); the
+        // second runs from the second answer across 60 s of talk into the
+        // third (IoU 30 / 102 and 10 / 122).
+        let found = [(12.0, 41.0), (58.0, 160.0)];
+        let a = answer_results(
+            "c/c_0001.csv",
+            Some("laptop"),
+            &truth,
+            &found,
+            180.0,
+            Some("none"),
+        );
+        assert_eq!(a.len(), 3);
+        assert!(a[0].found && !a[0].joined && !a[0].at_session_end);
+        assert!((a[0].best_iou - 28.0 / 31.0).abs() < 1e-12);
+        assert!(!a[1].found && a[1].joined);
+        assert!((a[1].best_iou - 30.0 / 102.0).abs() < 1e-12);
+        assert!(!a[2].found && a[2].joined && a[2].at_session_end);
+        assert!((a[2].best_iou - 10.0 / 122.0).abs() < 1e-12);
+        assert_eq!(a[2].surface.as_deref(), Some("laptop"));
+        assert_eq!(a[2].extractor_match.as_deref(), Some("none"));
+        // Nothing found: every answer missed, IoU 0, none joined.
+        let none = answer_results("c", None, &truth, &[], 180.0, None);
+        assert!(none
+            .iter()
+            .all(|a| !a.found && a.best_iou == 0.0 && !a.joined));
+        // One segment, two answers at IoU >= 0.5 each cannot both take it.
+        let two = answer_results(
+            "c",
+            None,
+            &[(0.0, 10.0), (0.0, 9.0)],
+            &[(0.0, 10.0)],
+            60.0,
+            None,
+        );
+        assert_eq!(two.iter().filter(|a| a.found).count(), 1);
+    }
+
+    #[test]
+    fn an_identity_file_says_whether_the_session_was_matched() {
+        let dir = tempfile::tempdir().unwrap();
+        let write = |name: &str, mapping: &str| {
+            let path = dir.path().join(name);
+            std::fs::write(
+                &path,
+                format!(
+                    r#"{{"file": "c/c.csv", "seed": 1, "identity": {{}}, "mapping": {mapping}, "width": 640, "height": 480, "fps": 25.0}}"#
+                ),
+            )
+            .unwrap();
+            path
+        };
+        let matched = write(
+            "m.json",
+            r#"{"gain": 1.0, "extractor_response": {"a": [[1, 0], [0, 1]], "b": [0, 0]}}"#,
+        );
+        let unmatched = write("u.json", r#"{"gain": 1.0}"#);
+        assert_eq!(extractor_match(&matched), Some("both"));
+        assert_eq!(extractor_match(&unmatched), Some("none"));
+        assert_eq!(extractor_match(&dir.path().join("none.json")), None);
+        // One axis matched: the face mode names the other.
+        let path = dir.path().join("h.json");
+        std::fs::write(
+            &path,
+            r#"{"file": "c/c.csv", "seed": 1, "identity": {"geometric_axis": "vertical"}, "mapping": {"extractor_response": {"a": [[0.5, 0], [0, 1]], "b": [0.2, 0]}}, "width": 640, "height": 480, "fps": 25.0}"#,
+        )
+        .unwrap();
+        assert_eq!(extractor_match(&path), Some("horizontal"));
     }
 
     #[test]

@@ -115,9 +115,27 @@ impl ResponseMap {
     /// over 0.5. Every fitted map goes through this.
     pub fn checked(self) -> Option<ResponseMap> {
         let map = self.rounded();
-        let gains_ok = (0..2).all(|k| (0.25..=4.0).contains(&map.a[k][k]));
-        let cross_ok = map.a[0][1].abs() <= 0.5 && map.a[1][0].abs() <= 0.5;
-        (gains_ok && cross_ok).then_some(map)
+        (map.faults().is_empty()).then_some(map)
+    }
+
+    /// What makes the (rounded) map implausible, each as
+    /// `the vertical gain, 0.2496, is outside 0.25-4`; empty when nothing.
+    pub fn faults(&self) -> Vec<String> {
+        let map = self.rounded();
+        let mut out = Vec::new();
+        for (k, axis) in ["horizontal", "vertical"].into_iter().enumerate() {
+            let g = map.a[k][k];
+            if !(0.25..=4.0).contains(&g) {
+                out.push(format!("the {axis} gain, {g}, is outside 0.25-4"));
+            }
+        }
+        for (row, col) in [(0, 1), (1, 0)] {
+            let c = map.a[row][col];
+            if c.abs() > 0.5 {
+                out.push(format!("a cross term, {c}, is over 0.5"));
+            }
+        }
+        out
     }
 
     /// The same gains, with the offset set so that `origin` maps to

@@ -1,5 +1,5 @@
 use super::Bars;
-use eyereplay_protocols::localization_eval::{MethodResult, WindowCalibration};
+use eyereplay_protocols::localization_eval::{AnswerResult, MethodResult, WindowCalibration};
 use eyereplay_protocols::{evaluate_localization, evaluate_spliced, SpliceOptions};
 use std::path::PathBuf;
 
@@ -16,8 +16,12 @@ use std::path::PathBuf;
 /// with --input extracted what the extractor reads from their videos, or
 /// with --input drawn the drawn eyes' own positions (what a perfect
 /// extractor would read): drawn against extracted is what the read-back
-/// loses. It also scores short clips (3, 5 and 8 s, each wholly reading
-/// or wholly not) as `detect` scores a clip shorter than one window.
+/// loses. It lists the read answers `detect`'s method missed, each with
+/// its surface, its best IoU and what else marks it (drawn without the
+/// extractor match, joined with another answer into one segment, cut by
+/// the session's end); --json keeps every answer. It also scores short
+/// clips (3, 5 and 8 s, each wholly reading or wholly not) as `detect`
+/// scores a clip shorter than one window.
 ///
 /// With --spliced PROTOCOL instead of DATASET: the real eye-tracker
 /// recordings of a detector protocol (docs/DETECTOR.md) cut into pieces
@@ -167,6 +171,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         }
     }
+    print_missed(&ev.answers);
     println!("short clips, each inside one class, scored as `detect` scores a clip shorter than a window:");
     for c in &ev.clips {
         println!(
@@ -258,6 +263,75 @@ fn run_spliced(
         write_json(path, &ev)?;
     }
     Ok(())
+}
+
+/// The read answers `detect`'s method missed, counted by the
+/// circumstances a miss is read against, then one line each.
+fn print_missed(answers: &[AnswerResult]) {
+    let missed: Vec<&AnswerResult> = answers.iter().filter(|a| !a.found).collect();
+    println!(
+        "read answers missed ({:?}, not matched at IoU 0.5): {} of {}",
+        eyereplay::detect::localize::DEFAULT_METHOD,
+        missed.len(),
+        answers.len()
+    );
+    if missed.is_empty() {
+        return;
+    }
+    let count = |f: &dyn Fn(&AnswerResult) -> bool| missed.iter().filter(|a| f(a)).count();
+    let mut surfaces: Vec<&str> = missed.iter().filter_map(|a| a.surface.as_deref()).collect();
+    surfaces.sort();
+    surfaces.dedup();
+    if !surfaces.is_empty() {
+        let parts: Vec<String> = surfaces
+            .iter()
+            .map(|s| format!("{s} {}", count(&|a| a.surface.as_deref() == Some(s))))
+            .collect();
+        println!("  by where the text is read from: {}", parts.join(", "));
+    }
+    // The extractor match only applies to sessions read back from video.
+    let matched = |a: &AnswerResult, how: &str| a.extractor_match.as_deref() == Some(how);
+    let unmatched = if answers.iter().any(|a| a.extractor_match.is_some()) {
+        format!(
+            "{} drawn without the extractor match, {} matched on one axis only; ",
+            count(&|a| matched(a, "none")),
+            count(&|a| matched(a, "horizontal") || matched(a, "vertical"))
+        )
+    } else {
+        String::new()
+    };
+    println!(
+        "  {unmatched}{} joined with another answer into one segment; {} running to the session's end; {} found in part (best IoU under 0.5), {} not touched",
+        count(&|a| a.joined),
+        count(&|a| a.at_session_end),
+        count(&|a| a.best_iou > 0.0),
+        count(&|a| a.best_iou == 0.0),
+    );
+    for a in missed {
+        let mut notes = Vec::new();
+        match a.extractor_match.as_deref() {
+            Some("none") => notes.push("drawn without the extractor match"),
+            Some("horizontal") => notes.push("matched to the extractor horizontally only"),
+            Some("vertical") => notes.push("matched to the extractor vertically only"),
+            _ => {}
+        }
+        if a.joined {
+            notes.push("joined with another answer");
+        }
+        if a.at_session_end {
+            notes.push("at the session's end");
+        }
+        println!(
+            "  {} {:>6.1}-{:>6.1} s {:<13} best IoU {:.2}{}{}",
+            a.session,
+            a.start_s,
+            a.end_s,
+            a.surface.as_deref().unwrap_or("-"),
+            a.best_iou,
+            if notes.is_empty() { "" } else { "; " },
+            notes.join(", ")
+        );
+    }
 }
 
 /// Every number, as pretty JSON, written atomically.
