@@ -398,14 +398,10 @@ impl SessionBackend for FaceBackend {
         // Matched on one axis only: drawn, but the reviewer should know.
         let geometric = readback_match.map_or(probe_geometric, |r| r.geometric);
         if let Some((axis, why)) = geometric {
-            let matched_axis = match axis {
-                Axis::Horizontal => Axis::Vertical,
-                Axis::Vertical => Axis::Horizontal,
-            };
             progress.warn(&format!(
                 "{}: matched to the extractor {} only, and drawn at the geometric position {}: {why}",
                 files.file,
-                matched_axis.adverb(),
+                axis.other().adverb(),
                 axis.adverb()
             ));
         }
@@ -436,10 +432,7 @@ impl SessionBackend for FaceBackend {
                 head_motion: settings.head_motion,
                 source_head_frames: stats.source_head_frames,
                 readback_match,
-                geometric_axis: geometric.map(|(axis, _)| match axis {
-                    Axis::Horizontal => "horizontal",
-                    Axis::Vertical => "vertical",
-                }),
+                geometric_axis: geometric.map(|(axis, _)| axis.name()),
             },
             mapping: &p.mapping,
             width: self.width,

@@ -244,6 +244,22 @@ impl Axis {
         }
     }
 
+    /// `horizontal` or `vertical`, as identity files name it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Axis::Horizontal => "horizontal",
+            Axis::Vertical => "vertical",
+        }
+    }
+
+    /// The other axis.
+    pub fn other(self) -> Axis {
+        match self {
+            Axis::Horizontal => Axis::Vertical,
+            Axis::Vertical => Axis::Horizontal,
+        }
+    }
+
     fn index(self) -> usize {
         match self {
             Axis::Horizontal => 0,
@@ -589,6 +605,11 @@ mod tests {
         );
         assert_eq!(fit.map.a[1], [0.0, 1.0]);
         assert_eq!(fit.map.b[1], 0.0);
+        // What the warning and the identity file say of it.
+        assert_eq!(
+            (Axis::Vertical.other().adverb(), Axis::Vertical.name()),
+            ("horizontally", "vertical")
+        );
         assert!((fit.map.a[0][0] - 0.62).abs() < 1e-4 && (fit.map.a[0][1] - 0.01).abs() < 1e-4);
         assert!((fit.map.b[0] - 0.2).abs() < 1e-4, "{:?}", fit.map);
         assert_eq!(fit.slopes[1], [0.0, 0.0]);
