@@ -365,7 +365,7 @@ impl SessionBackend for FaceBackend {
             ..mapping
         };
         p.pose_slopes = matched.pose_slopes;
-        let probe_geometric = matched.geometric_axis.zip(matched.refused);
+        let probe_geometric = matched.geometric;
         let (mp4, truth) = (out.mp4(), out.truth());
         let (stats, readback_match) = if settings.match_readback && matched.response.is_some() {
             progress.status(&format!("{} (first pass, then its read-back)", files.file));
@@ -549,7 +549,7 @@ fn render_matched_to_readback(
     };
     remove_temp();
     record.refined = true;
-    record.geometric = refit.geometric_axis.zip(refit.refused);
+    record.geometric = refit.geometric;
     p.mapping.extractor_response = refit.response;
     p.pose_slopes = refit.pose_slopes;
     p.head_path = Some(first.head_path);

@@ -328,7 +328,9 @@ pub fn generate(person: &Person, text: &ReadingText, gains: &Gains) -> Generated
             plan.head_tau_s = person.head_tau_s;
             t.sway(&mut plan, &mut rng);
             let mut reading = person.starts_reading == Some(true);
-            let read_range = person.read_s.unwrap_or([8.0, 30.0]);
+            let ranges = InterviewRanges::default();
+            let read_range = person.read_s.unwrap_or(ranges.read_s);
+            let talk_range = person.talk_s.unwrap_or(ranges.talk_s);
             let mut at = 0.0;
             while at < dur {
                 // An interview recording ends after an answer, not a
@@ -343,7 +345,7 @@ pub fn generate(person: &Person, text: &ReadingText, gains: &Gains) -> Generated
                 let len = if reading {
                     draw(read_range, &mut rng)
                 } else {
-                    draw(person.talk_s.unwrap_or([8.0, 30.0]), &mut rng)
+                    draw(talk_range, &mut rng)
                 };
                 let end = (at + len).min(dur);
                 if reading {

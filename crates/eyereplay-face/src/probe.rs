@@ -402,13 +402,12 @@ pub struct ExtractorMatch {
     /// d(nx, ny) / d(head yaw, pitch) per degree (rows nx, ny; columns yaw,
     /// pitch), in measured units; subtracted per frame.
     pub pose_slopes: Option<[[f64; 2]; 2]>,
-    /// Without a response: why the probe's last try gave none. With one
-    /// that matches one axis only: why the other was not matched.
+    /// Without a response: why the probe's last try gave none.
     pub refused: Option<ProbeRefusal>,
-    /// The axis drawn at the geometric position where only the other
-    /// could be matched ([`fit_joint_or_why`]); `None` when both were, or
-    /// neither.
-    pub geometric_axis: Option<Axis>,
+    /// With a response that matches one axis only ([`fit_joint_or_why`]):
+    /// the other, drawn at the geometric position, and why its fit was not
+    /// used.
+    pub geometric: Option<(Axis, ProbeRefusal)>,
 }
 
 impl ExtractorMatch {
@@ -416,8 +415,8 @@ impl ExtractorMatch {
         ExtractorMatch {
             response: Some(fit.map),
             pose_slopes: Some(fit.slopes),
-            refused: fit.geometric.map(|(_, why)| why),
-            geometric_axis: fit.geometric.map(|(axis, _)| axis),
+            refused: None,
+            geometric: fit.geometric,
         }
     }
 }
@@ -436,7 +435,7 @@ impl ExtractorMatch {
 /// session's vertical range can be a few hundredths, where the read-back's
 /// noise hides the slope), a grid `RETRY_SPAN` wide is tried. When that
 /// fails too, the first fit of one axis only is used (the other axis drawn
-/// geometrically, `geometric_axis`), else the session is drawn
+/// geometrically, `geometric`), else the session is drawn
 /// geometrically (`response` and `pose_slopes` `None`).
 pub fn match_extractor(
     scene: &FaceScene,
@@ -472,7 +471,6 @@ pub fn match_extractor(
                     })
                 }
                 Ok(f) => {
-                    refused = f.geometric.map(|(_, why)| why);
                     one_axis_match.get_or_insert(ExtractorMatch::of(JointFit {
                         map: f.map.about(centre),
                         ..f
@@ -642,7 +640,10 @@ mod tests {
         assert!(refine_match(&targets, &session, None).is_none());
         assert!(refine_match(&targets, &session, Some(Axis::Vertical)).is_none());
         let refit = refine_match(&targets, &session, Some(Axis::Horizontal)).expect("a fit");
-        assert_eq!(refit.geometric_axis, Some(Axis::Horizontal));
+        assert_eq!(
+            refit.geometric.map(|(axis, _)| axis),
+            Some(Axis::Horizontal)
+        );
         let reads = exact_reads([[0.62, 0.01], [-0.02, 0.2]], [[0.0; 2]; 2], [0.2, 0.3]);
         let said = ProbeRefusal::Implausible { a }.to_string();
         assert!(
@@ -776,7 +777,7 @@ mod tests {
             .collect();
         let targets: Vec<NormPos> = reads.iter().map(|r| r.measured).collect();
         let refit = refine_match(&targets, &reads, None).expect("a fit");
-        assert_eq!((refit.geometric_axis, refit.refused), (None, None));
+        assert_eq!((refit.geometric, refit.refused), (None, None));
         let (map, slopes) = (refit.response.unwrap(), refit.pose_slopes.unwrap());
         for i in 0..2 {
             for j in 0..2 {

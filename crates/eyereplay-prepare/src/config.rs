@@ -424,7 +424,24 @@ impl DatasetConfig {
                 )));
             }
             for (i, g) in cc.generators.iter().enumerate() {
-                g.validate(&format!("classes.{class}.generators[{i}]"))?;
+                let at = format!("classes.{class}.generators[{i}]");
+                g.validate(&at)?;
+                // A read answer is never cut below the shortest (the
+                // interview model ends in talk instead), so one longer
+                // than the person's whole gaze would leave only those who
+                // start reading ever reading.
+                if g.model == eyereplay_behaviour::Model::Interview {
+                    let read_s = g.interview.clone().unwrap_or_default().read_s;
+                    let duration_s = g.duration_s.unwrap_or_else(|| self.default_generated_s());
+                    if read_s[0] > duration_s {
+                        return Err(ConfigError::Invalid(format!(
+                            "{at}: interview.read_s starts at {} s, longer than each person's {} s \
+                             of gaze (duration_s, else one session): no read answer would fit",
+                            eyereplay_core::show_number(read_s[0]),
+                            eyereplay_core::show_number(duration_s)
+                        )));
+                    }
+                }
             }
             if let Some(s) = cc.speed_scale {
                 if !s.is_finite() || s <= 0.0 {
@@ -705,6 +722,24 @@ mod tests {
         c.session_frames = 10;
         c.classes.get_mut(&GazeClass::Reading).unwrap().sessions = 0;
         assert!(c.validate().unwrap_err().to_string().contains("sessions"));
+    }
+
+    #[test]
+    fn an_interview_answer_longer_than_the_person_is_refused() {
+        // 250 frames at 25 fps: people of 251 / 25 = 10.04 s by default.
+        let cfg = |read: &str| {
+            DatasetConfig::parse(&format!(
+                "session_frames = 250\n[classes.reading]\n[[classes.reading.generators]]\n\
+                 model = \"interview\"\ninterview = {{ read_s = {read} }}\n"
+            ))
+            .unwrap()
+        };
+        let e = cfg("[20.0, 60.0]").validate().unwrap_err().to_string();
+        assert!(
+            e.contains("classes.reading.generators[0]: interview.read_s starts at 20 s, longer than each person's 10.04 s"),
+            "{e}"
+        );
+        assert!(cfg("[5.0, 60.0]").validate().is_ok());
     }
 
     /// Values that used to loop, allocate terabytes or pass silently are

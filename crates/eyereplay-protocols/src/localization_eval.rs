@@ -288,11 +288,35 @@ pub struct AnswerResult {
     /// It runs to the session's last frame: the recording cut it.
     pub at_session_end: bool,
     /// How its video was matched to the extractor, from the session's
-    /// identity file: `both` axes, `horizontal` or `vertical` only (the
-    /// other drawn at the geometric position), or `none`; absent where not
-    /// read back from video or no identity file says.
+    /// identity file; absent where not read back from video or no
+    /// identity file says.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub extractor_match: Option<String>,
+    pub extractor_match: Option<ExtractorMatched>,
+}
+
+/// How a session's video was matched to the extractor (its
+/// `_identity.json`): `both` axes, `horizontal` or `vertical` only (the
+/// other drawn at the geometric position), or `none`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ExtractorMatched {
+    Both,
+    Horizontal,
+    Vertical,
+    None,
+}
+
+impl ExtractorMatched {
+    /// What a reader of a missed answer should know, where it is worth
+    /// saying.
+    pub fn caveat(self) -> Option<&'static str> {
+        match self {
+            ExtractorMatched::Both => Option::None,
+            ExtractorMatched::Horizontal => Some("matched to the extractor horizontally only"),
+            ExtractorMatched::Vertical => Some("matched to the extractor vertically only"),
+            ExtractorMatched::None => Some("drawn without the extractor match"),
+        }
+    }
 }
 
 /// Each of `truth`'s answers against the `found` segments of one session
@@ -304,7 +328,7 @@ pub fn answer_results(
     truth: &[(f64, f64)],
     found: &[(f64, f64)],
     duration_s: f64,
-    extractor_match: Option<&str>,
+    extractor_match: Option<ExtractorMatched>,
 ) -> Vec<AnswerResult> {
     let pairs = localize::matched_pairs(found, truth, MIN_IOU);
     truth
@@ -331,32 +355,35 @@ pub fn answer_results(
                 found: pairs.iter().any(|&(_, m)| m == j),
                 best_iou: best.map_or(0.0, |(v, _)| v),
                 joined,
-                // Within a frame of the end.
-                at_session_end: t.1 >= duration_s - 1.0 / FPS + 1e-9,
-                extractor_match: extractor_match.map(str::to_string),
+                // Its last frame is the session's.
+                at_session_end: t.1 >= duration_s - 0.5 / FPS,
+                extractor_match,
             }
         })
         .collect()
 }
 
 /// How the session whose identity file is `path` was matched to the
-/// extractor ([`AnswerResult::extractor_match`]); `None` when there is no
-/// such file to say.
-pub fn extractor_match(path: &Path) -> Option<&'static str> {
-    let identity = eyereplay_dataset::SessionIdentity::read(path).ok()?;
+/// extractor; `None` when there is no such file. One that cannot be read
+/// is an error naming it.
+pub fn extractor_matched(path: &Path) -> Result<Option<ExtractorMatched>> {
+    if !path.exists() {
+        return Ok(Option::None);
+    }
+    let identity = eyereplay_dataset::SessionIdentity::read(path)?;
     let matched = identity
         .mapping
         .get("extractor_response")
         .is_some_and(|r| !r.is_null());
     // The face mode names the axis it left geometric, where it matched one.
-    Some(
+    Ok(Some(
         match (matched, identity.identity["geometric_axis"].as_str()) {
-            (false, _) => "none",
-            (true, Some("vertical")) => "horizontal",
-            (true, Some("horizontal")) => "vertical",
-            (true, _) => "both",
+            (false, _) => ExtractorMatched::None,
+            (true, Some("vertical")) => ExtractorMatched::Horizontal,
+            (true, Some("horizontal")) => ExtractorMatched::Vertical,
+            (true, _) => ExtractorMatched::Both,
         },
-    )
+    ))
 }
 
 /// One reading surface's sessions (a teleprompter, a laptop, ...), scored
@@ -462,8 +489,6 @@ pub fn evaluate_localization(
     let mut tracks = Vec::new();
     let mut flags_all = Vec::new();
     let mut session_surface = Vec::new();
-    let mut session_names = Vec::new();
-    let mut session_matched = Vec::new();
     // Before any extraction: the sessions with per-frame labels (the ones
     // scored; the others are not read), long enough for one window.
     let mut sessions = dataset_sessions(&[dir.to_path_buf()], input)?;
@@ -482,20 +507,31 @@ pub fn evaluate_localization(
             ),
         ));
     }
-    for t in session_tracks(sessions, input, cache, progress)? {
+    // Also before it: how each video was matched (an unreadable identity
+    // file stops the run here, not after the extraction).
+    let matched: Vec<Option<ExtractorMatched>> = sessions
+        .iter()
+        .map(|s| match input {
+            TrainInput::Extracted => extractor_matched(
+                &eyereplay_dataset::SessionPaths::beside_video(&s.file).identity_json,
+            ),
+            _ => Ok(Option::None),
+        })
+        .collect::<Result<_>>()?;
+    let mut session_names = Vec::new();
+    let mut session_matched = Vec::new();
+    for (t, matched) in session_tracks(sessions, input, cache, progress)?
+        .into_iter()
+        .zip(matched)
+    {
         let Some(mut flags) = t.frame_reading else {
             continue;
         };
         session_surface.push(t.sources.iter().find_map(|s| surfaces.get(s).cloned()));
         // `DATASET#conversation/conversation_0003.csv`: the part labels.csv names.
         let file = t.id.rsplit_once('#').map_or(t.id.as_str(), |(_, f)| f);
-        session_matched.push(match input {
-            TrainInput::Extracted => eyereplay_dataset::SessionPaths::new(dir, file)
-                .ok()
-                .and_then(|p| extractor_match(&p.identity_json)),
-            _ => None,
-        });
         session_names.push(file.to_string());
+        session_matched.push(matched);
         // A video may end a frame short of its trajectory.
         flags.truncate(t.track.len());
         let mut track = t.track;
@@ -724,7 +760,7 @@ mod tests {
             &truth,
             &found,
             180.0,
-            Some("none"),
+            Some(ExtractorMatched::None),
         );
         assert_eq!(a.len(), 3);
         assert!(a[0].found && !a[0].joined && !a[0].at_session_end);
@@ -734,7 +770,7 @@ mod tests {
         assert!(!a[2].found && a[2].joined && a[2].at_session_end);
         assert!((a[2].best_iou - 10.0 / 122.0).abs() < 1e-12);
         assert_eq!(a[2].surface.as_deref(), Some("laptop"));
-        assert_eq!(a[2].extractor_match.as_deref(), Some("none"));
+        assert_eq!(a[2].extractor_match, Some(ExtractorMatched::None));
         // Nothing found: every answer missed, IoU 0, none joined.
         let none = answer_results("c", None, &truth, &[], 180.0, None);
         assert!(none
@@ -771,9 +807,26 @@ mod tests {
             r#"{"gain": 1.0, "extractor_response": {"a": [[1, 0], [0, 1]], "b": [0, 0]}}"#,
         );
         let unmatched = write("u.json", r#"{"gain": 1.0}"#);
-        assert_eq!(extractor_match(&matched), Some("both"));
-        assert_eq!(extractor_match(&unmatched), Some("none"));
-        assert_eq!(extractor_match(&dir.path().join("none.json")), None);
+        assert_eq!(
+            extractor_matched(&matched).unwrap(),
+            Some(ExtractorMatched::Both)
+        );
+        assert_eq!(
+            extractor_matched(&unmatched).unwrap(),
+            Some(ExtractorMatched::None)
+        );
+        assert_eq!(
+            extractor_matched(&dir.path().join("none.json")).unwrap(),
+            None
+        );
+        // One that cannot be read is named, not taken for "no file".
+        let broken = dir.path().join("broken.json");
+        std::fs::write(&broken, "{ not json").unwrap();
+        let e = extractor_matched(&broken).unwrap_err().to_string();
+        assert!(
+            e.contains("broken.json") && e.contains("not an eyereplay identity file"),
+            "{e}"
+        );
         // One axis matched: the face mode names the other.
         let path = dir.path().join("h.json");
         std::fs::write(
@@ -781,7 +834,15 @@ mod tests {
             r#"{"file": "c/c.csv", "seed": 1, "identity": {"geometric_axis": "vertical"}, "mapping": {"extractor_response": {"a": [[0.5, 0], [0, 1]], "b": [0.2, 0]}}, "width": 640, "height": 480, "fps": 25.0}"#,
         )
         .unwrap();
-        assert_eq!(extractor_match(&path), Some("horizontal"));
+        assert_eq!(
+            extractor_matched(&path).unwrap(),
+            Some(ExtractorMatched::Horizontal)
+        );
+        // Serialized as the JSON says it.
+        assert_eq!(
+            serde_json::json!(ExtractorMatched::Horizontal),
+            "horizontal"
+        );
     }
 
     #[test]

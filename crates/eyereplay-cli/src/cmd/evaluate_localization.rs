@@ -1,5 +1,7 @@
 use super::Bars;
-use eyereplay_protocols::localization_eval::{AnswerResult, MethodResult, WindowCalibration};
+use eyereplay_protocols::localization_eval::{
+    AnswerResult, ExtractorMatched, MethodResult, WindowCalibration,
+};
 use eyereplay_protocols::{evaluate_localization, evaluate_spliced, SpliceOptions};
 use std::path::PathBuf;
 
@@ -290,12 +292,16 @@ fn print_missed(answers: &[AnswerResult]) {
         println!("  by where the text is read from: {}", parts.join(", "));
     }
     // The extractor match only applies to sessions read back from video.
-    let matched = |a: &AnswerResult, how: &str| a.extractor_match.as_deref() == Some(how);
     let unmatched = if answers.iter().any(|a| a.extractor_match.is_some()) {
         format!(
             "{} drawn without the extractor match, {} matched on one axis only; ",
-            count(&|a| matched(a, "none")),
-            count(&|a| matched(a, "horizontal") || matched(a, "vertical"))
+            count(&|a| a.extractor_match == Some(ExtractorMatched::None)),
+            count(&|a| {
+                matches!(
+                    a.extractor_match,
+                    Some(ExtractorMatched::Horizontal | ExtractorMatched::Vertical)
+                )
+            })
         )
     } else {
         String::new()
@@ -309,12 +315,7 @@ fn print_missed(answers: &[AnswerResult]) {
     );
     for a in missed {
         let mut notes = Vec::new();
-        match a.extractor_match.as_deref() {
-            Some("none") => notes.push("drawn without the extractor match"),
-            Some("horizontal") => notes.push("matched to the extractor horizontally only"),
-            Some("vertical") => notes.push("matched to the extractor vertically only"),
-            _ => {}
-        }
+        notes.extend(a.extractor_match.and_then(ExtractorMatched::caveat));
         if a.joined {
             notes.push("joined with another answer");
         }
