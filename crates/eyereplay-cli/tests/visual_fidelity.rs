@@ -298,3 +298,121 @@ fn seed_table() {
     }
     eprintln!("{frames} frames per seed; {fails} off target\n{table}");
 }
+
+/// The bundled photo `giunchedi.jpg`: `$EYEREPLAY_CACHE/faces`, else the
+/// checkout's `.cache/faces` (where scripts/setup.sh puts the photos with
+/// the models).
+fn bundled_photo(name: &str) -> PathBuf {
+    let dir = std::env::var_os("EYEREPLAY_CACHE")
+        .map(|d| PathBuf::from(d).join("faces"))
+        .filter(|d| d.join(name).is_file())
+        .unwrap_or_else(|| root().join(".cache/faces"));
+    let path = dir.join(name);
+    assert!(
+        path.is_file(),
+        "{} missing: run scripts/setup.sh",
+        path.display()
+    );
+    path
+}
+
+/// Eyes small in the frame: the giunchedi photo at 0.41 of a 640x480
+/// frame reads the eye's vertical movement at about a fifth of its size,
+/// under the quarter a match needs, and the horizontal at about half. The
+/// probe then matches the horizontal alone: `generate` says so, the
+/// identity file names the vertical as `geometric_axis` and holds that
+/// axis's identity row, and the horizontal read back comes up to its size
+/// from about half of it without the match (whose ratio the matched
+/// horizontal gain predicts).
+#[test]
+#[cfg_attr(
+    not(all(has_models, has_ffmpeg)),
+    ignore = "needs .cache/models and ffmpeg: run scripts/setup.sh"
+)]
+fn eyes_too_small_for_a_vertical_match_are_matched_horizontally() {
+    prerequisites();
+    let photo = bundled_photo("giunchedi.jpg");
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |matched: bool| -> (String, serde_json::Value, [f64; 4]) {
+        let out = tmp
+            .path()
+            .join(if matched { "matched" } else { "geometric" });
+        let config = tmp.path().join(format!("{matched}.toml"));
+        std::fs::write(
+            &config,
+            format!(
+                "session_frames = 250\nseed = 3\n[render]\nbackend = \"face\"\nwidth = 640\n\
+                 height = 480\nidentities = [\"{}\"]\nface_height_frac = [0.41, 0.41]\n\
+                 match_extractor = {matched}\n[classes.reading]\nsessions = 1\n\
+                 [[classes.reading.generators]]\nmodel = \"reading\"\npeople = 1\n\
+                 [classes.conversation]\nsessions = 1\n\
+                 [[classes.conversation.generators]]\nmodel = \"conversation\"\npeople = 1\n",
+                photo.display()
+            ),
+        )
+        .unwrap();
+        let s = |p: &Path| p.display().to_string();
+        let o = eyereplay(&[
+            "generate",
+            "--config",
+            &s(&config),
+            "--out",
+            &s(&out),
+            "--no-evaluate",
+        ]);
+        let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+        let identity: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(out.join("reading/reading_0000_identity.json")).unwrap(),
+        )
+        .unwrap();
+        let o = eyereplay(&[
+            "evaluate",
+            &s(&out),
+            "--visual-session",
+            "reading/reading_0000.csv",
+            "--json",
+        ]);
+        let m: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let v = &m["visual"];
+        let get = |axis: &str, key: &str| v[axis][key].as_f64().unwrap();
+        let vals = [
+            get("x", "r"),
+            get("y", "r"),
+            get("x", "amplitude_ratio"),
+            get("y", "amplitude_ratio"),
+        ];
+        (stderr, identity, vals)
+    };
+    let (said, identity, matched) = run(true);
+    let report = format!("{said}\n{identity}\nmatched: {matched:?}");
+    assert!(
+        said.contains(
+            "reading/reading_0000.csv: matched to the extractor horizontally only, \
+             and drawn at the geometric position vertically"
+        ),
+        "{report}"
+    );
+    assert_eq!(
+        identity["identity"]["geometric_axis"], "vertical",
+        "{report}"
+    );
+    let response = &identity["mapping"]["extractor_response"];
+    let a = |i: usize, j: usize| response["a"][i][j].as_f64().unwrap();
+    // The vertical row is the identity, its offset zero.
+    assert_eq!([a(1, 0), a(1, 1)], [0.0, 1.0], "{report}");
+    assert_eq!(response["b"][1].as_f64(), Some(0.0), "{report}");
+    let gain_x = a(0, 0);
+    assert!((0.3..0.7).contains(&gain_x), "{report}");
+    let (said, identity, geometric) = run(false);
+    let report = format!("{report}\n{said}\ngeometric: {geometric:?}");
+    assert!(!said.contains("horizontally only"), "{report}");
+    assert!(
+        identity["identity"].get("geometric_axis").is_none(),
+        "{report}"
+    );
+    // Unmatched, the horizontal reads at about the probe's gain; matched,
+    // at its size.
+    assert!((geometric[2] - gain_x).abs() < 0.15, "{report}");
+    assert!((0.85..=1.15).contains(&matched[2]), "{report}");
+    assert!(matched[0] >= 0.9, "{report}");
+}

@@ -11,7 +11,10 @@
 //! - the HMM's segments with each end moved to where the window mean
 //!   crosses half-way between its levels inside and outside the segment,
 //!   nearby ([`refine_edges`]): the HMM decides which segments there are,
-//!   the window mean where they start and end.
+//!   the window mean where they start and end, and only then is a segment
+//!   under [`MIN_SEGMENT_S`] dropped (the HMM's own span of a short read
+//!   answer is shorter than the answer: its evidence builds up over a
+//!   window and its states last half a minute).
 //!
 //! [`segments`] cuts the result into segments; [`match_segments`] scores
 //! them against known ones (F1 at an IoU threshold, onset errors).
@@ -54,7 +57,8 @@ pub enum Method {
     /// tempered to one observation a window and its states last half a
     /// minute, so its edges lag a change by seconds; the window mean of a
     /// step is half-way at the step, but alone it cuts short false
-    /// segments the HMM does not.
+    /// segments the HMM does not. An HMM segment of any length is moved;
+    /// what is then under [`MIN_SEGMENT_S`] is dropped.
     HmmEdges,
 }
 
@@ -141,31 +145,58 @@ pub fn localize_frames(
         Method::WindowMean => mean.clone(),
         Method::Hmm | Method::HmmEdges => hmm_of(&mean, window_frames),
     };
-    let mut loc = localization_of(track, &frame_p, model, method, threshold);
-    if method == Method::HmmEdges {
-        loc.segments = refine_edges(
-            &loc.segments,
-            &mean,
-            &frame_p,
-            FPS,
-            threshold,
-            window_frames,
-            MIN_SEGMENT_S,
-        );
-    }
+    let mut loc = localization_of(track, &frame_p, model, method);
+    loc.segments = match method {
+        Method::WindowMean | Method::Hmm => {
+            segments(&frame_p, FPS, threshold, MIN_SEGMENT_S, MAX_GAP_S)
+        }
+        Method::HmmEdges => edge_segments(&mean, &frame_p, FPS, threshold, window_frames),
+    };
     (frame_p, loc)
 }
 
-/// The per-second probability, the segments cut from `frame_p` and the
-/// stretches no window scores (before [`Method::HmmEdges`] moves the ends).
+/// [`Method::HmmEdges`]' segments: every run of the HMM's posterior
+/// `frame_p` over `threshold`, however short (gaps up to [`MAX_GAP_S`]
+/// bridged), moved to its edges on the window `mean` ([`refine_edges`],
+/// within one window of `window_frames`); then what is under
+/// [`MIN_SEGMENT_S`] is dropped.
+///
+/// The length rule comes after the move, not before: the posterior of a
+/// 20-s answer among talk may pass one half for only a few seconds (its
+/// evidence is tempered to one observation a window, and a state lasts
+/// half a minute on average), while the window mean it is moved on spans
+/// the answer.
+pub fn edge_segments(
+    mean: &[f64],
+    frame_p: &[f64],
+    fps: f64,
+    threshold: f64,
+    window_frames: usize,
+) -> Vec<Segment> {
+    let candidates = segments(frame_p, fps, threshold, 0.0, MAX_GAP_S);
+    refine_edges(
+        &candidates,
+        mean,
+        frame_p,
+        fps,
+        threshold,
+        window_frames,
+        MIN_SEGMENT_S,
+    )
+    .into_iter()
+    // Durations are whole frames; half a frame absorbs the division.
+    .filter(|s| s.duration_s() >= MIN_SEGMENT_S - 0.5 / fps)
+    .collect()
+}
+
+/// The per-second probability and the stretches no window scores (the
+/// segments are the caller's: they depend on the method).
 fn localization_of(
     track: &Track,
     frame_p: &[f64],
     model: &DetectorModel,
     method: Method,
-    threshold: f64,
 ) -> Localization {
-    let segments = segments(frame_p, FPS, threshold, MIN_SEGMENT_S, MAX_GAP_S);
     let per_step = FPS.round() as usize;
     let probability = frame_p
         .chunks(per_step)
@@ -193,7 +224,7 @@ fn localization_of(
         method,
         step_s: per_step as f64 / FPS,
         probability,
-        segments,
+        segments: Vec::new(),
         unscored,
     }
 }
@@ -762,6 +793,50 @@ mod tests {
         }
         let got = refine_edges(&[seg(62.0, 68.0)], &mean, &frame_p, 1.0, 0.5, 5, 5.0);
         assert_eq!((got[0].start_s, got[0].end_s), (60.0, 70.0));
+    }
+
+    #[test]
+    fn a_short_hmm_segment_is_moved_to_its_edges_before_the_length_rule() {
+        // fps 1, windows of 10 frames. The window mean of a 20-s answer
+        // among talk: 0.1, a ramp up over [35, 45) by 0.08 a frame, 0.9
+        // over [45, 55), a ramp down over [55, 65), 0.1 again; and a
+        // blip over [99, 103) at 0.6. The HMM's posterior passes one
+        // half over [48, 51) only (3 s), and over [100, 102).
+        let mean: Vec<f64> = (0..120)
+            .map(|k| match k {
+                35..=44 => 0.1 + 0.08 * (k - 35) as f64,
+                45..=54 => 0.9,
+                55..=64 => 0.9 - 0.08 * (k - 55) as f64,
+                99..=102 => 0.6,
+                _ => 0.1,
+            })
+            .collect();
+        let frame_p: Vec<f64> = (0..120)
+            .map(|k| {
+                if (48..51).contains(&k) || (100..102).contains(&k) {
+                    0.55
+                } else {
+                    0.2
+                }
+            })
+            .collect();
+        // Cut with the length rule first, nothing is left.
+        assert!(segments(&frame_p, 1.0, 0.5, MIN_SEGMENT_S, MAX_GAP_S).is_empty());
+        let got = edge_segments(&mean, &frame_p, 1.0, 0.5, 10);
+        // Too few frames inside [48, 51) for a level (half a window), so
+        // the edges cross 0.5: rising at 40 (0.1 + 0.08 x 5), falling
+        // below it at 61 (0.9 - 0.08 x 6 = 0.42). The blip moves to
+        // [99, 103), 4 s, and is dropped.
+        let ends: Vec<(f64, f64)> = got.iter().map(|s| (s.start_s, s.end_s)).collect();
+        assert_eq!(ends, [(40.0, 61.0)]);
+        // Confidence: the posterior's mean over [40, 61): 3 frames at
+        // 0.55, 18 at 0.2.
+        let want = (3.0 * 0.55 + 18.0 * 0.2) / 21.0;
+        assert!(
+            (got[0].confidence - want).abs() < 1e-12,
+            "{}",
+            got[0].confidence
+        );
     }
 
     #[test]
