@@ -190,9 +190,29 @@ fn fidelity(frames: usize, seed: u64) -> ([f64; 4], String) {
         "--seed",
         &seed_arg,
     ]);
+    let (vals, stderr) = read_back(dir);
+    let report = format!(
+        "seed {seed}: r x {:.3} y {:.3}, amplitude ratio x {:.3} y {:.3} ({:.0} s)\n{}",
+        vals[0],
+        vals[1],
+        vals[2],
+        vals[3],
+        started.elapsed().as_secs_f64(),
+        stderr
+    );
+    // The close-up has no face for the detector: the geometry path ran.
+    let html = std::fs::read_to_string(dir.join("report/index.html")).unwrap();
+    assert!(html.contains("known geometry"), "{report}");
+    (vals, report)
+}
+
+/// `eyereplay evaluate DIR --visual-session reading/reading_0000.csv`:
+/// that session read back from its video, `[r x, r y, ratio x, ratio y]`,
+/// and what the command printed on standard error.
+fn read_back(dir: &Path) -> ([f64; 4], String) {
     let o = eyereplay(&[
         "evaluate",
-        &s(dir.to_path_buf()),
+        &dir.display().to_string(),
         "--visual-session",
         "reading/reading_0000.csv",
         "--json",
@@ -210,19 +230,7 @@ fn fidelity(frames: usize, seed: u64) -> ([f64; 4], String) {
         get("x", "amplitude_ratio"),
         get("y", "amplitude_ratio"),
     ];
-    let report = format!(
-        "seed {seed}: r x {:.3} y {:.3}, amplitude ratio x {:.3} y {:.3} ({:.0} s)\n{}",
-        vals[0],
-        vals[1],
-        vals[2],
-        vals[3],
-        started.elapsed().as_secs_f64(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    // The close-up has no face for the detector: the geometry path ran.
-    let html = std::fs::read_to_string(dir.join("report/index.html")).unwrap();
-    assert!(html.contains("known geometry"), "{report}");
-    (vals, report)
+    (vals, String::from_utf8_lossy(&o.stderr).into_owned())
 }
 
 fn assert_targets(vals: [f64; 4], report: &str) {
@@ -365,23 +373,7 @@ fn eyes_too_small_for_a_vertical_match_are_matched_horizontally() {
             &std::fs::read(out.join("reading/reading_0000_identity.json")).unwrap(),
         )
         .unwrap();
-        let o = eyereplay(&[
-            "evaluate",
-            &s(&out),
-            "--visual-session",
-            "reading/reading_0000.csv",
-            "--json",
-        ]);
-        let m: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        let v = &m["visual"];
-        let get = |axis: &str, key: &str| v[axis][key].as_f64().unwrap();
-        let vals = [
-            get("x", "r"),
-            get("y", "r"),
-            get("x", "amplitude_ratio"),
-            get("y", "amplitude_ratio"),
-        ];
-        (stderr, identity, vals)
+        (stderr, identity, read_back(&out).0)
     };
     let (said, identity, matched) = run(true);
     let report = format!("{said}\n{identity}\nmatched: {matched:?}");
