@@ -756,6 +756,17 @@ fn interview_reading_segments_are_found_on_other_people() {
             .unwrap();
     let segs = d["localization"]["segments"].as_array().unwrap();
     assert!(!segs.is_empty(), "{d}");
+    // The window mean the ends were found on, one value a second beside
+    // P(reading): none exactly where no window reached, scores elsewhere.
+    let p = d["localization"]["probability"].as_array().unwrap();
+    let wm = d["localization"]["window_mean"].as_array().unwrap();
+    assert_eq!(p.len(), wm.len(), "{d}");
+    for (p, w) in p.iter().zip(wm) {
+        assert_eq!(p.is_null(), w.is_null(), "{d}");
+        if let Some(w) = w.as_f64() {
+            assert!((0.0..=1.0).contains(&w), "{d}");
+        }
+    }
     let read_s: f64 = segs
         .iter()
         .map(|g| g["end_s"].as_f64().unwrap() - g["start_s"].as_f64().unwrap())

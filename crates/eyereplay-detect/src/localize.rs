@@ -11,10 +11,11 @@
 //! - the HMM's segments with each end moved to where the window mean
 //!   crosses half-way between its levels inside and outside the segment,
 //!   nearby ([`refine_edges`]): the HMM decides which segments there are,
-//!   the window mean where they start and end, and only then is a segment
-//!   under [`MIN_SEGMENT_S`] dropped (the HMM's own span of a short read
-//!   answer is shorter than the answer: its evidence builds up over a
-//!   window and its states last half a minute).
+//!   the window mean where they start and end (and where a segment holds
+//!   a window or more of talk, [`split_at_dips`]), and only then is a
+//!   segment under [`MIN_SEGMENT_S`] dropped (the HMM's own span of a
+//!   short read answer is shorter than the answer: its evidence builds up
+//!   over a window and its states last half a minute).
 //!
 //! [`segments`] cuts the result into segments; [`match_segments`] scores
 //! them against known ones (F1 at an IoU threshold, onset errors).
@@ -57,7 +58,8 @@ pub enum Method {
     /// tempered to one observation a window and its states last half a
     /// minute, so its edges lag a change by seconds; the window mean of a
     /// step is half-way at the step, but alone it cuts short false
-    /// segments the HMM does not. An HMM segment of any length is moved;
+    /// segments the HMM does not. An HMM segment of any length is moved,
+    /// and cut where the window mean holds talk's level for a window;
     /// what is then under [`MIN_SEGMENT_S`] is dropped.
     HmmEdges,
 }
@@ -86,6 +88,13 @@ pub struct Localization {
     /// is said of them, and this says why.
     #[serde(default)]
     pub unscored: Vec<Unscored>,
+    /// The mean score of the windows covering each frame, per `step_s` as
+    /// `probability`: what [`Method::HmmEdges`] finds the segments' ends
+    /// on (for [`Method::WindowMean`], `probability` itself). A segment can
+    /// span more than the stretch where `probability` passes one half:
+    /// this shows why. Empty in results written before it was kept.
+    #[serde(default)]
+    pub window_mean: Vec<Option<f64>>,
 }
 
 /// A stretch without a reading probability: too little gaze for a window.
@@ -145,7 +154,7 @@ pub fn localize_frames(
         Method::WindowMean => mean.clone(),
         Method::Hmm | Method::HmmEdges => hmm_of(&mean, window_frames),
     };
-    let mut loc = localization_of(track, &frame_p, model, method);
+    let mut loc = localization_of(track, &frame_p, &mean, model, method);
     loc.segments = match method {
         Method::WindowMean | Method::Hmm => {
             segments(&frame_p, FPS, threshold, MIN_SEGMENT_S, MAX_GAP_S)
@@ -165,7 +174,10 @@ pub fn localize_frames(
 /// 20-s answer among talk may pass one half for only a few seconds (its
 /// evidence is tempered to one observation a window, and a state lasts
 /// half a minute on average), while the window mean it is moved on spans
-/// the answer.
+/// the answer. Before it, a segment is also cut where the window mean
+/// stays at talk's level for a window or longer ([`split_at_dips`]): the
+/// same slowness can carry the posterior over a short talk between two
+/// answers.
 pub fn edge_segments(
     mean: &[f64],
     frame_p: &[f64],
@@ -174,7 +186,7 @@ pub fn edge_segments(
     window_frames: usize,
 ) -> Vec<Segment> {
     let candidates = segments(frame_p, fps, threshold, 0.0, MAX_GAP_S);
-    refine_edges(
+    let moved = refine_edges(
         &candidates,
         mean,
         frame_p,
@@ -182,11 +194,81 @@ pub fn edge_segments(
         threshold,
         window_frames,
         MIN_SEGMENT_S,
-    )
-    .into_iter()
-    // Durations are whole frames; half a frame absorbs the division.
-    .filter(|s| s.duration_s() >= MIN_SEGMENT_S - 0.5 / fps)
-    .collect()
+    );
+    split_at_dips(&moved, mean, frame_p, fps, threshold, window_frames)
+        .into_iter()
+        // Durations are whole frames; half a frame absorbs the division.
+        .filter(|s| s.duration_s() >= MIN_SEGMENT_S - 0.5 / fps)
+        .collect()
+}
+
+/// Each segment cut where the window `mean` stays below its level for at
+/// least `min_dip` frames (one window): half-way between the median of
+/// the mean inside the segment and its median outside every segment (the
+/// recording's level of not reading; `threshold` where either is
+/// missing). The pieces keep the segment's outer ends; the dips go; each
+/// piece's confidence is `frame_p`'s mean over it.
+///
+/// The mirror of the short-answer case [`edge_segments`] handles: two read
+/// answers with 15-20 s of talk between them can keep the HMM's posterior
+/// over one half throughout (a state lasts half a minute), while the
+/// window mean falls to talk's level for the talk's length. A dip shorter
+/// than one window (a glance away, a pause between lines) is not talk.
+pub fn split_at_dips(
+    segments: &[Segment],
+    mean: &[f64],
+    frame_p: &[f64],
+    fps: f64,
+    threshold: f64,
+    min_dip: usize,
+) -> Vec<Segment> {
+    let n = mean.len();
+    let frame = |s: f64| ((s * fps).round() as usize).min(n);
+    let spans: Vec<(usize, usize)> = segments
+        .iter()
+        .map(|s| (frame(s.start_s), frame(s.end_s)))
+        .collect();
+    let finite_median = |v: Vec<f64>| {
+        let v: Vec<f64> = v.into_iter().filter(|p| p.is_finite()).collect();
+        eyereplay_signal::stats::median(&v)
+    };
+    let outside = finite_median(
+        (0..n)
+            .filter(|&k| !spans.iter().any(|&(a, b)| a <= k && k < b))
+            .map(|k| mean[k])
+            .collect(),
+    );
+    let confidence = |a: usize, b: usize| {
+        let v: Vec<f64> = frame_p[a..b]
+            .iter()
+            .copied()
+            .filter(|p| p.is_finite())
+            .collect();
+        v.iter().sum::<f64>() / v.len().max(1) as f64
+    };
+    let mut out = Vec::with_capacity(segments.len());
+    for &(a, b) in &spans {
+        let level = match (finite_median(mean[a..b].to_vec()), outside) {
+            (Some(i), Some(o)) => 0.5 * (i + o),
+            _ => threshold,
+        };
+        let dips = runs(mean[a..b].iter().map(|&p| p.is_finite() && p < level))
+            .into_iter()
+            .filter(|&(x, y)| y - x >= min_dip.max(1))
+            .map(|(x, y)| (a + x, a + y));
+        let mut start = a;
+        for (x, y) in dips.chain(std::iter::once((b, b))) {
+            if x > start {
+                out.push(Segment {
+                    start_s: start as f64 / fps,
+                    end_s: x as f64 / fps,
+                    confidence: confidence(start, x),
+                });
+            }
+            start = y;
+        }
+    }
+    out
 }
 
 /// The per-second probability and the stretches no window scores (the
@@ -194,17 +276,21 @@ pub fn edge_segments(
 fn localization_of(
     track: &Track,
     frame_p: &[f64],
+    mean: &[f64],
     model: &DetectorModel,
     method: Method,
 ) -> Localization {
     let per_step = FPS.round() as usize;
-    let probability = frame_p
-        .chunks(per_step)
-        .map(|c| {
-            let v: Vec<f64> = c.iter().copied().filter(|p| p.is_finite()).collect();
-            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-        })
-        .collect();
+    let per_second = |frames: &[f64]| -> Vec<Option<f64>> {
+        frames
+            .chunks(per_step)
+            .map(|c| {
+                let v: Vec<f64> = c.iter().copied().filter(|p| p.is_finite()).collect();
+                (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+            })
+            .collect()
+    };
+    let probability = per_second(frame_p);
     let needed_s = model.window_s * (1.0 - MAX_MISSING_FRACTION);
     let unscored = runs(frame_p.iter().map(|p| !p.is_finite()))
         .into_iter()
@@ -226,6 +312,7 @@ fn localization_of(
         probability,
         segments: Vec::new(),
         unscored,
+        window_mean: per_second(mean),
     }
 }
 
@@ -837,6 +924,47 @@ mod tests {
             "{}",
             got[0].confidence
         );
+    }
+
+    #[test]
+    fn a_window_of_talk_inside_a_segment_cuts_it_and_a_glance_does_not() {
+        // fps 1, windows of 10 frames. One segment over [0, 70): reading
+        // at 0.9 with 15 s of talk at 0.1 over [30, 45) and a 5-s glance
+        // at 0.2 over [55, 60); talk at 0.1 after it, over [70, 100).
+        let mean: Vec<f64> = (0..100)
+            .map(|k| match k {
+                30..=44 | 70.. => 0.1,
+                55..=59 => 0.2,
+                _ => 0.9,
+            })
+            .collect();
+        let frame_p: Vec<f64> = (0..100).map(|k| k as f64 / 100.0).collect();
+        let seg = Segment {
+            start_s: 0.0,
+            end_s: 70.0,
+            confidence: 0.0,
+        };
+        let got = split_at_dips(&[seg], &mean, &frame_p, 1.0, 0.5, 10);
+        // Inside: 50 frames at 0.9, 15 at 0.1, 5 at 0.2: median 0.9;
+        // outside 0.1; level 0.5. The talk (15 frames) cuts, the glance
+        // (5) does not.
+        let ends: Vec<(f64, f64)> = got.iter().map(|s| (s.start_s, s.end_s)).collect();
+        assert_eq!(ends, [(0.0, 30.0), (45.0, 70.0)]);
+        // Confidences: frame_p's means, (0 + 0.29) / 2 and (0.45 + 0.69) / 2.
+        assert!((got[0].confidence - 0.145).abs() < 1e-12);
+        assert!((got[1].confidence - 0.57).abs() < 1e-12);
+        // With no frame outside every segment, the level is the threshold:
+        // at 0.15 only the two talks are under it; with windows of 16
+        // frames the first (15) stays inside and the last (30, at the
+        // segment's end) goes.
+        let whole = Segment {
+            start_s: 0.0,
+            end_s: 100.0,
+            confidence: 0.0,
+        };
+        let got = split_at_dips(&[whole], &mean, &frame_p, 1.0, 0.15, 16);
+        let ends: Vec<(f64, f64)> = got.iter().map(|s| (s.start_s, s.end_s)).collect();
+        assert_eq!(ends, [(0.0, 70.0)]);
     }
 
     #[test]

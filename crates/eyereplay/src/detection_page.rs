@@ -85,28 +85,44 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
             ),
         );
     }
-    let mut prob = String::new();
-    let mut pen_up = true;
-    for (k, p) in d.localization.probability.iter().enumerate() {
-        match p {
-            Some(p) => {
-                let t = (k as f64 + 0.5) * d.localization.step_s;
-                let _ = write!(
-                    prob,
-                    "{}{:.1},{:.1} ",
-                    if pen_up { "M" } else { "L" },
-                    x(t),
-                    yp(*p)
-                );
-                pen_up = false;
+    // One value a step, as a path broken where there is none.
+    let path_of = |values: &[Option<f64>]| -> String {
+        let mut path = String::new();
+        let mut pen_up = true;
+        for (k, p) in values.iter().enumerate() {
+            match p {
+                Some(p) => {
+                    let t = (k as f64 + 0.5) * d.localization.step_s;
+                    let _ = write!(
+                        path,
+                        "{}{:.1},{:.1} ",
+                        if pen_up { "M" } else { "L" },
+                        x(t),
+                        yp(*p)
+                    );
+                    pen_up = false;
+                }
+                None => pen_up = true,
             }
-            None => pen_up = true,
         }
-    }
+        path
+    };
+    let prob = path_of(&d.localization.probability);
+    // The window scores the segments' ends are found on, under the
+    // smoothed curve, so that a segment reaching past where that curve
+    // passes one half shows why.
+    let window_mean = if shows_window_mean(d) {
+        format!(
+            "<path d=\"{}\" class=\"wmean\"/>",
+            path_of(&d.localization.window_mean)
+        )
+    } else {
+        String::new()
+    };
     let h = top + H_PROB;
     let _ = write!(
         svg,
-        "<line x1=\"0\" x2=\"{W}\" y1=\"{y:.1}\" y2=\"{y:.1}\" class=\"half\"/><path d=\"{prob}\" class=\"prob\"/><line id=\"head\" x1=\"0\" x2=\"0\" y1=\"0\" y2=\"{h:.1}\" class=\"head\"/>",
+        "<line x1=\"0\" x2=\"{W}\" y1=\"{y:.1}\" y2=\"{y:.1}\" class=\"half\"/>{window_mean}<path d=\"{prob}\" class=\"prob\"/><line id=\"head\" x1=\"0\" x2=\"0\" y1=\"0\" y2=\"{h:.1}\" class=\"head\"/>",
         y = yp(0.5),
     );
     // A short clip's scored stretch, shaded: the page's one figure for it.
@@ -209,6 +225,12 @@ pub fn detection_page(track: &Track, d: &Detection, video_href: Option<&str>) ->
             d.model.threshold
         ));
     }
+    if shows_window_mean(d) {
+        legend.push(
+            "grey curve: the mean score of the windows covering each second, before the smoothing"
+                .into(),
+        );
+    }
     if let Some(c) = &d.clip {
         legend.push(format!(
             "blue: the stretch scored, its P(reading) the orange line, its {:.0} % interval the band; dashed: P = 0.5",
@@ -225,7 +247,7 @@ body{{font:15px system-ui,sans-serif;margin:24px auto;padding:0 12px;max-width:1
 video{{width:100%;max-height:480px;background:#000}}.tl{{position:relative}}\
 svg{{display:block;box-sizing:border-box;width:100%;height:{h:.0}px;border:1px solid #ccc;cursor:pointer}}\
 path,line{{vector-effect:non-scaling-stroke}}\
-.gaze{{fill:none;stroke:#456;stroke-width:1}}.prob{{fill:none;stroke:#c60;stroke-width:2}}\
+.gaze{{fill:none;stroke:#456;stroke-width:1}}.prob{{fill:none;stroke:#c60;stroke-width:2}}.wmean{{fill:none;stroke:#888;stroke-width:1}}\
 .half{{stroke:#999;stroke-dasharray:4 4}}.tick{{stroke:#ddd;stroke-width:1}}.seg{{fill:#fc8;opacity:.45}}.seg:hover{{opacity:.8}}\
 .gap{{fill:#888;opacity:.3}}.clip{{fill:#8bd;opacity:.2}}.ci{{fill:#c60;opacity:.2}}.head{{stroke:#d00;stroke-width:2}}\
 .lab{{position:absolute;left:5px;font-size:12px;color:#555;pointer-events:none}}\
@@ -257,6 +279,14 @@ if(v)v.addEventListener('timeupdate',function(){{var x=v.currentTime/D*{W};h.set
 /// The step between the timeline's time labels: the smallest of a
 /// player's usual steps that gives at most six, so that they fit side by
 /// side on a phone's 390 px.
+/// Whether the page draws the window mean beside P(reading): where the
+/// localization smoothed it (with the window mean alone they are one
+/// curve) and the detection kept it.
+fn shows_window_mean(d: &Detection) -> bool {
+    d.localization.method != eyereplay_detect::localize::Method::WindowMean
+        && d.localization.window_mean.iter().any(Option::is_some)
+}
+
 fn tick_step_s(dur_s: f64) -> f64 {
     const STEPS_S: [f64; 14] = [
         1.0, 2.0, 5.0, 10.0, 15.0, 30.0, 60.0, 120.0, 300.0, 600.0, 900.0, 1800.0, 3600.0, 7200.0,
@@ -455,6 +485,24 @@ mod tests {
             "<h2>Not scored</h2><ul><li><a href=\"#\" onclick=\"seek(12.00);return false\">0:12 - 0:19</a>: {why}</li></ul>"
         )));
         assert!(page.contains("grey: no score"));
+        // Written before the window mean was kept: no grey curve, and
+        // the legend does not name one.
+        assert!(!page.contains("class=\"wmean\"") && !page.contains("grey curve"));
+        // With it: one point a second at its middle, broken where there is
+        // none; x = 1000 t / 60, y = 100 + (1 - p) 110 for the strip from
+        // 100 to 210. Drawn under the smoothed curve.
+        let mut kept = d.clone();
+        kept.localization.window_mean = vec![Some(0.2), None, Some(0.9)];
+        let page = detection_page(&track, &kept, Some("call.mp4"));
+        assert!(
+            page.contains("<path d=\"M8.3,188.0 M41.7,111.0 \" class=\"wmean\"/><path d=\"M8.3,188.0 M41.7,111.0 \" class=\"prob\"/>"),
+            "{page}"
+        );
+        assert!(page.contains("grey curve: the mean score of the windows"));
+        // With the window mean alone the two are one curve: drawn once.
+        kept.localization.method = eyereplay_detect::localize::Method::WindowMean;
+        let page = detection_page(&track, &kept, Some("call.mp4"));
+        assert!(!page.contains("class=\"wmean\"") && !page.contains("grey curve"));
         // The one verdict is an average beside the segment, not a
         // contradiction of it; without segments it is the answer.
         let headline = |page: &str| page.split("<p>").nth(1).unwrap_or("").to_string();

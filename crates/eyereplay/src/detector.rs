@@ -1216,6 +1216,7 @@ pub(crate) mod tests {
                     usable_s: 1.0,
                     needed_s: 7.0,
                 }],
+                window_mean: Vec::new(),
             },
             clip: None,
         };
