@@ -689,6 +689,19 @@ impl SegmentMatch {
 mod tests {
     use super::*;
 
+    /// A segment over `[a, b)` seconds, confidence 0.
+    fn seg(a: f64, b: f64) -> Segment {
+        Segment {
+            start_s: a,
+            end_s: b,
+            confidence: 0.0,
+        }
+    }
+
+    fn ends(segments: &[Segment]) -> Vec<(f64, f64)> {
+        segments.iter().map(|s| (s.start_s, s.end_s)).collect()
+    }
+
     #[test]
     fn an_unscored_stretch_says_which_of_the_two_reasons_it_has() {
         let u = |usable_s| Unscored {
@@ -827,11 +840,6 @@ mod tests {
             *v = f64::NAN;
         }
         let frame_p: Vec<f64> = (0..80).map(|k| k as f64 / 100.0).collect();
-        let seg = |a: f64, b: f64| Segment {
-            start_s: a,
-            end_s: b,
-            confidence: 0.0,
-        };
         let got = refine_edges(
             &[seg(13.0, 28.0), seg(40.0, 48.0), seg(51.0, 58.0)],
             &mean,
@@ -841,11 +849,10 @@ mod tests {
             5,
             5.0,
         );
-        let ends: Vec<(f64, f64)> = got.iter().map(|s| (s.start_s, s.end_s)).collect();
         // The first moves 3 s back and 3 s back; the second has no crossing
         // within 5 s of either end and stays; the third would move to
         // [50, 56) (6 s): start 1 s back, end 2 s back.
-        assert_eq!(ends, [(10.0, 25.0), (40.0, 48.0), (50.0, 56.0)]);
+        assert_eq!(ends(&got), [(10.0, 25.0), (40.0, 48.0), (50.0, 56.0)]);
         // Confidence: frame_p's mean over [10, 25) = (0.10 + 0.24) / 2.
         assert!(
             (got[0].confidence - 0.17).abs() < 1e-12,
@@ -914,8 +921,7 @@ mod tests {
         // the edges cross 0.5: rising at 40 (0.1 + 0.08 x 5), falling
         // below it at 61 (0.9 - 0.08 x 6 = 0.42). The blip moves to
         // [99, 103), 4 s, and is dropped.
-        let ends: Vec<(f64, f64)> = got.iter().map(|s| (s.start_s, s.end_s)).collect();
-        assert_eq!(ends, [(40.0, 61.0)]);
+        assert_eq!(ends(&got), [(40.0, 61.0)]);
         // Confidence: the posterior's mean over [40, 61): 3 frames at
         // 0.55, 18 at 0.2.
         let want = (3.0 * 0.55 + 18.0 * 0.2) / 21.0;
@@ -939,17 +945,11 @@ mod tests {
             })
             .collect();
         let frame_p: Vec<f64> = (0..100).map(|k| k as f64 / 100.0).collect();
-        let seg = Segment {
-            start_s: 0.0,
-            end_s: 70.0,
-            confidence: 0.0,
-        };
-        let got = split_at_dips(&[seg], &mean, &frame_p, 1.0, 0.5, 10);
+        let got = split_at_dips(&[seg(0.0, 70.0)], &mean, &frame_p, 1.0, 0.5, 10);
         // Inside: 50 frames at 0.9, 15 at 0.1, 5 at 0.2: median 0.9;
         // outside 0.1; level 0.5. The talk (15 frames) cuts, the glance
         // (5) does not.
-        let ends: Vec<(f64, f64)> = got.iter().map(|s| (s.start_s, s.end_s)).collect();
-        assert_eq!(ends, [(0.0, 30.0), (45.0, 70.0)]);
+        assert_eq!(ends(&got), [(0.0, 30.0), (45.0, 70.0)]);
         // Confidences: frame_p's means, (0 + 0.29) / 2 and (0.45 + 0.69) / 2.
         assert!((got[0].confidence - 0.145).abs() < 1e-12);
         assert!((got[1].confidence - 0.57).abs() < 1e-12);
@@ -957,14 +957,8 @@ mod tests {
         // at 0.15 only the two talks are under it; with windows of 16
         // frames the first (15) stays inside and the last (30, at the
         // segment's end) goes.
-        let whole = Segment {
-            start_s: 0.0,
-            end_s: 100.0,
-            confidence: 0.0,
-        };
-        let got = split_at_dips(&[whole], &mean, &frame_p, 1.0, 0.15, 16);
-        let ends: Vec<(f64, f64)> = got.iter().map(|s| (s.start_s, s.end_s)).collect();
-        assert_eq!(ends, [(0.0, 70.0)]);
+        let got = split_at_dips(&[seg(0.0, 100.0)], &mean, &frame_p, 1.0, 0.15, 16);
+        assert_eq!(ends(&got), [(0.0, 70.0)]);
     }
 
     #[test]
@@ -981,12 +975,7 @@ mod tests {
             })
             .collect();
         let frame_p = vec![0.5; 90];
-        let seg = Segment {
-            start_s: 28.0,
-            end_s: 55.0,
-            confidence: 0.0,
-        };
-        let got = refine_edges(&[seg], &mean, &frame_p, 1.0, 0.5, 10, 5.0);
+        let got = refine_edges(&[seg(28.0, 55.0)], &mean, &frame_p, 1.0, 0.5, 10, 5.0);
         // Inside 0.5, outside 0.1: level 0.3, first reached at 25 (0.1 +
         // 0.04 x 5); the end falls below 0.3 at 60. One half would have
         // put the start at 30, the end at 60 too.
