@@ -276,9 +276,6 @@ if(v)v.addEventListener('timeupdate',function(){{var x=v.currentTime/D*{W};h.set
     )
 }
 
-/// The step between the timeline's time labels: the smallest of a
-/// player's usual steps that gives at most six, so that they fit side by
-/// side on a phone's 390 px.
 /// Whether the page draws the window mean beside P(reading): where the
 /// localization smoothed it (with the window mean alone they are one
 /// curve) and the detection kept it.
@@ -287,6 +284,9 @@ fn shows_window_mean(d: &Detection) -> bool {
         && d.localization.window_mean.iter().any(Option::is_some)
 }
 
+/// The step between the timeline's time labels: the smallest of a
+/// player's usual steps that gives at most six, so that they fit side by
+/// side on a phone's 390 px.
 fn tick_step_s(dur_s: f64) -> f64 {
     const STEPS_S: [f64; 14] = [
         1.0, 2.0, 5.0, 10.0, 15.0, 30.0, 60.0, 120.0, 300.0, 600.0, 900.0, 1800.0, 3600.0, 7200.0,
