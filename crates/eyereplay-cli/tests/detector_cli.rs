@@ -727,6 +727,25 @@ fn interview_reading_segments_are_found_on_other_people() {
         missed.len()
     );
     assert!(text.contains(&head), "{head} in {text}");
+    // The signed ends of detect's method, as the JSON has them: a start
+    // offset cannot be larger than the largest onset error.
+    let signed = |key: &str| edges[key].as_f64().unwrap();
+    let ends = format!(
+        "ends (HmmEdges, detect's method): found starts {:+.1} s from the true ones, found ends {:+.1} s",
+        signed("start_offset_median_s"),
+        signed("end_offset_median_s")
+    );
+    assert!(text.contains(&ends), "{ends} in {text}");
+    let largest_onset = edges["segments"]["onset_errors_s"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .fold(0.0, f64::max);
+    assert!(
+        signed("start_offset_median_s").abs() <= largest_onset,
+        "{edges}"
+    );
     for a in missed {
         let line = format!(
             "  {} {:>6.1}-{:>6.1} s ",

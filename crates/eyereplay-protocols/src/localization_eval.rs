@@ -27,6 +27,12 @@ pub struct MethodResult {
     /// Pooled over sessions (each session matched on its own).
     pub segments: SegmentMatch,
     pub onset_error_median_s: Option<f64>,
+    /// Signed, over the matched pairs: the median of found start minus
+    /// true start, leaving out stretches that start with their session
+    /// (positive: the segments start late), and of found end minus true
+    /// end, leaving out those that end with it (negative: they end early).
+    pub start_offset_median_s: Option<f64>,
+    pub end_offset_median_s: Option<f64>,
     /// Frames called reading among the frames that are not reading.
     pub false_reading_fraction: f64,
     /// Frames called reading among the frames that are reading.
@@ -633,6 +639,12 @@ pub struct SessionScore {
     pub segments_found: usize,
     pub segments_true: usize,
     pub onset_errors_s: Vec<f64>,
+    /// Found start minus true start of each matched pair whose true
+    /// stretch does not start the session; found end minus true end of
+    /// each whose stretch does not end it (what a session's edge cuts says
+    /// nothing of the segments' own edges).
+    pub start_offsets_s: Vec<f64>,
+    pub end_offsets_s: Vec<f64>,
     /// Frames not reading, and those of them called reading.
     pub other_frames: usize,
     pub false_frames: usize,
@@ -661,6 +673,7 @@ pub fn score_session(
         onset_errors_s: m.onset_errors_s,
         ..Default::default()
     };
+    (s.start_offsets_s, s.end_offsets_s) = edge_offsets(&found, &truth, flags.len() as f64 / FPS);
     s.found_segments = found;
     for (k, &f) in flags.iter().enumerate() {
         let t = k as f64 / FPS;
@@ -676,6 +689,30 @@ pub fn score_session(
     s
 }
 
+/// Signed edge errors of the pairs [`match_segments`] counts: found start
+/// minus true start where the true stretch does not start at 0, found end
+/// minus true end where it does not end at `session_end_s` (a session's
+/// edge cuts both alike and says nothing of where the method puts an
+/// edge).
+pub fn edge_offsets(
+    found: &[(f64, f64)],
+    truth: &[(f64, f64)],
+    session_end_s: f64,
+) -> (Vec<f64>, Vec<f64>) {
+    let mut starts = Vec::new();
+    let mut ends = Vec::new();
+    for (i, j) in localize::matched_pairs(found, truth, MIN_IOU) {
+        let (f, t) = (found[i], truth[j]);
+        if t.0 > 0.0 {
+            starts.push(f.0 - t.0);
+        }
+        if t.1 < session_end_s {
+            ends.push(f.1 - t.1);
+        }
+    }
+    (starts, ends)
+}
+
 /// Sessions' scores pooled: segment F1 over all their segments (each
 /// session matched on its own), onset errors, and frame shares.
 pub fn pool<'a>(
@@ -687,6 +724,8 @@ pub fn pool<'a>(
         sum.segments_found += s.segments_found;
         sum.segments_true += s.segments_true;
         sum.onset_errors_s.extend(&s.onset_errors_s);
+        sum.start_offsets_s.extend(&s.start_offsets_s);
+        sum.end_offsets_s.extend(&s.end_offsets_s);
         sum.false_frames += s.false_frames;
         sum.other_frames += s.other_frames;
         sum.found_frames += s.found_frames;
@@ -698,6 +737,8 @@ pub fn pool<'a>(
     MethodResult {
         method,
         onset_error_median_s: eyereplay_signal::stats::median(&pooled.onset_errors_s),
+        start_offset_median_s: eyereplay_signal::stats::median(&sum.start_offsets_s),
+        end_offset_median_s: eyereplay_signal::stats::median(&sum.end_offsets_s),
         segments: pooled,
         false_reading_fraction: ratio(sum.false_frames, sum.other_frames),
         reading_recall: ratio(sum.found_frames, sum.reading_frames),
@@ -786,6 +827,38 @@ mod tests {
             None,
         );
         assert_eq!(two.iter().filter(|a| a.found).count(), 1);
+    }
+
+    #[test]
+    fn edge_offsets_are_signed_and_leave_out_the_sessions_edges() {
+        // 100-s session. Answers [0, 30), [40, 60), [70, 100); found
+        // [0, 28) (IoU 28/30), [42, 59) (17/20) and [68, 100) (30/32),
+        // taken best IoU first (the third, the first, the second): starts
+        // -2 (the third) and +2 (the second; the first starts the
+        // session); ends -2 (the first) and -1 (the second; the third
+        // ends the session). A found [80, 85) matches nothing and counts
+        // for neither.
+        let truth = [(0.0, 30.0), (40.0, 60.0), (70.0, 100.0)];
+        let found = [(0.0, 28.0), (42.0, 59.0), (68.0, 100.0), (80.0, 85.0)];
+        let (starts, ends) = edge_offsets(&found, &truth, 100.0);
+        assert_eq!(starts, [-2.0, 2.0]);
+        assert_eq!(ends, [-2.0, -1.0]);
+        // Pooled: medians over every session's pairs.
+        let score = |starts: Vec<f64>, ends: Vec<f64>| SessionScore {
+            start_offsets_s: starts,
+            end_offsets_s: ends,
+            ..Default::default()
+        };
+        let r = pool(
+            Method::HmmEdges,
+            &[
+                score(vec![2.0, -2.0], vec![-2.0, -1.0]),
+                score(vec![3.0], vec![]),
+            ],
+        );
+        assert_eq!(r.start_offset_median_s, Some(2.0));
+        assert_eq!(r.end_offset_median_s, Some(-1.5));
+        assert_eq!(pool(Method::Hmm, &[]).start_offset_median_s, None);
     }
 
     #[test]

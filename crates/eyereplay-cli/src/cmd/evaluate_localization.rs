@@ -14,7 +14,8 @@ use std::path::PathBuf;
 /// hidden Markov model; the model's segments with their ends moved to the
 /// window mean's crossings), and prints per method: segment F1 at IoU 0.5,
 /// the median onset error, and the share of not-reading time called
-/// reading. The sessions' trajectories are scored (no video needed), or
+/// reading; for `detect`'s method also where its segments' ends fall
+/// against the true ones, signed (late or early). The sessions' trajectories are scored (no video needed), or
 /// with --input extracted what the extractor reads from their videos, or
 /// with --input drawn the drawn eyes' own positions (what a perfect
 /// extractor would read): drawn against extracted is what the read-back
@@ -388,6 +389,21 @@ fn print_methods(condition: &str, methods: &[MethodResult]) {
             m.onset_error_median_s
                 .map_or("n/a".to_string(), |v| format!("{v:.1}")),
             100.0 * m.false_reading_fraction
+        );
+    }
+    // Where detect's method puts a segment's ends against the true ones,
+    // signed: the onset error above is unsigned.
+    if let Some(m) = methods
+        .iter()
+        .find(|m| m.method == eyereplay::detect::localize::DEFAULT_METHOD)
+    {
+        let signed = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:+.1} s"));
+        println!(
+            "{}ends ({:?}, detect's method): found starts {} from the true ones, found ends {} (medians; + later, - earlier; stretches at a session's start or end left out)",
+            if condition.is_empty() { String::new() } else { format!("{condition}: ") },
+            m.method,
+            signed(m.start_offset_median_s),
+            signed(m.end_offset_median_s)
         );
     }
 }
