@@ -177,6 +177,10 @@ struct FaceIdentityRecord<'a> {
     geometric_axis: Option<&'static str>,
 }
 
+/// The axis a session's map left at the geometric position, matching only
+/// the other, and why; `None` where it matched both or neither.
+type GeometricAxis = Option<(Axis, ProbeRefusal)>;
+
 /// What `render.match_readback` did for a session.
 #[derive(Clone, Copy, Debug, Serialize)]
 struct ReadbackMatchRecord {
@@ -194,10 +198,6 @@ struct ReadbackMatchRecord {
     /// and the session is drawn through the probe's match (the first pass
     /// itself where it drew every frame).
     refined: bool,
-    /// The fit the session was drawn through matched one axis only: the
-    /// other, and why (the probe's where the fit was not used).
-    #[serde(skip)]
-    geometric: Option<(Axis, ProbeRefusal)>,
 }
 
 /// The full-face backend, ready to draw sessions: photos fitted, mesh
@@ -367,36 +367,38 @@ impl SessionBackend for FaceBackend {
         p.pose_slopes = matched.pose_slopes;
         let probe_geometric = matched.geometric;
         let (mp4, truth) = (out.mp4(), out.truth());
-        let (stats, readback_match) = if settings.match_readback && matched.response.is_some() {
-            progress.status(&format!("{} (first pass, then its read-back)", files.file));
-            let (stats, record) = render_matched_to_readback(
-                &scene,
-                traj,
-                s.blinks.as_deref(),
-                &mut p,
-                [&mp4, &truth, &head_csv],
-                &targets,
-                iris_views,
-                settings.match_readback_every,
-                probe_geometric,
-            )?;
-            (stats, Some(record))
-        } else {
-            let stats = lap("draw and encode", || {
-                eyereplay_face::render_face_session(
+        // Matched on one axis only: the other, and why (the read-back's
+        // refit can match both where the probe matched one).
+        let (stats, readback_match, geometric) =
+            if settings.match_readback && matched.response.is_some() {
+                progress.status(&format!("{} (first pass, then its read-back)", files.file));
+                let (stats, record, geometric) = render_matched_to_readback(
                     &scene,
                     traj,
                     s.blinks.as_deref(),
-                    &p,
-                    &mp4,
-                    &truth,
-                    &head_csv,
-                )
-            })?;
-            (stats, None)
-        };
-        // Matched on one axis only: drawn, but the reviewer should know.
-        let geometric = readback_match.map_or(probe_geometric, |r| r.geometric);
+                    &mut p,
+                    [&mp4, &truth, &head_csv],
+                    &targets,
+                    iris_views,
+                    settings.match_readback_every,
+                    probe_geometric,
+                )?;
+                (stats, Some(record), geometric)
+            } else {
+                let stats = lap("draw and encode", || {
+                    eyereplay_face::render_face_session(
+                        &scene,
+                        traj,
+                        s.blinks.as_deref(),
+                        &p,
+                        &mp4,
+                        &truth,
+                        &head_csv,
+                    )
+                })?;
+                (stats, None, probe_geometric)
+            };
+        // Drawn, but the reviewer should know.
         if let Some((axis, why)) = geometric {
             progress.warn(&format!(
                 "{}: matched to the extractor {} only, and drawn at the geometric position {}: {why}",
@@ -461,7 +463,9 @@ impl SessionBackend for FaceBackend {
 /// drawn. The first
 /// pass is written under hidden names beside the session's files and
 /// removed; where the fit is unusable, it becomes the session (drawn again
-/// whole if it drew only every `every`-th frame).
+/// whole if it drew only every `every`-th frame). Returns, with what was
+/// drawn and done, the axis the final map left geometric and why: the
+/// refit's, else the probe's (`probe_geometric`).
 ///
 /// The first pass draws every `every`-th frame (`render.match_readback_every`),
 /// each the frame the session would have there, encoded at the frame rate
@@ -478,8 +482,8 @@ fn render_matched_to_readback(
     targets: &[NormPos],
     iris_views: usize,
     every: usize,
-    probe_geometric: Option<(Axis, ProbeRefusal)>,
-) -> Result<(FaceSessionStats, ReadbackMatchRecord)> {
+    probe_geometric: GeometricAxis,
+) -> Result<(FaceSessionStats, ReadbackMatchRecord, GeometricAxis)> {
     let first_pass = |path: &Path| {
         let name = path.file_name().unwrap_or_default().to_string_lossy();
         path.with_file_name(format!(".first-pass.{name}"))
@@ -520,7 +524,6 @@ fn render_matched_to_readback(
         first_pass_every: every,
         frames_fitted: reads.len(),
         refined: false,
-        geometric: probe_geometric,
     };
     let Some(refit) = lap("fit the response to the read-back", || {
         eyereplay_face::refine_match(targets, &reads, probe_geometric.map(|(axis, _)| axis))
@@ -532,7 +535,7 @@ fn render_matched_to_readback(
             let whole = lap("draw and encode", || {
                 eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)
             })?;
-            return Ok((whole, record));
+            return Ok((whole, record, probe_geometric));
         }
         // The first pass stands: it becomes the session (all three files
         // renamed, or none, as a stop finds them).
@@ -545,11 +548,10 @@ fn render_matched_to_readback(
             }
             Ok(())
         })?;
-        return Ok((first, record));
+        return Ok((first, record, probe_geometric));
     };
     remove_temp();
     record.refined = true;
-    record.geometric = refit.geometric;
     p.mapping.extractor_response = refit.response;
     p.pose_slopes = refit.pose_slopes;
     p.head_path = Some(first.head_path);
@@ -557,7 +559,7 @@ fn render_matched_to_readback(
     let second = lap("second pass: draw and encode", || {
         eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)
     })?;
-    Ok((second, record))
+    Ok((second, record, refit.geometric))
 }
 
 /// The frames of a first pass that the read-back fit uses: read by the

@@ -154,13 +154,13 @@ pub fn localize_frames(
         Method::WindowMean => mean.clone(),
         Method::Hmm | Method::HmmEdges => hmm_of(&mean, window_frames),
     };
-    let mut loc = localization_of(track, &frame_p, &mean, model, method);
-    loc.segments = match method {
+    let segments = match method {
         Method::WindowMean | Method::Hmm => {
             segments(&frame_p, FPS, threshold, MIN_SEGMENT_S, MAX_GAP_S)
         }
         Method::HmmEdges => edge_segments(&mean, &frame_p, FPS, threshold, window_frames),
     };
+    let loc = localization_of(track, &frame_p, &mean, segments, model, method);
     (frame_p, loc)
 }
 
@@ -271,12 +271,13 @@ pub fn split_at_dips(
     out
 }
 
-/// The per-second probability and the stretches no window scores (the
-/// segments are the caller's: they depend on the method).
+/// The localization of `segments`: the per-second probability and window
+/// mean, and the stretches no window scores.
 fn localization_of(
     track: &Track,
     frame_p: &[f64],
     mean: &[f64],
+    segments: Vec<Segment>,
     model: &DetectorModel,
     method: Method,
 ) -> Localization {
@@ -310,7 +311,7 @@ fn localization_of(
         method,
         step_s: per_step as f64 / FPS,
         probability,
-        segments: Vec::new(),
+        segments,
         unscored,
         window_mean: per_second(mean),
     }
@@ -622,11 +623,7 @@ pub struct SegmentMatch {
 /// a pair counts when its IoU reaches `min_iou`. Precision and recall are 1
 /// when there is nothing to find and nothing was found.
 pub fn match_segments(found: &[(f64, f64)], truth: &[(f64, f64)], min_iou: f64) -> SegmentMatch {
-    let onset_errors_s = matched_pairs(found, truth, min_iou)
-        .into_iter()
-        .map(|(i, j)| (found[i].0 - truth[j].0).abs())
-        .collect();
-    SegmentMatch::from_counts(found.len(), truth.len(), onset_errors_s)
+    SegmentMatch::of_pairs(found, truth, &matched_pairs(found, truth, min_iou))
 }
 
 /// The pairs `(found index, truth index)` that [`match_segments`] counts,
@@ -660,6 +657,20 @@ pub fn matched_pairs(
 }
 
 impl SegmentMatch {
+    /// [`match_segments`]' result from its [`matched_pairs`], for a caller
+    /// that needs the pairs too.
+    pub fn of_pairs(
+        found: &[(f64, f64)],
+        truth: &[(f64, f64)],
+        pairs: &[(usize, usize)],
+    ) -> SegmentMatch {
+        let onset_errors_s = pairs
+            .iter()
+            .map(|&(i, j)| (found[i].0 - truth[j].0).abs())
+            .collect();
+        SegmentMatch::from_counts(found.len(), truth.len(), onset_errors_s)
+    }
+
     /// Precision, recall and F1 of `found` segments against `truth`, one
     /// onset error per matched pair; both 1 when there is nothing to find
     /// and nothing was found.

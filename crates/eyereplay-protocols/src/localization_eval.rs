@@ -11,7 +11,7 @@ use eyereplay::{Error, Result};
 use eyereplay_core::Progress;
 use eyereplay_detect::calibration::{expected_calibration_error, reliability, ReliabilityBin};
 use eyereplay_detect::clip::score_clip;
-use eyereplay_detect::localize::{self, match_segments, Method, SegmentMatch};
+use eyereplay_detect::localize::{self, matched_pairs, Method, SegmentMatch};
 use eyereplay_detect::metrics::{auroc, rate_at};
 use eyereplay_detect::{windows, DetectorModel, Track, WindowSpec, FPS};
 use serde::Serialize;
@@ -326,17 +326,18 @@ impl ExtractorMatched {
 }
 
 /// Each of `truth`'s answers against the `found` segments of one session
-/// of `duration_s`, as [`AnswerResult`]s (`session`, `surface` and
-/// `extractor_match` copied into each).
+/// of `duration_s`, matched one-to-one as `pairs` say ([`matched_pairs`]),
+/// as [`AnswerResult`]s (`session`, `surface` and `extractor_match`
+/// copied into each).
 pub fn answer_results(
     session: &str,
     surface: Option<&str>,
     truth: &[(f64, f64)],
     found: &[(f64, f64)],
+    pairs: &[(usize, usize)],
     duration_s: f64,
     extractor_match: Option<ExtractorMatched>,
 ) -> Vec<AnswerResult> {
-    let pairs = localize::matched_pairs(found, truth, MIN_IOU);
     truth
         .iter()
         .enumerate()
@@ -361,8 +362,7 @@ pub fn answer_results(
                 found: pairs.iter().any(|&(_, m)| m == j),
                 best_iou: best.map_or(0.0, |(v, _)| v),
                 joined,
-                // Its last frame is the session's.
-                at_session_end: t.1 >= duration_s - 0.5 / FPS,
+                at_session_end: ends_session(t.1, duration_s),
                 extractor_match,
             }
         })
@@ -573,6 +573,7 @@ pub fn evaluate_localization(
                 session_surface[i].as_ref().map(|s| s.surface.as_str()),
                 &true_segments(&flags_all[i]),
                 &score.found_segments,
+                &score.matched_pairs,
                 flags_all[i].len() as f64 / FPS,
                 session_matched[i],
             )
@@ -653,6 +654,9 @@ pub struct SessionScore {
     pub found_frames: usize,
     /// The segments found, `(start_s, end_s)`.
     pub found_segments: Vec<(f64, f64)>,
+    /// `(found index, true index)` of each pair segment F1 counts
+    /// ([`matched_pairs`]).
+    pub matched_pairs: Vec<(usize, usize)>,
 }
 
 /// [`SessionScore`] of `track` localized by `method`.
@@ -666,15 +670,18 @@ pub fn score_session(
     let truth = true_segments(flags);
     let loc = localize::localize(track, model, method, threshold);
     let found: Vec<(f64, f64)> = loc.segments.iter().map(|s| (s.start_s, s.end_s)).collect();
-    let m = match_segments(&found, &truth, MIN_IOU);
+    let pairs = matched_pairs(&found, &truth, MIN_IOU);
+    let m = SegmentMatch::of_pairs(&found, &truth, &pairs);
     let mut s = SessionScore {
         segments_found: m.found,
         segments_true: m.truth,
         onset_errors_s: m.onset_errors_s,
         ..Default::default()
     };
-    (s.start_offsets_s, s.end_offsets_s) = edge_offsets(&found, &truth, flags.len() as f64 / FPS);
+    (s.start_offsets_s, s.end_offsets_s) =
+        edge_offsets(&found, &truth, &pairs, flags.len() as f64 / FPS);
     s.found_segments = found;
+    s.matched_pairs = pairs;
     for (k, &f) in flags.iter().enumerate() {
         let t = k as f64 / FPS;
         let called = s.found_segments.iter().any(|&(a, b)| a <= t && t < b) as usize;
@@ -689,28 +696,35 @@ pub fn score_session(
     s
 }
 
-/// Signed edge errors of the pairs [`match_segments`] counts: found start
-/// minus true start where the true stretch does not start at 0, found end
-/// minus true end where it does not end at `session_end_s` (a session's
-/// edge cuts both alike and says nothing of where the method puts an
-/// edge).
+/// Signed edge errors of the matched `pairs` ([`matched_pairs`]): found
+/// start minus true start where the true stretch does not start at 0,
+/// found end minus true end where it does not end with the session of
+/// `session_end_s` (a session's edge cuts both alike and says nothing of
+/// where the method puts an edge).
 pub fn edge_offsets(
     found: &[(f64, f64)],
     truth: &[(f64, f64)],
+    pairs: &[(usize, usize)],
     session_end_s: f64,
 ) -> (Vec<f64>, Vec<f64>) {
     let mut starts = Vec::new();
     let mut ends = Vec::new();
-    for (i, j) in localize::matched_pairs(found, truth, MIN_IOU) {
+    for &(i, j) in pairs {
         let (f, t) = (found[i], truth[j]);
         if t.0 > 0.0 {
             starts.push(f.0 - t.0);
         }
-        if t.1 < session_end_s {
+        if !ends_session(t.1, session_end_s) {
             ends.push(f.1 - t.1);
         }
     }
     (starts, ends)
+}
+
+/// Whether a stretch ending at `end_s` runs to the last frame of a
+/// session of `duration_s`.
+fn ends_session(end_s: f64, duration_s: f64) -> bool {
+    end_s >= duration_s - 0.5 / FPS
 }
 
 /// Sessions' scores pooled: segment F1 over all their segments (each
@@ -800,6 +814,7 @@ mod tests {
             Some("laptop"),
             &truth,
             &found,
+            &matched_pairs(&found, &truth, MIN_IOU),
             180.0,
             Some(ExtractorMatched::None),
         );
@@ -813,16 +828,18 @@ mod tests {
         assert_eq!(a[2].surface.as_deref(), Some("laptop"));
         assert_eq!(a[2].extractor_match, Some(ExtractorMatched::None));
         // Nothing found: every answer missed, IoU 0, none joined.
-        let none = answer_results("c", None, &truth, &[], 180.0, None);
+        let none = answer_results("c", None, &truth, &[], &[], 180.0, None);
         assert!(none
             .iter()
             .all(|a| !a.found && a.best_iou == 0.0 && !a.joined));
         // One segment, two answers at IoU >= 0.5 each cannot both take it.
+        let (truth2, found2) = ([(0.0, 10.0), (0.0, 9.0)], [(0.0, 10.0)]);
         let two = answer_results(
             "c",
             None,
-            &[(0.0, 10.0), (0.0, 9.0)],
-            &[(0.0, 10.0)],
+            &truth2,
+            &found2,
+            &matched_pairs(&found2, &truth2, MIN_IOU),
             60.0,
             None,
         );
@@ -840,7 +857,8 @@ mod tests {
         // for neither.
         let truth = [(0.0, 30.0), (40.0, 60.0), (70.0, 100.0)];
         let found = [(0.0, 28.0), (42.0, 59.0), (68.0, 100.0), (80.0, 85.0)];
-        let (starts, ends) = edge_offsets(&found, &truth, 100.0);
+        let pairs = matched_pairs(&found, &truth, MIN_IOU);
+        let (starts, ends) = edge_offsets(&found, &truth, &pairs, 100.0);
         assert_eq!(starts, [-2.0, 2.0]);
         assert_eq!(ends, [-2.0, -1.0]);
         // Pooled: medians over every session's pairs.

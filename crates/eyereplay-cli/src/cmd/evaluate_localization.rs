@@ -15,11 +15,11 @@ use std::path::PathBuf;
 /// window mean's crossings), and prints per method: segment F1 at IoU 0.5,
 /// the median onset error, and the share of not-reading time called
 /// reading; for `detect`'s method also where its segments' ends fall
-/// against the true ones, signed (late or early). The sessions' trajectories are scored (no video needed), or
-/// with --input extracted what the extractor reads from their videos, or
-/// with --input drawn the drawn eyes' own positions (what a perfect
-/// extractor would read): drawn against extracted is what the read-back
-/// loses. It lists the read answers `detect`'s method missed, each with
+/// against the true ones, signed (late or early). The sessions'
+/// trajectories are scored (no video needed), or with --input extracted
+/// what the extractor reads from their videos, or with --input drawn the
+/// drawn eyes' own positions (what a perfect extractor would read): drawn
+/// against extracted is what the read-back loses. It lists the read answers `detect`'s method missed, each with
 /// its surface, its best IoU and what else marks it (drawn without the
 /// extractor match, joined with another answer into one segment, cut by
 /// the session's end); --json keeps every answer. It also scores short
