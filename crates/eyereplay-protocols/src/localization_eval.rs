@@ -711,7 +711,7 @@ pub fn edge_offsets(
     let mut ends = Vec::new();
     for &(i, j) in pairs {
         let (f, t) = (found[i], truth[j]);
-        if t.0 > 0.0 {
+        if !starts_session(t.0) {
             starts.push(f.0 - t.0);
         }
         if !ends_session(t.1, session_end_s) {
@@ -719,6 +719,12 @@ pub fn edge_offsets(
         }
     }
     (starts, ends)
+}
+
+/// Whether a stretch starting at `start_s` starts with its session's
+/// first frame.
+fn starts_session(start_s: f64) -> bool {
+    start_s < 0.5 / FPS
 }
 
 /// Whether a stretch ending at `end_s` runs to the last frame of a

@@ -19,12 +19,13 @@ use std::path::PathBuf;
 /// trajectories are scored (no video needed), or with --input extracted
 /// what the extractor reads from their videos, or with --input drawn the
 /// drawn eyes' own positions (what a perfect extractor would read): drawn
-/// against extracted is what the read-back loses. It lists the read answers `detect`'s method missed, each with
-/// its surface, its best IoU and what else marks it (drawn without the
-/// extractor match, joined with another answer into one segment, cut by
-/// the session's end); --json keeps every answer. It also scores short
-/// clips (3, 5 and 8 s, each wholly reading or wholly not) as `detect`
-/// scores a clip shorter than one window.
+/// against extracted is what the read-back loses. It lists the read
+/// answers `detect`'s method missed, each with its surface, its best IoU
+/// and what else marks it (drawn without the extractor match, joined with
+/// another answer into one segment, cut by the session's end); --json
+/// keeps every answer. It also scores short clips (3, 5 and 8 s, each
+/// wholly reading or wholly not) as `detect` scores a clip shorter than
+/// one window.
 ///
 /// With --spliced PROTOCOL instead of DATASET: the real eye-tracker
 /// recordings of a detector protocol (docs/DETECTOR.md) cut into pieces
