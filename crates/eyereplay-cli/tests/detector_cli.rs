@@ -301,12 +301,36 @@ fn without_a_model_detect_uses_the_shipped_one() {
         s(&interviews),
     ]));
     let (ea, eb) = (d.join("a.json"), d.join("b.json"));
-    ok(&eyereplay(&[
+    let printed = ok(&eyereplay(&[
         "evaluate-localization",
         s(&interviews),
+        "--by-feature",
         "--json",
         s(&ea),
     ]));
+    // --by-feature's table: a row per feature, its last column every
+    // reading window's AUROC as the JSON keeps it, a column per surface
+    // before it.
+    let json = read_json(&ea);
+    let all = json["feature_auroc"].as_array().unwrap();
+    assert_eq!(all.len(), 14);
+    let surfaces = json["by_surface"].as_array().unwrap();
+    assert!(!surfaces.is_empty());
+    for (k, f) in all.iter().enumerate() {
+        let name = f["feature"].as_str().unwrap();
+        let row = printed
+            .lines()
+            .find(|l| l.trim_start().starts_with(&format!("{name} ")))
+            .unwrap_or_else(|| panic!("no row for {name} in\n{printed}"));
+        let cells: Vec<&str> = row.split_whitespace().skip(1).collect();
+        assert_eq!(cells.len(), surfaces.len() + 1, "{row}");
+        let auroc = f["auroc"].as_f64().unwrap();
+        assert!((0.0..=1.0).contains(&auroc));
+        assert_eq!(*cells.last().unwrap(), format!("{auroc:.3}"), "{row}");
+        let first = surfaces[0]["feature_auroc"][k]["auroc"].as_f64();
+        let want = first.map_or("n/a".to_string(), |v| format!("{v:.3}"));
+        assert_eq!(cells[0], want, "{row}");
+    }
     ok(&eyereplay(&[
         "evaluate-localization",
         s(&interviews),

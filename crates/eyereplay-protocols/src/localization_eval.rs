@@ -13,7 +13,9 @@ use eyereplay_detect::calibration::{expected_calibration_error, reliability, Rel
 use eyereplay_detect::clip::score_clip;
 use eyereplay_detect::localize::{self, matched_pairs, Method, SegmentMatch};
 use eyereplay_detect::metrics::{auroc, rate_at};
-use eyereplay_detect::{windows, DetectorModel, Track, WindowSpec, FPS};
+use eyereplay_detect::{
+    features, windows, DetectorModel, Track, WindowSpec, FEATURE_COUNT, FEATURE_NAMES, FPS,
+};
 use serde::Serialize;
 use std::path::Path;
 
@@ -69,12 +71,26 @@ pub struct WindowCalibration {
 
 /// The labelled windows of `tracks`: non-overlapping windows of the
 /// model's length, each with its probability, its label from the per-frame
-/// `flags` (windows that straddle a switch left out) and its track's index.
+/// `flags` (windows that straddle a switch left out), its track's index
+/// and its features (what the model scored it from).
 #[derive(Clone, Debug, Default)]
 pub struct LabelledWindows {
     pub probability: Vec<f64>,
     pub reading: Vec<bool>,
     pub track: Vec<usize>,
+    pub features: Vec<[f64; FEATURE_COUNT]>,
+}
+
+/// One feature alone as a score: how well it separates some reading
+/// windows from the windows that are not reading.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FeatureAuroc {
+    /// As [`FEATURE_NAMES`] names it.
+    pub feature: String,
+    /// 0.5 separates nothing; under 0.5 the reading windows score lower
+    /// (a skewness that return sweeps make negative). `None` without
+    /// windows of both kinds.
+    pub auroc: Option<f64>,
 }
 
 impl LabelledWindows {
@@ -84,9 +100,11 @@ impl LabelledWindows {
         for (r, (t, f)) in tracks.iter().zip(flags).enumerate() {
             for w in windows(t, spec) {
                 if let Some(label) = window_label(f, w.start, spec.frames) {
-                    out.probability.push(model.probability(&w));
+                    let values = features(&w);
+                    out.probability.push(model.probability_of(&values));
                     out.reading.push(label);
                     out.track.push(r);
+                    out.features.push(values);
                 }
             }
         }
@@ -100,6 +118,29 @@ impl LabelledWindows {
             .map(|i| (self.probability[i], self.reading[i]))
             .unzip();
         auroc(&p, &l)
+    }
+
+    /// Each feature alone: the AUROC of the reading windows of the tracks
+    /// `keep` picks against every window that is not reading, of every
+    /// track. Every track's talk, not only the picked ones': a kind of
+    /// reading a few sessions hold is set against all the talk a model
+    /// must tell it from.
+    pub fn feature_aurocs(&self, keep: impl Fn(usize) -> bool) -> Vec<FeatureAuroc> {
+        let picked: Vec<usize> = (0..self.reading.len())
+            .filter(|&i| !self.reading[i] || keep(self.track[i]))
+            .collect();
+        let labels: Vec<bool> = picked.iter().map(|&i| self.reading[i]).collect();
+        FEATURE_NAMES
+            .iter()
+            .enumerate()
+            .map(|(k, name)| {
+                let values: Vec<f64> = picked.iter().map(|&i| self.features[i][k]).collect();
+                FeatureAuroc {
+                    feature: name.to_string(),
+                    auroc: auroc(&values, &labels),
+                }
+            })
+            .collect()
     }
 
     /// The pooled AUROC, and the mean AUROC within each track over the
@@ -265,6 +306,9 @@ pub struct LocalizationEval {
     /// surface, for sessions the interview model made (metadata.json names
     /// where each person reads from); empty when it names none.
     pub by_surface: Vec<SurfaceResult>,
+    /// Each feature alone on every reading window against every talk
+    /// window ([`LabelledWindows::feature_aurocs`]).
+    pub feature_auroc: Vec<FeatureAuroc>,
     /// Every read answer scored (each session's [`true_segments`]) and what
     /// `detect`'s method made of it, session by session.
     pub answers: Vec<AnswerResult>,
@@ -407,6 +451,10 @@ pub struct SurfaceResult {
     /// labelled windows, as [`WindowCalibration::auroc`]); `None` without
     /// both classes.
     pub window_auroc: Option<f64>,
+    /// Each feature alone on these sessions' reading windows against the
+    /// talk windows of every session ([`LabelledWindows::feature_aurocs`]):
+    /// what is left of this kind of reading once drawn and read back.
+    pub feature_auroc: Vec<FeatureAuroc>,
 }
 
 /// Where a behaviour-model source reads from.
@@ -564,6 +612,7 @@ pub fn evaluate_localization(
     let calibration = calibration_of(&labelled, model);
     let clips = clip_results(&tracks, &flags_all, model, CLIPS_PER_CLASS, seed);
     let by_surface = by_surface(detects, &session_surface, &labelled);
+    let feature_auroc = labelled.feature_aurocs(|_| true);
     let answers = detects
         .iter()
         .enumerate()
@@ -591,6 +640,7 @@ pub fn evaluate_localization(
         calibration,
         clips,
         by_surface,
+        feature_auroc,
         answers,
     })
 }
@@ -628,6 +678,7 @@ pub fn by_surface(
                 line_span_deg: eyereplay_signal::stats::median(&spans).unwrap_or(f64::NAN),
                 result: pool(localize::DEFAULT_METHOD, mine),
                 window_auroc: windows.auroc_of(on),
+                feature_auroc: windows.feature_aurocs(on),
             }
         })
         .collect()
@@ -800,12 +851,44 @@ mod tests {
             probability: p.to_vec(),
             reading: l.to_vec(),
             track: rec.to_vec(),
+            features: vec![[0.0; FEATURE_COUNT]; p.len()],
         };
         let (pooled, within, n) = w(&p, &l, &rec).aurocs();
         assert!((pooled.unwrap() - 8.0 / 12.0).abs() < 1e-12);
         assert!((within.unwrap() - 0.875).abs() < 1e-12);
         assert_eq!(n, 2);
         assert_eq!(w(&[0.5], &[true], &[0]).aurocs(), (None, None, 0));
+    }
+
+    #[test]
+    fn feature_aurocs_set_the_picked_reading_against_all_talk() {
+        // Track 0 reads with feature 0 at 3 and 1, track 1 reads at 5; the
+        // talk windows sit at 2 (track 0) and 0 (track 1). Track 0's
+        // reading against all talk: 3 beats both, 1 beats 0 only: 3 of 4.
+        // Track 1's: 5 beats both: 1.0, though track 1 has one talk window
+        // of its own. Every reading window: 5 of 6. Feature 1 holds the
+        // same value everywhere: ties, 0.5.
+        let at = |v: f64| {
+            let mut f = [7.0; FEATURE_COUNT];
+            f[0] = v;
+            f
+        };
+        let w = LabelledWindows {
+            probability: vec![0.5; 5],
+            reading: vec![true, true, false, true, false],
+            track: vec![0, 0, 0, 1, 1],
+            features: [3.0, 1.0, 2.0, 5.0, 0.0].map(at).to_vec(),
+        };
+        let first = w.feature_aurocs(|t| t == 0);
+        assert_eq!(first.len(), FEATURE_COUNT);
+        assert_eq!(first[0].feature, "forward_step_fraction_40ms");
+        assert_eq!(first[0].auroc, Some(0.75));
+        assert_eq!(first[1].auroc, Some(0.5));
+        assert_eq!(w.feature_aurocs(|t| t == 1)[0].auroc, Some(1.0));
+        let all = w.feature_aurocs(|_| true)[0].auroc.unwrap();
+        assert!((all - 5.0 / 6.0).abs() < 1e-12);
+        // No track picked: no reading window, no AUROC.
+        assert_eq!(w.feature_aurocs(|_| false)[0].auroc, None);
     }
 
     #[test]
@@ -1049,6 +1132,15 @@ mod tests {
         // windows; the teleprompter session has no reading window.
         assert_eq!(groups[0].window_auroc, Some(1.0));
         assert_eq!(groups[1].window_auroc, None);
+        // The sawtooth's 200-ms steps go forward but at a line's end; the
+        // wander's as often back. The teleprompter session has no reading
+        // to score.
+        assert_eq!(
+            groups[0].feature_auroc[1].feature,
+            "forward_step_fraction_200ms"
+        );
+        assert!(groups[0].feature_auroc[1].auroc.unwrap() > 0.9);
+        assert_eq!(groups[1].feature_auroc[0].auroc, None);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].surface, "laptop");
         assert_eq!(groups[0].result.segments.truth, 1);

@@ -1,6 +1,6 @@
 use super::Bars;
 use eyereplay_protocols::localization_eval::{
-    AnswerResult, ExtractorMatched, MethodResult, WindowCalibration,
+    AnswerResult, ExtractorMatched, FeatureAuroc, MethodResult, WindowCalibration,
 };
 use eyereplay_protocols::{evaluate_localization, evaluate_spliced, SpliceOptions};
 use std::path::PathBuf;
@@ -89,6 +89,12 @@ pub struct Args {
     /// Cut segments where the per-frame probability of reading reaches this.
     #[arg(long, default_value_t = eyereplay::detect::localize::SEGMENT_THRESHOLD, value_parser = super::values::open_fraction)]
     pub threshold: f64,
+    /// Also print each of the model's features alone as a score: the
+    /// AUROC of each surface's reading windows, and of all of them,
+    /// against every talk window (what a kind of reading keeps once drawn
+    /// and read back; `--json` keeps them without this).
+    #[arg(long, conflicts_with = "spliced")]
+    pub by_feature: bool,
     /// Also write every number to this JSON file (a file name, where
     /// `evaluate --json` and `detect --json` print to standard output).
     #[arg(long, value_name = "FILE")]
@@ -176,6 +182,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     print_missed(&ev.answers);
+    if args.by_feature {
+        print_by_feature(&ev);
+    }
     println!("short clips, each inside one class, scored as `detect` scores a clip shorter than a window:");
     for c in &ev.clips {
         println!(
@@ -195,6 +204,36 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         write_json(path, &ev)?;
     }
     Ok(())
+}
+
+/// One row per feature, one column per surface and one for every reading
+/// window.
+fn print_by_feature(ev: &eyereplay_protocols::localization_eval::LocalizationEval) {
+    println!(
+        "each feature alone as a score: a surface's reading windows against every talk window ({} + {} windows; AUROC, 0.5 separates nothing, under 0.5 reading scores lower):",
+        ev.calibration.windows_reading, ev.calibration.windows_other
+    );
+    let mut columns: Vec<(&str, &[FeatureAuroc])> = ev
+        .by_surface
+        .iter()
+        .map(|s| (s.surface.as_str(), s.feature_auroc.as_slice()))
+        .collect();
+    columns.push(("all reading", ev.feature_auroc.as_slice()));
+    let mut head = format!("  {:<28}", "feature");
+    for &(name, _) in &columns {
+        head.push_str(&format!(" {:>w$}", name, w = name.len().max(5)));
+    }
+    println!("{head}");
+    for (k, f) in ev.feature_auroc.iter().enumerate() {
+        let mut row = format!("  {:<28}", f.feature);
+        for &(name, values) in &columns {
+            let cell = values[k]
+                .auroc
+                .map_or("n/a".to_string(), |a| format!("{a:.3}"));
+            row.push_str(&format!(" {:>w$}", cell, w = name.len().max(5)));
+        }
+        println!("{row}");
+    }
 }
 
 fn run_spliced(
