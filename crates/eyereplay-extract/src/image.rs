@@ -473,10 +473,11 @@ impl<'a> ImageView<'a> {
     /// registers, its bytes fetched by gathers: the SSE2 version's IEEE
     /// operations per pixel in the same order, so the same values bit for
     /// bit (`sse2_crop_matches_the_per_pixel_path_bit_for_bit` compares
-    /// the three). Where the SSE2 version put each lane's bytes together
-    /// from scalar loads, which were most of its time (the face crop is a
-    /// seventh of extraction's CPU time at 360x288), one gather a plane
-    /// row fetches sixteen lanes' bytes.
+    /// the three). Where the SSE2 version puts each lane's bytes together
+    /// from scalar loads, one gather per plane row fetches sixteen lanes'
+    /// bytes; the crops take half the CPU time (the face crop was a
+    /// seventh of extraction's at 360x288: EXTRACTION.md, "Where
+    /// extraction's CPU time goes").
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     unsafe fn crop_yuv420_avx512(
