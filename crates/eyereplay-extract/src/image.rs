@@ -1117,142 +1117,181 @@ mod tests {
     #[test]
     #[cfg(target_arch = "x86_64")]
     fn sse2_crop_matches_the_per_pixel_path_bit_for_bit() {
-        // A textured 4:2:0 frame (odd width and height, padded strides, and
-        // again unpadded, so that the last row's pixels end their planes),
-        // cropped by rotated, mirrored, scaled ROIs inside it and across
-        // its edges, every rotation, both matrices, sizes with and without
-        // a partial last step: the SSE2 path and, where the CPU has it, the
-        // AVX-512 one (whose gathers read past a lane's bytes, so a step
-        // near a plane's end must take the general path) against the
-        // portable one, and against `sample_raw` pixel by pixel.
-        let (w, h) = (203usize, 157usize);
+        // A textured 4:2:0 frame (odd width and height), cropped by
+        // rotated, mirrored, scaled ROIs inside it and across its edges,
+        // every rotation, both matrices, sizes with and without a partial
+        // last step: the SSE2 path and, where the CPU has it, the AVX-512
+        // one against the portable one, and against `sample_raw` pixel by
+        // pixel. Once with padded strides, once unpadded, where the last
+        // row's pixels end their planes: the AVX-512 path's gathers read
+        // four bytes where a lane uses one or two, so a step within three
+        // bytes of a plane's end must take the general path, and the
+        // unpadded frame has such steps (counted).
+        let padded = check_crop_paths(208, 104);
+        let unpadded = check_crop_paths(CROP_W, CROP_W.div_ceil(2));
+        assert!(padded.inside > 10_000, "{}", padded.inside);
+        assert!(unpadded.inside > 10_000, "{}", unpadded.inside);
+        assert_eq!(padded.at_plane_end, 0);
+        assert!(unpadded.at_plane_end > 0, "no step reached the plane's end");
+    }
+
+    /// The crop test's frame: odd width and height.
+    #[cfg(target_arch = "x86_64")]
+    const CROP_W: usize = 203;
+    #[cfg(target_arch = "x86_64")]
+    const CROP_H: usize = 157;
+
+    /// What [`check_crop_paths`] covered: crop pixels whose bilinear taps
+    /// lie inside the frame, and 16-pixel steps wholly inside whose luma
+    /// bytes end within three bytes of the plane's end.
+    #[cfg(target_arch = "x86_64")]
+    struct CropCoverage {
+        inside: usize,
+        at_plane_end: usize,
+    }
+
+    /// The crop paths compared bit for bit on a `CROP_W` x `CROP_H` frame
+    /// with these strides (luma, chroma); see the test above.
+    #[cfg(target_arch = "x86_64")]
+    fn check_crop_paths(ys: usize, cs: usize) -> CropCoverage {
+        let (w, h) = (CROP_W, CROP_H);
         let avx512 = std::arch::is_x86_feature_detected!("avx512f");
-        let mut checked_inside = 0;
-        for (ys, cs) in [(208usize, 104usize), (w, w.div_ceil(2))] {
-            let mut seed = 12345u32;
-            let mut byte = || {
-                seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12345);
-                (seed >> 16) as u8
-            };
-            let yp: Vec<u8> = (0..ys * h).map(|_| byte()).collect();
-            let up: Vec<u8> = (0..cs * h.div_ceil(2)).map(|_| byte()).collect();
-            let vp: Vec<u8> = (0..cs * h.div_ceil(2)).map(|_| byte()).collect();
-            for (bt709, full) in [(false, false), (true, true)] {
-                let matrix = YuvMatrix::new(bt709, full);
-                for rotation in [
-                    Rotation::None,
-                    Rotation::Cw90,
-                    Rotation::Cw180,
-                    Rotation::Cw270,
-                ] {
-                    let img = ImageView {
-                        planes: Planes::Yuv420 {
-                            y: &yp,
-                            u: &up,
-                            v: &vp,
-                            y_stride: ys,
-                            c_stride: cs,
-                            matrix,
-                        },
-                        raw_w: w,
-                        raw_h: h,
-                        rotation,
+        let mut seed = 12345u32;
+        let mut byte = || {
+            seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            (seed >> 16) as u8
+        };
+        let yp: Vec<u8> = (0..ys * h).map(|_| byte()).collect();
+        let up: Vec<u8> = (0..cs * h.div_ceil(2)).map(|_| byte()).collect();
+        let vp: Vec<u8> = (0..cs * h.div_ceil(2)).map(|_| byte()).collect();
+        let yuv = Yuv420Ref {
+            y: &yp,
+            u: &up,
+            v: &vp,
+            y_stride: ys,
+            c_stride: cs,
+            w,
+            h,
+        };
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let mut cover = CropCoverage {
+            inside: 0,
+            at_plane_end: 0,
+        };
+        let rotations = [
+            Rotation::None,
+            Rotation::Cw90,
+            Rotation::Cw180,
+            Rotation::Cw270,
+        ];
+        let rois = [
+            (0.5, 0.5, 0.4, 0.0),
+            (0.45, 0.55, 0.3, 0.37),
+            (0.3, 0.6, 0.1, -1.2),
+            (0.05, 0.9, 0.5, 0.8),
+            (0.5, 0.5, 1.6, 3.0),
+            // Near the stored frame's last pixels (upright: rotated).
+            (0.975, 0.975, 0.04, 0.0),
+        ];
+        for (bt709, full) in [(false, false), (true, true)] {
+            let matrix = YuvMatrix::new(bt709, full);
+            for rotation in rotations {
+                let img = ImageView {
+                    planes: Planes::Yuv420 {
+                        y: &yp,
+                        u: &up,
+                        v: &vp,
+                        y_stride: ys,
+                        c_stride: cs,
+                        matrix,
+                    },
+                    raw_w: w,
+                    raw_h: h,
+                    rotation,
+                };
+                let (dw, dh) = img.size();
+                let (dw, dh) = (dw as f32, dh as f32);
+                for (k, &(cx, cy, side, angle)) in rois.iter().enumerate() {
+                    let roi = Roi {
+                        cx: cx * dw,
+                        cy: cy * dh,
+                        w: side * dw,
+                        h: side * dw,
+                        angle_rad: angle,
                     };
-                    let (dw, dh) = img.size();
-                    let (dw, dh) = (dw as f32, dh as f32);
-                    for (k, (cx, cy, side, angle)) in [
-                        (0.5, 0.5, 0.4, 0.0),
-                        (0.45, 0.55, 0.3, 0.37),
-                        (0.3, 0.6, 0.1, -1.2),
-                        (0.05, 0.9, 0.5, 0.8),
-                        (0.5, 0.5, 1.6, 3.0),
-                    ]
-                    .into_iter()
-                    .enumerate()
-                    {
-                        let roi = Roi {
-                            cx: cx * dw,
-                            cy: cy * dh,
-                            w: side * dw,
-                            h: side * dw,
-                            angle_rad: angle,
+                    for (size, mirror) in [(64usize, false), (64, true), (30, false), (30, true)] {
+                        let what = format!("{rotation:?} roi {k} size {size} stride {ys}");
+                        let (scale, offset) = (1.0 / 127.5, -1.0);
+                        let n = 3 * size * size;
+                        let mut fast = vec![0f32; n];
+                        img.crop_nchw(
+                            &roi,
+                            size,
+                            mirror,
+                            Border::Replicate,
+                            scale,
+                            offset,
+                            &mut fast,
+                        );
+                        // The portable path through the same geometry,
+                        // prefetching or not.
+                        let g = CropGeometry {
+                            prefetch: k % 2 == 1,
+                            ..CropGeometry::new(&img, &roi, size, mirror, scale, offset)
                         };
-                        for size in [64usize, 30] {
-                            for mirror in [false, true] {
-                                let (scale, offset) = (1.0 / 127.5, -1.0);
-                                let mut fast = vec![0f32; 3 * size * size];
-                                img.crop_nchw(
-                                    &roi,
-                                    size,
-                                    mirror,
-                                    Border::Replicate,
-                                    scale,
-                                    offset,
-                                    &mut fast,
-                                );
-                                // The portable path through the same geometry,
-                                // prefetching or not.
-                                let g = CropGeometry {
-                                    prefetch: k % 2 == 1,
-                                    ..CropGeometry::new(&img, &roi, size, mirror, scale, offset)
-                                };
-                                let yuv = Yuv420Ref {
-                                    y: &yp,
-                                    u: &up,
-                                    v: &vp,
-                                    y_stride: ys,
-                                    c_stride: cs,
-                                    w,
-                                    h,
-                                };
-                                let mut lanes = vec![0f32; 3 * size * size];
-                                img.crop_yuv420_lanes(&yuv, matrix, &g, &mut lanes);
-                                let mut sse2 = vec![0f32; 3 * size * size];
-                                // SAFETY: SSE2 is part of every x86_64 CPU.
-                                unsafe { img.crop_yuv420_sse2(&yuv, matrix, &g, &mut sse2) };
-                                let bits =
-                                    |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                                assert_eq!(
-                                    bits(&fast),
-                                    bits(&lanes),
-                                    "{rotation:?} roi {k} size {size}"
-                                );
-                                assert_eq!(
-                                    bits(&sse2),
-                                    bits(&lanes),
-                                    "{rotation:?} roi {k} size {size}"
-                                );
-                                if avx512 {
-                                    let mut wide = vec![0f32; 3 * size * size];
-                                    // SAFETY: the CPU has AVX-512F, checked above.
-                                    unsafe { img.crop_yuv420_avx512(&yuv, matrix, &g, &mut wide) };
-                                    assert_eq!(
-                                        bits(&wide),
-                                        bits(&lanes),
-                                        "AVX-512: {rotation:?} roi {k} size {size} stride {ys}"
-                                    );
-                                }
-                                // And pixel by pixel through sample_raw.
-                                for row in 0..size {
-                                    for col in 0..size {
-                                        let c = if mirror { size - 1 - col } else { col };
-                                        let x = g.p00.x + c as f32 * g.du.x + row as f32 * g.dv.x;
-                                        let y = g.p00.y + c as f32 * g.du.y + row as f32 * g.dv.y;
-                                        let (rx, ry) = g.raw(x, y);
-                                        if rx >= 0.5 && ry >= 0.5 && rx < w as f32 - 0.5 {
-                                            checked_inside += 1;
-                                        }
-                                        let p = img.sample_raw(rx, ry);
-                                        let i = row * size + col;
-                                        for ch in 0..3 {
-                                            let want = p[ch] * scale + offset;
-                                            assert_eq!(
-                                                sse2[ch * size * size + i].to_bits(),
-                                                want.to_bits(),
-                                                "{rotation:?} roi {k} size {size} ({row}, {col})"
-                                            );
-                                        }
+                        let mut lanes = vec![0f32; n];
+                        img.crop_yuv420_lanes(&yuv, matrix, &g, &mut lanes);
+                        let mut sse2 = vec![0f32; n];
+                        // SAFETY: SSE2 is part of every x86_64 CPU.
+                        unsafe { img.crop_yuv420_sse2(&yuv, matrix, &g, &mut sse2) };
+                        assert_eq!(bits(&fast), bits(&lanes), "{what}");
+                        assert_eq!(bits(&sse2), bits(&lanes), "{what}");
+                        if avx512 {
+                            let mut wide = vec![0f32; n];
+                            // SAFETY: the CPU has AVX-512F, checked above.
+                            unsafe { img.crop_yuv420_avx512(&yuv, matrix, &g, &mut wide) };
+                            assert_eq!(bits(&wide), bits(&lanes), "AVX-512: {what}");
+                        }
+                        // And pixel by pixel through sample_raw, each
+                        // 16-pixel step's reach into the luma plane noted.
+                        let (wl, hl) = ((w - 1) as f32, (h - 1) as f32);
+                        for row in 0..size {
+                            for col0 in (0..size).step_by(16) {
+                                let (mut all_inside, mut last_byte) = (true, 0);
+                                // The last step's missing lanes repeat the
+                                // last column, as the AVX-512 path's do.
+                                for lane in col0..col0 + 16 {
+                                    let col = lane.min(size - 1);
+                                    let c = if mirror { size - 1 - col } else { col };
+                                    let x = g.p00.x + c as f32 * g.du.x + row as f32 * g.dv.x;
+                                    let y = g.p00.y + c as f32 * g.du.y + row as f32 * g.dv.y;
+                                    let (rx, ry) = g.raw(x, y);
+                                    let (lx, ly) = (rx - 0.5, ry - 0.5);
+                                    if lx >= 0.0 && ly >= 0.0 && lx < wl && ly < hl {
+                                        let bottom = (ly as usize + 1) * ys + lx as usize;
+                                        last_byte = last_byte.max(bottom + 3);
+                                    } else {
+                                        all_inside = false;
                                     }
+                                    if lane >= size {
+                                        continue;
+                                    }
+                                    if rx >= 0.5 && ry >= 0.5 && rx < w as f32 - 0.5 {
+                                        cover.inside += 1;
+                                    }
+                                    let p = img.sample_raw(rx, ry);
+                                    let i = row * size + col;
+                                    for ch in 0..3 {
+                                        let want = p[ch] * scale + offset;
+                                        assert_eq!(
+                                            sse2[ch * size * size + i].to_bits(),
+                                            want.to_bits(),
+                                            "{what} ({row}, {col})"
+                                        );
+                                    }
+                                }
+                                if all_inside && last_byte >= yp.len() {
+                                    cover.at_plane_end += 1;
                                 }
                             }
                         }
@@ -1260,7 +1299,7 @@ mod tests {
                 }
             }
         }
-        assert!(checked_inside > 20_000, "{checked_inside}");
+        cover
     }
 
     #[test]
