@@ -498,8 +498,18 @@ fn render_matched_to_readback(
         }
     };
     let [mp4, truth, head] = &temp;
-    let first = lap("first pass: draw and encode", || {
-        eyereplay_face::render_face_session_every(scene, traj, blinks, p, every, [mp4, truth, head])
+    // Its frames are kept: the second pass differs in the eyes only and
+    // draws just the rows around them on the frames this one drew.
+    let (first, kept) = lap("first pass: draw and encode", || {
+        eyereplay_face::render_face_session_every_kept(
+            scene,
+            traj,
+            blinks,
+            p,
+            every,
+            [mp4, truth, head],
+            eyereplay_face::KEEP_FRAMES_BUDGET_BYTES,
+        )
     })?;
     let rows = match lap("first pass: read back (extract)", || {
         eyereplay_extract::extract_with_detector(
@@ -533,7 +543,14 @@ fn render_matched_to_readback(
             remove_temp();
             let [mp4, truth, head] = files;
             let whole = lap("draw and encode", || {
-                eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)
+                eyereplay_face::render_face_session_over(
+                    scene,
+                    traj,
+                    blinks,
+                    p,
+                    [mp4, truth, head],
+                    &kept,
+                )
             })?;
             return Ok((whole, record, probe_geometric));
         }
@@ -557,7 +574,7 @@ fn render_matched_to_readback(
     p.head_path = Some(first.head_path);
     let [mp4, truth, head] = files;
     let second = lap("second pass: draw and encode", || {
-        eyereplay_face::render_face_session(scene, traj, blinks, p, mp4, truth, head)
+        eyereplay_face::render_face_session_over(scene, traj, blinks, p, [mp4, truth, head], &kept)
     })?;
     Ok((second, record, refit.geometric))
 }

@@ -74,9 +74,10 @@ pub use probe::{
 pub use raster::{DrawStats, Rasterizer, RgbImage, SavePng, TexturedMesh};
 pub use scene::{EyeImage, FaceScene, FaceState, Framing};
 pub use session::{
-    head_path, render_face_session, render_face_session_every, run_face_bench, DrawnFrame,
-    FaceSessionParams, FaceSessionStats, HEAD_PITCH_LIMIT_DEG, HEAD_ROLL_LIMIT_DEG,
-    HEAD_TRUTH_HEADER, HEAD_YAW_LIMIT_DEG,
+    head_path, render_face_session, render_face_session_every, render_face_session_every_kept,
+    render_face_session_over, run_face_bench, DrawnFrame, FaceSessionParams, FaceSessionStats,
+    KeptFrames, HEAD_PITCH_LIMIT_DEG, HEAD_ROLL_LIMIT_DEG, HEAD_TRUTH_HEADER, HEAD_YAW_LIMIT_DEG,
+    KEEP_FRAMES_BUDGET_BYTES,
 };
 pub use video_pose::{
     video_head_poses, video_head_poses_upto, SourceHeadTrack, SOURCE_HEAD_SMOOTHING_S,

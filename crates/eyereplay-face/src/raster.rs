@@ -167,6 +167,23 @@ impl Rasterizer {
         mesh: &TexturedMesh,
         texture: &RgbImage,
     ) -> DrawStats {
+        let rows = 0..self.height;
+        self.draw_rows(frame, camera, pose, mesh, texture, rows)
+    }
+
+    /// [`Rasterizer::draw`] inside image rows `rows` only: there, the same
+    /// pixels and [`Rasterizer::inv_depth`] to the bit (each pixel's
+    /// arithmetic does not depend on which rows are drawn); elsewhere the
+    /// frame is left as it was and the depth is stale.
+    pub fn draw_rows(
+        &mut self,
+        frame: &mut RgbImage,
+        camera: &Camera,
+        pose: &HeadPose,
+        mesh: &TexturedMesh,
+        texture: &RgbImage,
+        rows: std::ops::Range<usize>,
+    ) -> DrawStats {
         assert_eq!((frame.width, frame.height), (self.width, self.height));
         assert_eq!(
             (camera.width_px, camera.height_px),
@@ -253,15 +270,24 @@ impl Rasterizer {
             .zip(self.inv_depth.par_chunks_mut(band_rows * width))
             .enumerate()
             .map(|(band, (rgb, depth))| {
-                depth.fill(0.0);
                 let row0 = band * band_rows;
-                let rows = depth.len() / width;
+                // The band's rows that are drawn.
+                let (ra, rb) = (
+                    row0.max(rows.start),
+                    (row0 + depth.len() / width).min(rows.end),
+                );
+                if ra >= rb {
+                    return 0;
+                }
+                depth[(ra - row0) * width..(rb - row0) * width].fill(0.0);
                 let mut written = 0;
                 for &id in &bins[band] {
                     let s = &setups[id as usize];
-                    let ya = s.y0.max(row0);
-                    let yb = s.y1.min(row0 + rows - 1);
-                    written += fill(s, ya, yb, row0, width, rgb, depth, texture);
+                    let ya = s.y0.max(ra);
+                    let yb = s.y1.min(rb - 1);
+                    if ya <= yb {
+                        written += fill(s, ya, yb, row0, width, rgb, depth, texture);
+                    }
                 }
                 written
             })

@@ -776,35 +776,143 @@ impl FaceScene {
         mesh: &mut TexturedMesh,
         frame: &mut RgbImage,
     ) {
+        self.draw_rows(state, raster, mesh, frame, 0..self.height());
+    }
+
+    /// [`FaceScene::draw`] whose output is needed in image rows `rows`
+    /// only: there it is the same to the bit; elsewhere the frame holds
+    /// whatever was cheapest (the face is drawn a feather's width beyond
+    /// `rows`, for the outline's feathering inside them).
+    pub fn draw_rows(
+        &self,
+        state: &FaceState,
+        raster: &mut Rasterizer,
+        mesh: &mut TexturedMesh,
+        frame: &mut RgbImage,
+        rows: std::ops::Range<usize>,
+    ) {
         let (w, h) = (self.width(), self.height());
         if frame.width != w || frame.height != h {
             *frame = RgbImage::filled(w, h, [0, 0, 0]);
         }
+        let rows = rows.start.min(h)..rows.end.min(h);
+        // The face is drawn a feather's width beyond `rows`: the outline's
+        // feathering inside them reads its coverage there.
+        let r = self.feather_px();
+        let covered = rows.start.saturating_sub(r)..(rows.end + r).min(h);
         // The still room first, the face over it; then the part of the
         // backdrop that follows the head, only where the face left the
         // pixel uncovered (most of the head box is face).
-        frame.data.copy_from_slice(&self.backdrop.still);
+        let (a, b) = (covered.start * w * 3, covered.end * w * 3);
+        frame.data[a..b].copy_from_slice(&self.backdrop.still[a..b]);
         if mesh.triangles.len() != self.mesh.triangles.len() {
             *mesh = self.mesh.clone();
         }
         self.posed_vertices(state, &mut mesh.positions_cm);
-        raster.draw(
+        raster.draw_rows(
             frame,
             &self.camera,
             &state.head,
             mesh,
             &self.identity.texture,
+            covered,
         );
         let openings = [0, 1].map(|k| self.opening(state, k));
         let holes = openings.map(|op| self.pixel_box(&op.points().collect::<Vec<_>>(), 2.0));
         let face_box = self.screen_box(&state.head, &mesh.positions_cm);
-        self.draw_backdrop(&state.head, raster.inv_depth(), &holes, face_box, frame);
+        self.draw_backdrop(
+            &state.head,
+            raster.inv_depth(),
+            &holes,
+            face_box,
+            rows.clone(),
+            frame,
+        );
         for k in 0..2 {
-            self.draw_eye(state, k, &openings[k], holes[k], raster.inv_depth(), frame);
+            let [x0, y0, x1, y1] = holes[k];
+            let rect = [x0, y0.max(rows.start), x1, y1.min(rows.end)];
+            self.draw_eye(state, k, &openings[k], rect, raster.inv_depth(), frame);
             // Over the eye: where the closing lid's triangles fold, the
             // eyeball showed through them.
             self.draw_closed_lid(state, k, &openings[k], frame);
         }
+    }
+
+    /// The rows of a frame drawn in state `b` that can differ from the same
+    /// frame drawn in state `a` before the webcam look, where the two
+    /// differ in their eyes only: the lid opening of each eye in each state,
+    /// every face triangle with a vertex the eyes' lids moved, and what
+    /// reads or feathers from them (the closing lid's skin band and ramp,
+    /// the outline's feather), with a few pixels to spare. Empty where the
+    /// two draw alike; `None` where they differ in more than the eyes (the
+    /// head, the lids' closure, the pupil).
+    pub fn rows_changed_by_eyes(
+        &self,
+        a: &FaceState,
+        b: &FaceState,
+    ) -> Option<std::ops::Range<usize>> {
+        if a.head != b.head || a.closure != b.closure || a.pupil_scale != b.pupil_scale {
+            return None;
+        }
+        let same_eyes = a
+            .eyes
+            .iter()
+            .zip(&b.eyes)
+            .all(|(p, q)| p.yaw_rad == q.yaw_rad && p.pitch_rad == q.pitch_rad);
+        if same_eyes {
+            return Some(0..0);
+        }
+        let (mut va, mut vb) = (vec![], vec![]);
+        self.posed_vertices(a, &mut va);
+        self.posed_vertices(b, &mut vb);
+        let moved: Vec<bool> = va.iter().zip(&vb).map(|(p, q)| p != q).collect();
+        let mut pts: Vec<Vector3<f64>> = vec![];
+        for tri in &self.mesh.triangles {
+            if tri.iter().any(|&i| moved[i as usize]) {
+                for &i in tri {
+                    for v in [va[i as usize], vb[i as usize]] {
+                        pts.push(Vector3::from(v.map(f64::from)));
+                    }
+                }
+            }
+        }
+        let mut ys: Vec<f64> = self
+            .project(&a.head, pts.into_iter())
+            .iter()
+            .map(|p| p[1])
+            .collect();
+        let mut eye_w: f64 = 0.0;
+        for st in [a, b] {
+            for k in 0..2 {
+                // The opening as drawn, and with the lids open (the
+                // closing lid's band is laid out from it).
+                for closure in [st.closure, 0.0] {
+                    let op = self.opening(&FaceState { closure, ..*st }, k);
+                    eye_w = eye_w.max(op.width_px());
+                    ys.extend(op.points().map(|p| p[1]));
+                }
+            }
+        }
+        let lo = ys.iter().copied().fold(f64::MAX, f64::min);
+        let hi = ys.iter().copied().fold(f64::MIN, f64::max);
+        if !(lo.is_finite() && hi.is_finite()) {
+            return None;
+        }
+        // The closing lid reads skin up to 0.18 eye widths below the open
+        // lower lid and fades in from a quarter of one above the upper; the
+        // hole boxes reach 2 px past the lids; the feather spreads a change
+        // by its radius.
+        let margin = (0.5 * eye_w).ceil() + self.feather_px() as f64 + 4.0;
+        let h = self.height() as f64;
+        let start = (lo - margin).floor().clamp(0.0, h) as usize;
+        let end = (hi + margin).ceil().clamp(0.0, h) as usize;
+        Some(start..end.max(start))
+    }
+
+    /// The outline's feather radius (px): coverage is box-blurred over
+    /// this many pixels each way ([`FaceScene::draw_backdrop`]).
+    fn feather_px(&self) -> usize {
+        ((0.03 * self.face_frac * self.height() as f64).round() as usize).max(1)
     }
 
     /// The pixel box of the mesh's vertices under `head`, one pixel wider
@@ -838,6 +946,7 @@ impl FaceScene {
         covered: &[f32],
         holes: &[[usize; 4]; 2],
         face_box: [usize; 4],
+        rows: std::ops::Range<usize>,
         frame: &mut RgbImage,
     ) {
         let b = &self.backdrop;
@@ -852,6 +961,7 @@ impl FaceScene {
         let back = Sim2::fit(&now, &b.rest_anchors_px);
         let warp = Warp::new(b.to_photo, back);
         let [x0, y0, x1, y1] = b.moving_box;
+        let (y0, y1) = (y0.max(rows.start), y1.min(rows.end).max(y0.max(rows.start)));
         let tex = &self.identity.texture;
         frame.data[y0 * w * 3..y1 * w * 3]
             .par_chunks_mut(w * 3)
@@ -875,9 +985,13 @@ impl FaceScene {
         // Feather: coverage (eye openings count as covered) box-blurred
         // over `r` px; a covered pixel whose neighbourhood is part
         // uncovered is mixed with the backdrop.
-        let r = ((0.03 * self.face_frac * self.height() as f64).round() as usize).max(1);
-        // Only around the drawn mesh (its box), not the whole head region.
+        let r = self.feather_px();
+        // Only around the drawn mesh (its box), not the whole head region,
+        // and in the rows wanted and the feather's reach around them (the
+        // box sums inside `rows` read no further; their clamping at the
+        // face box's edges is the same).
         let [x0, y0, x1, y1] = face_box;
+        let (y0, y1) = (y0.max(rows.start.saturating_sub(r)), y1.min(rows.end + r));
         let (bw, bh) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
         if bw == 0 || bh == 0 {
             return;
@@ -917,6 +1031,9 @@ impl FaceScene {
         let sum = blur(&hsum, 1, bh, bw, bw);
         let full = ((2 * r + 1) * (2 * r + 1)) as f32;
         for y in 0..bh {
+            if !rows.contains(&(y0 + y)) {
+                continue;
+            }
             for x in 0..bw {
                 let k = y * bw + x;
                 if m[k] == 0 || sum[k] as f32 >= full {

@@ -20,6 +20,12 @@
 //! Frames are solved in parallel and drawn one after another (each frame's
 //! drawing is parallel inside); the output does not depend on the number
 //! of threads.
+//!
+//! The read-back match draws a session twice, the second time with other
+//! eyes only: the first pass keeps its frames
+//! ([`render_face_session_every_kept`]) and the second redraws just the
+//! rows around the eyes on them ([`render_face_session_over`]), the same
+//! bytes as drawing them whole.
 
 use crate::coordination::{head_track, CoordinationParams, HeadDynamics, Sway, Task};
 use crate::error::Result;
@@ -32,11 +38,12 @@ use eyereplay_core::{CanvasPos, NormPos};
 use eyereplay_dataset::{EyeTruthRow, TruthRow};
 use eyereplay_render::{
     check_trajectory, closure_track, pipeline_frames, rgb_to_yuv420, time_bench, BenchReport,
-    BenchShape, Encoder, EncoderSettings, FrameSink, GazeMapping,
+    BenchShape, Encoder, EncoderSettings, FrameSink, GazeMapping, RenderError,
 };
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// Columns of the head ground truth written beside each session's truth
@@ -136,6 +143,66 @@ pub struct FaceSessionStats {
     /// drawing the session again with the same head.
     #[serde(skip)]
     pub head_path: Vec<(HeadPose, bool)>,
+    /// Frames drawn over an earlier pass's kept image, only their rows
+    /// around the eyes redrawn ([`render_face_session_over`]).
+    #[serde(skip)]
+    pub frames_over_kept: usize,
+}
+
+/// How much of a first pass's drawn frames [`render_face_session_every_kept`]
+/// keeps for the second pass at most, per session (bytes of yuv420p): the
+/// default's 30-s sessions at 640x480 keep all 375 of theirs in 173 MB;
+/// a longer or larger session keeps its first frames up to this, and the
+/// second pass draws the rest whole.
+pub const KEEP_FRAMES_BUDGET_BYTES: usize = 512 << 20;
+
+/// The frames a pass drew, kept for a later pass of the same session that
+/// differs from it in the eyes only ([`render_face_session_over`]): per
+/// frame drawn, its state and its yuv420p image as handed to the encoder.
+pub struct KeptFrames {
+    step: usize,
+    states: Vec<FaceState>,
+    /// The first drawn frames' images (the budget may stop short of all).
+    yuv: Vec<Vec<u8>>,
+}
+
+impl KeptFrames {
+    /// Frames whose image is kept.
+    pub fn frames(&self) -> usize {
+        self.yuv.len()
+    }
+
+    /// The pass drew every `step`-th frame of the session.
+    pub fn step(&self) -> usize {
+        self.step
+    }
+
+    /// The kept image and state of session frame `i`, if that pass drew
+    /// and kept it.
+    fn at(&self, i: usize) -> Option<(&FaceState, &[u8])> {
+        if !i.is_multiple_of(self.step) {
+            return None;
+        }
+        let j = i / self.step;
+        Some((self.states.get(j)?, self.yuv.get(j)?))
+    }
+}
+
+/// A frame sink that hands frames on and keeps copies of the first
+/// `max` of them.
+struct Keeping<'a> {
+    sink: &'a mut (dyn FrameSink + Send),
+    kept: Vec<Vec<u8>>,
+    max: usize,
+}
+
+impl FrameSink for Keeping<'_> {
+    fn frame(&mut self, index: usize, yuv: &[u8]) -> std::result::Result<(), RenderError> {
+        if self.kept.len() < self.max {
+            self.kept.push(yuv.to_vec());
+        }
+        self.sink.frame(index, yuv)
+    }
 }
 
 /// One frame's state and truth.
@@ -358,14 +425,17 @@ fn solve_frames(
 /// frame depends only on its own state (and the previous frame's head for
 /// the motion blur, the previous of the session, drawn or not), so the
 /// output does not depend on the number of workers, and a frame drawn at
-/// a step of 2 is the same frame as at a step of 1.
+/// a step of 2 is the same frame as at a step of 1. A frame `over` kept
+/// (an earlier pass drew it, with other eyes) is that pass's image with
+/// the rows around the eyes drawn again ([`draw_over`]); returns how many.
 fn draw_frames(
     scene: &FaceScene,
     solved: &[Solved],
     step: usize,
     look: &WebcamLook,
+    over: Option<&KeptFrames>,
     sink: &mut (dyn FrameSink + Send),
-) -> Result<()> {
+) -> Result<usize> {
     let (w, h) = (scene.width(), scene.height());
     let new_state = || {
         (
@@ -375,6 +445,7 @@ fn draw_frames(
             Webcam::new(look, w, h),
         )
     };
+    let reused = AtomicUsize::new(0);
     pipeline_frames(
         solved.len().div_ceil(step),
         &|| vec![0u8; w * h * 3 / 2],
@@ -382,7 +453,6 @@ fn draw_frames(
         &|(raster, mesh, frame, webcam), j, yuv| {
             let i = j * step;
             let st = &solved[i].state;
-            scene.draw(st, raster, mesh, frame);
             let nose = scene.nose_px(&st.head);
             let motion = match i.checked_sub(1) {
                 None => [0.0, 0.0],
@@ -391,12 +461,96 @@ fn draw_frames(
                     [(nose[0] - q[0]) as f32, (nose[1] - q[1]) as f32]
                 }
             };
+            if let Some((before, image)) = over.and_then(|k| k.at(i)) {
+                let pass = Pass {
+                    scene,
+                    i,
+                    motion,
+                    raster,
+                    mesh,
+                    frame,
+                    webcam,
+                };
+                if draw_over(pass, before, st, image, yuv) {
+                    reused.fetch_add(1, Ordering::Relaxed);
+                    return;
+                }
+            }
+            scene.draw(st, raster, mesh, frame);
             webcam.apply(frame, i as u64, motion);
             rgb_to_yuv420(&frame.data, w, [0, 0, w, h], yuv, w, h);
         },
         sink,
     )?;
-    Ok(())
+    Ok(reused.into_inner())
+}
+
+/// One frame's drawing context in [`draw_frames`].
+struct Pass<'a> {
+    scene: &'a FaceScene,
+    /// The session's frame index (the noise's key).
+    i: usize,
+    motion: [f32; 2],
+    raster: &'a mut Rasterizer,
+    mesh: &'a mut TexturedMesh,
+    frame: &'a mut RgbImage,
+    webcam: &'a mut Webcam,
+}
+
+/// Frame `state` into `yuv` from `image`, the same frame drawn in `before`
+/// (same head, lids' closure and pupil; other eyes): `image` with the rows
+/// the eyes can change drawn again, given the look, and converted, the
+/// rows the look's blur and smear reach from them included. The bytes are
+/// those a whole drawing gives (each stage's rows computed as the whole
+/// frame computes them). False, `yuv` untouched, where that would not be
+/// cheaper or the states differ in more than the eyes: then the caller
+/// draws the frame whole.
+fn draw_over(
+    pass: Pass,
+    before: &FaceState,
+    state: &FaceState,
+    image: &[u8],
+    yuv: &mut [u8],
+) -> bool {
+    let Pass {
+        scene,
+        i,
+        motion,
+        raster,
+        mesh,
+        frame,
+        webcam,
+    } = pass;
+    let Some(changed) = scene.rows_changed_by_eyes(before, state) else {
+        return false;
+    };
+    let (w, h) = (scene.width(), scene.height());
+    if image.len() != yuv.len() {
+        return false;
+    }
+    let reach = webcam.reach_rows(motion);
+    // The output rows the look carries a change to, in whole pairs (a
+    // chroma row is two image rows).
+    let out = if changed.is_empty() {
+        0..0
+    } else {
+        let a = changed.start.saturating_sub(reach) & !1;
+        let b = ((changed.end + reach).min(h) + 1) & !1;
+        a..b.min(h)
+    };
+    // The input they read.
+    let input = out.start.saturating_sub(reach)..(out.end + reach).min(h);
+    if 2 * input.len() > h {
+        return false;
+    }
+    yuv.copy_from_slice(image);
+    if out.is_empty() {
+        return true;
+    }
+    scene.draw_rows(state, raster, mesh, frame, input);
+    webcam.apply_rows(frame, i as u64, motion, out.clone());
+    rgb_to_yuv420(&frame.data, w, [0, out.start, w, out.end], yuv, w, h);
+    true
 }
 
 fn write_head_csv(path: &Path, solved: &[Solved]) -> Result<()> {
@@ -462,8 +616,57 @@ pub fn render_face_session_every(
     blinks: Option<&[bool]>,
     p: &FaceSessionParams,
     step: usize,
-    [out_mp4, out_truth_csv, out_head_csv]: [&Path; 3],
+    files: [&Path; 3],
 ) -> Result<FaceSessionStats> {
+    Ok(render(scene, traj, blinks, p, step, files, 0, None)?.0)
+}
+
+/// [`render_face_session_every`] keeping the frames it draws, up to
+/// `budget_bytes` of them, for [`render_face_session_over`].
+pub fn render_face_session_every_kept(
+    scene: &FaceScene,
+    traj: &[CanvasPos],
+    blinks: Option<&[bool]>,
+    p: &FaceSessionParams,
+    step: usize,
+    files: [&Path; 3],
+    budget_bytes: usize,
+) -> Result<(FaceSessionStats, KeptFrames)> {
+    render(scene, traj, blinks, p, step, files, budget_bytes, None)
+}
+
+/// [`render_face_session`] over the frames an earlier pass of the same
+/// session drew and kept ([`render_face_session_every_kept`]): where a
+/// frame's head, lids' closure and pupil are that pass's (the read-back
+/// match's second pass, drawn with the first pass's head path, differs in
+/// its eyes only), its kept image gets only the rows around the eyes drawn
+/// again; every other frame is drawn whole. The output is the same, byte
+/// for byte, as [`render_face_session`]'s (a test compares them); it is
+/// cheaper (docs/PERFORMANCE.md).
+pub fn render_face_session_over(
+    scene: &FaceScene,
+    traj: &[CanvasPos],
+    blinks: Option<&[bool]>,
+    p: &FaceSessionParams,
+    files: [&Path; 3],
+    kept: &KeptFrames,
+) -> Result<FaceSessionStats> {
+    Ok(render(scene, traj, blinks, p, 1, files, 0, Some(kept))?.0)
+}
+
+/// A session's render: every `step`-th frame drawn (over `over`'s kept
+/// frames where it has them), the first `keep_bytes` of them kept.
+#[allow(clippy::too_many_arguments)]
+fn render(
+    scene: &FaceScene,
+    traj: &[CanvasPos],
+    blinks: Option<&[bool]>,
+    p: &FaceSessionParams,
+    step: usize,
+    [out_mp4, out_truth_csv, out_head_csv]: [&Path; 3],
+    keep_bytes: usize,
+    over: Option<&KeptFrames>,
+) -> Result<(FaceSessionStats, KeptFrames)> {
     if step == 0 {
         return Err(
             eyereplay_render::RenderError::Params("frame step must be at least 1".into()).into(),
@@ -491,9 +694,16 @@ pub fn render_face_session_every(
         solve_frames(scene, &traj, blinks, p)
     });
     let t1 = Instant::now();
-    lap("draw frames", || {
-        draw_frames(scene, &solved, step, &p.look, &mut encoder)
+    let frame_bytes = scene.width() * scene.height() * 3 / 2;
+    let mut keeping = Keeping {
+        sink: &mut encoder,
+        kept: vec![],
+        max: keep_bytes / frame_bytes.max(1),
+    };
+    let frames_over_kept = lap("draw frames", || {
+        draw_frames(scene, &solved, step, &p.look, over, &mut keeping)
     })?;
+    let kept_yuv = std::mem::take(&mut keeping.kept);
     let render_s = t1.elapsed().as_secs_f64();
     let head_path = solved.iter().map(|s| (s.head, s.from_source)).collect();
     // From here on, the frames drawn.
@@ -511,7 +721,12 @@ pub fn render_face_session_every(
         let _ = std::fs::remove_file(out_head_csv);
         return Err(e.into());
     }
-    Ok(FaceSessionStats {
+    let kept = KeptFrames {
+        step,
+        states: solved.iter().map(|s| s.state).collect(),
+        yuv: kept_yuv,
+    };
+    let stats = FaceSessionStats {
         frames: solved.len(),
         clamped_points: clamped,
         blink_frames: rows.iter().filter(|r| r.blink).count(),
@@ -536,7 +751,9 @@ pub fn render_face_session_every(
             })
             .collect(),
         head_path,
-    })
+        frames_over_kept,
+    };
+    Ok((stats, kept))
 }
 
 /// The full-face mode's speed, measured as the close-up's
@@ -560,7 +777,7 @@ pub fn run_face_bench(
         shape,
         &session_encoder(scene, p),
         0.0,
-        |keep| draw_frames(scene, &solved, 1, &p.look, keep),
+        |keep| draw_frames(scene, &solved, 1, &p.look, None, keep).map(|_| ()),
         |dir| {
             render_face_session(
                 scene,

@@ -724,6 +724,45 @@ impl Webcam {
     ///
     /// Panics if the frame is not the size given to [`Webcam::new`].
     pub fn apply(&mut self, frame: &mut RgbImage, frame_index: u64, motion_px: [f32; 2]) {
+        let h = frame.height;
+        self.apply_rows(frame, frame_index, motion_px, 0..h);
+    }
+
+    /// How many rows above and below an output row its value reads (the
+    /// defocus blur's radius plus the motion smear's vertical reach) for a
+    /// frame that moved by `motion_px`: [`Webcam::apply_rows`] needs the
+    /// input that far around the rows it writes.
+    pub fn reach_rows(&self, motion_px: [f32; 2]) -> usize {
+        if self.noop {
+            return 0;
+        }
+        let mut taps = Vec::new();
+        motion_taps(
+            [
+                motion_px[0] * self.p.motion_blur,
+                motion_px[1] * self.p.motion_blur,
+            ],
+            &mut taps,
+        );
+        let my = taps.iter().map(|t| t.dy.unsigned_abs()).max().unwrap_or(0);
+        self.p.kernel.len() - 1 + my
+    }
+
+    /// [`Webcam::apply`] for output rows `rows` only, bit for bit what it
+    /// writes there: the rows within [`Webcam::reach_rows`] of them must
+    /// hold the frame's input, and rows outside `rows` are left as they
+    /// were. (The read-back match's second pass redraws only the rows
+    /// around the eyes of the frames its first pass drew.)
+    ///
+    /// Panics if the frame is not the size given to [`Webcam::new`] or
+    /// `rows` reaches past it.
+    pub fn apply_rows(
+        &mut self,
+        frame: &mut RgbImage,
+        frame_index: u64,
+        motion_px: [f32; 2],
+        rows: std::ops::Range<usize>,
+    ) {
         assert!(
             frame.width == self.p.width
                 && frame.height == self.p.height
@@ -736,7 +775,8 @@ impl Webcam {
             frame.data.len()
         );
         let (w, h) = (self.p.width, self.p.height);
-        if self.noop || w == 0 || h == 0 {
+        assert!(rows.end <= h, "rows {rows:?} of a {h}-row frame");
+        if self.noop || w == 0 || rows.is_empty() {
             return;
         }
         motion_taps(
@@ -755,8 +795,9 @@ impl Webcam {
         );
         // Two bands per thread: balanced, and few halo rows recomputed.
         let w3 = w * 3;
-        let band_rows = h.div_ceil((2 * rayon::current_num_threads()).clamp(1, h));
-        let bands = h.div_ceil(band_rows);
+        let (first, n) = (rows.start, rows.len());
+        let band_rows = n.div_ceil((2 * rayon::current_num_threads()).clamp(1, n));
+        let bands = n.div_ceil(band_rows);
         // Rows a band reads beyond each of its ends.
         let reach = self.p.kernel.len() - 1 + my;
         let halo_len = 2 * reach * w3;
@@ -767,7 +808,8 @@ impl Webcam {
                 .par_chunks_mut(halo_len)
                 .enumerate()
                 .for_each(|(b, halo)| {
-                    let (y0, y1) = (b * band_rows, ((b + 1) * band_rows).min(h));
+                    let y0 = first + b * band_rows;
+                    let y1 = (y0 + band_rows).min(rows.end);
                     for k in 0..reach {
                         let above = (y0 + k).checked_sub(reach);
                         let below = Some(y1 + k).filter(|&y| y < h);
@@ -789,14 +831,13 @@ impl Webcam {
             key,
         };
         let (pool, simd, halo) = (&self.pool, self.simd, &self.halo);
-        frame
-            .data
+        frame.data[first * w3..rows.end * w3]
             .par_chunks_mut(band_rows * w3)
             .enumerate()
             .for_each(|(b, out)| {
                 let halo = &halo[b * halo_len..(b + 1) * halo_len];
                 let mut s = pool.lock().unwrap().pop().unwrap_or_default();
-                let y0 = b * band_rows;
+                let y0 = first + b * band_rows;
                 let y1 = y0 + out.len() / w3;
                 job.band(&mut s, out, halo, y0, y1, simd);
                 pool.lock().unwrap().push(s);
@@ -1548,6 +1589,48 @@ mod tests {
         for simd in [Simd::Portable, Simd::Avx2, Simd::Avx512] {
             assert_eq!(one, run(2, simd), "{simd:?} against {best:?}");
         }
+    }
+
+    /// `apply_rows` writes the rows `apply` writes there, bit for bit,
+    /// and leaves the others as they were; the rows it writes read no
+    /// further than its reach: with the input beyond it spoiled they still
+    /// come out the same, with the rows next to them spoiled they do not.
+    #[test]
+    fn rows_alone_are_the_whole_frames_rows() {
+        let f = noise_frame(97, 61);
+        let l = WebcamRanges::default().sample(3);
+        let motion = [1.5, -4.0];
+        let mut cam = Webcam::new(&l, 97, 61);
+        let mut whole = f.clone();
+        cam.apply(&mut whole, 11, motion);
+        let reach = cam.reach_rows(motion);
+        assert!(reach >= 2, "blur and smear reach {reach} rows");
+        let row = |img: &RgbImage, y: usize| img.data[y * 97 * 3..(y + 1) * 97 * 3].to_vec();
+        for rows in [0..61, 20..34, 0..5, 55..61, 30..31] {
+            let mut part = f.clone();
+            // Spoil the input out of reach.
+            for y in (0..61).filter(|&y| y + reach < rows.start || y >= rows.end + reach) {
+                part.data[y * 97 * 3..(y + 1) * 97 * 3].fill(7);
+            }
+            let spoiled = part.clone();
+            cam.apply_rows(&mut part, 11, motion, rows.clone());
+            for y in 0..61 {
+                let want = if rows.contains(&y) {
+                    row(&whole, y)
+                } else {
+                    row(&spoiled, y)
+                };
+                assert!(row(&part, y) == want, "rows {rows:?}: row {y}");
+            }
+        }
+        // The rows next to them are read: spoiled, the output changes.
+        let rows = 20..34;
+        let mut part = f.clone();
+        for y in [19, 34] {
+            part.data[y * 97 * 3..(y + 1) * 97 * 3].fill(255);
+        }
+        cam.apply_rows(&mut part, 11, motion, rows.clone());
+        assert!(rows.clone().any(|y| row(&part, y) != row(&whole, y)));
     }
 
     #[test]

@@ -452,3 +452,125 @@ fn every_other_frame_is_the_sessions_own() {
     let e = render(0, "none").unwrap_err().to_string();
     assert!(e.contains("frame step must be at least 1"), "{e}");
 }
+
+/// The read-back match's second pass drawn over the first pass's kept
+/// frames (`render_face_session_over`) gives the video a whole drawing
+/// gives, to the byte: the first pass draws every other frame through one
+/// response map and keeps them; the second draws the same head through
+/// another (the eyes 1.5x as far) twice, whole and over the kept frames;
+/// the head moves and the lids blink (the motion blur, the closing lid's
+/// band), the look blurs and adds noise, and the encoder is the session's
+/// own at its video-call bitrate. The kept frames were used (every other
+/// frame), and their eyes really were redrawn: decoded losslessly, the
+/// second pass's even frames differ from the first pass's.
+#[test]
+fn the_second_pass_over_kept_frames_is_the_whole_drawing() {
+    let Some((_, _, scene, look)) = scene_of("astronaut.png", 6) else {
+        return;
+    };
+    let canvas = Canvas::default();
+    let traj = reading_trajectory(30, canvas.width_px as f64, canvas.height_px as f64);
+    let mut first = params_of(
+        GazeMapping::new(canvas),
+        look,
+        Task::Reading,
+        CoordinationParams::default(),
+        6,
+    );
+    first.natural_blinks = true;
+    first.blink_rate_per_min = 200.0;
+    let dir = tempfile::tempdir().unwrap();
+    let paths =
+        |tag: &str| ["mp4", "truth.csv", "head.csv"].map(|e| dir.path().join(format!("{tag}.{e}")));
+    for lossless in [false, true] {
+        let mut first = first.clone();
+        if lossless {
+            first.encoder.codec = eyereplay_render::Codec::Lossless;
+            first.look.bitrate_kbps = 0.0;
+        }
+        let f = paths("first");
+        let (stats, kept) = render_face_session_every_kept(
+            &scene,
+            &traj,
+            None,
+            &first,
+            2,
+            [&f[0], &f[1], &f[2]],
+            KEEP_FRAMES_BUDGET_BYTES,
+        )
+        .unwrap();
+        assert_eq!((kept.frames(), kept.step()), (15, 2));
+        assert!(stats.blink_frames > 0, "a blink among the frames drawn");
+        let mut second = first.clone();
+        second.mapping.extractor_response = Some(eyereplay_render::ResponseMap {
+            a: [[2.0 / 3.0, 0.0], [0.0, 2.0 / 3.0]],
+            b: [1.0 / 6.0, 1.0 / 6.0],
+        });
+        second.head_path = Some(stats.head_path.clone());
+        let (w, o) = (paths("whole"), paths("over"));
+        let whole = render_face_session(&scene, &traj, None, &second, &w[0], &w[1], &w[2]).unwrap();
+        let over =
+            render_face_session_over(&scene, &traj, None, &second, [&o[0], &o[1], &o[2]], &kept)
+                .unwrap();
+        assert_eq!((whole.frames_over_kept, over.frames_over_kept), (0, 15));
+        assert!(whole.max_head_yaw_deg > 0.05, "the head moves");
+        for k in 0..3 {
+            assert!(
+                std::fs::read(&w[k]).unwrap() == std::fs::read(&o[k]).unwrap(),
+                "{} (lossless {lossless})",
+                o[k].display()
+            );
+        }
+        if lossless {
+            let (before, after) = (decoded_frames(&f[0]), decoded_frames(&o[0]));
+            let redrawn = (0..15).filter(|&j| before[j] != after[2 * j]).count();
+            assert!(redrawn >= 12, "{redrawn} of 15 kept frames redrawn");
+        }
+    }
+}
+
+/// A budget that holds only some frames keeps the first of them; the
+/// second pass draws the rest whole, and the video is the same.
+#[test]
+fn a_kept_frames_budget_keeps_the_first_frames() {
+    let Some((_, _, scene, look)) = scene_of("astronaut.png", 7) else {
+        return;
+    };
+    let canvas = Canvas::default();
+    let traj = reading_trajectory(20, canvas.width_px as f64, canvas.height_px as f64);
+    let first = params_of(
+        GazeMapping::new(canvas),
+        look,
+        Task::Reading,
+        CoordinationParams::default(),
+        7,
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let paths =
+        |tag: &str| ["mp4", "truth.csv", "head.csv"].map(|e| dir.path().join(format!("{tag}.{e}")));
+    let f = paths("first");
+    let frame_bytes = 640 * 480 * 3 / 2;
+    let (stats, kept) = render_face_session_every_kept(
+        &scene,
+        &traj,
+        None,
+        &first,
+        2,
+        [&f[0], &f[1], &f[2]],
+        4 * frame_bytes + frame_bytes / 2,
+    )
+    .unwrap();
+    assert_eq!(kept.frames(), 4);
+    let mut second = first.clone();
+    second.mapping.extractor_response = Some(eyereplay_render::ResponseMap {
+        a: [[0.8, 0.0], [0.0, 0.8]],
+        b: [0.1, 0.1],
+    });
+    second.head_path = Some(stats.head_path.clone());
+    let (w, o) = (paths("whole"), paths("over"));
+    render_face_session(&scene, &traj, None, &second, &w[0], &w[1], &w[2]).unwrap();
+    let over = render_face_session_over(&scene, &traj, None, &second, [&o[0], &o[1], &o[2]], &kept)
+        .unwrap();
+    assert_eq!(over.frames_over_kept, 4);
+    assert!(std::fs::read(&w[0]).unwrap() == std::fs::read(&o[0]).unwrap());
+}
