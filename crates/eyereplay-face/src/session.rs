@@ -427,7 +427,8 @@ fn solve_frames(
 /// output does not depend on the number of workers, and a frame drawn at
 /// a step of 2 is the same frame as at a step of 1. A frame `over` kept
 /// (an earlier pass drew it, with other eyes) is that pass's image with
-/// the rows around the eyes drawn again ([`draw_over`]); returns how many.
+/// the rows around the eyes drawn again ([`Pass::draw_over`]); returns how
+/// many.
 fn draw_frames(
     scene: &FaceScene,
     solved: &[Solved],
@@ -471,7 +472,7 @@ fn draw_frames(
                     frame,
                     webcam,
                 };
-                if draw_over(pass, before, st, image, yuv) {
+                if pass.draw_over(before, st, image, yuv) {
                     reused.fetch_add(1, Ordering::Relaxed);
                     return;
                 }
@@ -497,60 +498,55 @@ struct Pass<'a> {
     webcam: &'a mut Webcam,
 }
 
-/// Frame `state` into `yuv` from `image`, the same frame drawn in `before`
-/// (same head, lids' closure and pupil; other eyes): `image` with the rows
-/// the eyes can change drawn again, given the look, and converted, the
-/// rows the look's blur and smear reach from them included. The bytes are
-/// those a whole drawing gives (each stage's rows computed as the whole
-/// frame computes them). False, `yuv` untouched, where that would not be
-/// cheaper or the states differ in more than the eyes: then the caller
-/// draws the frame whole.
-fn draw_over(
-    pass: Pass,
-    before: &FaceState,
-    state: &FaceState,
-    image: &[u8],
-    yuv: &mut [u8],
-) -> bool {
-    let Pass {
-        scene,
-        i,
-        motion,
-        raster,
-        mesh,
-        frame,
-        webcam,
-    } = pass;
-    let Some(changed) = scene.rows_changed_by_eyes(before, state) else {
-        return false;
-    };
-    let (w, h) = (scene.width(), scene.height());
-    if image.len() != yuv.len() {
-        return false;
+impl Pass<'_> {
+    /// Frame `state` into `yuv` from `image`, the same frame drawn in
+    /// `before` (same head, lids' closure and pupil; other eyes): `image`
+    /// with the rows the eyes can change drawn again, given the look, and
+    /// converted, the rows the look's blur and smear reach from them
+    /// included. The bytes are those a whole drawing gives (each stage's
+    /// rows computed as the whole frame computes them). False, `yuv`
+    /// untouched, where that would not be cheaper or the states differ in
+    /// more than the eyes: then the caller draws the frame whole.
+    fn draw_over(
+        self,
+        before: &FaceState,
+        state: &FaceState,
+        image: &[u8],
+        yuv: &mut [u8],
+    ) -> bool {
+        let scene = self.scene;
+        let Some(changed) = scene.rows_changed_by_eyes(before, state) else {
+            return false;
+        };
+        let (w, h) = (scene.width(), scene.height());
+        if image.len() != yuv.len() {
+            return false;
+        }
+        let reach = self.webcam.reach_rows(self.motion);
+        // The output rows the look carries a change to, in whole pairs (a
+        // chroma row is two image rows).
+        let out = if changed.is_empty() {
+            0..0
+        } else {
+            let a = changed.start.saturating_sub(reach) & !1;
+            let b = ((changed.end + reach).min(h) + 1) & !1;
+            a..b.min(h)
+        };
+        // The input they read.
+        let input = out.start.saturating_sub(reach)..(out.end + reach).min(h);
+        if 2 * input.len() > h {
+            return false;
+        }
+        yuv.copy_from_slice(image);
+        if out.is_empty() {
+            return true;
+        }
+        scene.draw_rows(state, self.raster, self.mesh, self.frame, input);
+        self.webcam
+            .apply_rows(self.frame, self.i as u64, self.motion, out.clone());
+        rgb_to_yuv420(&self.frame.data, w, [0, out.start, w, out.end], yuv, w, h);
+        true
     }
-    let reach = webcam.reach_rows(motion);
-    // The output rows the look carries a change to, in whole pairs (a
-    // chroma row is two image rows).
-    let out = if changed.is_empty() {
-        0..0
-    } else {
-        let a = changed.start.saturating_sub(reach) & !1;
-        let b = ((changed.end + reach).min(h) + 1) & !1;
-        a..b.min(h)
-    };
-    // The input they read.
-    let input = out.start.saturating_sub(reach)..(out.end + reach).min(h);
-    if 2 * input.len() > h {
-        return false;
-    }
-    yuv.copy_from_slice(image);
-    if out.is_empty() {
-        return true;
-    }
-    scene.draw_rows(state, raster, mesh, frame, input);
-    webcam.apply_rows(frame, i as u64, motion, out.clone());
-    rgb_to_yuv420(&frame.data, w, [0, out.start, w, out.end], yuv, w, h);
-    true
 }
 
 fn write_head_csv(path: &Path, solved: &[Solved]) -> Result<()> {

@@ -75,6 +75,30 @@ fn params_of(
     }
 }
 
+/// A reading session of `frames` frames on the astronaut photo, its look
+/// and seed `seed`: the scene, the trajectory and plain parameters.
+fn reading_session(
+    seed: u64,
+    frames: usize,
+) -> Option<(FaceScene, Vec<eyereplay_core::CanvasPos>, FaceSessionParams)> {
+    let (_, _, scene, look) = scene_of("astronaut.png", seed)?;
+    let canvas = Canvas::default();
+    let traj = reading_trajectory(frames, canvas.width_px as f64, canvas.height_px as f64);
+    let p = params_of(
+        GazeMapping::new(canvas),
+        look,
+        Task::Reading,
+        CoordinationParams::default(),
+        seed,
+    );
+    Some((scene, traj, p))
+}
+
+/// A session's three files under `dir`, named `tag`.
+fn files_in(dir: &std::path::Path, tag: &str) -> [std::path::PathBuf; 3] {
+    ["mp4", "truth.csv", "head.csv"].map(|e| dir.join(format!("{tag}.{e}")))
+}
+
 /// A reading-scale session: the face is found in every frame, the
 /// horizontal eye-in-head signal comes back with r >= 0.9 and a gain inside
 /// 0.8-1.2 (drawn through `match_extractor`'s response map and pose
@@ -307,21 +331,12 @@ fn head_yaw_from_rendered_video() {
 /// is refused before any file is written.
 #[test]
 fn a_given_head_path_is_drawn_as_given() {
-    let Some((_, _, scene, look)) = scene_of("astronaut.png", 4) else {
+    let Some((scene, traj, first)) = reading_session(4, 40) else {
         return;
     };
-    let canvas = Canvas::default();
-    let traj = reading_trajectory(40, canvas.width_px as f64, canvas.height_px as f64);
-    let first = params_of(
-        GazeMapping::new(canvas),
-        look,
-        Task::Reading,
-        CoordinationParams::default(),
-        4,
-    );
     let dir = tempfile::tempdir().unwrap();
     let render = |p: &FaceSessionParams, tag: &str| {
-        let paths = ["mp4", "truth.csv", "head.csv"].map(|e| dir.path().join(format!("{tag}.{e}")));
+        let paths = files_in(dir.path(), tag);
         let stats =
             render_face_session(&scene, &traj, None, p, &paths[0], &paths[1], &paths[2]).unwrap();
         let text = |k: usize| std::fs::read_to_string(&paths[k]).unwrap();
@@ -350,7 +365,7 @@ fn a_given_head_path_is_drawn_as_given() {
     // A path of another length is refused before anything is written.
     let mut short = second.clone();
     short.head_path = Some(stats.head_path[..39].to_vec());
-    let paths = ["mp4", "truth.csv", "head.csv"].map(|e| dir.path().join(format!("short.{e}")));
+    let paths = files_in(dir.path(), "short");
     let e = render_face_session(&scene, &traj, None, &short, &paths[0], &paths[1], &paths[2])
         .unwrap_err()
         .to_string();
@@ -391,26 +406,17 @@ fn decoded_frames(video: &std::path::Path) -> Vec<Vec<u8>> {
 /// of 0 is refused.
 #[test]
 fn every_other_frame_is_the_sessions_own() {
-    let Some((_, _, scene, mut look)) = scene_of("astronaut.png", 5) else {
+    let Some((scene, traj, mut p)) = reading_session(5, 30) else {
         return;
     };
-    look.bitrate_kbps = 0.0;
-    let canvas = Canvas::default();
-    let traj = reading_trajectory(30, canvas.width_px as f64, canvas.height_px as f64);
-    let mut p = params_of(
-        GazeMapping::new(canvas),
-        look,
-        Task::Reading,
-        CoordinationParams::default(),
-        5,
-    );
+    p.look.bitrate_kbps = 0.0;
     p.encoder.codec = eyereplay_render::Codec::Lossless;
     // Blinks at many times the natural rate: some fall in the 30 frames.
     p.natural_blinks = true;
     p.blink_rate_per_min = 200.0;
     let dir = tempfile::tempdir().unwrap();
     let render = |step: usize, tag: &str| {
-        let paths = ["mp4", "truth.csv", "head.csv"].map(|e| dir.path().join(format!("{tag}.{e}")));
+        let paths = files_in(dir.path(), tag);
         let stats = render_face_session_every(
             &scene,
             &traj,
@@ -465,23 +471,13 @@ fn every_other_frame_is_the_sessions_own() {
 /// second pass's even frames differ from the first pass's.
 #[test]
 fn the_second_pass_over_kept_frames_is_the_whole_drawing() {
-    let Some((_, _, scene, look)) = scene_of("astronaut.png", 6) else {
+    let Some((scene, traj, mut first)) = reading_session(6, 30) else {
         return;
     };
-    let canvas = Canvas::default();
-    let traj = reading_trajectory(30, canvas.width_px as f64, canvas.height_px as f64);
-    let mut first = params_of(
-        GazeMapping::new(canvas),
-        look,
-        Task::Reading,
-        CoordinationParams::default(),
-        6,
-    );
     first.natural_blinks = true;
     first.blink_rate_per_min = 200.0;
     let dir = tempfile::tempdir().unwrap();
-    let paths =
-        |tag: &str| ["mp4", "truth.csv", "head.csv"].map(|e| dir.path().join(format!("{tag}.{e}")));
+    let paths = |tag: &str| files_in(dir.path(), tag);
     for lossless in [false, true] {
         let mut first = first.clone();
         if lossless {
@@ -533,21 +529,11 @@ fn the_second_pass_over_kept_frames_is_the_whole_drawing() {
 /// second pass draws the rest whole, and the video is the same.
 #[test]
 fn a_kept_frames_budget_keeps_the_first_frames() {
-    let Some((_, _, scene, look)) = scene_of("astronaut.png", 7) else {
+    let Some((scene, traj, first)) = reading_session(7, 20) else {
         return;
     };
-    let canvas = Canvas::default();
-    let traj = reading_trajectory(20, canvas.width_px as f64, canvas.height_px as f64);
-    let first = params_of(
-        GazeMapping::new(canvas),
-        look,
-        Task::Reading,
-        CoordinationParams::default(),
-        7,
-    );
     let dir = tempfile::tempdir().unwrap();
-    let paths =
-        |tag: &str| ["mp4", "truth.csv", "head.csv"].map(|e| dir.path().join(format!("{tag}.{e}")));
+    let paths = |tag: &str| files_in(dir.path(), tag);
     let f = paths("first");
     let frame_bytes = 640 * 480 * 3 / 2;
     let (stats, kept) = render_face_session_every_kept(
