@@ -845,7 +845,8 @@ impl FaceScene {
     /// reads or feathers from them (the closing lid's skin band and ramp,
     /// the outline's feather), with a few pixels to spare. Empty where the
     /// two draw alike; `None` where they differ in more than the eyes (the
-    /// head, the lids' closure, the pupil).
+    /// head, the lids' closure, the pupil) or the lids moved the face's
+    /// box (whose edges the whole outline's feather depends on).
     pub fn rows_changed_by_eyes(
         &self,
         a: &FaceState,
@@ -865,6 +866,12 @@ impl FaceScene {
         let (mut va, mut vb) = (vec![], vec![]);
         self.posed_vertices(a, &mut va);
         self.posed_vertices(b, &mut vb);
+        // The feather's box sums clamp at the face's box: a lid that moved
+        // it (it never reaches the mesh's outline) would change the
+        // feather along the whole outline.
+        if self.screen_box(&a.head, &va) != self.screen_box(&b.head, &vb) {
+            return None;
+        }
         let moved: Vec<bool> = va.iter().zip(&vb).map(|(p, q)| p != q).collect();
         let mut pts: Vec<Vector3<f64>> = vec![];
         for tri in &self.mesh.triangles {
