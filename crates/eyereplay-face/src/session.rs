@@ -37,8 +37,9 @@ use eyereplay_core::profile::lap;
 use eyereplay_core::{CanvasPos, NormPos};
 use eyereplay_dataset::{EyeTruthRow, TruthRow};
 use eyereplay_render::{
-    check_trajectory, closure_track, pipeline_frames, rgb_to_yuv420, time_bench, BenchReport,
-    BenchShape, Encoder, EncoderSettings, FrameSink, GazeMapping, RenderError,
+    check_trajectory, closure_track, cpu_times, pipeline_frames, rgb_to_yuv420, time_bench,
+    BenchReport, BenchShape, Encoder, EncoderSettings, FrameSink, GazeMapping, RenderError,
+    SecondPassBench,
 };
 use rayon::prelude::*;
 use serde::Serialize;
@@ -769,7 +770,7 @@ pub fn run_face_bench(
         height: scene.height(),
         fps: p.fps,
     };
-    time_bench(
+    let mut report = time_bench(
         shape,
         &session_encoder(scene, p),
         0.0,
@@ -786,7 +787,71 @@ pub fn run_face_bench(
             )
             .map(|_| ())
         },
-    )
+    )?;
+    report.second_pass = second_pass_bench(scene, &traj, p, &solved)?;
+    Ok(report)
+}
+
+/// A frame sink that drops the frames (drawing timed alone).
+struct Discard;
+
+impl FrameSink for Discard {
+    fn frame(&mut self, _: usize, _: &[u8]) -> std::result::Result<(), RenderError> {
+        Ok(())
+    }
+}
+
+/// The read-back match's second pass, timed on the bench's session: its
+/// frames (`first`) drawn every other one and kept, as the first pass does
+/// (as many as [`KEEP_FRAMES_BUDGET_BYTES`] holds, from the start), then a
+/// second pass with the same head and the eyes drawn 1.5x as far from the
+/// middle, drawn whole and over the kept frames; CPU time of this process
+/// per frame of each (drawing, look and conversion; no encoder).
+fn second_pass_bench(
+    scene: &FaceScene,
+    traj: &[CanvasPos],
+    p: &FaceSessionParams,
+    first: &[Solved],
+) -> Result<Option<SecondPassBench>> {
+    let frame_bytes = scene.width() * scene.height() * 3 / 2;
+    let n = first
+        .len()
+        .min(2 * (KEEP_FRAMES_BUDGET_BYTES / frame_bytes.max(1)));
+    let first = &first[..n];
+    let mut second_p = p.clone();
+    second_p.mapping.extractor_response = Some(eyereplay_render::ResponseMap {
+        a: [[2.0 / 3.0, 0.0], [0.0, 2.0 / 3.0]],
+        b: [1.0 / 6.0, 1.0 / 6.0],
+    });
+    second_p.head_path = Some(first.iter().map(|s| (s.head, s.from_source)).collect());
+    let second = solve_frames(scene, &traj[..n], None, &second_p);
+    let mut discard = Discard;
+    let mut keeping = Keeping {
+        sink: &mut discard,
+        kept: vec![],
+        max: usize::MAX,
+    };
+    draw_frames(scene, first, 2, &p.look, None, &mut keeping)?;
+    let kept = KeptFrames {
+        step: 2,
+        states: first.iter().step_by(2).map(|s| s.state).collect(),
+        yuv: keeping.kept,
+    };
+    let cpu_ms = |over: Option<&KeptFrames>| -> Result<Option<f64>> {
+        let c0 = cpu_times();
+        draw_frames(scene, &second, 1, &p.look, over, &mut Discard)?;
+        let c1 = cpu_times();
+        Ok(c0.zip(c1).map(|(a, b)| (b.0 - a.0) * 1000.0 / n as f64))
+    };
+    let whole = cpu_ms(None)?;
+    let over = cpu_ms(Some(&kept))?;
+    Ok(whole
+        .zip(over)
+        .map(|(whole_cpu_ms, over_kept_cpu_ms)| SecondPassBench {
+            frames: n,
+            whole_cpu_ms,
+            over_kept_cpu_ms,
+        }))
 }
 
 /// The session's encoder: the params' with the look's video-call bitrate

@@ -36,6 +36,22 @@ pub struct BenchReport {
     /// nothing else runs: cores * 1000 / end_to_end_cpu_ms.
     pub cpu_bound_fps: Option<f64>,
     pub cores: usize,
+    /// The full-face mode's read-back match: its second pass drawn whole
+    /// and over a first pass's kept frames (`None` for other renderers,
+    /// and where CPU time cannot be read).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub second_pass: Option<SecondPassBench>,
+}
+
+/// A second pass that differs from its first in the eyes only, drawn whole
+/// and over the first pass's kept frames (every other frame kept, as the
+/// read-back match draws them): CPU milliseconds per frame of each,
+/// drawing, look and conversion only (no encoder).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct SecondPassBench {
+    pub frames: usize,
+    pub whole_cpu_ms: f64,
+    pub over_kept_cpu_ms: f64,
 }
 
 impl std::fmt::Display for BenchReport {
@@ -67,6 +83,17 @@ impl std::fmt::Display for BenchReport {
                  CPU-bound limit  {b:8.1} frames/s ({:.2}x real time) on {} cores",
                 b / self.video_fps,
                 self.cores
+            )?;
+        }
+        if let Some(sp) = self.second_pass {
+            write!(
+                f,
+                "\nsecond pass      {:.2} ms CPU per frame over the first pass's kept frames, \
+                 {:.2} drawn whole = {:.2}x (the read-back match's; drawing only, {} frames)",
+                sp.over_kept_cpu_ms,
+                sp.whole_cpu_ms,
+                sp.over_kept_cpu_ms / sp.whole_cpu_ms,
+                sp.frames
             )?;
         }
         Ok(())
@@ -282,6 +309,7 @@ pub fn time_bench<E: From<RenderError>>(
         end_to_end_cpu_ms,
         cpu_bound_fps: end_to_end_cpu_ms.map(|m| cores as f64 * 1000.0 / m),
         cores,
+        second_pass: None,
     })
 }
 

@@ -64,7 +64,7 @@ mod session;
 
 pub use bench::{
     check_kept_frames, conversation_trajectory, cpu_times, reading_trajectory, run_bench,
-    time_bench, BenchReport, BenchShape,
+    time_bench, BenchReport, BenchShape, SecondPassBench,
 };
 pub use blink::{closure_at, closure_track};
 pub use dataset::{list_sessions, read_dataset_info, session_seed, DatasetInfo, SessionJob};

@@ -68,7 +68,8 @@ pub struct Args {
     pub frames: Option<usize>,
     /// With --bench: the full-face webcam mode (render.backend = "face":
     /// the first bundled photo, webcam look, head motion) instead of the
-    /// close-up eyes.
+    /// close-up eyes; also times the read-back match's second pass drawn
+    /// over a first pass's kept frames against drawn whole.
     #[arg(long, conflicts_with = "replay")]
     pub face: bool,
     /// With --bench: the real-face replay mode (render.backend = "replay")
