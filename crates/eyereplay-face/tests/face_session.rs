@@ -560,3 +560,25 @@ fn a_kept_frames_budget_keeps_the_first_frames() {
     assert_eq!(over.frames_over_kept, 4);
     assert!(std::fs::read(&w[0]).unwrap() == std::fs::read(&o[0]).unwrap());
 }
+
+/// The face bench times the read-back match's second pass on its own
+/// frames (`render --bench --face`'s last line): all of them, the budget
+/// holding their kept half, both passes' CPU time read, and the line
+/// printed with the ratio of the two.
+#[test]
+fn the_face_bench_times_the_second_pass() {
+    let Some((scene, traj, p)) = reading_session(8, 50) else {
+        return;
+    };
+    let report = run_face_bench(&scene, &traj, &p).unwrap();
+    let sp = report.second_pass.expect("CPU time is read on Linux");
+    assert_eq!(sp.frames, 50);
+    assert!(sp.whole_cpu_ms > 0.0 && sp.over_kept_cpu_ms > 0.0, "{sp:?}");
+    let text = report.to_string();
+    let want = format!("{:.2}x", sp.over_kept_cpu_ms / sp.whole_cpu_ms);
+    let line = text.lines().last().unwrap();
+    assert!(
+        line.starts_with("second pass") && line.contains(&want) && line.contains("50 frames"),
+        "{text}"
+    );
+}
