@@ -43,6 +43,7 @@ use eyereplay_render::{
 };
 use rayon::prelude::*;
 use serde::Serialize;
+use std::ops::Range;
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -428,7 +429,7 @@ fn solve_frames(
 /// output does not depend on the number of workers, and a frame drawn at
 /// a step of 2 is the same frame as at a step of 1. A frame `over` kept
 /// (an earlier pass drew it, with other eyes) is that pass's image with
-/// the rows around the eyes drawn again ([`Pass::draw_over`]); returns how
+/// the rows around the eyes drawn again ([`Painter::draw_over`]); returns how
 /// many.
 fn draw_frames(
     scene: &FaceScene,
@@ -439,115 +440,144 @@ fn draw_frames(
     sink: &mut (dyn FrameSink + Send),
 ) -> Result<usize> {
     let (w, h) = (scene.width(), scene.height());
-    let new_state = || {
-        (
-            Rasterizer::new(w, h),
-            TexturedMesh::new(vec![], vec![], vec![]),
-            RgbImage::filled(w, h, [0, 0, 0]),
-            Webcam::new(look, w, h),
-        )
-    };
     let reused = AtomicUsize::new(0);
     pipeline_frames(
         solved.len().div_ceil(step),
         &|| vec![0u8; w * h * 3 / 2],
-        &new_state,
-        &|(raster, mesh, frame, webcam), j, yuv| {
+        &|| Painter::new(scene, look),
+        &|painter, j, yuv| {
             let i = j * step;
             let st = &solved[i].state;
-            let nose = scene.nose_px(&st.head);
-            let motion = match i.checked_sub(1) {
-                None => [0.0, 0.0],
-                Some(prev) => {
-                    let q = scene.nose_px(&solved[prev].state.head);
-                    [(nose[0] - q[0]) as f32, (nose[1] - q[1]) as f32]
-                }
+            let frame = FrameAt {
+                i,
+                motion: motion_px(scene, solved, i),
             };
-            if let Some((before, image)) = over.and_then(|k| k.at(i)) {
-                let pass = Pass {
-                    scene,
-                    i,
-                    motion,
-                    raster,
-                    mesh,
-                    frame,
-                    webcam,
-                };
-                if pass.draw_over(before, st, image, yuv) {
+            if let Some(kept) = over.and_then(|k| k.at(i)) {
+                if painter.draw_over(scene, frame, st, kept, yuv) {
                     reused.fetch_add(1, Ordering::Relaxed);
                     return;
                 }
             }
-            scene.draw(st, raster, mesh, frame);
-            webcam.apply(frame, i as u64, motion);
-            rgb_to_yuv420(&frame.data, w, [0, 0, w, h], yuv, w, h);
+            painter.draw(scene, frame, st, yuv);
         },
         sink,
     )?;
     Ok(reused.into_inner())
 }
 
-/// One frame's drawing context in [`draw_frames`].
-struct Pass<'a> {
-    scene: &'a FaceScene,
-    /// The session's frame index (the noise's key).
-    i: usize,
-    motion: [f32; 2],
-    raster: &'a mut Rasterizer,
-    mesh: &'a mut TexturedMesh,
-    frame: &'a mut RgbImage,
-    webcam: &'a mut Webcam,
+/// How far the image moved into session frame `i` from the frame before
+/// (its nose, px; the motion blur's smear), drawn or not.
+fn motion_px(scene: &FaceScene, solved: &[Solved], i: usize) -> [f32; 2] {
+    let Some(prev) = i.checked_sub(1) else {
+        return [0.0, 0.0];
+    };
+    let (p, q) = (
+        scene.nose_px(&solved[i].state.head),
+        scene.nose_px(&solved[prev].state.head),
+    );
+    [(p[0] - q[0]) as f32, (p[1] - q[1]) as f32]
 }
 
-impl Pass<'_> {
-    /// Frame `state` into `yuv` from `image`, the same frame drawn in
-    /// `before` (same head, lids' closure and pupil; other eyes): `image`
-    /// with the rows the eyes can change drawn again, given the look, and
-    /// converted, the rows the look's blur and smear reach from them
-    /// included. The bytes are those a whole drawing gives (each stage's
-    /// rows computed as the whole frame computes them). False, `yuv`
-    /// untouched, where that would not be cheaper or the states differ in
-    /// more than the eyes: then the caller draws the frame whole.
+/// Which frame of the session is drawn: its index (the noise's key) and
+/// the image motion since the frame before (the motion blur's).
+#[derive(Clone, Copy)]
+struct FrameAt {
+    i: usize,
+    motion: [f32; 2],
+}
+
+/// One drawing worker's buffers for frames of one scene and look.
+struct Painter {
+    raster: Rasterizer,
+    mesh: TexturedMesh,
+    frame: RgbImage,
+    webcam: Webcam,
+}
+
+impl Painter {
+    fn new(scene: &FaceScene, look: &WebcamLook) -> Painter {
+        let (w, h) = (scene.width(), scene.height());
+        Painter {
+            raster: Rasterizer::new(w, h),
+            mesh: TexturedMesh::new(vec![], vec![], vec![]),
+            frame: RgbImage::filled(w, h, [0, 0, 0]),
+            webcam: Webcam::new(look, w, h),
+        }
+    }
+
+    /// Frame `state` drawn whole, given the look, into `yuv`.
+    fn draw(&mut self, scene: &FaceScene, at: FrameAt, state: &FaceState, yuv: &mut [u8]) {
+        let (w, h) = (scene.width(), scene.height());
+        scene.draw(state, &mut self.raster, &mut self.mesh, &mut self.frame);
+        self.webcam.apply(&mut self.frame, at.i as u64, at.motion);
+        rgb_to_yuv420(&self.frame.data, w, [0, 0, w, h], yuv, w, h);
+    }
+
+    /// Frame `state` into `yuv` from `kept`, the image of the same frame
+    /// drawn in another state (same head, lids' closure and pupil; other
+    /// eyes): that image with only [`strip_rows`]' rows drawn again, given
+    /// the look and converted. The bytes are those of [`Painter::draw`]
+    /// (each stage computes those rows as the whole frame does). False,
+    /// `yuv` untouched, where the strip is not worth it or the states
+    /// differ in more than the eyes: then the caller draws the frame whole.
     fn draw_over(
-        self,
-        before: &FaceState,
+        &mut self,
+        scene: &FaceScene,
+        at: FrameAt,
         state: &FaceState,
-        image: &[u8],
+        (before, image): (&FaceState, &[u8]),
         yuv: &mut [u8],
     ) -> bool {
-        let scene = self.scene;
-        let Some(changed) = scene.rows_changed_by_eyes(before, state) else {
-            return false;
-        };
-        let (w, h) = (scene.width(), scene.height());
         if image.len() != yuv.len() {
             return false;
         }
-        let reach = self.webcam.reach_rows(self.motion);
-        // The output rows the look carries a change to, in whole pairs (a
-        // chroma row is two image rows).
-        let out = if changed.is_empty() {
-            0..0
-        } else {
-            let a = changed.start.saturating_sub(reach) & !1;
-            let b = ((changed.end + reach).min(h) + 1) & !1;
-            a..b.min(h)
-        };
-        // The input they read.
-        let input = out.start.saturating_sub(reach)..(out.end + reach).min(h);
-        if 2 * input.len() > h {
+        let reach = self.webcam.reach_rows(at.motion);
+        let Some((out, input)) = strip_rows(scene, before, state, reach) else {
             return false;
-        }
+        };
         yuv.copy_from_slice(image);
         if out.is_empty() {
             return true;
         }
-        scene.draw_rows(state, self.raster, self.mesh, self.frame, input);
+        let (w, h) = (scene.width(), scene.height());
+        scene.draw_rows(
+            state,
+            &mut self.raster,
+            &mut self.mesh,
+            &mut self.frame,
+            input,
+        );
         self.webcam
-            .apply_rows(self.frame, self.i as u64, self.motion, out.clone());
+            .apply_rows(&mut self.frame, at.i as u64, at.motion, out.clone());
         rgb_to_yuv420(&self.frame.data, w, [0, out.start, w, out.end], yuv, w, h);
         true
     }
+}
+
+/// Where a frame drawn in `state` is redrawn over its image drawn in
+/// `before` ([`Painter::draw_over`]): the output rows the eyes' change
+/// reaches through a look that reads `reach` rows each way, in whole
+/// pairs (a chroma row is two image rows), and the input rows those read.
+/// `None` where the states differ in more than the eyes
+/// ([`FaceScene::rows_changed_by_eyes`]) or the input would be over half
+/// the frame (drawing it whole is then as cheap); both empty where the
+/// two draw alike.
+fn strip_rows(
+    scene: &FaceScene,
+    before: &FaceState,
+    state: &FaceState,
+    reach: usize,
+) -> Option<(Range<usize>, Range<usize>)> {
+    let changed = scene.rows_changed_by_eyes(before, state)?;
+    if changed.is_empty() {
+        return Some((0..0, 0..0));
+    }
+    let h = scene.height();
+    let a = changed.start.saturating_sub(reach) & !1;
+    let b = ((changed.end + reach).min(h) + 1) & !1;
+    let out = a..b.min(h);
+    let input = out.start.saturating_sub(reach)..(out.end + reach).min(h);
+    (2 * input.len() <= h).then_some((out, input))
 }
 
 fn write_head_csv(path: &Path, solved: &[Solved]) -> Result<()> {
@@ -845,12 +875,25 @@ fn second_pass_bench(
     };
     let whole = cpu_ms(None)?;
     let over = cpu_ms(Some(&kept))?;
+    // The rows the kept frames have redrawn (a frame drawn whole instead:
+    // all of them), over all their rows.
+    let webcam = Webcam::new(&p.look, scene.width(), scene.height());
+    let rows: usize = (0..n)
+        .step_by(2)
+        .map(|i| {
+            let reach = webcam.reach_rows(motion_px(scene, &second, i));
+            strip_rows(scene, &first[i].state, &second[i].state, reach)
+                .map_or(scene.height(), |(_, input)| input.len())
+        })
+        .sum();
+    let strip_frac = rows as f64 / (n.div_ceil(2) * scene.height()).max(1) as f64;
     Ok(whole
         .zip(over)
         .map(|(whole_cpu_ms, over_kept_cpu_ms)| SecondPassBench {
             frames: n,
             whole_cpu_ms,
             over_kept_cpu_ms,
+            strip_frac,
         }))
 }
 

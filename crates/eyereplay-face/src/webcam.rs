@@ -737,15 +737,13 @@ impl Webcam {
             return 0;
         }
         let mut taps = Vec::new();
-        motion_taps(
-            [
-                motion_px[0] * self.p.motion_blur,
-                motion_px[1] * self.p.motion_blur,
-            ],
-            &mut taps,
-        );
-        let my = taps.iter().map(|t| t.dy.unsigned_abs()).max().unwrap_or(0);
-        self.p.kernel.len() - 1 + my
+        motion_taps(self.smear_px(motion_px), &mut taps);
+        self.p.kernel.len() - 1 + tap_reach(&taps)[1]
+    }
+
+    /// The motion blur's smear (px) for a frame that moved by `motion_px`.
+    fn smear_px(&self, motion_px: [f32; 2]) -> [f32; 2] {
+        motion_px.map(|m| m * self.p.motion_blur)
     }
 
     /// [`Webcam::apply`] for output rows `rows` only, bit for bit what it
@@ -779,16 +777,8 @@ impl Webcam {
         if self.noop || w == 0 || rows.is_empty() {
             return;
         }
-        motion_taps(
-            [
-                motion_px[0] * self.p.motion_blur,
-                motion_px[1] * self.p.motion_blur,
-            ],
-            &mut self.taps,
-        );
-        let mx = self.taps.iter().map(|t| t.dx.unsigned_abs()).max();
-        let my = self.taps.iter().map(|t| t.dy.unsigned_abs()).max();
-        let (mx, my) = (mx.unwrap_or(0), my.unwrap_or(0));
+        motion_taps(self.smear_px(motion_px), &mut self.taps);
+        let [mx, my] = tap_reach(&self.taps);
         let key = mix64(
             mix64(self.p.seed ^ 0x5745_4243_414D_0001)
                 .wrapping_add(mix64(frame_index).wrapping_mul(GOLDEN)),
@@ -843,6 +833,12 @@ impl Webcam {
                 pool.lock().unwrap().push(s);
             });
     }
+}
+
+/// How far `taps` reach, columns and rows (0 for none).
+fn tap_reach(taps: &[Tap]) -> [usize; 2] {
+    let most = |d: fn(&Tap) -> isize| taps.iter().map(|t| d(t).unsigned_abs()).max();
+    [most(|t| t.dx).unwrap_or(0), most(|t| t.dy).unwrap_or(0)]
 }
 
 /// The motion smear `smear` (px) as merged integer taps: 2 |smear| (at

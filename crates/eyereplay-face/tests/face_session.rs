@@ -99,6 +99,37 @@ fn files_in(dir: &std::path::Path, tag: &str) -> [std::path::PathBuf; 3] {
     ["mp4", "truth.csv", "head.csv"].map(|e| dir.join(format!("{tag}.{e}")))
 }
 
+/// `p` drawn through a response map of gain `a` about (0.5, 0.5): the
+/// eyes 1/a times as far from the middle.
+fn eyes_farther(p: &FaceSessionParams, a: f64) -> FaceSessionParams {
+    let mut p = p.clone();
+    p.mapping.extractor_response = Some(eyereplay_render::ResponseMap {
+        a: [[a, 0.0], [0.0, a]],
+        b: [0.5 * (1.0 - a); 2],
+    });
+    p
+}
+
+/// `second` (the first pass's eyes moved, its head path given) drawn
+/// whole into `whole` and over `kept` into `over`.
+fn whole_and_over(
+    (scene, traj): (&FaceScene, &[eyereplay_core::CanvasPos]),
+    second: &FaceSessionParams,
+    kept: &KeptFrames,
+    [whole, over]: [&[std::path::PathBuf; 3]; 2],
+) -> (FaceSessionStats, FaceSessionStats) {
+    let w = render_face_session(scene, traj, None, second, &whole[0], &whole[1], &whole[2]);
+    let o = render_face_session_over(
+        scene,
+        traj,
+        None,
+        second,
+        [&over[0], &over[1], &over[2]],
+        kept,
+    );
+    (w.unwrap(), o.unwrap())
+}
+
 /// A reading-scale session: the face is found in every frame, the
 /// horizontal eye-in-head signal comes back with r >= 0.9 and a gain inside
 /// 0.8-1.2 (drawn through `match_extractor`'s response map and pose
@@ -351,11 +382,7 @@ fn a_given_head_path_is_drawn_as_given() {
     let (stats, truth, head) = render(&first, "first");
     assert_eq!(stats.drawn.len(), 40);
     // Another map: the eye is drawn 1.5x as far (a gain of 2/3).
-    let mut second = first.clone();
-    second.mapping.extractor_response = Some(eyereplay_render::ResponseMap {
-        a: [[2.0 / 3.0, 0.0], [0.0, 2.0 / 3.0]],
-        b: [1.0 / 6.0, 1.0 / 6.0],
-    });
+    let mut second = eyes_farther(&first, 2.0 / 3.0);
     let (_, _, planned_head) = render(&second, "planned");
     assert_ne!(
         planned_head, head,
@@ -497,17 +524,10 @@ fn the_second_pass_over_kept_frames_is_the_whole_drawing() {
         .unwrap();
         assert_eq!((kept.frames(), kept.step()), (15, 2));
         assert!(stats.blink_frames > 0, "a blink among the frames drawn");
-        let mut second = first.clone();
-        second.mapping.extractor_response = Some(eyereplay_render::ResponseMap {
-            a: [[2.0 / 3.0, 0.0], [0.0, 2.0 / 3.0]],
-            b: [1.0 / 6.0, 1.0 / 6.0],
-        });
+        let mut second = eyes_farther(&first, 2.0 / 3.0);
         second.head_path = Some(stats.head_path.clone());
         let (w, o) = (paths("whole"), paths("over"));
-        let whole = render_face_session(&scene, &traj, None, &second, &w[0], &w[1], &w[2]).unwrap();
-        let over =
-            render_face_session_over(&scene, &traj, None, &second, [&o[0], &o[1], &o[2]], &kept)
-                .unwrap();
+        let (whole, over) = whole_and_over((&scene, &traj), &second, &kept, [&w, &o]);
         assert_eq!((whole.frames_over_kept, over.frames_over_kept), (0, 15));
         assert!(whole.max_head_yaw_deg > 0.05, "the head moves");
         for k in 0..3 {
@@ -547,24 +567,19 @@ fn a_kept_frames_budget_keeps_the_first_frames() {
     )
     .unwrap();
     assert_eq!(kept.frames(), 4);
-    let mut second = first.clone();
-    second.mapping.extractor_response = Some(eyereplay_render::ResponseMap {
-        a: [[0.8, 0.0], [0.0, 0.8]],
-        b: [0.1, 0.1],
-    });
+    let mut second = eyes_farther(&first, 0.8);
     second.head_path = Some(stats.head_path.clone());
     let (w, o) = (paths("whole"), paths("over"));
-    render_face_session(&scene, &traj, None, &second, &w[0], &w[1], &w[2]).unwrap();
-    let over = render_face_session_over(&scene, &traj, None, &second, [&o[0], &o[1], &o[2]], &kept)
-        .unwrap();
+    let (_, over) = whole_and_over((&scene, &traj), &second, &kept, [&w, &o]);
     assert_eq!(over.frames_over_kept, 4);
     assert!(std::fs::read(&w[0]).unwrap() == std::fs::read(&o[0]).unwrap());
 }
 
 /// The face bench times the read-back match's second pass on its own
 /// frames (`render --bench --face`'s last line): all of them, the budget
-/// holding their kept half, both passes' CPU time read, and the line
-/// printed with the ratio of the two.
+/// holding their kept half, both passes' CPU time read, every kept frame
+/// redrawn in a strip, and the line printed with the ratio of the two and
+/// the strip's share of the rows.
 #[test]
 fn the_face_bench_times_the_second_pass() {
     let Some((scene, traj, p)) = reading_session(8, 50) else {
@@ -574,11 +589,18 @@ fn the_face_bench_times_the_second_pass() {
     let sp = report.second_pass.expect("CPU time is read on Linux");
     assert_eq!(sp.frames, 50);
     assert!(sp.whole_cpu_ms > 0.0 && sp.over_kept_cpu_ms > 0.0, "{sp:?}");
+    // Every kept frame drawn over (a frame drawn whole would count all its
+    // rows, and a strip is at most half of them), around the eyes only.
+    assert!(sp.strip_frac > 0.05 && sp.strip_frac <= 0.5, "{sp:?}");
     let text = report.to_string();
     let want = format!("{:.2}x", sp.over_kept_cpu_ms / sp.whole_cpu_ms);
+    let rows = format!("{:.0} % of the kept frames' rows", 100.0 * sp.strip_frac);
     let line = text.lines().last().unwrap();
     assert!(
-        line.starts_with("second pass") && line.contains(&want) && line.contains("50 frames"),
+        line.starts_with("second pass")
+            && line.contains(&want)
+            && line.contains("50 frames")
+            && line.contains(&rows),
         "{text}"
     );
 }

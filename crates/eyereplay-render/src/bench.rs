@@ -52,6 +52,8 @@ pub struct SecondPassBench {
     pub frames: usize,
     pub whole_cpu_ms: f64,
     pub over_kept_cpu_ms: f64,
+    /// The rows drawn again on the kept frames, over all their rows.
+    pub strip_frac: f64,
 }
 
 impl std::fmt::Display for BenchReport {
@@ -89,11 +91,13 @@ impl std::fmt::Display for BenchReport {
             write!(
                 f,
                 "\nsecond pass      {:.2} ms CPU per frame over the first pass's kept frames, \
-                 {:.2} drawn whole = {:.2}x (the read-back match's; drawing only, {} frames)",
+                 {:.2} drawn whole = {:.2}x (the read-back match's; drawing only, {} frames; \
+                 {:.0} % of the kept frames' rows drawn again)",
                 sp.over_kept_cpu_ms,
                 sp.whole_cpu_ms,
                 sp.over_kept_cpu_ms / sp.whole_cpu_ms,
-                sp.frames
+                sp.frames,
+                100.0 * sp.strip_frac
             )?;
         }
         Ok(())
